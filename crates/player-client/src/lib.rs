@@ -1,0 +1,1 @@
+//! A Rust Player client library in the spirit of libplayerc++.

@@ -2,3 +2,7 @@
 //!
 //! Everything here is plain data and pure functions: no sockets, no async. The server and the
 //! client library both build on it, so the byte layout of every message is declared once.
+
+pub mod interface;
+
+pub use interface::InterfaceCode;

@@ -1,0 +1,646 @@
+//! The spatial engine: every body's outline in world space, a static BVH (parry2d) over the
+//! edges of bodies that never move, and a uniform grid over the bodies that do.
+//!
+//! * Static bodies (floorplans and everything not carried by a robot) are flattened into
+//!   segments once and indexed by a parry2d [`Bvh`] built once (binned SAH).
+//! * Dynamic bodies (robots and everything in their trees) live in a uniform grid of cells;
+//!   a moving model re-registers only when the set of cells its box covers changes, so moves
+//!   cost O(1) and the index is never rebuilt.
+//! * A static body that is moved later (teleported, picked up by a gripper) is switched off
+//!   in the static index (its segments are skipped) and joins the dynamic grid.
+//!
+//! Differences from Stage's occupancy grid (spec §6): ranges are exact distances to the first
+//! edge crossed, where Stage returns the near boundary of the first grid cell that an edge was
+//! rasterised into — so Stage reads up to one cell (`resolution`, 2 cm by default, more at
+//! oblique angles) shorter, and Stage's contacts fire up to one cell early. Sub-cell bodies, which
+//! Stage drops, are kept.
+
+use parry2d::bounding_volume::Aabb as PAabb;
+use parry2d::math::{Point, Vector};
+use parry2d::partitioning::{Bvh, BvhBuildStrategy};
+use parry2d::query::Ray;
+use std::cell::Cell;
+
+use crate::geom::{Aabb, ray_segment, segments_intersect};
+
+/// One block of a body in world space: its z interval and its vertex range in [`Body::pts`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldBlock {
+    /// Lower z bound (m, world).
+    pub zmin: f64,
+    /// Upper z bound (m, world).
+    pub zmax: f64,
+    /// First vertex in the body's point list.
+    pub start: u32,
+    /// One past the last vertex.
+    pub end: u32,
+}
+
+/// A model's body in world space (polygon outlines with z ranges); empty for bodiless models.
+#[derive(Clone, Debug, Default)]
+pub struct Body {
+    /// Blocks in model order (the index is the block index used in hits).
+    pub blocks: Vec<WorldBlock>,
+    /// All vertices of all blocks, block after block.
+    pub pts: Vec<[f64; 2]>,
+    /// Bounding box of all vertices.
+    pub aabb: Aabb,
+}
+
+impl Body {
+    /// Whether the model has any outline to see or touch.
+    pub fn is_empty(&self) -> bool {
+        self.blocks.is_empty()
+    }
+
+    /// The vertices of block `b`.
+    pub fn block_pts(&self, b: usize) -> &[[f64; 2]] {
+        let blk = &self.blocks[b];
+        &self.pts[blk.start as usize..blk.end as usize]
+    }
+
+    /// Iterates the edges of block `b` (closed polygon; a 2-point block is one segment).
+    #[inline]
+    pub fn edges(&self, b: usize) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+        let p = self.block_pts(b);
+        let n = p.len();
+        let count = if n == 2 { 1 } else { n };
+        (0..count).map(move |i| (p[i], p[(i + 1) % n]))
+    }
+}
+
+/// A ray hit: the model, which of its blocks, and the distance from the ray origin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayHit {
+    /// Index of the model hit.
+    pub model: u32,
+    /// Index of the block hit within that model.
+    pub block: u32,
+    /// Distance from the origin (m).
+    pub range: f64,
+}
+
+/// A ray: origin, heading, maximum length and (optionally) its height for the z test.
+#[derive(Clone, Copy, Debug)]
+pub struct RayQuery {
+    /// Origin x (m).
+    pub x: f64,
+    /// Origin y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub a: f64,
+    /// Maximum length (m).
+    pub range: f64,
+    /// `Some(z)`: only blocks with `zmin ≤ z ≤ zmax` stop the ray (Stage's `ztest`).
+    pub z: Option<f64>,
+}
+
+#[derive(Clone, Copy)]
+struct StaticSeg {
+    a: [f64; 2],
+    b: [f64; 2],
+    model: u32,
+    block: u32,
+}
+
+/// The edges of the static bodies in a parry2d BVH (one leaf per edge).
+struct StaticIndex {
+    segs: Vec<StaticSeg>,
+    bvh: Bvh,
+}
+
+const AABB_PAD: f64 = 1e-4;
+
+impl StaticIndex {
+    fn build(segs: Vec<StaticSeg>) -> StaticIndex {
+        let leaves: Vec<PAabb> = segs
+            .iter()
+            .map(|s| {
+                PAabb::new(
+                    Point::new(
+                        (s.a[0].min(s.b[0]) - AABB_PAD) as f32,
+                        (s.a[1].min(s.b[1]) - AABB_PAD) as f32,
+                    ),
+                    Point::new(
+                        (s.a[0].max(s.b[0]) + AABB_PAD) as f32,
+                        (s.a[1].max(s.b[1]) + AABB_PAD) as f32,
+                    ),
+                )
+            })
+            .collect();
+        let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+        StaticIndex { segs, bvh }
+    }
+}
+
+/// The uniform grid holding dynamic bodies (model indices per cell).
+struct DynGrid {
+    origin: [f64; 2],
+    cell: f64,
+    inv_cell: f64,
+    nx: i32,
+    ny: i32,
+    cells: Vec<Vec<u32>>,
+    /// Models whose box leaves the grid: tested by every query.
+    overflow: Vec<u32>,
+    /// Registered cell range per model (`None`: not registered or in `overflow`).
+    span: Vec<Option<[i32; 4]>>,
+    in_overflow: Vec<bool>,
+}
+
+impl DynGrid {
+    fn new(bounds: Aabb, cell: f64, nmodels: usize) -> DynGrid {
+        let (origin, nx, ny) = if bounds.is_empty() {
+            ([0.0, 0.0], 1, 1)
+        } else {
+            let nx = (((bounds.max[0] - bounds.min[0]) / cell).ceil() as i64).clamp(1, 4096) as i32;
+            let ny = (((bounds.max[1] - bounds.min[1]) / cell).ceil() as i64).clamp(1, 4096) as i32;
+            (bounds.min, nx, ny)
+        };
+        DynGrid {
+            origin,
+            cell,
+            inv_cell: 1.0 / cell,
+            nx,
+            ny,
+            cells: vec![Vec::new(); (nx * ny) as usize],
+            overflow: Vec::new(),
+            span: vec![None; nmodels],
+            in_overflow: vec![false; nmodels],
+        }
+    }
+
+    #[inline]
+    fn cell_of(&self, p: [f64; 2]) -> [i32; 2] {
+        [
+            ((p[0] - self.origin[0]) * self.inv_cell).floor() as i32,
+            ((p[1] - self.origin[1]) * self.inv_cell).floor() as i32,
+        ]
+    }
+
+    fn span_of(&self, b: &Aabb) -> Option<[i32; 4]> {
+        let lo = self.cell_of(b.min);
+        let hi = self.cell_of(b.max);
+        (lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.nx && hi[1] < self.ny)
+            .then_some([lo[0], lo[1], hi[0], hi[1]])
+    }
+
+    fn remove(&mut self, m: u32) {
+        if let Some([x0, y0, x1, y1]) = self.span[m as usize].take() {
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let c = &mut self.cells[(y * self.nx + x) as usize];
+                    if let Some(i) = c.iter().position(|&v| v == m) {
+                        c.remove(i);
+                    }
+                }
+            }
+        }
+        if self.in_overflow[m as usize] {
+            self.in_overflow[m as usize] = false;
+            self.overflow.retain(|&v| v != m);
+        }
+    }
+
+    /// Registers (or re-registers) model `m` with box `b`.
+    fn update(&mut self, m: u32, b: &Aabb) {
+        if b.is_empty() {
+            self.remove(m);
+            return;
+        }
+        let new = self.span_of(b);
+        if new.is_some() && new == self.span[m as usize] {
+            return;
+        }
+        if new.is_none() && self.in_overflow[m as usize] {
+            return;
+        }
+        self.remove(m);
+        match new {
+            Some([x0, y0, x1, y1]) => {
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        self.cells[(y * self.nx + x) as usize].push(m);
+                    }
+                }
+                self.span[m as usize] = new;
+            }
+            None => {
+                self.in_overflow[m as usize] = true;
+                self.overflow.push(m);
+            }
+        }
+    }
+}
+
+/// Every body in world space plus the two indices; see the module docs.
+pub struct Space {
+    bodies: Vec<Body>,
+    is_static: Vec<bool>,
+    static_live: Vec<bool>,
+    statics: StaticIndex,
+    grid: DynGrid,
+}
+
+/// Cell edge of the dynamic grid (m): robots are typically 0.1–0.5 m, sensor rays 2–8 m.
+pub const DYN_CELL: f64 = 1.0;
+
+impl Space {
+    /// Builds the indices from every model's world-space body; `dynamic[m]` says whether model
+    /// `m` can move (it is in a robot's tree).
+    pub fn new(bodies: Vec<Body>, dynamic: &[bool]) -> Space {
+        let n = bodies.len();
+        let mut segs = Vec::new();
+        let mut bounds = Aabb::EMPTY;
+        for (m, body) in bodies.iter().enumerate() {
+            bounds.merge(&body.aabb);
+            if dynamic[m] {
+                continue;
+            }
+            for b in 0..body.blocks.len() {
+                for (a, bb) in body.edges(b) {
+                    segs.push(StaticSeg {
+                        a,
+                        b: bb,
+                        model: m as u32,
+                        block: b as u32,
+                    });
+                }
+            }
+        }
+        if !bounds.is_empty() {
+            bounds.min[0] -= 10.0;
+            bounds.min[1] -= 10.0;
+            bounds.max[0] += 10.0;
+            bounds.max[1] += 10.0;
+        }
+        let mut grid = DynGrid::new(bounds, DYN_CELL, n);
+        for (m, body) in bodies.iter().enumerate() {
+            if dynamic[m] && !body.is_empty() {
+                grid.update(m as u32, &body.aabb);
+            }
+        }
+        Space {
+            is_static: dynamic.iter().map(|d| !d).collect(),
+            static_live: dynamic.iter().map(|d| !d).collect(),
+            statics: StaticIndex::build(segs),
+            bodies,
+            grid,
+        }
+    }
+
+    /// The world-space body of model `m`.
+    pub fn body(&self, m: u32) -> &Body {
+        &self.bodies[m as usize]
+    }
+
+    /// All bodies, indexed by model.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+
+    /// Number of edges in the static index.
+    pub fn static_edge_count(&self) -> usize {
+        self.statics.segs.len()
+    }
+
+    /// Replaces model `m`'s body after it moved, updating the dynamic index incrementally.
+    /// A static body that moves leaves the static index for good and joins the grid.
+    pub fn set_body(&mut self, m: u32, body: Body) {
+        let i = m as usize;
+        if self.static_live[i] {
+            self.static_live[i] = false;
+        }
+        self.is_static[i] = false;
+        self.grid.update(m, &body.aabb);
+        self.bodies[i] = body;
+    }
+
+    /// Mutable access to a body's storage for in-place refresh; call [`Space::commit_body`] after.
+    pub fn body_mut(&mut self, m: u32) -> &mut Body {
+        let i = m as usize;
+        self.static_live[i] = false;
+        self.is_static[i] = false;
+        &mut self.bodies[i]
+    }
+
+    /// Re-registers model `m` in the dynamic index after [`Space::body_mut`] changed it.
+    pub fn commit_body(&mut self, m: u32) {
+        let aabb = self.bodies[m as usize].aabb;
+        self.grid.update(m, &aabb);
+    }
+
+    /// Casts a ray; `accept(model)` decides which models can stop it (Stage's match predicate).
+    /// Returns the nearest accepted edge crossing whose block passes the z test.
+    pub fn raycast(&self, q: &RayQuery, accept: impl Fn(u32) -> bool) -> Option<RayHit> {
+        let (s, c) = q.a.sin_cos();
+        let d = [c, s];
+        let o = [q.x, q.y];
+        let best_t = Cell::new(q.range);
+        let best: Cell<Option<RayHit>> = Cell::new(None);
+        let zok = |blk: &WorldBlock| match q.z {
+            Some(z) => !(z < blk.zmin || z > blk.zmax),
+            None => true,
+        };
+
+        // static edges
+        if !self.statics.segs.is_empty() {
+            let ray = Ray::new(
+                Point::new(q.x as f32, q.y as f32),
+                Vector::new(c as f32, s as f32),
+            );
+            let segs = &self.statics.segs;
+            self.statics
+                .bvh
+                .cast_ray(&ray, q.range as f32 + 1e-3, |leaf, _best| {
+                    let sg = &segs[leaf as usize];
+                    if !self.static_live[sg.model as usize] {
+                        return None;
+                    }
+                    let t = ray_segment(o, d, sg.a, sg.b, best_t.get())?;
+                    let blk = &self.bodies[sg.model as usize].blocks[sg.block as usize];
+                    if !zok(blk) || !accept(sg.model) {
+                        return None;
+                    }
+                    if t < best_t.get()
+                        || (t == best_t.get() && best.get().is_none_or(|h| sg.model < h.model))
+                    {
+                        best_t.set(t);
+                        best.set(Some(RayHit {
+                            model: sg.model,
+                            block: sg.block,
+                            range: t,
+                        }));
+                    }
+                    Some(((t as f32) - 1e-4).max(0.0))
+                });
+        }
+
+        // dynamic bodies
+        let test_model = |m: u32, tmax: f64| -> Option<(u32, f64)> {
+            let body = &self.bodies[m as usize];
+            let inv = [1.0 / d[0], 1.0 / d[1]];
+            body.aabb.ray_entry(o, inv, tmax)?;
+            if !accept(m) {
+                return None;
+            }
+            let mut bt = tmax;
+            let mut bb = None;
+            for (bi, blk) in body.blocks.iter().enumerate() {
+                if !zok(blk) {
+                    continue;
+                }
+                for (a, b) in body.edges(bi) {
+                    if let Some(t) = ray_segment(o, d, a, b, bt) {
+                        if bb.is_none() || t < bt {
+                            bt = t;
+                            bb = Some(bi as u32);
+                        }
+                    }
+                }
+            }
+            bb.map(|b| (b, bt))
+        };
+        let mut consider = |m: u32| {
+            if let Some((b, t)) = test_model(m, best_t.get()) {
+                let cur = best.get();
+                if t < best_t.get()
+                    || cur.is_none()
+                    || (t == best_t.get() && m < cur.unwrap().model)
+                {
+                    best_t.set(t);
+                    best.set(Some(RayHit {
+                        model: m,
+                        block: b,
+                        range: t,
+                    }));
+                }
+            }
+        };
+        for &m in &self.grid.overflow {
+            consider(m);
+        }
+        self.walk_grid(o, d, &best_t, &mut consider);
+        best.get()
+    }
+
+    /// Visits the grid cells along the ray (DDA) in order, until the cell entry distance passes
+    /// the best hit so far.
+    fn walk_grid(&self, o: [f64; 2], d: [f64; 2], best_t: &Cell<f64>, visit: &mut impl FnMut(u32)) {
+        let g = &self.grid;
+        let gmin = g.origin;
+        let gmax = [
+            g.origin[0] + g.nx as f64 * g.cell,
+            g.origin[1] + g.ny as f64 * g.cell,
+        ];
+        let inv = [1.0 / d[0], 1.0 / d[1]];
+        let bounds = Aabb {
+            min: gmin,
+            max: gmax,
+        };
+        let Some(t_enter) = bounds.ray_entry(o, inv, best_t.get()) else {
+            return;
+        };
+        let p = [o[0] + d[0] * t_enter, o[1] + d[1] * t_enter];
+        let c0 = g.cell_of(p);
+        let mut cx = c0[0].clamp(0, g.nx - 1);
+        let mut cy = c0[1].clamp(0, g.ny - 1);
+        let step_x = if d[0] >= 0.0 { 1 } else { -1 };
+        let step_y = if d[1] >= 0.0 { 1 } else { -1 };
+        let next_boundary = |c: i32, k: usize, step: i32| -> f64 {
+            let edge = g.origin[k] + (c + if step > 0 { 1 } else { 0 }) as f64 * g.cell;
+            (edge - o[k]) * inv[k]
+        };
+        let mut t_max_x = if d[0] == 0.0 {
+            f64::INFINITY
+        } else {
+            next_boundary(cx, 0, step_x)
+        };
+        let mut t_max_y = if d[1] == 0.0 {
+            f64::INFINITY
+        } else {
+            next_boundary(cy, 1, step_y)
+        };
+        let t_dx = (g.cell * inv[0]).abs();
+        let t_dy = (g.cell * inv[1]).abs();
+        let mut t_cell;
+        loop {
+            for &m in &g.cells[(cy * g.nx + cx) as usize] {
+                visit(m);
+            }
+            if t_max_x < t_max_y {
+                t_cell = t_max_x;
+                cx += step_x;
+                t_max_x += t_dx;
+            } else {
+                t_cell = t_max_y;
+                cy += step_y;
+                t_max_y += t_dy;
+            }
+            if cx < 0 || cy < 0 || cx >= g.nx || cy >= g.ny || t_cell > best_t.get() {
+                return;
+            }
+        }
+    }
+
+    /// Collects every accepted crossing along a ray (any z), nearest first, up to `max_hits`:
+    /// used by the camera, which resolves heights per pixel.
+    pub fn raycast_all(&self, q: &RayQuery, accept: impl Fn(u32) -> bool, out: &mut Vec<RayHit>) {
+        out.clear();
+        let (s, c) = q.a.sin_cos();
+        let d = [c, s];
+        let o = [q.x, q.y];
+        let inv = [1.0 / d[0], 1.0 / d[1]];
+        let mut probe = Aabb::EMPTY;
+        probe.add(o);
+        probe.add([o[0] + d[0] * q.range, o[1] + d[1] * q.range]);
+        let pa = PAabb::new(
+            Point::new(probe.min[0] as f32 - 1e-3, probe.min[1] as f32 - 1e-3),
+            Point::new(probe.max[0] as f32 + 1e-3, probe.max[1] as f32 + 1e-3),
+        );
+        for leaf in self.statics.bvh.intersect_aabb(&pa) {
+            let sg = &self.statics.segs[leaf as usize];
+            if !self.static_live[sg.model as usize] || !accept(sg.model) {
+                continue;
+            }
+            if let Some(t) = ray_segment(o, d, sg.a, sg.b, q.range) {
+                out.push(RayHit {
+                    model: sg.model,
+                    block: sg.block,
+                    range: t,
+                });
+            }
+        }
+        let mut seen: Vec<u32> = Vec::new();
+        let far = Cell::new(q.range);
+        let mut visit = |m: u32| {
+            if seen.contains(&m) || !accept(m) {
+                return;
+            }
+            seen.push(m);
+            let body = &self.bodies[m as usize];
+            if body.aabb.ray_entry(o, inv, q.range).is_none() {
+                return;
+            }
+            for bi in 0..body.blocks.len() {
+                for (a, b) in body.edges(bi) {
+                    if let Some(t) = ray_segment(o, d, a, b, q.range) {
+                        out.push(RayHit {
+                            model: m,
+                            block: bi as u32,
+                            range: t,
+                        });
+                    }
+                }
+            }
+        };
+        for &m in &self.grid.overflow {
+            visit(m);
+        }
+        self.walk_grid(o, d, &far, &mut visit);
+        out.sort_by(|a, b| {
+            a.range
+                .total_cmp(&b.range)
+                .then(a.model.cmp(&b.model))
+                .then(a.block.cmp(&b.block))
+        });
+    }
+
+    /// Contact test for a set of models (a moving model and its descendants): returns the first
+    /// other model whose outline intersects one of theirs with overlapping z intervals and that
+    /// `accept` admits (unrelated, `obstacle_return`). `None`: no contact.
+    pub fn first_contact(&self, movers: &[u32], accept: impl Fn(u32) -> bool) -> Option<u32> {
+        let mut best: Option<u32> = None;
+        let mut cand: Vec<u32> = Vec::new();
+        for &m in movers {
+            let body = &self.bodies[m as usize];
+            if body.is_empty() {
+                continue;
+            }
+            let bb = body.aabb;
+            // static edges near the mover
+            let pa = PAabb::new(
+                Point::new((bb.min[0] - AABB_PAD) as f32, (bb.min[1] - AABB_PAD) as f32),
+                Point::new((bb.max[0] + AABB_PAD) as f32, (bb.max[1] + AABB_PAD) as f32),
+            );
+            for leaf in self.statics.bvh.intersect_aabb(&pa) {
+                let sg = &self.statics.segs[leaf as usize];
+                if !self.static_live[sg.model as usize] || best.is_some_and(|b| sg.model >= b) {
+                    continue;
+                }
+                let tb = &self.bodies[sg.model as usize].blocks[sg.block as usize];
+                if !accept(sg.model) {
+                    continue;
+                }
+                if self.edge_hits_body(body, sg.a, sg.b, tb.zmin, tb.zmax) {
+                    best = Some(sg.model);
+                }
+            }
+            // dynamic bodies near the mover
+            cand.clear();
+            let g = &self.grid;
+            match g.span_of(&bb) {
+                Some([x0, y0, x1, y1]) => {
+                    for y in y0..=y1 {
+                        for x in x0..=x1 {
+                            cand.extend_from_slice(&g.cells[(y * g.nx + x) as usize]);
+                        }
+                    }
+                }
+                None => {
+                    // the mover is (partly) outside the grid: test every registered model
+                    for c in &g.cells {
+                        cand.extend_from_slice(c);
+                    }
+                }
+            }
+            cand.extend_from_slice(&g.overflow);
+            cand.sort_unstable();
+            cand.dedup();
+            for &o in &cand {
+                if o == m || best.is_some_and(|b| o >= b) {
+                    continue;
+                }
+                let ob = &self.bodies[o as usize];
+                if !ob.aabb.intersects(&bb) || !accept(o) {
+                    continue;
+                }
+                'blocks: for (bi, blk) in ob.blocks.iter().enumerate() {
+                    for (a, b) in ob.edges(bi) {
+                        if self.edge_hits_body(body, a, b, blk.zmin, blk.zmax) {
+                            best = Some(o);
+                            break 'blocks;
+                        }
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    fn edge_hits_body(&self, body: &Body, a: [f64; 2], b: [f64; 2], zmin: f64, zmax: f64) -> bool {
+        let mut eb = Aabb::EMPTY;
+        eb.add(a);
+        eb.add(b);
+        if !eb.intersects(&body.aabb) {
+            return false;
+        }
+        for (bi, blk) in body.blocks.iter().enumerate() {
+            // inclusive z overlap (block.cc TestCollision); NaN bounds never overlap
+            if !(zmin <= blk.zmax && zmax >= blk.zmin) {
+                continue;
+            }
+            for (p, q) in body.edges(bi) {
+                if segments_intersect(p, q, a, b) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Models whose bodies are registered as static (never moved).
+    pub fn is_static(&self, m: u32) -> bool {
+        self.is_static[m as usize]
+    }
+}

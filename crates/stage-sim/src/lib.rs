@@ -41,6 +41,7 @@
 pub mod controller;
 pub mod desc;
 pub mod error;
+pub mod generate;
 pub mod geom;
 pub mod models;
 pub mod pose;

@@ -16,9 +16,8 @@
 //! Stage drops, are kept.
 
 use parry2d::bounding_volume::Aabb as PAabb;
-use parry2d::math::{Point, Vector};
+use parry2d::math::Point;
 use parry2d::partitioning::{Bvh, BvhBuildStrategy};
-use parry2d::query::Ray;
 use std::cell::Cell;
 
 use crate::geom::{Aabb, ray_segment, segments_intersect};
@@ -95,41 +94,68 @@ pub struct RayQuery {
     pub z: Option<f64>,
 }
 
+/// A static block: its model, block index, z interval and vertex range in `StaticIndex::pts`.
 #[derive(Clone, Copy)]
-struct StaticSeg {
-    a: [f64; 2],
-    b: [f64; 2],
+struct StaticBlock {
     model: u32,
     block: u32,
+    zmin: f64,
+    zmax: f64,
+    start: u32,
+    end: u32,
 }
 
-/// The edges of the static bodies in a parry2d BVH (one leaf per edge).
+/// The static bodies' blocks in a parry2d BVH (one leaf per block), with their outlines in
+/// one flat vertex array.
 struct StaticIndex {
-    segs: Vec<StaticSeg>,
+    blocks: Vec<StaticBlock>,
+    pts: Vec<[f64; 2]>,
     bvh: Bvh,
 }
 
 const AABB_PAD: f64 = 1e-4;
 
 impl StaticIndex {
-    fn build(segs: Vec<StaticSeg>) -> StaticIndex {
-        let leaves: Vec<PAabb> = segs
-            .iter()
-            .map(|s| {
-                PAabb::new(
-                    Point::new(
-                        (s.a[0].min(s.b[0]) - AABB_PAD) as f32,
-                        (s.a[1].min(s.b[1]) - AABB_PAD) as f32,
-                    ),
-                    Point::new(
-                        (s.a[0].max(s.b[0]) + AABB_PAD) as f32,
-                        (s.a[1].max(s.b[1]) + AABB_PAD) as f32,
-                    ),
-                )
-            })
-            .collect();
+    fn build(bodies: &[Body], dynamic: &[bool]) -> StaticIndex {
+        let mut blocks = Vec::new();
+        let mut pts = Vec::new();
+        let mut leaves = Vec::new();
+        for (m, body) in bodies.iter().enumerate() {
+            if dynamic[m] {
+                continue;
+            }
+            for (bi, wb) in body.blocks.iter().enumerate() {
+                let p = body.block_pts(bi);
+                let start = pts.len() as u32;
+                pts.extend_from_slice(p);
+                let mut bb = Aabb::EMPTY;
+                p.iter().for_each(|q| bb.add(*q));
+                leaves.push(PAabb::new(
+                    Point::new((bb.min[0] - AABB_PAD) as f32, (bb.min[1] - AABB_PAD) as f32),
+                    Point::new((bb.max[0] + AABB_PAD) as f32, (bb.max[1] + AABB_PAD) as f32),
+                ));
+                blocks.push(StaticBlock {
+                    model: m as u32,
+                    block: bi as u32,
+                    zmin: wb.zmin,
+                    zmax: wb.zmax,
+                    start,
+                    end: pts.len() as u32,
+                });
+            }
+        }
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
-        StaticIndex { segs, bvh }
+        StaticIndex { blocks, pts, bvh }
+    }
+
+    /// Edges of static block `i`.
+    #[inline]
+    fn edges(&self, i: usize) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+        let b = &self.blocks[i];
+        let p = &self.pts[b.start as usize..b.end as usize];
+        let n = p.len();
+        let count = if n == 2 { 1 } else { n };
+        (0..count).map(move |k| (p[k], p[(k + 1) % n]))
     }
 }
 
@@ -250,23 +276,9 @@ impl Space {
     /// `m` can move (it is in a robot's tree).
     pub fn new(bodies: Vec<Body>, dynamic: &[bool]) -> Space {
         let n = bodies.len();
-        let mut segs = Vec::new();
         let mut bounds = Aabb::EMPTY;
-        for (m, body) in bodies.iter().enumerate() {
+        for body in &bodies {
             bounds.merge(&body.aabb);
-            if dynamic[m] {
-                continue;
-            }
-            for b in 0..body.blocks.len() {
-                for (a, bb) in body.edges(b) {
-                    segs.push(StaticSeg {
-                        a,
-                        b: bb,
-                        model: m as u32,
-                        block: b as u32,
-                    });
-                }
-            }
         }
         if !bounds.is_empty() {
             bounds.min[0] -= 10.0;
@@ -283,7 +295,7 @@ impl Space {
         Space {
             is_static: dynamic.iter().map(|d| !d).collect(),
             static_live: dynamic.iter().map(|d| !d).collect(),
-            statics: StaticIndex::build(segs),
+            statics: StaticIndex::build(&bodies, dynamic),
             bodies,
             grid,
         }
@@ -299,9 +311,9 @@ impl Space {
         &self.bodies
     }
 
-    /// Number of edges in the static index.
-    pub fn static_edge_count(&self) -> usize {
-        self.statics.segs.len()
+    /// Number of blocks in the static index.
+    pub fn static_block_count(&self) -> usize {
+        self.statics.blocks.len()
     }
 
     /// Replaces model `m`'s body after it moved, updating the dynamic index incrementally.
@@ -334,60 +346,93 @@ impl Space {
     /// Returns the nearest accepted edge crossing whose block passes the z test.
     pub fn raycast(&self, q: &RayQuery, accept: impl Fn(u32) -> bool) -> Option<RayHit> {
         let (s, c) = q.a.sin_cos();
-        let d = [c, s];
-        let o = [q.x, q.y];
-        let best_t = Cell::new(q.range);
-        let best: Cell<Option<RayHit>> = Cell::new(None);
-        let zok = |blk: &WorldBlock| match q.z {
-            Some(z) => !(z < blk.zmin || z > blk.zmax),
+        self.raycast_dir([q.x, q.y], [c, s], q.range, q.z, accept)
+    }
+
+    /// [`Space::raycast`] with the unit direction given (saves the sine/cosine per ray when a
+    /// caller sweeps a fan).
+    pub fn raycast_dir(
+        &self,
+        o: [f64; 2],
+        d: [f64; 2],
+        range: f64,
+        z: Option<f64>,
+        accept: impl Fn(u32) -> bool,
+    ) -> Option<RayHit> {
+        let zok = |zmin: f64, zmax: f64| match z {
+            Some(z) => !(z < zmin || z > zmax),
             None => true,
         };
+        let inv = [1.0 / d[0], 1.0 / d[1]];
+        let mut best_t = range;
+        let mut best: Option<RayHit> = None;
 
-        // static edges
-        if !self.statics.segs.is_empty() {
-            let ray = Ray::new(
-                Point::new(q.x as f32, q.y as f32),
-                Vector::new(c as f32, s as f32),
+        // static blocks: best-first over parry's BVH with a precomputed-inverse slab test
+        if !self.statics.blocks.is_empty() {
+            let (ox, oy) = (o[0] as f32, o[1] as f32);
+            let (ix, iy) = (inv[0] as f32, inv[1] as f32);
+            let st = &self.statics;
+            let cell_t = Cell::new(best_t);
+            let cell_hit: Cell<Option<RayHit>> = Cell::new(None);
+            st.bvh.find_best(
+                range as f32 + 1e-3,
+                |node, best| {
+                    let mn = node.mins();
+                    let mx = node.maxs();
+                    let (a0, a1) = ((mn.x - ox) * ix, (mx.x - ox) * ix);
+                    let (b0, b1) = ((mn.y - oy) * iy, (mx.y - oy) * iy);
+                    let tmin = a0.min(a1).max(b0.min(b1)).max(0.0);
+                    let tmax = a0.max(a1).min(b0.max(b1)).min(best);
+                    // NaN (0·inf on a face of a flat box) compares false: the node is kept
+                    if tmin > tmax { f32::MAX } else { tmin }
+                },
+                |leaf, _best| {
+                    let sb = &st.blocks[leaf as usize];
+                    if !zok(sb.zmin, sb.zmax) || !self.static_live[sb.model as usize] {
+                        return None;
+                    }
+                    let mut hit: Option<f64> = None;
+                    for (a, b) in st.edges(leaf as usize) {
+                        if let Some(t) = ray_segment(o, d, a, b, cell_t.get()) {
+                            if hit.is_none_or(|h| t < h) {
+                                hit = Some(t);
+                            }
+                        }
+                    }
+                    let t = hit?;
+                    let better = match cell_hit.get() {
+                        None => true,
+                        Some(h) => t < h.range || (t == h.range && sb.model < h.model),
+                    };
+                    if !better || !accept(sb.model) {
+                        return None;
+                    }
+                    cell_t.set(t);
+                    cell_hit.set(Some(RayHit {
+                        model: sb.model,
+                        block: sb.block,
+                        range: t,
+                    }));
+                    Some(t as f32)
+                },
             );
-            let segs = &self.statics.segs;
-            self.statics
-                .bvh
-                .cast_ray(&ray, q.range as f32 + 1e-3, |leaf, _best| {
-                    let sg = &segs[leaf as usize];
-                    if !self.static_live[sg.model as usize] {
-                        return None;
-                    }
-                    let t = ray_segment(o, d, sg.a, sg.b, best_t.get())?;
-                    let blk = &self.bodies[sg.model as usize].blocks[sg.block as usize];
-                    if !zok(blk) || !accept(sg.model) {
-                        return None;
-                    }
-                    if t < best_t.get()
-                        || (t == best_t.get() && best.get().is_none_or(|h| sg.model < h.model))
-                    {
-                        best_t.set(t);
-                        best.set(Some(RayHit {
-                            model: sg.model,
-                            block: sg.block,
-                            range: t,
-                        }));
-                    }
-                    Some(((t as f32) - 1e-4).max(0.0))
-                });
+            best_t = cell_t.get();
+            best = cell_hit.get();
         }
 
         // dynamic bodies
-        let test_model = |m: u32, tmax: f64| -> Option<(u32, f64)> {
+        let best_t = Cell::new(best_t);
+        let best = Cell::new(best);
+        let mut consider = |m: u32| {
             let body = &self.bodies[m as usize];
-            let inv = [1.0 / d[0], 1.0 / d[1]];
-            body.aabb.ray_entry(o, inv, tmax)?;
-            if !accept(m) {
-                return None;
+            let tmax = best_t.get();
+            if body.aabb.ray_entry(o, inv, tmax).is_none() || !accept(m) {
+                return;
             }
             let mut bt = tmax;
             let mut bb = None;
             for (bi, blk) in body.blocks.iter().enumerate() {
-                if !zok(blk) {
+                if !zok(blk.zmin, blk.zmax) {
                     continue;
                 }
                 for (a, b) in body.edges(bi) {
@@ -399,20 +444,14 @@ impl Space {
                     }
                 }
             }
-            bb.map(|b| (b, bt))
-        };
-        let mut consider = |m: u32| {
-            if let Some((b, t)) = test_model(m, best_t.get()) {
+            if let Some(b) = bb {
                 let cur = best.get();
-                if t < best_t.get()
-                    || cur.is_none()
-                    || (t == best_t.get() && m < cur.unwrap().model)
-                {
-                    best_t.set(t);
+                if bt < tmax || cur.is_none_or(|h| m < h.model) {
+                    best_t.set(bt);
                     best.set(Some(RayHit {
                         model: m,
                         block: b,
-                        range: t,
+                        range: bt,
                     }));
                 }
             }
@@ -499,16 +538,18 @@ impl Space {
             Point::new(probe.max[0] as f32 + 1e-3, probe.max[1] as f32 + 1e-3),
         );
         for leaf in self.statics.bvh.intersect_aabb(&pa) {
-            let sg = &self.statics.segs[leaf as usize];
-            if !self.static_live[sg.model as usize] || !accept(sg.model) {
+            let sb = self.statics.blocks[leaf as usize];
+            if !self.static_live[sb.model as usize] || !accept(sb.model) {
                 continue;
             }
-            if let Some(t) = ray_segment(o, d, sg.a, sg.b, q.range) {
-                out.push(RayHit {
-                    model: sg.model,
-                    block: sg.block,
-                    range: t,
-                });
+            for (a, b) in self.statics.edges(leaf as usize) {
+                if let Some(t) = ray_segment(o, d, a, b, q.range) {
+                    out.push(RayHit {
+                        model: sb.model,
+                        block: sb.block,
+                        range: t,
+                    });
+                }
             }
         }
         let mut seen: Vec<u32> = Vec::new();
@@ -564,16 +605,19 @@ impl Space {
                 Point::new((bb.max[0] + AABB_PAD) as f32, (bb.max[1] + AABB_PAD) as f32),
             );
             for leaf in self.statics.bvh.intersect_aabb(&pa) {
-                let sg = &self.statics.segs[leaf as usize];
-                if !self.static_live[sg.model as usize] || best.is_some_and(|b| sg.model >= b) {
+                let sb = self.statics.blocks[leaf as usize];
+                if !self.static_live[sb.model as usize]
+                    || best.is_some_and(|b| sb.model >= b)
+                    || !accept(sb.model)
+                {
                     continue;
                 }
-                let tb = &self.bodies[sg.model as usize].blocks[sg.block as usize];
-                if !accept(sg.model) {
-                    continue;
-                }
-                if self.edge_hits_body(body, sg.a, sg.b, tb.zmin, tb.zmax) {
-                    best = Some(sg.model);
+                if self
+                    .statics
+                    .edges(leaf as usize)
+                    .any(|(a, b)| self.edge_hits_body(body, a, b, sb.zmin, sb.zmax))
+                {
+                    best = Some(sb.model);
                 }
             }
             // dynamic bodies near the mover

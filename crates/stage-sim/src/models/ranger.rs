@@ -3,7 +3,6 @@
 use crate::desc::SensorDesc;
 use crate::pose::Pose;
 use crate::rng::SimRng;
-use crate::space::RayQuery;
 use crate::world::View;
 
 /// One transducer's latest scan.
@@ -95,18 +94,14 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
         scan.intensities.resize(n, 0.0);
         scan.bearings.resize(n, 0.0);
         let max = sensor.range[1];
+        // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
+        let (mut ds, mut dc) = origin.a.sin_cos();
+        let (is, ic) = incr.sin_cos();
+        let pred = |h: u32| v.root(h) != root && v.nodes[h as usize].ranger_return >= 0.0;
         for t in 0..n {
-            let bearing = start + t as f64 * incr;
-            let q = RayQuery {
-                x: origin.x,
-                y: origin.y,
-                a: origin.a + t as f64 * incr,
-                range: max,
-                z: Some(origin.z),
-            };
-            let hit = v.space.raycast(&q, |h| {
-                v.root(h) != root && v.nodes[h as usize].ranger_return >= 0.0
-            });
+            let hit =
+                v.space
+                    .raycast_dir([origin.x, origin.y], [dc, ds], max, Some(origin.z), pred);
             let (mut r, i) = match hit {
                 Some(h) => (h.range, v.nodes[h.model as usize].ranger_return),
                 None => (max, 0.0),
@@ -116,7 +111,8 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
             }
             scan.ranges[t] = r;
             scan.intensities[t] = i;
-            scan.bearings[t] = bearing;
+            scan.bearings[t] = start + t as f64 * incr;
+            (dc, ds) = (dc * ic - ds * is, dc * is + ds * ic);
         }
     }
     d.time_us = v.sim_time;

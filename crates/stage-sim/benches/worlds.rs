@@ -37,8 +37,12 @@ fn measure(label: &str, mut w: World, budget: Duration, max_steps: u64) {
 
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
+    let only: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with("--"));
     let budget = Duration::from_secs_f64(if quick { 0.5 } else { 5.0 });
     for n in [1usize, 10, 100, 1000, 10_000] {
+        if only.as_ref().is_some_and(|o| *o != format!("swarm{n}")) {
+            continue;
+        }
         let w = World::from_desc(&swarm_world(n, 1), 1).expect("generated world");
         measure(&format!("swarm {n} robots"), w, budget, u64::MAX);
     }

@@ -229,6 +229,8 @@ pub struct Expand {
     safe_angle: f64,
     /// (sensor index, minimum range) that must all be exceeded to drive.
     clear: Vec<(usize, f64)>,
+    /// sin/cos of each sensor heading.
+    dirs: Vec<(f64, f64)>,
 }
 
 impl Expand {
@@ -247,6 +249,7 @@ impl Expand {
                 (2, s / 2.0),
                 (1, s / 4.0),
             ],
+            dirs: Vec::new(),
         }
     }
 
@@ -266,6 +269,7 @@ impl Expand {
                 (10, s / 3.0),
                 (11, s / 1.5),
             ],
+            dirs: Vec::new(),
         }
     }
 }
@@ -276,11 +280,14 @@ impl Controller for Expand {
             return;
         };
         let first = |k: usize| data.scans.get(k).and_then(|s| s.ranges.first()).copied();
+        if self.dirs.len() != data.sensors.len() {
+            self.dirs = data.sensors.iter().map(|s| s.pose.a.sin_cos()).collect();
+        }
         let (mut dx, mut dy) = (0.0, 0.0);
-        for (k, s) in data.sensors.iter().enumerate() {
+        for (k, &(s, c)) in self.dirs.iter().enumerate() {
             if let Some(r) = first(k) {
-                dx += r * s.pose.a.cos();
-                dy += r * s.pose.a.sin();
+                dx += r * c;
+                dy += r * s;
             }
         }
         if dx == 0.0 || dy == 0.0 {

@@ -38,27 +38,27 @@ impl Color {
     }
 }
 
-/// One block: a polygon in "block units" extruded over `[zmin, zmax]` (spec §2.1). The model's
-/// `size` stretches the union of its blocks (§2.3).
+/// One block: a polygon in the model's body frame (metres, already stretched to `size` by the
+/// worldfile resolver, spec §2.3) extruded over `[zmin, zmax]` above the body base.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BlockDesc {
-    /// Vertices (at least 2).
+    /// Vertices (at least 2), metres in the body frame.
     pub points: Vec<[f64; 2]>,
-    /// Lower z in block units.
+    /// Lower z above the body base (m).
     pub zmin: f64,
-    /// Upper z in block units.
+    /// Upper z above the body base (m).
     pub zmax: f64,
     /// Own colour; `None` inherits the model's current colour.
     pub color: Option<Color>,
 }
 
 impl BlockDesc {
-    /// An axis-aligned rectangle block `[x, x+w] × [y, y+h]`, z `[0, 1]`, inherited colour.
-    pub fn rect(x: f64, y: f64, w: f64, h: f64) -> BlockDesc {
+    /// An axis-aligned rectangle block `[x, x+w] × [y, y+h]`, z `[0, height]`, inherited colour.
+    pub fn rect(x: f64, y: f64, w: f64, h: f64, height: f64) -> BlockDesc {
         BlockDesc {
             points: vec![[x, y], [x + w, y], [x + w, y + h], [x, y + h]],
             zmin: 0.0,
-            zmax: 1.0,
+            zmax: height,
             color: None,
         }
     }
@@ -368,8 +368,12 @@ pub struct ModelDesc {
     pub origin: Pose,
     /// Model colour.
     pub color: Color,
-    /// Body blocks (block units, stretched to `size`); empty = no body.
+    /// Body blocks in the body frame (metres); with `default_body`, a box filling `size` is
+    /// used instead.
     pub blocks: Vec<BlockDesc>,
+    /// The body is Stage's default unit square stretched to `size` (a `size.x × size.y` box,
+    /// `size.z` high), whatever `size` is when the world is built.
+    pub default_body: bool,
     /// Children's z measured from this model's top.
     pub stack_children: bool,
     /// Takes part in collisions.
@@ -417,11 +421,8 @@ impl ModelDesc {
             size,
             origin: Pose::ZERO,
             color,
-            blocks: if body {
-                vec![BlockDesc::rect(-0.5, -0.5, 1.0, 1.0)]
-            } else {
-                Vec::new()
-            },
+            blocks: Vec::new(),
+            default_body: body,
             stack_children: true,
             obstacle_return: true,
             ranger_return: 1.0,

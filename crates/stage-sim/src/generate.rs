@@ -19,12 +19,13 @@ pub fn swarm_world(n: usize, seed: u64) -> WorldDesc {
     let mut arena = ModelDesc::new("arena", KindDesc::Model);
     arena.size = [2.0 * half, 2.0 * half, 0.5];
     arena.color = Color::rgb(0.0, 0.0, 0.0);
-    let t = 0.02;
+    let (t, w) = (0.05, 2.0 * half);
+    arena.default_body = false;
     arena.blocks = vec![
-        BlockDesc::rect(0.0, 0.0, 1.0, t),
-        BlockDesc::rect(0.0, 1.0 - t, 1.0, t),
-        BlockDesc::rect(0.0, 0.0, t, 1.0),
-        BlockDesc::rect(1.0 - t, 0.0, t, 1.0),
+        BlockDesc::rect(-half, -half, w, t, 0.5),
+        BlockDesc::rect(-half, half - t, w, t, 0.5),
+        BlockDesc::rect(-half, -half, t, w, 0.5),
+        BlockDesc::rect(half - t, -half, t, w, 0.5),
     ];
     d.add(arena, None);
     let mut rng = SimRng::new(seed, u64::MAX);

@@ -590,9 +590,13 @@ impl Space {
     /// Contact test for a set of models (a moving model and its descendants): returns the first
     /// other model whose outline intersects one of theirs with overlapping z intervals and that
     /// `accept` admits (unrelated, `obstacle_return`). `None`: no contact.
-    pub fn first_contact(&self, movers: &[u32], accept: impl Fn(u32) -> bool) -> Option<u32> {
+    pub fn first_contact(
+        &self,
+        movers: &[u32],
+        cand: &mut Vec<u32>,
+        accept: impl Fn(u32) -> bool,
+    ) -> Option<u32> {
         let mut best: Option<u32> = None;
-        let mut cand: Vec<u32> = Vec::new();
         for &m in movers {
             let body = &self.bodies[m as usize];
             if body.is_empty() {
@@ -641,7 +645,7 @@ impl Space {
             cand.extend_from_slice(&g.overflow);
             cand.sort_unstable();
             cand.dedup();
-            for &o in &cand {
+            for &o in cand.iter() {
                 if o == m || best.is_some_and(|b| o >= b) {
                     continue;
                 }

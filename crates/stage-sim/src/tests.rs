@@ -499,6 +499,7 @@ fn wander_avoids_walls_in_a_closed_room() {
 fn invalid_descriptions_are_errors_not_panics() {
     let mut d = WorldDesc::default();
     let mut m = wall("bad", 0.0, 0.0, 1.0, 1.0, 1.0);
+    m.default_body = false;
     m.blocks = vec![BlockDesc {
         points: vec![[0.0, 0.0]],
         zmin: 0.0,

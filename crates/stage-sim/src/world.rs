@@ -188,69 +188,53 @@ pub struct World {
     due: Vec<bool>,
     updated: Vec<bool>,
     subtree: Vec<u32>,
+    scratch: Vec<u32>,
 }
 
 /// Stack below this many rays per step is run on the calling thread (fork/join costs more).
-const PARALLEL_MIN_RAYS: usize = 512;
+const PARALLEL_MIN_RAYS: usize = 2048;
 
 fn local_blocks(m: &ModelDesc) -> Result<Vec<LocalBlock>> {
-    if m.blocks.is_empty() {
-        return Ok(Vec::new());
+    if m.default_body {
+        let [sx, sy, sz] = m.size;
+        return Ok(vec![LocalBlock {
+            pts: vec![
+                [-sx / 2.0, -sy / 2.0],
+                [sx / 2.0, -sy / 2.0],
+                [sx / 2.0, sy / 2.0],
+                [-sx / 2.0, sy / 2.0],
+            ],
+            z: [0.0, sz],
+            color: None,
+        }]);
     }
-    let mut bb = Aabb::EMPTY;
-    let mut zmax = 0.0f64;
-    for b in &m.blocks {
-        if b.points.len() < 2 {
-            return Err(Error::InvalidModel {
+    m.blocks
+        .iter()
+        .map(|b| {
+            let bad = |msg: String| Error::InvalidModel {
                 model: m.name.clone(),
                 source_loc: m.source.clone(),
-                msg: format!(
+                msg,
+            };
+            if b.points.len() < 2 {
+                return Err(bad(format!(
                     "a block has {} point(s); at least 2 are needed",
                     b.points.len()
-                ),
-            });
-        }
-        for p in &b.points {
-            if !p[0].is_finite() || !p[1].is_finite() {
-                return Err(Error::InvalidModel {
-                    model: m.name.clone(),
-                    source_loc: m.source.clone(),
-                    msg: "a block vertex is not a finite number".into(),
-                });
+                )));
             }
-            bb.add(*p);
-        }
-        zmax = zmax.max(b.zmax);
-    }
-    let bw = bb.max[0] - bb.min[0];
-    let bh = bb.max[1] - bb.min[1];
-    // A degenerate axis (all vertices collinear) keeps scale 1 instead of Stage's division by 0.
-    let sx = if bw > 0.0 { m.size[0] / bw } else { 1.0 };
-    let sy = if bh > 0.0 { m.size[1] / bh } else { 1.0 };
-    let cx = bb.min[0] + bw / 2.0;
-    let cy = bb.min[1] + bh / 2.0;
-    Ok(m.blocks
-        .iter()
-        .map(|b: &BlockDesc| {
-            // A block group of zero height gives NaN heights in Stage (spec §2.1): we give such
-            // models their full height instead.
-            let z = if zmax > 0.0 {
-                let s = m.size[2] / zmax;
-                [b.zmin * s, b.zmax * s]
-            } else {
-                [0.0, m.size[2]]
-            };
-            LocalBlock {
-                pts: b
-                    .points
-                    .iter()
-                    .map(|p| [(p[0] - cx) * sx, (p[1] - cy) * sy])
-                    .collect(),
-                z,
+            if b.points.iter().flatten().any(|v| !v.is_finite())
+                || !b.zmin.is_finite()
+                || !b.zmax.is_finite()
+            {
+                return Err(bad("a block coordinate is not a finite number".into()));
+            }
+            Ok(LocalBlock {
+                pts: b.points.clone(),
+                z: [b.zmin, b.zmax],
                 color: b.color,
-            }
+            })
         })
-        .collect())
+        .collect()
 }
 
 fn body_of(node: &Node, global: &Pose, out: &mut Body) {
@@ -412,7 +396,8 @@ impl World {
                     let gm = GripperModel::new(g.clone());
                     // the gripper's body is its base and paddles (spec §11.2)
                     let tmp = ModelDesc {
-                        blocks: gm.blocks(),
+                        blocks: gm.blocks(m.size),
+                        default_body: false,
                         ..m.clone()
                     };
                     nodes[i].blocks = local_blocks(&tmp)?;
@@ -473,6 +458,7 @@ impl World {
             due: vec![false; n],
             updated: vec![false; n],
             subtree: Vec::new(),
+            scratch: Vec::new(),
         };
         // gripper bodies were replaced above: refresh their world outlines
         for i in 0..n {
@@ -651,7 +637,8 @@ impl World {
                 if let KindState::Gripper(g) = &mut self.states[i].kind {
                     let action = g.action.take();
                     let changed = std::mem::take(&mut g.body_changed);
-                    let blocks = changed.then(|| g.blocks());
+                    let size = self.nodes[i].size;
+                    let blocks = changed.then(|| g.blocks(size));
                     if let Some(blocks) = blocks {
                         self.set_blocks(i as u32, &blocks);
                     }
@@ -672,17 +659,18 @@ impl World {
         if any && !self.controllers.is_empty() {
             let mut slots = std::mem::take(&mut self.controllers);
             let world = &*self;
-            let mut outs: Vec<Commands> = slots
-                .par_iter_mut()
-                .with_min_len(32)
-                .map(|slot| {
-                    let mut cmds = Commands::new(ModelId(slot.model));
-                    if world.updated[slot.trigger as usize] {
-                        slot.ctrl.update(world, &mut cmds);
-                    }
-                    cmds
-                })
-                .collect();
+            let run = |slot: &mut ControllerSlot| {
+                let mut cmds = Commands::new(ModelId(slot.model));
+                if world.updated[slot.trigger as usize] {
+                    slot.ctrl.update(world, &mut cmds);
+                }
+                cmds
+            };
+            let mut outs: Vec<Commands> = if slots.len() >= 512 {
+                slots.par_iter_mut().with_min_len(32).map(run).collect()
+            } else {
+                slots.iter_mut().map(run).collect()
+            };
             self.controllers = slots;
             for out in outs.iter_mut() {
                 for c in out.drain() {
@@ -744,7 +732,7 @@ impl World {
         let hit = ground
             || self
                 .space
-                .first_contact(&movers, |o| {
+                .first_contact(&movers, &mut self.scratch, |o| {
                     let n = &nodes[o as usize];
                     n.root != root && n.obstacle_return
                 })
@@ -753,14 +741,15 @@ impl World {
         hit
     }
 
+    /// Collects `m` and its descendants into `self.subtree`, parents before children.
     fn collect_subtree(&mut self, m: u32) {
         self.subtree.clear();
-        let mut stack = vec![m];
-        while let Some(x) = stack.pop() {
-            self.subtree.push(x);
-            for &c in self.nodes[x as usize].children.iter().rev() {
-                stack.push(c);
-            }
+        self.subtree.push(m);
+        let mut i = 0;
+        while i < self.subtree.len() {
+            let x = self.subtree[i] as usize;
+            self.subtree.extend_from_slice(&self.nodes[x].children);
+            i += 1;
         }
     }
 
@@ -788,6 +777,7 @@ impl World {
         let tmp = ModelDesc {
             size: n.size,
             blocks: blocks.to_vec(),
+            default_body: false,
             ..ModelDesc::new(&n.name, KindDesc::Model)
         };
         if let Ok(b) = local_blocks(&tmp) {

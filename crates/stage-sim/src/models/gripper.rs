@@ -127,29 +127,43 @@ impl GripperModel {
         }
     }
 
-    /// The three blocks (base + two paddles) in unit coordinates for the current state.
-    pub fn blocks(&self) -> Vec<BlockDesc> {
+    /// The three blocks (base + two paddles) for the current state, in the body frame of a
+    /// gripper of `size`: Stage lays them out in a unit box and stretches it to `size`.
+    pub fn blocks(&self, size: [f64; 3]) -> Vec<BlockDesc> {
         let [px, py, pz] = self.cfg.paddle_size;
         let pos = self.data.paddle_pos;
         let lift = self.data.lift_pos;
         let zlo = lift * (1.0 - pz);
         let left_c = pos * (0.5 - py) + py / 2.0;
         let right_c = 1.0 - pos * (0.5 - py) - py / 2.0;
-        let paddle = |c: f64| BlockDesc {
-            points: vec![
-                [1.0 - px, c - py / 2.0],
-                [1.0, c - py / 2.0],
-                [1.0, c + py / 2.0],
-                [1.0 - px, c + py / 2.0],
-            ],
-            zmin: zlo,
-            zmax: zlo + pz,
+        let [sx, sy, sz] = size;
+        let rect = |x0: f64, y0: f64, x1: f64, y1: f64, z0: f64, z1: f64| BlockDesc {
+            points: [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+                .iter()
+                .map(|p| [(p[0] - 0.5) * sx, (p[1] - 0.5) * sy])
+                .collect(),
+            zmin: z0 * sz,
+            zmax: z1 * sz,
             color: None,
         };
         vec![
-            BlockDesc::rect(0.0, 0.0, 1.0 - px, 1.0),
-            paddle(left_c),
-            paddle(right_c),
+            rect(0.0, 0.0, 1.0 - px, 1.0, 0.0, 1.0),
+            rect(
+                1.0 - px,
+                left_c - py / 2.0,
+                1.0,
+                left_c + py / 2.0,
+                zlo,
+                zlo + pz,
+            ),
+            rect(
+                1.0 - px,
+                right_c - py / 2.0,
+                1.0,
+                right_c + py / 2.0,
+                zlo,
+                zlo + pz,
+            ),
         ]
     }
 }

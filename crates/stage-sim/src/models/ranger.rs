@@ -1,7 +1,6 @@
 //! `ranger` and its `sensor` transducers (spec §8).
 
 use crate::desc::SensorDesc;
-use crate::pose::Pose;
 use crate::rng::SimRng;
 use crate::world::View;
 
@@ -25,6 +24,8 @@ pub struct RangerData {
     pub sensors: Vec<SensorDesc>,
     /// Latest scan per transducer (empty before the first update and after shutdown).
     pub scans: Vec<SensorScan>,
+    /// Per transducer: cos/sin of the first ray's heading and of the angular step.
+    dirs: Vec<[f64; 4]>,
 }
 
 impl RangerData {
@@ -34,6 +35,7 @@ impl RangerData {
             time_us: 0,
             sensors,
             scans: Vec::new(),
+            dirs: Vec::new(),
         }
     }
 
@@ -76,7 +78,22 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
     let frame = v.body_frame(m);
     let root = v.root(m);
     d.scans.resize_with(d.sensors.len(), SensorScan::default);
-    for (sensor, scan) in d.sensors.iter().zip(d.scans.iter_mut()) {
+    let (fs, fc) = frame.a.sin_cos();
+    if d.dirs.len() != d.sensors.len() {
+        d.dirs = d
+            .sensors
+            .iter()
+            .map(|s| {
+                let n = s.samples.max(1);
+                let start = if n > 1 { -s.fov / 2.0 } else { 0.0 };
+                let incr = if n > 1 { s.fov / (n - 1) as f64 } else { 0.0 };
+                let (ss, sc) = (s.pose.a + start).sin_cos();
+                let (is, ic) = incr.sin_cos();
+                [sc, ss, ic, is]
+            })
+            .collect();
+    }
+    for ((sensor, scan), dir) in d.sensors.iter().zip(d.scans.iter_mut()).zip(&d.dirs) {
         let n = sensor.samples.max(1) as usize;
         let incr = if n > 1 {
             sensor.fov / (n - 1) as f64
@@ -84,24 +101,21 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
             0.0
         };
         let start = if n > 1 { -sensor.fov / 2.0 } else { 0.0 };
-        let origin = frame.compose(&Pose {
-            x: sensor.pose.x,
-            y: sensor.pose.y,
-            z: sensor.pose.z + sensor.size[2] / 2.0,
-            a: sensor.pose.a + start,
-        });
+        let sx = sensor.pose.x;
+        let sy = sensor.pose.y;
+        let ox = frame.x + sx * fc - sy * fs;
+        let oy = frame.y + sx * fs + sy * fc;
+        let oz = frame.z + sensor.pose.z + sensor.size[2] / 2.0;
         scan.ranges.resize(n, 0.0);
         scan.intensities.resize(n, 0.0);
         scan.bearings.resize(n, 0.0);
         let max = sensor.range[1];
         // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
-        let (mut ds, mut dc) = origin.a.sin_cos();
-        let (is, ic) = incr.sin_cos();
+        let [sc, ss, ic, is] = *dir;
+        let (mut dc, mut ds) = (fc * sc - fs * ss, fs * sc + fc * ss);
         let pred = |h: u32| v.root(h) != root && v.nodes[h as usize].ranger_return >= 0.0;
         for t in 0..n {
-            let hit =
-                v.space
-                    .raycast_dir([origin.x, origin.y], [dc, ds], max, Some(origin.z), pred);
+            let hit = v.space.raycast_dir([ox, oy], [dc, ds], max, Some(oz), pred);
             let (mut r, i) = match hit {
                 Some(h) => (h.range, v.nodes[h.model as usize].ranger_return),
                 None => (max, 0.0),

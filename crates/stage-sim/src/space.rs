@@ -33,6 +33,8 @@ pub struct WorldBlock {
     pub start: u32,
     /// One past the last vertex.
     pub end: u32,
+    /// Bounding box of the block's vertices.
+    pub aabb: Aabb,
 }
 
 /// A model's body in world space (polygon outlines with z ranges); empty for bodiless models.
@@ -432,7 +434,7 @@ impl Space {
             let mut bt = tmax;
             let mut bb = None;
             for (bi, blk) in body.blocks.iter().enumerate() {
-                if !zok(blk.zmin, blk.zmax) {
+                if !zok(blk.zmin, blk.zmax) || blk.aabb.ray_entry(o, inv, bt).is_none() {
                     continue;
                 }
                 for (a, b) in body.edges(bi) {
@@ -675,7 +677,7 @@ impl Space {
         }
         for (bi, blk) in body.blocks.iter().enumerate() {
             // inclusive z overlap (block.cc TestCollision); NaN bounds never overlap
-            if !(zmin <= blk.zmax && zmax >= blk.zmin) {
+            if !(zmin <= blk.zmax && zmax >= blk.zmin) || !eb.intersects(&blk.aabb) {
                 continue;
             }
             for (p, q) in body.edges(bi) {

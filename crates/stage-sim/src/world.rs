@@ -192,7 +192,7 @@ pub struct World {
 }
 
 /// Stack below this many rays per step is run on the calling thread (fork/join costs more).
-const PARALLEL_MIN_RAYS: usize = 2048;
+const PARALLEL_MIN_RAYS: usize = 1024;
 
 fn local_blocks(m: &ModelDesc) -> Result<Vec<LocalBlock>> {
     if m.default_body {
@@ -248,16 +248,19 @@ fn body_of(node: &Node, global: &Pose, out: &mut Body) {
     let (s, c) = frame.a.sin_cos();
     for b in &node.blocks {
         let start = out.pts.len() as u32;
+        let mut bb = Aabb::EMPTY;
         for p in &b.pts {
             let w = [frame.x + p[0] * c - p[1] * s, frame.y + p[0] * s + p[1] * c];
-            out.aabb.add(w);
+            bb.add(w);
             out.pts.push(w);
         }
+        out.aabb.merge(&bb);
         out.blocks.push(WorldBlock {
             zmin: frame.z + b.z[0],
             zmax: frame.z + b.z[1],
             start,
             end: out.pts.len() as u32,
+            aabb: bb,
         });
     }
 }

@@ -677,7 +677,7 @@ impl Space {
         }
         for (bi, blk) in body.blocks.iter().enumerate() {
             // inclusive z overlap (block.cc TestCollision); NaN bounds never overlap
-            if !(zmin <= blk.zmax && zmax >= blk.zmin) || !eb.intersects(&blk.aabb) {
+            if !(zmin <= blk.zmax && zmax >= blk.zmin && eb.intersects(&blk.aabb)) {
                 continue;
             }
             for (p, q) in body.edges(bi) {

@@ -4,7 +4,8 @@
 //! at the next step exactly as Stage's update callbacks do.
 //!
 //! Built in: `wander` (Stage's examples/ctrl/wander.cc behaviour), `expand_pioneer` and
-//! `expand_swarm` (worlds/benchmark). Other names produce a warning naming the model.
+//! `expand_swarm` (worlds/benchmark), `pioneer_flocking` and `lasernoise` (examples/ctrl).
+//! Other names (`fasr`, `sink`, `source`, …) produce a warning naming the model.
 
 use crate::desc::Color;
 use crate::rng::SimRng;
@@ -23,6 +24,8 @@ pub enum Command {
     SetColor(ModelId, Color),
     /// Set a model's speech text.
     Say(ModelId, String),
+    /// Give every transducer of a ranger multiplicative range noise N(1, sd).
+    RangerNoise(ModelId, f64),
 }
 
 /// The command sink handed to a controller.
@@ -73,6 +76,8 @@ pub struct Installed {
     pub trigger: ModelId,
     /// Models to subscribe when installing.
     pub subscribe: Vec<ModelId>,
+    /// Commands applied once when installing.
+    pub init: Vec<Command>,
     /// The controller.
     pub ctrl: Box<dyn Controller>,
 }
@@ -124,6 +129,7 @@ pub fn builtin(
                 model,
                 trigger: laser,
                 subscribe: vec![model, laser],
+                init: Vec::new(),
                 ctrl: Box::new(Wander {
                     laser,
                     rng,
@@ -149,10 +155,118 @@ pub fn builtin(
                 model,
                 trigger: ranger,
                 subscribe: vec![ranger, model],
+                init: Vec::new(),
                 ctrl: Box::new(params),
             }))
         }
+        "pioneer_flocking" => {
+            if world.type_name(model) != "position" {
+                return Err(CtrlError::Missing("a position model"));
+            }
+            let ranger = *rangers_in(world, model)
+                .first()
+                .ok_or(CtrlError::Missing("a ranger"))?;
+            let fiducial = world
+                .subtree(model)
+                .into_iter()
+                .skip(1)
+                .find(|&c| world.type_name(c) == "fiducial")
+                .ok_or(CtrlError::Missing("a fiducial finder"))?;
+            Ok(Some(Installed {
+                model,
+                trigger: ranger,
+                subscribe: vec![fiducial, ranger, model],
+                init: Vec::new(),
+                ctrl: Box::new(Flocking {
+                    ranger,
+                    fiducial,
+                    rng,
+                }),
+            }))
+        }
+        "lasernoise" => {
+            if world.type_name(model) != "ranger" {
+                return Err(CtrlError::Missing("to be attached to a ranger"));
+            }
+            Ok(Some(Installed {
+                model,
+                trigger: model,
+                subscribe: vec![model],
+                init: vec![Command::RangerNoise(model, 0.05)],
+                ctrl: Box::new(Idle),
+            }))
+        }
         _ => Ok(None),
+    }
+}
+
+/// A controller with nothing to do per update (its work was done at install time).
+pub struct Idle;
+
+impl Controller for Idle {
+    fn update(&mut self, _world: &World, _cmds: &mut Commands) {}
+}
+
+/// Stage's `pioneer_flocking` example: steer away from obstacles using the front eight sonars,
+/// drive when the front is clear and then align with the nearest robot seen by the fiducial
+/// finder; wiggle randomly when blocked.
+pub struct Flocking {
+    ranger: ModelId,
+    fiducial: ModelId,
+    rng: SimRng,
+}
+
+impl Controller for Flocking {
+    fn update(&mut self, world: &World, cmds: &mut Commands) {
+        const VSPEED: f64 = 0.4;
+        const EXPAND_WGAIN: f64 = 0.3;
+        const FLOCK_WGAIN: f64 = 0.3;
+        const SAFE_DIST: f64 = 1.0;
+        const SAFE_ANGLE: f64 = 0.5;
+        let Some(data) = world.ranger_scans(self.ranger) else {
+            return;
+        };
+        let r = |k: usize| data.scans.get(k).and_then(|s| s.ranges.first()).copied();
+        if data.scans.len() < 8 {
+            return;
+        }
+        let (mut dx, mut dy) = (0.0, 0.0);
+        for k in 0..8 {
+            let a = data.sensors[k].pose.a;
+            dx += r(k).unwrap_or(0.0) * a.cos();
+            dy += r(k).unwrap_or(0.0) * a.sin();
+        }
+        if dx == 0.0 || dy == 0.0 {
+            return;
+        }
+        let resultant = dy.atan2(dx);
+        let mut turn = EXPAND_WGAIN * resultant;
+        let above = |k: usize, min: f64| r(k).is_some_and(|v| v > min);
+        let clear = above(3, SAFE_DIST)
+            && above(4, SAFE_DIST)
+            && above(5, SAFE_DIST)
+            && above(6, SAFE_DIST / 2.0)
+            && above(2, SAFE_DIST)
+            && above(1, SAFE_DIST / 2.0)
+            && resultant.abs() < SAFE_ANGLE;
+        let speed = if clear {
+            let closest = world.fiducials(self.fiducial).and_then(|f| {
+                f.fiducials
+                    .iter()
+                    .min_by(|a, b| a.range.total_cmp(&b.range))
+                    .copied()
+            });
+            if let Some(c) = closest {
+                turn += FLOCK_WGAIN * c.heading;
+            }
+            VSPEED
+        } else {
+            if turn.abs() < 0.1 {
+                turn = self.rng.next_f64();
+            }
+            0.0
+        };
+        cmds.set_speed(speed, 0.0, turn);
     }
 }
 

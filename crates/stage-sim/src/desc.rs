@@ -136,6 +136,9 @@ pub struct SensorDesc {
     pub samples: u32,
     /// Standard deviation of additive Gaussian range noise (m); 0 = Stage's noiseless ranger.
     pub noise: f64,
+    /// Standard deviation of multiplicative range noise: each range is multiplied by a draw
+    /// from N(1, sd), as Stage's `lasernoise` example controller does; 0 = none.
+    pub noise_relative: f64,
     /// GUI colour.
     pub color: Color,
 }
@@ -149,6 +152,7 @@ impl Default for SensorDesc {
             fov: 0.1,
             samples: 1,
             noise: 0.0,
+            noise_relative: 0.0,
             color: Color {
                 r: 0.0,
                 g: 1.0,

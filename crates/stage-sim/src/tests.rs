@@ -552,3 +552,54 @@ fn camera_sees_wall_colour_and_depth() {
         img.depth[i]
     );
 }
+
+#[test]
+fn lasernoise_controller_perturbs_ranges_multiplicatively() {
+    let mut d = WorldDesc::default();
+    let r = d.add(robot("r", 0.0, 0.0, 0.0, Drive::Diff), None);
+    let mut l = laser(181, 0.5, 8.0);
+    l.ctrl = vec!["lasernoise".into()];
+    let l = d.add(l, Some(r));
+    d.add(wall("wall", 2.05, 0.0, 0.1, 100.0, 1.0), None);
+    let mut w = World::from_desc(&d, 9).unwrap();
+    assert!(w.warnings().is_empty(), "{:?}", w.warnings());
+    run(&mut w, 1);
+    let s = &w.ranger_scans(ModelId(l as u32)).unwrap().scans[0];
+    let rel: Vec<f64> = s
+        .ranges
+        .iter()
+        .zip(&s.bearings)
+        .map(|(r, b)| r / (2.0 / b.cos()) - 1.0)
+        .collect();
+    let mean = rel.iter().sum::<f64>() / rel.len() as f64;
+    let sd = (rel.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / rel.len() as f64).sqrt();
+    assert!(mean.abs() < 0.02, "mean {mean}");
+    assert!((sd - 0.05).abs() < 0.015, "sd {sd}");
+}
+
+#[test]
+fn pioneer_flocking_controller_installs_and_drives() {
+    let mut d = WorldDesc::default();
+    for i in 0..2 {
+        let mut r = robot(&format!("r{i}"), 0.0, 2.0 * i as f64, 0.0, Drive::Diff);
+        r.ctrl = vec!["pioneer_flocking".into()];
+        r.fiducial_return = 1;
+        let ri = d.add(r, None);
+        let sonar = (0..16)
+            .map(|k| SensorDesc {
+                pose: Pose::new(0.0, 0.0, 0.0, (-90.0 + 22.5 * k as f64).to_radians()),
+                range: [0.0, 5.0],
+                ..SensorDesc::default()
+            })
+            .collect();
+        d.add(ModelDesc::new("sonar", KindDesc::Ranger(sonar)), Some(ri));
+        d.add(
+            ModelDesc::new("fid", KindDesc::Fiducial(FiducialDesc::default())),
+            Some(ri),
+        );
+    }
+    let mut w = World::from_desc(&d, 1).unwrap();
+    assert!(w.warnings().is_empty(), "{:?}", w.warnings());
+    run(&mut w, 20);
+    assert!(w.pose(ModelId(0)).x > 0.3, "{:?}", w.pose(ModelId(0)));
+}

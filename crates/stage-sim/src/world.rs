@@ -506,6 +506,9 @@ impl World {
         for s in &inst.subscribe {
             self.subscribe(*s);
         }
+        for c in inst.init {
+            self.apply(c);
+        }
         self.controllers.push(ControllerSlot {
             model: inst.model.0,
             trigger: inst.trigger.0,
@@ -520,6 +523,7 @@ impl World {
             model,
             trigger,
             subscribe: vec![model, trigger],
+            init: Vec::new(),
             ctrl,
         });
     }
@@ -695,6 +699,15 @@ impl World {
             Command::Unsubscribe(m) => self.unsubscribe(m),
             Command::SetColor(m, col) => self.set_color(m, col),
             Command::Say(m, s) => self.say(m, &s),
+            Command::RangerNoise(m, sd) => {
+                if let Some(KindState::Ranger(r)) =
+                    self.states.get_mut(m.index()).map(|s| &mut s.kind)
+                {
+                    for s in &mut r.sensors {
+                        s.noise_relative = sd;
+                    }
+                }
+            }
         }
     }
 

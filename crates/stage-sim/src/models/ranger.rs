@@ -123,6 +123,9 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
             if sensor.noise > 0.0 {
                 r = (r + rng.normal(sensor.noise)).clamp(0.0, max);
             }
+            if sensor.noise_relative > 0.0 {
+                r *= 1.0 + rng.normal(sensor.noise_relative);
+            }
             scan.ranges[t] = r;
             scan.intensities[t] = i;
             scan.bearings[t] = start + t as f64 * incr;

@@ -88,18 +88,23 @@ pub fn ray_segment(o: [f64; 2], d: [f64; 2], a: [f64; 2], b: [f64; 2], tmax: f64
     let ex = b[0] - a[0];
     let ey = b[1] - a[1];
     let denom = d[0] * ey - d[1] * ex;
-    if denom == 0.0 {
-        return None;
-    }
     let wx = a[0] - o[0];
     let wy = a[1] - o[1];
-    let inv = 1.0 / denom;
-    let t = (wx * ey - wy * ex) * inv;
-    if !(0.0..=tmax).contains(&t) {
+    let nt = wx * ey - wy * ex;
+    let ns = wx * d[1] - wy * d[0];
+    // reject by sign before dividing: t = nt/denom ∈ [0, tmax], s = ns/denom ∈ [0, 1]
+    let (nt, ns, den) = if denom > 0.0 {
+        (nt, ns, denom)
+    } else if denom < 0.0 {
+        (-nt, -ns, -denom)
+    } else {
+        return None;
+    };
+    if nt < 0.0 || ns < 0.0 || ns > den || nt > tmax * den {
         return None;
     }
-    let s = (wx * d[1] - wy * d[0]) * inv;
-    (0.0..=1.0).contains(&s).then_some(t)
+    let t = nt / den;
+    (t <= tmax).then_some(t)
 }
 
 #[inline]

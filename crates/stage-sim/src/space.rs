@@ -63,11 +63,16 @@ impl Body {
     /// Iterates the edges of block `b` (closed polygon; a 2-point block is one segment).
     #[inline]
     pub fn edges(&self, b: usize) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
-        let p = self.block_pts(b);
-        let n = p.len();
-        let count = if n == 2 { 1 } else { n };
-        (0..count).map(move |i| (p[i], p[(i + 1) % n]))
+        edges_of(self.block_pts(b))
     }
+}
+
+/// The edges of a closed polygon (a 2-point polygon is a single segment).
+#[inline]
+fn edges_of(p: &[[f64; 2]]) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+    let n = p.len();
+    let closing = (n > 2).then(|| (p[n - 1], p[0]));
+    p.windows(2).map(|w| (w[0], w[1])).chain(closing)
 }
 
 /// A ray hit: the model, which of its blocks, and the distance from the ray origin.
@@ -154,10 +159,7 @@ impl StaticIndex {
     #[inline]
     fn edges(&self, i: usize) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
         let b = &self.blocks[i];
-        let p = &self.pts[b.start as usize..b.end as usize];
-        let n = p.len();
-        let count = if n == 2 { 1 } else { n };
-        (0..count).map(move |k| (p[k], p[(k + 1) % n]))
+        edges_of(&self.pts[b.start as usize..b.end as usize])
     }
 }
 
@@ -264,19 +266,47 @@ impl DynGrid {
 /// Every body in world space plus the two indices; see the module docs.
 pub struct Space {
     bodies: Vec<Body>,
+    /// Root of each model's tree (models with equal roots are related and never see each other).
+    roots: Vec<u32>,
+    /// Each body's box, densely packed for the hot ray loop.
+    aabbs: Vec<Aabb>,
+    /// Every model ever registered in the dynamic grid (a short list is scanned directly).
+    members: Vec<u32>,
+    is_member: Vec<bool>,
     is_static: Vec<bool>,
     static_live: Vec<bool>,
     statics: StaticIndex,
     grid: DynGrid,
 }
 
-/// Cell edge of the dynamic grid (m): robots are typically 0.1–0.5 m, sensor rays 2–8 m.
-pub const DYN_CELL: f64 = 1.0;
+/// `skip_root` value that skips no tree.
+pub const NO_ROOT: u32 = u32::MAX;
+
+/// Dynamic sets up to this size are scanned directly instead of walking the grid.
+const SMALL_DYNAMIC_SET: usize = 24;
+
+/// Edge of the dynamic grid's cells: four typical (median) moving bodies across, within
+/// `[0.25, 2]` m — small enough that a cell holds few robots, large enough that short sensor
+/// rays cross few cells.
+fn dynamic_cell(bodies: &[Body], dynamic: &[bool]) -> f64 {
+    let mut ext: Vec<f64> = bodies
+        .iter()
+        .zip(dynamic)
+        .filter(|(b, d)| **d && !b.is_empty())
+        .map(|(b, _)| (b.aabb.max[0] - b.aabb.min[0]).max(b.aabb.max[1] - b.aabb.min[1]))
+        .collect();
+    if ext.is_empty() {
+        return 1.0;
+    }
+    let mid = ext.len() / 2;
+    ext.select_nth_unstable_by(mid, f64::total_cmp);
+    (4.0 * ext[mid]).clamp(0.25, 2.0)
+}
 
 impl Space {
     /// Builds the indices from every model's world-space body; `dynamic[m]` says whether model
     /// `m` can move (it is in a robot's tree).
-    pub fn new(bodies: Vec<Body>, dynamic: &[bool]) -> Space {
+    pub fn new(bodies: Vec<Body>, dynamic: &[bool], roots: Vec<u32>) -> Space {
         let n = bodies.len();
         let mut bounds = Aabb::EMPTY;
         for body in &bodies {
@@ -288,19 +318,32 @@ impl Space {
             bounds.max[0] += 10.0;
             bounds.max[1] += 10.0;
         }
-        let mut grid = DynGrid::new(bounds, DYN_CELL, n);
+        let mut grid = DynGrid::new(bounds, dynamic_cell(&bodies, dynamic), n);
+        let mut members = Vec::new();
+        let mut is_member = vec![false; n];
         for (m, body) in bodies.iter().enumerate() {
             if dynamic[m] && !body.is_empty() {
                 grid.update(m as u32, &body.aabb);
+                members.push(m as u32);
+                is_member[m] = true;
             }
         }
         Space {
+            roots,
+            aabbs: bodies.iter().map(|b| b.aabb).collect(),
+            members,
+            is_member,
             is_static: dynamic.iter().map(|d| !d).collect(),
             static_live: dynamic.iter().map(|d| !d).collect(),
             statics: StaticIndex::build(&bodies, dynamic),
             bodies,
             grid,
         }
+    }
+
+    /// Records that model `m` now belongs to the tree rooted at `root` (re-parenting).
+    pub fn set_root(&mut self, m: u32, root: u32) {
+        self.roots[m as usize] = root;
     }
 
     /// The world-space body of model `m`.
@@ -327,7 +370,9 @@ impl Space {
         }
         self.is_static[i] = false;
         self.grid.update(m, &body.aabb);
+        self.aabbs[i] = body.aabb;
         self.bodies[i] = body;
+        self.note_member(m);
     }
 
     /// Mutable access to a body's storage for in-place refresh; call [`Space::commit_body`] after.
@@ -342,23 +387,34 @@ impl Space {
     pub fn commit_body(&mut self, m: u32) {
         let aabb = self.bodies[m as usize].aabb;
         self.grid.update(m, &aabb);
+        self.aabbs[m as usize] = aabb;
+        self.note_member(m);
+    }
+
+    fn note_member(&mut self, m: u32) {
+        if !self.is_member[m as usize] && !self.bodies[m as usize].is_empty() {
+            self.is_member[m as usize] = true;
+            self.members.push(m);
+        }
     }
 
     /// Casts a ray; `accept(model)` decides which models can stop it (Stage's match predicate).
     /// Returns the nearest accepted edge crossing whose block passes the z test.
     pub fn raycast(&self, q: &RayQuery, accept: impl Fn(u32) -> bool) -> Option<RayHit> {
         let (s, c) = q.a.sin_cos();
-        self.raycast_dir([q.x, q.y], [c, s], q.range, q.z, accept)
+        self.raycast_dir([q.x, q.y], [c, s], q.range, q.z, NO_ROOT, accept)
     }
 
     /// [`Space::raycast`] with the unit direction given (saves the sine/cosine per ray when a
-    /// caller sweeps a fan).
+    /// caller sweeps a fan), skipping every model whose tree root is `skip_root` (the caster's
+    /// own tree; [`NO_ROOT`] skips nothing) before `accept` is asked.
     pub fn raycast_dir(
         &self,
         o: [f64; 2],
         d: [f64; 2],
         range: f64,
         z: Option<f64>,
+        skip_root: u32,
         accept: impl Fn(u32) -> bool,
     ) -> Option<RayHit> {
         let zok = |zmin: f64, zmax: f64| match z {
@@ -390,7 +446,10 @@ impl Space {
                 },
                 |leaf, _best| {
                     let sb = &st.blocks[leaf as usize];
-                    if !zok(sb.zmin, sb.zmax) || !self.static_live[sb.model as usize] {
+                    if !zok(sb.zmin, sb.zmax)
+                        || !self.static_live[sb.model as usize]
+                        || self.roots[sb.model as usize] == skip_root
+                    {
                         return None;
                     }
                     let mut hit: Option<f64> = None;
@@ -426,11 +485,14 @@ impl Space {
         let best_t = Cell::new(best_t);
         let best = Cell::new(best);
         let mut consider = |m: u32| {
-            let body = &self.bodies[m as usize];
             let tmax = best_t.get();
-            if body.aabb.ray_entry(o, inv, tmax).is_none() || !accept(m) {
+            if self.roots[m as usize] == skip_root
+                || self.aabbs[m as usize].ray_entry(o, inv, tmax).is_none()
+                || !accept(m)
+            {
                 return;
             }
+            let body = &self.bodies[m as usize];
             let mut bt = tmax;
             let mut bb = None;
             for (bi, blk) in body.blocks.iter().enumerate() {
@@ -458,10 +520,16 @@ impl Space {
                 }
             }
         };
-        for &m in &self.grid.overflow {
-            consider(m);
+        if self.members.len() <= SMALL_DYNAMIC_SET {
+            for &m in &self.members {
+                consider(m);
+            }
+        } else {
+            for &m in &self.grid.overflow {
+                consider(m);
+            }
+            self.walk_grid(o, d, &best_t, &mut consider);
         }
-        self.walk_grid(o, d, &best_t, &mut consider);
         best.get()
     }
 

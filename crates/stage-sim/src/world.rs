@@ -359,7 +359,7 @@ impl World {
         for i in 0..n {
             body_of(&nodes[i], &globals[i], &mut bodies[i]);
         }
-        let space = Space::new(bodies, &dynamic);
+        let space = Space::new(bodies, &dynamic, nodes.iter().map(|n| n.root).collect());
 
         let mut names = HashMap::new();
         for (i, m) in desc.models.iter().enumerate() {
@@ -563,6 +563,14 @@ impl World {
     /// Warnings collected while building (unknown controllers, unsupported models).
     pub fn warnings(&self) -> &[String] {
         &self.warnings
+    }
+
+    /// Adds build warnings (used by loaders that translate other formats).
+    pub fn add_warnings(&mut self, w: impl IntoIterator<Item = String>) {
+        for m in w {
+            tracing::warn!("{m}");
+            self.warnings.push(m);
+        }
     }
 
     /// Whether `quit_time` has been reached (further steps do nothing).
@@ -807,6 +815,7 @@ impl World {
         let list = std::mem::take(&mut self.subtree);
         for &x in &list {
             self.nodes[x as usize].root = root;
+            self.space.set_root(x, root);
         }
         self.subtree = list;
     }

@@ -113,9 +113,11 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
         // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
         let [sc, ss, ic, is] = *dir;
         let (mut dc, mut ds) = (fc * sc - fs * ss, fs * sc + fc * ss);
-        let pred = |h: u32| v.root(h) != root && v.nodes[h as usize].ranger_return >= 0.0;
+        let pred = |h: u32| v.nodes[h as usize].ranger_return >= 0.0;
         for t in 0..n {
-            let hit = v.space.raycast_dir([ox, oy], [dc, ds], max, Some(oz), pred);
+            let hit = v
+                .space
+                .raycast_dir([ox, oy], [dc, ds], max, Some(oz), root, pred);
             let (mut r, i) = match hit {
                 Some(h) => (h.range, v.nodes[h.model as usize].ranger_return),
                 None => (max, 0.0),

@@ -311,6 +311,10 @@ fn blobfinder_sees_coloured_box_at_expected_columns() {
     let half_px = (0.3f64.atan2(mean) / (PI / 3.0 / 60.0)) as u32;
     assert_eq!((blob.top, blob.bottom), (30 - half_px, 30 + half_px));
     assert!(blob.color.same_rgb(&Color::rgb(0.0, 1.0, 0.0)));
+    // Player's area is (right-left)·(top-bottom) < 0, wrapped into the unsigned field
+    let area = (blob.right as i64 - blob.left as i64) * (blob.top as i64 - blob.bottom as i64);
+    assert!(area < 0);
+    assert_eq!(blob.player_area(), area as u32);
     // a colour filter without green drops it
     let mut d2 = d.clone();
     if let KindDesc::Blobfinder(c) = &mut d2.models[b].kind {
@@ -602,4 +606,94 @@ fn pioneer_flocking_controller_installs_and_drives() {
     assert!(w.warnings().is_empty(), "{:?}", w.warnings());
     run(&mut w, 20);
     assert!(w.pose(ModelId(0)).x > 0.3, "{:?}", w.pose(ModelId(0)));
+}
+
+#[test]
+fn teleporting_a_static_model_moves_it_for_sensors_and_contacts() {
+    let mut d = WorldDesc::default();
+    let r = d.add(robot("r", 0.0, 0.0, 0.0, Drive::Diff), None);
+    let l = d.add(laser(1, 0.0, 8.0), Some(r));
+    let b = d.add(wall("box", 3.0, 0.0, 0.2, 1.0, 1.0), None);
+    let mut w = World::from_desc(&d, 1).unwrap();
+    let (lid, bid) = (ModelId(l as u32), ModelId(b as u32));
+    w.subscribe(lid);
+    run(&mut w, 1);
+    assert!((w.ranger_scans(lid).unwrap().scans[0].ranges[0] - 2.9).abs() < 1e-9);
+    w.set_pose(bid, Pose::new(1.0, 0.0, 0.0, 0.0));
+    run(&mut w, 1);
+    assert!((w.ranger_scans(lid).unwrap().scans[0].ranges[0] - 0.9).abs() < 1e-9);
+    w.set_pose(bid, Pose::new(1.0, 5.0, 0.0, 0.0));
+    run(&mut w, 1);
+    assert_eq!(w.ranger_scans(lid).unwrap().scans[0].ranges[0], 8.0);
+    // and it blocks a robot at its new place
+    w.set_pose(bid, Pose::new(0.5, 0.0, 0.0, 0.0));
+    w.subscribe(ModelId(0));
+    w.position_cmd_vel(ModelId(0), 0.5, 0.0, 0.0).unwrap();
+    run(&mut w, 5);
+    assert!(w.position_state(ModelId(0)).unwrap().stall);
+    assert!(w.pose(ModelId(0)).x + 0.2 <= 0.4 + 1e-12);
+}
+
+#[test]
+fn child_poses_stack_on_the_parent_and_origin_shifts_body_and_rays() {
+    let mut d = WorldDesc::default();
+    let mut p = wall("parent", 1.0, 2.0, 2.0, 1.0, 0.5);
+    p.pose = Pose::new(1.0, 2.0, 0.5, std::f64::consts::FRAC_PI_2);
+    p.origin = Pose::new(0.1, 0.0, 0.2, 0.0);
+    let pi = d.add(p, None);
+    let mut c = wall("child", 0.0, 0.0, 0.1, 0.1, 0.1);
+    c.pose = Pose::new(1.0, 0.0, 0.1, 0.0);
+    let ci = d.add(c, Some(pi));
+    let w = World::from_desc(&d, 1).unwrap();
+    // spec §1.2 (verified against Stage): (1, 3, 1.1, 90°); the parent's origin is not used
+    let g = w.global_pose(ModelId(ci as u32));
+    assert!((g.x - 1.0).abs() < 1e-12 && (g.y - 3.0).abs() < 1e-12);
+    assert!((g.z - 1.1).abs() < 1e-12);
+    // the parent's body is shifted by its origin (0.1 along its heading = +y) and lifted
+    let body = w.body(ModelId(pi as u32));
+    assert!(
+        (body.aabb.min[1] - (2.1 - 1.0)).abs() < 1e-9,
+        "{:?}",
+        body.aabb
+    );
+    assert!((body.blocks[0].zmin - 0.7).abs() < 1e-12 && (body.blocks[0].zmax - 1.2).abs() < 1e-12);
+}
+
+#[test]
+fn blobfinder_skips_the_column_after_a_blob() {
+    let mut d = WorldDesc::default();
+    let r = d.add(robot("r", 0.0, 0.0, 0.0, Drive::Diff), None);
+    let mut bf = BlobfinderDesc::default();
+    bf.image = [3, 10];
+    bf.fov = 0.2;
+    let b = d.add(ModelDesc::new("bf", KindDesc::Blobfinder(bf)), Some(r));
+    // three adjacent boxes straight ahead, one per ray: the right one red, the others green
+    let ang = [-0.1f64, 0.0, 0.1];
+    let cols = [
+        Color::RED,
+        Color::rgb(0.0, 1.0, 0.0),
+        Color::rgb(0.0, 0.0, 1.0),
+    ];
+    for (i, (a, c)) in ang.iter().zip(cols).enumerate() {
+        let mut bx = wall(
+            &format!("b{i}"),
+            3.0 * a.cos(),
+            3.0 * a.sin(),
+            0.1,
+            0.1,
+            1.0,
+        );
+        bx.color = c;
+        d.add(bx, None);
+    }
+    let mut w = World::from_desc(&d, 1).unwrap();
+    w.subscribe(ModelId(b as u32));
+    run(&mut w, 1);
+    let blobs = &w.blobfinder_blobs(ModelId(b as u32)).unwrap().blobs;
+    // sample 0 (red) is a blob, sample 1 (green) is skipped, sample 2 (blue) is a blob
+    assert_eq!(blobs.len(), 2, "{blobs:?}");
+    assert!(blobs[0].color.same_rgb(&Color::RED));
+    assert_eq!((blobs[0].left, blobs[0].right), (2, 2));
+    assert!(blobs[1].color.same_rgb(&Color::rgb(0.0, 0.0, 1.0)));
+    assert_eq!((blobs[1].left, blobs[1].right), (0, 0));
 }

@@ -663,9 +663,11 @@ fn child_poses_stack_on_the_parent_and_origin_shifts_body_and_rays() {
 fn blobfinder_skips_the_column_after_a_blob() {
     let mut d = WorldDesc::default();
     let r = d.add(robot("r", 0.0, 0.0, 0.0, Drive::Diff), None);
-    let mut bf = BlobfinderDesc::default();
-    bf.image = [3, 10];
-    bf.fov = 0.2;
+    let bf = BlobfinderDesc {
+        image: [3, 10],
+        fov: 0.2,
+        ..Default::default()
+    };
     let b = d.add(ModelDesc::new("bf", KindDesc::Blobfinder(bf)), Some(r));
     // three adjacent boxes straight ahead, one per ray: the right one red, the others green
     let ang = [-0.1f64, 0.0, 0.1];

@@ -17,7 +17,7 @@
 
 use parry2d::bounding_volume::Aabb as PAabb;
 use parry2d::math::Point;
-use parry2d::partitioning::{Bvh, BvhBuildStrategy};
+use parry2d::partitioning::{Bvh, BvhBuildStrategy, TraversalAction};
 use std::cell::Cell;
 
 use crate::geom::{Aabb, ray_segment, segments_intersect};
@@ -118,6 +118,72 @@ struct StaticIndex {
     blocks: Vec<StaticBlock>,
     pts: Vec<[f64; 2]>,
     bvh: Bvh,
+    /// The same tree, flattened for the ray loop (see [`FlatBvh`]).
+    flat: FlatBvh,
+}
+
+/// A child reference in [`FlatBvh`]: a node index, or a leaf (top bit set) with its data.
+const LEAF_BIT: u32 = 1 << 31;
+
+/// Parry's BVH copied into a compact array of two-child nodes (both children's boxes stored in
+/// the parent, as parry does), so rays can walk it near-child-first with a plain loop instead of
+/// through parry's generic closures: same tree, same boxes, about twice as fast per ray.
+#[derive(Default)]
+struct FlatBvh {
+    /// `[lminx, lminy, lmaxx, lmaxy, rminx, rminy, rmaxx, rmaxy]` per node.
+    boxes: Vec<[f32; 8]>,
+    /// `[left, right]` child references.
+    kids: Vec<[u32; 2]>,
+    /// A single leaf (a tree of one block has no two-child node).
+    lone: Option<([f32; 4], u32)>,
+}
+
+impl FlatBvh {
+    /// Rebuilds parry's topology from a full depth-first [`Bvh::traverse`], which calls back
+    /// each node's left then right child and then descends (left first, right deferred on a
+    /// stack); replaying that stack discipline pairs each callback with its parent.
+    fn from_parry(bvh: &Bvh) -> FlatBvh {
+        let mut out = FlatBvh::default();
+        let mut seen: Vec<([f32; 4], Option<u32>, bool)> = Vec::new();
+        bvh.traverse(|node| {
+            let mn = node.mins();
+            let mx = node.maxs();
+            seen.push(([mn.x, mn.y, mx.x, mx.y], node.leaf_data(), node.is_leaf()));
+            TraversalAction::Continue
+        });
+        if seen.len() == 1 {
+            let (b, data, _) = seen[0];
+            out.lone = Some((b, data.unwrap_or(0)));
+            return out;
+        }
+        // replay: callbacks come in (left, right) pairs, one pair per visited node
+        let mut owner_stack: Vec<u32> = Vec::new();
+        let mut owner: Option<u32> = None; // node whose children this pair describes
+        for pair in seen.chunks(2) {
+            let [(lb, ld, ll), (rb, rd, rl)] = [pair[0], pair[1]];
+            let me = out.boxes.len() as u32;
+            out.boxes
+                .push([lb[0], lb[1], lb[2], lb[3], rb[0], rb[1], rb[2], rb[3]]);
+            out.kids.push([
+                if ll { LEAF_BIT | ld.unwrap_or(0) } else { 0 },
+                if rl { LEAF_BIT | rd.unwrap_or(0) } else { 0 },
+            ]);
+            if let Some((parent, side)) = owner.map(|o| (o >> 1, (o & 1) as usize)) {
+                out.kids[parent as usize][side] = me;
+            }
+            // where the next pair goes, mirroring parry's traversal
+            match (!ll, !rl) {
+                (true, true) => {
+                    owner = Some(me << 1);
+                    owner_stack.push((me << 1) | 1);
+                }
+                (true, false) => owner = Some(me << 1),
+                (false, true) => owner = Some((me << 1) | 1),
+                (false, false) => owner = owner_stack.pop(),
+            }
+        }
+        out
+    }
 }
 
 const AABB_PAD: f64 = 1e-4;
@@ -152,7 +218,13 @@ impl StaticIndex {
             }
         }
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
-        StaticIndex { blocks, pts, bvh }
+        let flat = FlatBvh::from_parry(&bvh);
+        StaticIndex {
+            blocks,
+            pts,
+            bvh,
+            flat,
+        }
     }
 
     /// Edges of static block `i`.
@@ -425,60 +497,98 @@ impl Space {
         let mut best_t = range;
         let mut best: Option<RayHit> = None;
 
-        // static blocks: best-first over parry's BVH with a precomputed-inverse slab test
+        // static blocks: near-child-first walk of the flattened parry BVH
         if !self.statics.blocks.is_empty() {
+            let st = &self.statics;
             let (ox, oy) = (o[0] as f32, o[1] as f32);
             let (ix, iy) = (inv[0] as f32, inv[1] as f32);
-            let st = &self.statics;
-            let cell_t = Cell::new(best_t);
-            let cell_hit: Cell<Option<RayHit>> = Cell::new(None);
-            st.bvh.find_best(
-                range as f32 + 1e-3,
-                |node, best| {
-                    let mn = node.mins();
-                    let mx = node.maxs();
-                    let (a0, a1) = ((mn.x - ox) * ix, (mx.x - ox) * ix);
-                    let (b0, b1) = ((mn.y - oy) * iy, (mx.y - oy) * iy);
-                    let tmin = a0.min(a1).max(b0.min(b1)).max(0.0);
-                    let tmax = a0.max(a1).min(b0.max(b1)).min(best);
-                    // NaN (0·inf on a face of a flat box) compares false: the node is kept
-                    if tmin > tmax { f32::MAX } else { tmin }
-                },
-                |leaf, _best| {
-                    let sb = &st.blocks[leaf as usize];
-                    if !zok(sb.zmin, sb.zmax)
-                        || !self.static_live[sb.model as usize]
-                        || self.roots[sb.model as usize] == skip_root
-                    {
-                        return None;
-                    }
-                    let mut hit: Option<f64> = None;
-                    for (a, b) in st.edges(leaf as usize) {
-                        if let Some(t) = ray_segment(o, d, a, b, cell_t.get()) {
-                            if hit.is_none_or(|h| t < h) {
-                                hit = Some(t);
-                            }
+            let slab = |b: &[f32], lim: f32| -> f32 {
+                let (a0, a1) = ((b[0] - ox) * ix, (b[2] - ox) * ix);
+                let (b0, b1) = ((b[1] - oy) * iy, (b[3] - oy) * iy);
+                let tmin = a0.min(a1).max(b0.min(b1)).max(0.0);
+                let tmax = a0.max(a1).min(b0.max(b1)).min(lim);
+                // NaN (0·inf on a face of a flat box) compares false: the box is kept
+                if tmin > tmax { f32::INFINITY } else { tmin }
+            };
+            let mut leaf = |l: u32, best_t: &mut f64, best: &mut Option<RayHit>| {
+                let sb = &st.blocks[l as usize];
+                if !zok(sb.zmin, sb.zmax)
+                    || !self.static_live[sb.model as usize]
+                    || self.roots[sb.model as usize] == skip_root
+                {
+                    return;
+                }
+                let mut hit: Option<f64> = None;
+                for (a, b) in st.edges(l as usize) {
+                    if let Some(t) = ray_segment(o, d, a, b, *best_t) {
+                        if hit.is_none_or(|h| t < h) {
+                            hit = Some(t);
                         }
                     }
-                    let t = hit?;
-                    let better = match cell_hit.get() {
-                        None => true,
-                        Some(h) => t < h.range || (t == h.range && sb.model < h.model),
-                    };
-                    if !better || !accept(sb.model) {
-                        return None;
-                    }
-                    cell_t.set(t);
-                    cell_hit.set(Some(RayHit {
+                }
+                let Some(t) = hit else { return };
+                let better = match best {
+                    None => true,
+                    Some(h) => t < h.range || (t == h.range && sb.model < h.model),
+                };
+                if better && accept(sb.model) {
+                    *best_t = t;
+                    *best = Some(RayHit {
                         model: sb.model,
                         block: sb.block,
                         range: t,
-                    }));
-                    Some(t as f32)
-                },
-            );
-            best_t = cell_t.get();
-            best = cell_hit.get();
+                    });
+                }
+            };
+            let pad = |t: f64| t as f32 + 1e-3;
+            if let Some((b, l)) = st.flat.lone {
+                if slab(&b, pad(best_t)).is_finite() {
+                    leaf(l, &mut best_t, &mut best);
+                }
+            } else {
+                let mut stack: [(u32, f32); 32] = [(0, 0.0); 32];
+                let mut spill: Vec<(u32, f32)> = Vec::new(); // only for trees deeper than 32
+                let mut sp = 1usize;
+                loop {
+                    let (node, entry) = if let Some(x) = spill.pop() {
+                        x
+                    } else if sp > 0 {
+                        sp -= 1;
+                        stack[sp]
+                    } else {
+                        break;
+                    };
+                    if entry > pad(best_t) {
+                        continue;
+                    }
+                    let bx = &st.flat.boxes[node as usize];
+                    let kids = st.flat.kids[node as usize];
+                    let lim = pad(best_t);
+                    let tl = slab(&bx[0..4], lim);
+                    let tr = slab(&bx[4..8], lim);
+                    let (near, far) = if tl <= tr {
+                        ((kids[0], tl), (kids[1], tr))
+                    } else {
+                        ((kids[1], tr), (kids[0], tl))
+                    };
+                    // leaves now, nearer first; inner nodes pushed farther first
+                    for (k, t) in [near, far] {
+                        if t.is_finite() && k & LEAF_BIT != 0 && t <= pad(best_t) {
+                            leaf(k & !LEAF_BIT, &mut best_t, &mut best);
+                        }
+                    }
+                    for (k, t) in [far, near] {
+                        if t.is_finite() && k & LEAF_BIT == 0 {
+                            if sp < stack.len() {
+                                stack[sp] = (k, t);
+                                sp += 1;
+                            } else {
+                                spill.push((k, t));
+                            }
+                        }
+                    }
+                }
+            }
         }
 
         // dynamic bodies
@@ -760,5 +870,74 @@ impl Space {
     /// Models whose bodies are registered as static (never moved).
     pub fn is_static(&self, m: u32) -> bool {
         self.is_static[m as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::SimRng;
+
+    fn rect_body(x: f64, y: f64, w: f64, h: f64) -> Body {
+        let pts = vec![[x, y], [x + w, y], [x + w, y + h], [x, y + h]];
+        let mut aabb = Aabb::EMPTY;
+        pts.iter().for_each(|p| aabb.add(*p));
+        Body {
+            blocks: vec![WorldBlock {
+                zmin: 0.0,
+                zmax: 1.0,
+                start: 0,
+                end: 4,
+                aabb,
+            }],
+            pts,
+            aabb,
+        }
+    }
+
+    /// The flattened BVH walk finds exactly what a brute-force scan of every edge finds.
+    #[test]
+    fn static_ray_casts_match_brute_force() {
+        let mut rng = SimRng::new(5, 5);
+        for count in [1usize, 2, 3, 7, 100, 2000] {
+            let bodies: Vec<Body> = (0..count)
+                .map(|_| {
+                    rect_body(
+                        rng.uniform(-20.0, 20.0),
+                        rng.uniform(-20.0, 20.0),
+                        rng.uniform(0.0, 2.0),
+                        rng.uniform(0.0, 2.0),
+                    )
+                })
+                .collect();
+            let n = bodies.len();
+            let space = Space::new(bodies.clone(), &vec![false; n], (0..n as u32).collect());
+            for _ in 0..300 {
+                let q = RayQuery {
+                    x: rng.uniform(-22.0, 22.0),
+                    y: rng.uniform(-22.0, 22.0),
+                    a: rng.uniform(-4.0, 4.0),
+                    range: rng.uniform(0.5, 30.0),
+                    z: Some(0.5),
+                };
+                let got = space.raycast(&q, |_| true);
+                let (s, c) = q.a.sin_cos();
+                let mut want: Option<(f64, u32)> = None;
+                for (m, b) in bodies.iter().enumerate() {
+                    for (p, r) in b.edges(0) {
+                        if let Some(t) = ray_segment([q.x, q.y], [c, s], p, r, q.range) {
+                            if want.is_none_or(|(bt, bm)| t < bt || (t == bt && (m as u32) < bm)) {
+                                want = Some((t, m as u32));
+                            }
+                        }
+                    }
+                }
+                assert_eq!(
+                    got.map(|h| (h.range, h.model)),
+                    want,
+                    "{count} bodies, {q:?}"
+                );
+            }
+        }
     }
 }

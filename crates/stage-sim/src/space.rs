@@ -510,7 +510,7 @@ impl Space {
                 // NaN (0·inf on a face of a flat box) compares false: the box is kept
                 if tmin > tmax { f32::INFINITY } else { tmin }
             };
-            let mut leaf = |l: u32, best_t: &mut f64, best: &mut Option<RayHit>| {
+            let leaf = |l: u32, best_t: &mut f64, best: &mut Option<RayHit>| {
                 let sb = &st.blocks[l as usize];
                 if !zok(sb.zmin, sb.zmax)
                     || !self.static_live[sb.model as usize]

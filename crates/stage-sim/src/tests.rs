@@ -699,3 +699,9 @@ fn blobfinder_skips_the_column_after_a_blob() {
     assert!(blobs[1].color.same_rgb(&Color::rgb(0.0, 0.0, 1.0)));
     assert_eq!((blobs[1].left, blobs[1].right), (0, 0));
 }
+
+#[test]
+fn world_can_move_between_threads() {
+    fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<World>();
+}

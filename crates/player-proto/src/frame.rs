@@ -36,9 +36,46 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// A frame from a header and raw body bytes; the header's `size` is set to the body length.
+    ///
+    /// This is how to send what the typed [`Body`](crate::Body) cannot express, e.g. the
+    /// bodyless NACK upstream returns for a request subtype that is not in the table.
+    pub fn new(header: MsgHeader, body: Vec<u8>) -> Result<Frame, Error> {
+        let size = u32::try_from(body.len()).map_err(|_| Error::BodyTooLarge {
+            size: body.len() as u64,
+            max: u32::MAX as usize,
+        })?;
+        Ok(Frame {
+            header: MsgHeader { size, ..header },
+            body,
+        })
+    }
+
     /// Decodes the body into a typed [`Message`].
     pub fn decode(&self, limits: &DecodeLimits) -> Result<Message, Error> {
         Message::decode(self.header, &self.body, limits)
+    }
+
+    /// Appends the 40 header bytes and the body to `out`.
+    pub fn encode_into(&self, out: &mut Vec<u8>) {
+        out.extend_from_slice(&self.header.to_bytes());
+        out.extend_from_slice(&self.body);
+    }
+}
+
+impl TryFrom<&Message> for Frame {
+    type Error = Error;
+
+    /// Encodes a typed message's body (checking it against the header, as
+    /// [`Message::encode`] does).
+    fn try_from(msg: &Message) -> Result<Frame, Error> {
+        let mut bytes = msg.encode()?;
+        let body = bytes.split_off(HEADER_SIZE);
+        let header = MsgHeader {
+            size: body.len() as u32,
+            ..msg.header
+        };
+        Ok(Frame { header, body })
     }
 }
 
@@ -173,6 +210,34 @@ mod tests {
                 assert_eq!(g.header.kind().unwrap(), m.body.msg_type());
             }
         }
+    }
+
+    #[test]
+    fn frames_carry_what_bodies_cannot() {
+        // A NACK to a request subtype the table does not have: header only.
+        let h = MsgHeader::new(
+            DeviceAddr::new(LOCALHOST_ADDR, 6665, InterfaceCode::PLAYER, 0),
+            MsgType::RespNack,
+            99,
+            0.0,
+        );
+        let frame = Frame::new(h, Vec::new()).unwrap();
+        let mut out = Vec::new();
+        frame.encode_into(&mut out);
+        assert_eq!(out.len(), HEADER_SIZE);
+        let mut framer = Framer::default();
+        framer.push(&out);
+        assert_eq!(framer.next_frame().unwrap(), Some(frame));
+
+        let (bytes, msgs) = stream();
+        let frame = Frame::try_from(&msgs[0]).unwrap();
+        let mut out = Vec::new();
+        frame.encode_into(&mut out);
+        assert_eq!(out, bytes[..out.len()]);
+        assert_eq!(
+            frame.decode(&DecodeLimits::default()).unwrap().body,
+            msgs[0].body
+        );
     }
 
     #[test]

@@ -23,6 +23,8 @@ mod macros;
 pub mod constants;
 mod error;
 pub mod frame;
+#[cfg(test)]
+mod fuzz;
 pub mod header;
 pub mod interface;
 pub mod message;

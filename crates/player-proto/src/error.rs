@@ -8,15 +8,17 @@ use std::fmt;
 use crate::header::MsgType;
 use crate::interface::InterfaceCode;
 
-/// Where inside a body a problem was found: the C struct and its member, as upstream names them.
+/// Where inside a body a problem was found: the outermost C struct and the member path down to
+/// the failing member, as upstream names them (e.g. `player_ranger_data_rangestamped_t` and
+/// `geom.element_poses`).
 ///
-/// Kept as static strings so that locating an error costs nothing on the success path.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Built only on the error path, innermost member first, as the error travels outwards.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Location {
-    /// The C struct name, e.g. `player_ranger_data_range_t` (empty when not yet known).
+    /// The outermost C struct reached so far (empty when not yet known).
     pub structure: &'static str,
-    /// The member name, e.g. `ranges` (empty when the problem concerns the whole struct).
-    pub member: &'static str,
+    /// Member names from that struct down to the failing member.
+    pub path: Vec<&'static str>,
 }
 
 impl Location {
@@ -24,15 +26,26 @@ impl Location {
     pub fn is_unknown(&self) -> bool {
         self.structure.is_empty()
     }
+
+    /// The location of a whole struct (no member).
+    pub fn of_struct(structure: &'static str) -> Location {
+        Location {
+            structure,
+            path: Vec::new(),
+        }
+    }
 }
 
 impl fmt::Display for Location {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match (self.structure.is_empty(), self.member.is_empty()) {
-            (true, _) => f.write_str("body"),
-            (false, true) => f.write_str(self.structure),
-            (false, false) => write!(f, "{}.{}", self.structure, self.member),
+        if self.structure.is_empty() {
+            return f.write_str("body");
         }
+        f.write_str(self.structure)?;
+        for member in &self.path {
+            write!(f, ".{member}")?;
+        }
+        Ok(())
     }
 }
 
@@ -205,14 +218,15 @@ impl Error {
         }
     }
 
-    /// Attaches the innermost struct/member to a located error; outer structs leave it alone so
-    /// the message names the member that actually failed.
+    /// Records that the error happened in `member` of `structure`; called by every enclosing
+    /// struct on the way out, so the message names the full member path.
     pub(crate) fn locate(mut self, structure: &'static str, member: &'static str) -> Error {
         if let Error::Malformed { at, .. } | Error::TooLong { at, .. } | Error::Value { at, .. } =
             &mut self
         {
-            if at.is_unknown() {
-                *at = Location { structure, member };
+            at.structure = structure;
+            if !member.is_empty() {
+                at.path.insert(0, member);
             }
         }
         self

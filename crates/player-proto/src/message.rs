@@ -485,10 +485,7 @@ pub fn decode_body(header: &MsgHeader, body: &[u8], limits: &DecodeLimits) -> Re
     let decoded = Body::read(header.key(), &mut reader)?;
     if !reader.is_empty() {
         return Err(Error::Malformed {
-            at: crate::error::Location {
-                structure: decoded.row_struct().unwrap_or(""),
-                member: "",
-            },
+            at: crate::error::Location::of_struct(decoded.row_struct().unwrap_or("")),
             problem: Problem::Trailing(reader.remaining()),
         });
     }
@@ -718,6 +715,20 @@ mod tests {
                 actual: 12
             }
         ));
+        let truncated = MsgHeader {
+            size: 44,
+            ..MsgHeader::new(
+                localhost(InterfaceCode::POSITION2D, 0),
+                MsgType::Data,
+                1,
+                0.0,
+            )
+        };
+        let err = decode_body(&truncated, &[0; 44], &limits).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "malformed player_position2d_data_t.vel.pa: truncated: needs 8 more bytes but only 4 remain"
+        );
         let h = MsgHeader { size: 12, ..h };
         let err = decode_body(&h, &[0; 12], &limits).unwrap_err();
         assert_eq!(

@@ -79,8 +79,9 @@ fn hostile_counts_and_sizes_cost_nothing() {
     let (r, peak) = measure(|| decode_body(&h, &body, &limits));
     let err = r.unwrap_err();
     assert!(
-        err.to_string()
-            .starts_with("malformed player_ranger_geom_t.element_poses: count 4294967295"),
+        err.to_string().starts_with(
+            "malformed player_ranger_data_rangestamped_t.geom.element_poses: count 4294967295"
+        ),
         "{err}"
     );
     assert!(peak < 1024, "peak {peak}");

@@ -260,7 +260,10 @@ mod tests {
         let mut bytes = [0u8; HEADER_SIZE];
         bytes[9] = 1; // interf word 0x00010000
         let err = MsgHeader::from_bytes(&bytes).unwrap_err();
-        assert!(err.to_string().contains("player_msghdr_t.addr.interf"), "{err}");
+        assert!(
+            err.to_string().contains("player_msghdr_t.addr.interf"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -56,6 +56,16 @@ impl BodySink for Vec<u8> {
     }
 }
 
+/// Records only whether a body would be written.
+struct PresenceSink(bool);
+
+impl BodySink for PresenceSink {
+    fn put<S: Xdr>(&mut self, _body: &S) -> Result<(), Error> {
+        self.0 = true;
+        Ok(())
+    }
+}
+
 struct ValueSink(Option<Value>);
 
 impl BodySink for ValueSink {
@@ -445,12 +455,16 @@ impl Body {
         Ok(out)
     }
 
+    /// Whether the message carries a body (`size` > 0 on the wire).
+    pub fn has_body(&self) -> bool {
+        let mut sink = PresenceSink(false);
+        let _ = self.write(&mut sink);
+        sink.0
+    }
+
     /// The C struct actually carried, or `None` when there is no body (e.g. a null request).
     pub fn carried_struct(&self) -> Option<&'static str> {
-        match self.to_value() {
-            Some(_) => self.row_struct(),
-            None => None,
-        }
+        self.row_struct().filter(|_| self.has_body())
     }
 
     /// The key this body must travel under when addressed to a device of interface `interf`
@@ -798,6 +812,11 @@ mod tests {
             Body::Player(PlayerMsg::Synch(PlayerSynch::Ok)).row_struct(),
             None
         );
+        let null_req = Body::from(Position2dReq::GetGeom(None));
+        assert!(!null_req.has_body());
+        assert_eq!(null_req.row_struct(), Some("player_position2d_geom_t"));
+        assert_eq!(null_req.carried_struct(), None);
+        assert!(Body::from(Position2dReq::GetGeom(Some(Position2dGeom::default()))).has_body());
     }
 
     mod roundtrip {

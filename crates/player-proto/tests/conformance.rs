@@ -189,3 +189,59 @@ fn complete_messages() {
     println!("checked {checked} complete messages both ways");
     assert_eq!(checked, 13);
 }
+
+/// The message table equals the one the conformance README lists per interface (generated from
+/// the 3.0.2 `.def` files), `NULL` rows included: same rows, constants and body structs.
+#[test]
+fn table_matches_the_readme() {
+    let Some(path) = shared("conformance/README.md") else {
+        return;
+    };
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut listed = std::collections::BTreeSet::new();
+    let mut code: Option<u16> = None;
+    for line in text.lines() {
+        if let Some(title) = line.strip_prefix("**") {
+            // "**position2d (4)**" or "**universal (interface code 0 in the codec table)**"
+            code = if title.starts_with("universal") {
+                Some(0)
+            } else {
+                title.split(['(', ')']).nth(1).and_then(|n| n.parse().ok())
+            };
+            continue;
+        }
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        let (Some(code), [_, ty, sub, constant, body, ..]) = (code, cells.as_slice()) else {
+            continue;
+        };
+        let Some(t) = MsgType::ALL.into_iter().find(|t| t.short_name() == *ty) else {
+            continue;
+        };
+        let body = body.strip_prefix('`').and_then(|b| b.strip_suffix('`'));
+        listed.insert((
+            code,
+            t.code(),
+            sub.parse::<u8>().unwrap(),
+            constant.trim_matches('`').to_owned(),
+            body.map(str::to_owned),
+        ));
+    }
+    let ours: std::collections::BTreeSet<_> = player_proto::message_rows()
+        .into_iter()
+        .map(|r| {
+            (
+                r.interface.0,
+                r.msg_type.code(),
+                r.subtype,
+                r.constant.to_owned(),
+                r.body.map(str::to_owned),
+            )
+        })
+        .collect();
+    println!(
+        "README lists {} table rows; the crate declares {}",
+        listed.len(),
+        ours.len()
+    );
+    assert_eq!(ours, listed);
+}

@@ -343,20 +343,20 @@ macro_rules! message_table {
 
         $(
             $( kind_enum! { data [$code DATA]
-                #[doc = concat!("DATA messages of the `", stringify!($iface), "` interface.")]
+                #[doc = concat!("DATA messages of interface `PLAYER_", stringify!($code), "_CODE`.")]
                 $denum { $($drows)* }
             } )?
             $( kind_enum! { cmd [$code CMD]
-                #[doc = concat!("CMD messages of the `", stringify!($iface), "` interface.")]
+                #[doc = concat!("CMD messages of interface `PLAYER_", stringify!($code), "_CODE`.")]
                 $cenum { $($crows)* }
             } )?
             $( kind_enum! { req [$code REQ]
-                #[doc = concat!("REQ subtypes of the `", stringify!($iface), "` interface ")]
+                #[doc = concat!("REQ subtypes of interface `PLAYER_", stringify!($code), "_CODE` ")]
                 #[doc = "(requests, and their ACK/NACK replies, which use the same body struct)."]
                 $renum { $($rrows)* }
             } )?
             $( kind_enum! { synch [$code SYNCH]
-                #[doc = concat!("SYNCH messages of the `", stringify!($iface), "` interface.")]
+                #[doc = concat!("SYNCH messages of interface `PLAYER_", stringify!($code), "_CODE`.")]
                 $senum { $($srows)* }
             } )?
 

@@ -56,6 +56,8 @@ pub struct LoadOptions {
     pub stage_path: Vec<PathBuf>,
     /// Resource bounds.
     pub limits: Limits,
+    /// How bitmaps become rectangles.
+    pub bitmap_rows: crate::bitmap::BitmapRows,
 }
 
 impl LoadOptions {
@@ -70,7 +72,7 @@ impl LoadOptions {
             .unwrap_or_default();
         LoadOptions {
             stage_path,
-            limits: Limits::default(),
+            ..LoadOptions::default()
         }
     }
 }

@@ -244,7 +244,10 @@ mod tests {
         assert_eq!(notes, ScaleNotes::default());
         assert_eq!(out[0].points, vec![[-1.0, -0.5], [1.0, -0.5], [1.0, 0.5]]);
         let p = out[1].points[0];
-        assert!((p[0] + 0.6).abs() < 1e-12 && (p[1] + 0.3).abs() < 1e-12, "{p:?}");
+        assert!(
+            (p[0] + 0.6).abs() < 1e-12 && (p[1] + 0.3).abs() < 1e-12,
+            "{p:?}"
+        );
     }
 
     #[test]

@@ -168,10 +168,14 @@ pub struct DriverSpec {
     pub name: String,
     /// Plugin library to load first.
     pub plugin: Option<String>,
-    /// Devices this driver offers, in order.
+    /// Devices this driver offers, in order (up to the first malformed one).
     pub provides: Vec<DeviceAddr>,
-    /// Devices it subscribes to.
+    /// Devices it subscribes to (up to the first malformed one).
     pub requires: Vec<DeviceAddr>,
+    /// Malformed addresses, at most one per field: like Player, parsing a field stops at its
+    /// first bad string, and a driver with one fails to start. The file itself still loads.
+    #[serde(skip)]
+    pub address_errors: Vec<Error>,
     /// Stage model to bind (stage driver).
     pub model: Option<String>,
     /// Worldfile (stage driver's simulation block), as written.
@@ -285,36 +289,38 @@ fn read_driver(
             None => Error::new(ErrorKind::MissingDriverName),
         });
     };
-    let addresses = |field: &str| -> Result<Vec<DeviceAddr>, Error> {
+    let mut address_errors = Vec::new();
+    let mut addresses = |field: &str| -> Vec<DeviceAddr> {
+        let mut out = Vec::new();
         let Some(p) = entity.property(field) else {
-            return Ok(Vec::new());
+            return out;
         };
         p.mark_used();
-        p.values
-            .iter()
-            .map(|v| {
-                DeviceAddr::parse(&v.text)
-                    .map(|mut a| {
-                        a.location = Some(doc.loc(v.loc));
-                        a
-                    })
-                    .map_err(|reason| {
-                        Error::at(
-                            ErrorKind::BadDeviceAddress {
-                                field: field.into(),
-                                text: v.text.to_string(),
-                                reason,
-                            },
-                            &doc.sources,
-                            v.loc,
-                            &format!("\"{}\"", v.text),
-                        )
-                    })
-            })
-            .collect()
+        for v in &p.values {
+            match DeviceAddr::parse(&v.text) {
+                Ok(mut a) => {
+                    a.location = Some(doc.loc(v.loc));
+                    out.push(a);
+                }
+                Err(reason) => {
+                    address_errors.push(Error::at(
+                        ErrorKind::BadDeviceAddress {
+                            field: field.into(),
+                            text: v.text.to_string(),
+                            reason,
+                        },
+                        &doc.sources,
+                        v.loc,
+                        &format!("\"{}\"", v.text),
+                    ));
+                    break;
+                }
+            }
+        }
+        out
     };
-    let provides = addresses("provides")?;
-    let requires = addresses("requires")?;
+    let provides = addresses("provides");
+    let requires = addresses("requires");
     let options = entity
         .properties
         .iter()
@@ -333,6 +339,7 @@ fn read_driver(
         plugin: entity.property("plugin").and_then(field_text),
         provides,
         requires,
+        address_errors,
         model: entity.property("model").and_then(field_text),
         worldfile: entity.property("worldfile").and_then(field_text),
         alwayson: entity
@@ -472,12 +479,17 @@ mod tests {
         .unwrap_err();
         assert_eq!(e.kind, ErrorKind::MissingDriverName);
         assert_eq!(e.location.as_ref().unwrap().line, 2);
-        let e = CfgFile::parse(
+        // A bad address does not stop the file loading, but stops its field (as in Player).
+        let cfg = CfgFile::parse(
             Path::new("x.cfg"),
-            "driver( name \"stage\" provides [\"simulation:0\" \"foo:0\"] )\n",
+            "driver( name \"stage\" provides [\"simulation:0\" \"foo:0\" \"ranger:0\"] )\n",
             &LoadOptions::default(),
         )
-        .unwrap_err();
+        .unwrap();
+        let d = &cfg.drivers[0];
+        assert_eq!(d.provides.len(), 1);
+        assert_eq!(d.address_errors.len(), 1);
+        let e = &d.address_errors[0];
         assert!(matches!(e.kind, ErrorKind::BadDeviceAddress { .. }));
         assert_eq!(e.location.as_ref().unwrap().col, 47);
     }

@@ -9,7 +9,7 @@ use player_proto::InterfaceCode;
 use serde::Serialize;
 
 use crate::cfg::{CfgFile, DeviceAddr, DriverSpec};
-use crate::error::{Error, Warning};
+use crate::error::Warning;
 use crate::loader::LoadOptions;
 use crate::models::ModelType;
 use crate::world::{ModelId, WorldSpec};
@@ -98,14 +98,14 @@ fn required_type(interface: InterfaceCode) -> Result<Option<ModelType>, ()> {
 
 /// Checks `cfg`: parses its addresses, loads the stage driver's worldfile and binds models.
 ///
-/// Returns the report and the world (if a `simulation` device created one). Errors are those of
-/// loading the worldfile; everything the server would refuse is listed in
+/// Returns the report and the world (if a `simulation` device created one). Everything the
+/// server would refuse, a worldfile that fails to load included, is listed in
 /// [`CheckReport::problems`].
 pub fn check(
     cfg: &CfgFile,
     default_port: u16,
     opts: &LoadOptions,
-) -> Result<(CheckReport, Option<WorldSpec>), Error> {
+) -> (CheckReport, Option<WorldSpec>) {
     let mut world: Option<WorldSpec> = None;
     let mut bound: HashSet<ModelId> = HashSet::new();
     let mut problems = Vec::new();
@@ -114,6 +114,9 @@ pub fn check(
     let mut seen = HashSet::new();
     let mut drivers = Vec::new();
     for driver in &cfg.drivers {
+        for e in &driver.address_errors {
+            problems.push(format!("driver `{}` would fail: {e}", driver.name));
+        }
         let mut devices = Vec::new();
         for addr in &driver.provides {
             let port = addr.port_or(default_port);
@@ -131,7 +134,7 @@ pub fn check(
                     &mut bound,
                     opts,
                     &mut warnings,
-                )?
+                )
             } else {
                 Binding::OtherDriver
             };
@@ -161,7 +164,7 @@ pub fn check(
                 binding,
             });
         }
-        if devices.is_empty() {
+        if devices.is_empty() && driver.address_errors.is_empty() {
             problems.push(format!(
                 "{}: driver `{}` provides no devices",
                 driver
@@ -183,7 +186,7 @@ pub fn check(
     if let Some(w) = &world {
         warnings.extend(w.warnings.iter().cloned());
     }
-    Ok((
+    (
         CheckReport {
             cfg: cfg.path.display().to_string(),
             default_port,
@@ -193,7 +196,7 @@ pub fn check(
             warnings,
         },
         world,
-    ))
+    )
 }
 
 fn where_(addr: &DeviceAddr, driver: &DriverSpec) -> String {
@@ -212,64 +215,65 @@ fn bind(
     bound: &mut HashSet<ModelId>,
     opts: &LoadOptions,
     warnings: &mut Vec<Warning>,
-) -> Result<Binding, Error> {
+) -> Binding {
     if addr.interface == InterfaceCode::SIMULATION {
         let Some(path) = cfg.worldfile_path(driver) else {
-            return Ok(Binding::Problem(
+            return Binding::Problem(
                 "the simulation device needs a `worldfile` in its driver block".into(),
-            ));
+            );
         };
         if let Some(w) = world {
             warnings.push(Warning::general(format!(
                 "a second simulation device: Stage keeps one world ({})",
                 w.path
             )));
-            return Ok(Binding::World {
+            return Binding::World {
                 path: w.path.clone(),
                 models: w.models.len(),
-            });
+            };
         }
-        let w = WorldSpec::load(&path, opts)?;
+        let w = match WorldSpec::load(&path, opts) {
+            Ok(w) => w,
+            Err(e) => return Binding::Problem(format!("the worldfile does not load:\n{e}")),
+        };
         let b = Binding::World {
             path: path.display().to_string(),
             models: w.models.len(),
         };
         *world = Some(w);
-        return Ok(b);
+        return b;
     }
     let Ok(wanted) = required_type(addr.interface) else {
-        return Ok(Binding::Problem(format!(
+        return Binding::Problem(format!(
             "the stage driver (Stage 4.1.1) does not support interface `{}`",
             addr.interface
-        )));
+        ));
     };
     let Some(w) = world.as_ref() else {
-        return Ok(Binding::Problem(
+        return Binding::Problem(
             "no world yet: the block providing `simulation` must come first".into(),
-        ));
+        );
     };
     let Some(name) = driver.model.as_deref() else {
-        return Ok(Binding::Problem(
-            "the driver block has no `model` to bind this device to".into(),
-        ));
+        return Binding::Problem("the driver block has no `model` to bind this device to".into());
     };
     let Some(named) = w.find_model(name) else {
-        return Ok(Binding::Problem(format!("no Stage model named \"{name}\"")));
+        return Binding::Problem(format!("no Stage model named \"{name}\""));
     };
     let Some(wanted) = wanted else {
         let m = w.model(named);
-        return Ok(Binding::Model {
+        return Binding::Model {
             id: named,
             name: m.name.clone(),
             model_type: m.model_type,
-        });
+        };
     };
     // The first model of the right type not yet bound, in the named model's subtree, pre-order.
     let found = w
         .subtree(named)
         .into_iter()
         .find(|id| w.model(*id).model_type == wanted && !bound.contains(id));
-    Ok(match found {
+    match found {
         Some(id) => {
             bound.insert(id);
             let m = w.model(id);
@@ -283,7 +287,7 @@ fn bind(
             "no unbound `{}` model in \"{name}\" or its children",
             wanted.name()
         )),
-    })
+    }
 }
 
 impl fmt::Display for CheckReport {

@@ -36,8 +36,7 @@ fn main() -> anyhow::Result<()> {
     }
     let opts = LoadOptions::from_env();
     let cfg = CfgFile::load(&args.cfgfile, &opts).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let (report, _world) =
-        check::check(&cfg, args.port, &opts).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (report, _world) = check::check(&cfg, args.port, &opts);
     if !args.quiet {
         for w in &report.warnings {
             eprintln!("{w}");

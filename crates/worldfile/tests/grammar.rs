@@ -352,7 +352,7 @@ fn units_and_test_flag() {
 
 // ---- include --------------------------------------------------------------------------------
 
-fn load(path: &PathBuf, dialect: Dialect, stage_path: Vec<PathBuf>) -> Result<Document, Error> {
+fn load(path: &Path, dialect: Dialect, stage_path: Vec<PathBuf>) -> Result<Document, Error> {
     let opts = LoadOptions {
         stage_path,
         ..LoadOptions::default()

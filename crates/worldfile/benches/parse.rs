@@ -37,10 +37,10 @@ fn best_of(budget: Duration, mut f: impl FnMut() -> usize) -> (Duration, usize) 
     (best, models)
 }
 
-fn report(label: &str, (time, models): (Duration, usize)) {
-    let per_sec = models as f64 / time.as_secs_f64();
+fn report(label: &str, unit: &str, (time, count): (Duration, usize)) {
+    let per_sec = count as f64 / time.as_secs_f64();
     println!(
-        "{label}: {models} models in {:.2} ms = {:.0} models/s",
+        "{label}: {count} {unit} in {:.2} ms = {:.0} {unit}/s",
         time.as_secs_f64() * 1e3,
         per_sec
     );
@@ -73,12 +73,14 @@ fn main() {
     let path = Path::new("generated.world");
     report(
         "generated world, parse + resolve",
+        "models",
         best_of(budget, || {
             WorldSpec::parse(path, &text, &opts).unwrap().models.len()
         }),
     );
     report(
-        "generated world, parse only (entities)",
+        "generated world, parse only (document level)",
+        "entities",
         best_of(budget, || {
             parse_document(path, text.clone().into_bytes(), Dialect::World, &opts)
                 .unwrap()
@@ -100,6 +102,7 @@ fn main() {
     }
     report(
         "benchmark/hospital.world (largest suite world, bitmap included), load + resolve",
+        "models",
         best_of(budget, || {
             WorldSpec::load(&hospital, &opts).unwrap().models.len()
         }),

@@ -5,7 +5,9 @@
 
 use stage_sim::World;
 use stage_sim::generate::swarm_world;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+use worldfile::LoadOptions;
 
 fn measure(label: &str, mut w: World, budget: Duration, max_steps: u64) {
     // warm-up: one simulated second
@@ -35,10 +37,45 @@ fn measure(label: &str, mut w: World, budget: Duration, max_steps: u64) {
     );
 }
 
+/// `$PLAYERSTAGE_SHARED/stage-worlds`, else `../shared/stage-worlds` beside the workspace.
+fn stage_worlds() -> Option<PathBuf> {
+    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
+        .map(PathBuf::from)
+        .or_else(|| {
+            Some(
+                Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .ancestors()
+                    .nth(2)?
+                    .join("../shared"),
+            )
+        })?;
+    let p = shared.join("stage-worlds");
+    p.is_dir().then_some(p)
+}
+
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
     let only: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with("--"));
     let budget = Duration::from_secs_f64(if quick { 0.5 } else { 5.0 });
+    match stage_worlds() {
+        Some(root) => {
+            for (label, file) in [
+                ("simple.world", "simple.world"),
+                ("benchmark/cave.world", "benchmark/cave.world"),
+                ("benchmark/hospital.world", "benchmark/hospital.world"),
+            ] {
+                if only.as_ref().is_some_and(|o| !label.contains(o.as_str())) {
+                    continue;
+                }
+                let mut opts = LoadOptions::from_env();
+                opts.stage_path.push(root.clone());
+                let (mut w, _) = World::load_with(&root.join(file), &opts, 1).expect("suite world");
+                w.set_quit_time_us(0);
+                measure(label, w, budget, u64::MAX);
+            }
+        }
+        None => println!("Stage's worlds not found (set PLAYERSTAGE_SHARED): skipping them"),
+    }
     for n in [1usize, 10, 100, 1000, 10_000] {
         if only.as_ref().is_some_and(|o| *o != format!("swarm{n}")) {
             continue;

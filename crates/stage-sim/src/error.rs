@@ -15,6 +15,9 @@ pub enum Error {
         /// What is wrong.
         msg: String,
     },
+    /// The worldfile could not be loaded.
+    #[error(transparent)]
+    Worldfile(#[from] worldfile::Error),
     /// A world-level setting is unusable.
     #[error("world: {0}")]
     InvalidWorld(String),

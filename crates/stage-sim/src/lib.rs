@@ -89,6 +89,7 @@ pub mod models;
 pub mod pose;
 pub mod rng;
 pub mod space;
+pub mod spec;
 pub mod world;
 
 pub use controller::{Command, Commands, Controller};

@@ -5,37 +5,13 @@
 
 use crate::pose::Pose;
 
-/// An RGBA colour, components in `0..=1`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Color {
-    /// Red.
-    pub r: f32,
-    /// Green.
-    pub g: f32,
-    /// Blue.
-    pub b: f32,
-    /// Alpha.
-    pub a: f32,
-}
+/// An RGBA colour (components in `0..=1`, doubles as Stage keeps them): the worldfile crate's
+/// type, so colour facts (X11 table, Player packing) live in one place.
+pub use worldfile::color::Rgba as Color;
 
-impl Color {
-    /// Opaque colour from components.
-    pub const fn rgb(r: f32, g: f32, b: f32) -> Color {
-        Color { r, g, b, a: 1.0 }
-    }
-    /// Stage's default model colour.
-    pub const RED: Color = Color::rgb(1.0, 0.0, 0.0);
-
-    /// Blobfinder colour equality: RGB within 1e-5, alpha ignored (spec §9.2).
-    pub fn same_rgb(&self, o: &Color) -> bool {
-        (self.r - o.r).abs() < 1e-5 && (self.g - o.g).abs() < 1e-5 && (self.b - o.b).abs() < 1e-5
-    }
-
-    /// Packed `0xRRGGBB` as Player reports blob colours (`trunc(c·255)` per channel).
-    pub fn packed_rgb(&self) -> u32 {
-        let c = |v: f32| ((v as f64 * 255.0) as u32).min(255);
-        (c(self.r) << 16) | (c(self.g) << 8) | c(self.b)
-    }
+/// Blobfinder colour equality: RGB within 1e-5, alpha ignored (spec §9.2, §16).
+pub fn same_rgb(a: &Color, b: &Color) -> bool {
+    (a.r - b.r).abs() < 1e-5 && (a.g - b.g).abs() < 1e-5 && (a.b - b.b).abs() < 1e-5
 }
 
 /// One block: a polygon in the model's body frame (metres, already stretched to `size` by the
@@ -106,18 +82,12 @@ pub struct PositionDesc {
 }
 
 impl Default for PositionDesc {
+    /// Stage's defaults, from the worldfile crate's property table (one source of truth).
     fn default() -> Self {
-        let a = 90f64.to_radians();
-        PositionDesc {
-            drive: Drive::Diff,
-            localization: Localization::Gps,
-            localization_origin: None,
-            odom_error: None,
-            wheelbase: 1.0,
-            velocity_bounds: [-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -a, a],
-            acceleration_bounds: [-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -a, a],
-            velocity: Pose::ZERO,
-        }
+        let mut d = crate::spec::position(&worldfile::models::PositionSpec::default());
+        // "the model's global pose at load", which the resolver fills in for real models
+        d.localization_origin = None;
+        d
     }
 }
 
@@ -144,22 +114,12 @@ pub struct SensorDesc {
 }
 
 impl Default for SensorDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
     fn default() -> Self {
-        SensorDesc {
-            pose: Pose::ZERO,
-            size: [0.02, 0.02, 0.02],
-            range: [0.0, 5.0],
-            fov: 0.1,
-            samples: 1,
-            noise: 0.0,
-            noise_relative: 0.0,
-            color: Color {
-                r: 0.0,
-                g: 1.0,
-                b: 0.0,
-                a: 0.3,
-            },
-        }
+        crate::spec::sensor(
+            &worldfile::models::SensorSpec::default(),
+            &mut crate::rng::SimRng::new(0, 0),
+        )
     }
 }
 
@@ -179,14 +139,9 @@ pub struct BlobfinderDesc {
 }
 
 impl Default for BlobfinderDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
     fn default() -> Self {
-        BlobfinderDesc {
-            image: [80, 60],
-            range: 12.0,
-            fov: std::f64::consts::PI / 3.0,
-            pan: 0.0,
-            colors: Vec::new(),
-        }
+        crate::spec::blobfinder(&worldfile::models::BlobfinderSpec::default())
     }
 }
 
@@ -206,14 +161,9 @@ pub struct FiducialDesc {
 }
 
 impl Default for FiducialDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
     fn default() -> Self {
-        FiducialDesc {
-            range_min: 0.0,
-            range_max: 8.0,
-            range_max_id: 5.0,
-            fov: std::f64::consts::PI,
-            ignore_zloc: false,
-        }
+        crate::spec::fiducial(&worldfile::models::FiducialSpec::default())
     }
 }
 
@@ -231,13 +181,9 @@ pub struct GripperDesc {
 }
 
 impl Default for GripperDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
     fn default() -> Self {
-        GripperDesc {
-            paddle_size: [0.66, 0.1, 0.4],
-            closed: false,
-            up: false,
-            autosnatch: false,
-        }
+        crate::spec::gripper(&worldfile::models::GripperSpec::default())
     }
 }
 
@@ -255,13 +201,9 @@ pub struct CameraDesc {
 }
 
 impl Default for CameraDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
     fn default() -> Self {
-        CameraDesc {
-            resolution: [32, 32],
-            range: [0.2, 8.0],
-            fov: [70f64.to_radians(), 40f64.to_radians()],
-            pantilt: [0.0, 0.0],
-        }
+        crate::spec::camera(&worldfile::models::CameraSpec::default())
     }
 }
 
@@ -292,15 +234,9 @@ pub struct ActuatorDesc {
 }
 
 impl Default for ActuatorDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
     fn default() -> Self {
-        ActuatorDesc {
-            kind: ActuatorKind::Linear,
-            axis: [1.0, 0.0, 0.0],
-            min_position: 0.0,
-            max_position: 1.0,
-            max_speed: 1.0,
-            start_position: 0.0,
-        }
+        crate::spec::actuator(&worldfile::models::ActuatorSpec::default())
     }
 }
 
@@ -336,6 +272,23 @@ pub enum KindDesc {
 }
 
 impl KindDesc {
+    /// The worldfile crate's model type (whose table holds the per-type defaults).
+    pub fn model_type(&self) -> worldfile::models::ModelType {
+        use worldfile::models::ModelType as T;
+        match self {
+            KindDesc::Model => T::Model,
+            KindDesc::Position(_) => T::Position,
+            KindDesc::Ranger(_) => T::Ranger,
+            KindDesc::Blobfinder(_) => T::Blobfinder,
+            KindDesc::Fiducial(_) => T::Fiducial,
+            KindDesc::Gripper(_) => T::Gripper,
+            KindDesc::Camera(_) => T::Camera,
+            KindDesc::Actuator(_) => T::Actuator,
+            KindDesc::Blinkenlight { .. } => T::Blinkenlight,
+            KindDesc::LightIndicator => T::Lightindicator,
+        }
+    }
+
     /// The Stage type word.
     pub fn type_name(&self) -> &'static str {
         match self {
@@ -405,17 +358,14 @@ pub struct ModelDesc {
 }
 
 impl ModelDesc {
-    /// A model of the given kind with Stage's common defaults for that type (spec §3, §4).
+    /// A model of the given kind with Stage's common defaults for that type (spec §3, §4),
+    /// taken from the worldfile crate's type and property tables.
     pub fn new(name: &str, kind: KindDesc) -> ModelDesc {
-        let (size, color, body) = match &kind {
-            KindDesc::Ranger(_) => ([0.15, 0.15, 0.2], Color::rgb(0.0, 0.0, 0.5), false),
-            KindDesc::Blobfinder(_) => ([0.4, 0.4, 1.0], Color::RED, false),
-            KindDesc::Fiducial(_) => ([0.0, 0.0, 0.0], Color::RED, false),
-            KindDesc::Gripper(_) => ([0.2, 0.3, 0.2], Color::rgb(0.3, 0.3, 0.3), false),
-            KindDesc::Camera(_) => ([0.1, 0.07, 0.05], Color::rgb(0.0, 0.0, 0.0), true),
-            KindDesc::Blinkenlight { .. } => ([0.02, 0.02, 0.02], Color::rgb(0.0, 1.0, 0.0), true),
-            _ => ([0.4, 0.4, 1.0], Color::RED, true),
-        };
+        let info = kind.model_type().info();
+        let common = worldfile::models::CommonSpec::for_type(info.model_type);
+        let (size, color) = (info.size, info.color);
+        // the gripper's own base-and-paddles body is built by the world from its state
+        let body = info.body == worldfile::models::DefaultBody::UnitSquare;
         ModelDesc {
             name: name.to_string(),
             aliases: Vec::new(),
@@ -427,23 +377,24 @@ impl ModelDesc {
             color,
             blocks: Vec::new(),
             default_body: body,
-            stack_children: true,
-            obstacle_return: true,
-            ranger_return: 1.0,
-            fiducial_return: 0,
-            fiducial_key: 0,
-            gripper_return: false,
-            update_interval_us: 100_000,
-            alwayson: false,
+            stack_children: common.stack_children,
+            obstacle_return: common.obstacle_return,
+            ranger_return: common.ranger_return,
+            fiducial_return: common.fiducial_return as i32,
+            fiducial_key: common.fiducial_key as i32,
+            gripper_return: common.gripper_return,
+            update_interval_us: common.update_interval as u64 * 1000,
+            alwayson: common.alwayson,
             ctrl: Vec::new(),
-            say: String::new(),
-            mass: 0.0,
+            say: common.say,
+            mass: common.mass,
             source: String::new(),
         }
     }
 }
 
-/// World-level settings (stage-worldfile.md §10) and the model tree.
+/// World-level settings (stage-worldfile.md §10) and the model tree. The default settings are
+/// the worldfile crate's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WorldDesc {
     /// World name.
@@ -470,18 +421,7 @@ pub struct WorldDesc {
 
 impl Default for WorldDesc {
     fn default() -> Self {
-        WorldDesc {
-            name: String::new(),
-            interval_sim_us: 100_000,
-            quit_time_us: 0,
-            resolution: 0.02,
-            speedup: 1.0,
-            paused: false,
-            threads: 1,
-            show_clock: false,
-            show_clock_interval: 100,
-            models: Vec::new(),
-        }
+        crate::spec::settings(&worldfile::world::WorldSettings::default(), String::new())
     }
 }
 

@@ -56,7 +56,7 @@ pub fn swarm_world(n: usize, seed: u64) -> WorldDesc {
             0.0,
             rng.uniform(-3.0, 3.0),
         );
-        r.color = Color::rgb(rng.next_f64() as f32, rng.next_f64() as f32, 1.0);
+        r.color = Color::rgb(rng.next_f64(), rng.next_f64(), 1.0);
         r.ctrl = vec!["expand_swarm".into()];
         let ri = d.add(r, None);
         let sensors = (0..12)

@@ -310,7 +310,7 @@ fn blobfinder_sees_coloured_box_at_expected_columns() {
     assert!((blob.range - mean).abs() < 1e-9);
     let half_px = (0.3f64.atan2(mean) / (PI / 3.0 / 60.0)) as u32;
     assert_eq!((blob.top, blob.bottom), (30 - half_px, 30 + half_px));
-    assert!(blob.color.same_rgb(&Color::rgb(0.0, 1.0, 0.0)));
+    assert!(same_rgb(&blob.color, &Color::rgb(0.0, 1.0, 0.0)));
     // Player's area is (right-left)·(top-bottom) < 0, wrapped into the unsigned field
     let area = (blob.right as i64 - blob.left as i64) * (blob.top as i64 - blob.bottom as i64);
     assert!(area < 0);
@@ -694,9 +694,9 @@ fn blobfinder_skips_the_column_after_a_blob() {
     let blobs = &w.blobfinder_blobs(ModelId(b as u32)).unwrap().blobs;
     // sample 0 (red) is a blob, sample 1 (green) is skipped, sample 2 (blue) is a blob
     assert_eq!(blobs.len(), 2, "{blobs:?}");
-    assert!(blobs[0].color.same_rgb(&Color::RED));
+    assert!(same_rgb(&blobs[0].color, &Color::RED));
     assert_eq!((blobs[0].left, blobs[0].right), (2, 2));
-    assert!(blobs[1].color.same_rgb(&Color::rgb(0.0, 0.0, 1.0)));
+    assert!(same_rgb(&blobs[1].color, &Color::rgb(0.0, 0.0, 1.0)));
     assert_eq!((blobs[1].left, blobs[1].right), (0, 0));
 }
 

@@ -381,12 +381,9 @@ impl World {
                     let origin = p.localization_origin.unwrap_or(globals[i]);
                     let err = match p.odom_error {
                         Some(e) => e,
-                        None => [
-                            rng.uniform(-0.015, 0.015),
-                            rng.uniform(-0.015, 0.015),
-                            0.0,
-                            rng.uniform(-0.025, 0.025),
-                        ],
+                        // drawn once per model from [-span/2, span/2), as Stage does (§7.7)
+                        None => worldfile::models::PositionSpec::ODOM_ERROR_SPAN
+                            .map(|span| rng.uniform(-span / 2.0, span / 2.0)),
                     };
                     KindState::Position(Box::new(PositionModel::new(p.clone(), origin, err)))
                 }

@@ -1,6 +1,6 @@
 //! `blobfinder` (spec §9): a fan of colour rays segmented into blobs.
 
-use crate::desc::{BlobfinderDesc, Color};
+use crate::desc::{BlobfinderDesc, Color, same_rgb};
 use crate::pose::Pose;
 use crate::space::RayQuery;
 use crate::world::View;
@@ -117,12 +117,12 @@ pub(crate) fn update(v: &View, m: u32, b: &mut BlobfinderModel) {
         };
         let right = s;
         let mut left = s;
-        while left + 1 < w && b.samples[left + 1].is_some_and(|(cc, _)| cc.same_rgb(&c)) {
+        while left + 1 < w && b.samples[left + 1].is_some_and(|(cc, _)| same_rgb(&cc, &c)) {
             left += 1;
         }
         // the sample right after a blob is never the start of another (Stage quirk, §9.2)
         s = left + 2;
-        if !cfg.colors.is_empty() && !cfg.colors.iter().any(|f| f.same_rgb(&c)) {
+        if !cfg.colors.is_empty() && !cfg.colors.iter().any(|f| same_rgb(f, &c)) {
             continue;
         }
         let range = b.samples[right..=left]

@@ -102,7 +102,7 @@ pub(crate) fn update(v: &View, m: u32, c: &mut CameraModel) {
             let i = row * w + col;
             match px {
                 Some((color, dist)) => {
-                    let to8 = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+                    let to8 = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
                     c.image.rgba[i * 4..i * 4 + 4].copy_from_slice(&[
                         to8(color.r),
                         to8(color.g),

@@ -128,43 +128,23 @@ impl GripperModel {
     }
 
     /// The three blocks (base + two paddles) for the current state, in the body frame of a
-    /// gripper of `size`: Stage lays them out in a unit box and stretches it to `size`.
+    /// gripper of `size`: the worldfile crate's layout and size scaling (spec §11.2, §2.3).
     pub fn blocks(&self, size: [f64; 3]) -> Vec<BlockDesc> {
-        let [px, py, pz] = self.cfg.paddle_size;
-        let pos = self.data.paddle_pos;
-        let lift = self.data.lift_pos;
-        let zlo = lift * (1.0 - pz);
-        let left_c = pos * (0.5 - py) + py / 2.0;
-        let right_c = 1.0 - pos * (0.5 - py) - py / 2.0;
-        let [sx, sy, sz] = size;
-        let rect = |x0: f64, y0: f64, x1: f64, y1: f64, z0: f64, z1: f64| BlockDesc {
-            points: [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
-                .iter()
-                .map(|p| [(p[0] - 0.5) * sx, (p[1] - 0.5) * sy])
-                .collect(),
-            zmin: z0 * sz,
-            zmax: z1 * sz,
-            color: None,
-        };
-        vec![
-            rect(0.0, 0.0, 1.0 - px, 1.0, 0.0, 1.0),
-            rect(
-                1.0 - px,
-                left_c - py / 2.0,
-                1.0,
-                left_c + py / 2.0,
-                zlo,
-                zlo + pz,
-            ),
-            rect(
-                1.0 - px,
-                right_c - py / 2.0,
-                1.0,
-                right_c + py / 2.0,
-                zlo,
-                zlo + pz,
-            ),
-        ]
+        let raw = worldfile::body::gripper_blocks(
+            self.cfg.paddle_size,
+            self.data.paddle_pos,
+            self.data.lift_pos,
+        );
+        let (scaled, _) = worldfile::body::scale(&raw, size);
+        scaled
+            .into_iter()
+            .map(|b| BlockDesc {
+                points: b.points,
+                zmin: b.z[0],
+                zmax: b.z[1],
+                color: b.color,
+            })
+            .collect()
     }
 }
 

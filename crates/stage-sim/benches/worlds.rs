@@ -3,8 +3,8 @@
 //! there) and generated swarm worlds of 1 … 10,000 robots. Run: `cargo bench -p stage-sim`.
 //! Stage 4.3 on the same 2-core machine: simple 809×, cave 15.9×, hospital 3.5× real time.
 
-use stage_sim::World;
 use stage_sim::generate::swarm_world;
+use stage_sim::{RayQuery, World};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use worldfile::LoadOptions;
@@ -53,6 +53,36 @@ fn stage_worlds() -> Option<PathBuf> {
     p.is_dir().then_some(p)
 }
 
+/// Ray-cast micro-benchmark: `n` rays of length `range` from random points of the world's
+/// bounding box, ignoring nothing but the robots' own trees (none here).
+fn ray_micro(label: &str, w: &World, range: f64, n: usize) {
+    let mut bb = stage_sim::geom::Aabb::EMPTY;
+    for m in w.models() {
+        bb.merge(&w.body(m).aabb);
+    }
+    let mut rng = stage_sim::SimRng::new(3, 3);
+    let queries: Vec<RayQuery> = (0..n)
+        .map(|_| RayQuery {
+            x: rng.uniform(bb.min[0], bb.max[0]),
+            y: rng.uniform(bb.min[1], bb.max[1]),
+            a: rng.uniform(-3.2, 3.2),
+            range,
+            z: Some(0.25),
+        })
+        .collect();
+    let t0 = Instant::now();
+    let mut hits = 0usize;
+    for q in &queries {
+        hits += w.raycast(q, None).is_some() as usize;
+    }
+    let secs = t0.elapsed().as_secs_f64();
+    println!(
+        "{label:<28} {:>10.1} ns/ray (one thread, {:.0}% hit, {n} rays of {range} m)",
+        secs * 1e9 / n as f64,
+        100.0 * hits as f64 / n as f64
+    );
+}
+
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
     let only: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with("--"));
@@ -71,6 +101,9 @@ fn main() {
                 opts.stage_path.push(root.clone());
                 let (mut w, _) = World::load_with(&root.join(file), &opts, 1).expect("suite world");
                 w.set_quit_time_us(0);
+                let n = if quick { 100_000 } else { 1_000_000 };
+                ray_micro(&format!("{label} rays"), &w, 2.0, n);
+                ray_micro(&format!("{label} rays"), &w, 8.0, n);
                 measure(label, w, budget, u64::MAX);
             }
         }

@@ -120,6 +120,8 @@ struct StaticIndex {
     bvh: Bvh,
     /// The same tree, flattened for the ray loop (see [`FlatBvh`]).
     flat: FlatBvh,
+    /// Per-cell start nodes for short rays.
+    starts: Option<StartCells>,
 }
 
 /// A child reference in [`FlatBvh`]: a node index, or a leaf (top bit set) with its data.
@@ -136,14 +138,128 @@ struct FlatBvh {
     kids: Vec<[u32; 2]>,
     /// A single leaf (a tree of one block has no two-child node).
     lone: Option<([f32; 4], u32)>,
+    /// Parent of each node (`u32::MAX` for the root, node 0).
+    parent: Vec<u32>,
+    /// Depth of each node (root 0).
+    depth: Vec<u32>,
+    /// The node holding each leaf (by leaf data) as a child.
+    leaf_parent: Vec<u32>,
+}
+
+/// Where static ray walks start: for each 1 m cell of the static bounds and each ray-length tier,
+/// the lowest BVH node whose subtree holds every static block within that length of the cell
+/// (the common ancestor of those leaves), or [`NO_STATIC`] when there is none. Short rays then
+/// skip the descent from the root, and rays in open space skip the static walk altogether.
+struct StartCells {
+    origin: [f64; 2],
+    nx: i32,
+    ny: i32,
+    /// `starts[tier][cell]`.
+    starts: Vec<Vec<u32>>,
+}
+
+/// Ray-length tiers (m) of [`StartCells`]; longer rays start at the root.
+const START_TIERS: [f64; 3] = [1.0, 2.5, 5.5];
+/// Start-cell edge (m).
+const START_CELL: f64 = 1.0;
+/// A start cell with no static block in reach.
+const NO_STATIC: u32 = u32::MAX;
+
+impl StartCells {
+    fn build(bvh: &Bvh, flat: &FlatBvh, bounds: Aabb) -> Option<StartCells> {
+        if flat.lone.is_some() || flat.boxes.is_empty() || bounds.is_empty() {
+            return None;
+        }
+        let reach = START_TIERS[START_TIERS.len() - 1];
+        let origin = [bounds.min[0] - reach, bounds.min[1] - reach];
+        let nx = ((bounds.max[0] + reach - origin[0]) / START_CELL).ceil() as i64;
+        let ny = ((bounds.max[1] + reach - origin[1]) / START_CELL).ceil() as i64;
+        if nx * ny > 4_000_000 {
+            return None; // a huge sparse world: start every walk at the root
+        }
+        let (nx, ny) = (nx as i32, ny as i32);
+        let mut starts = Vec::with_capacity(START_TIERS.len());
+        for &r in &START_TIERS {
+            let mut tier = vec![NO_STATIC; (nx * ny) as usize];
+            for cy in 0..ny {
+                for cx in 0..nx {
+                    let x0 = origin[0] + cx as f64 * START_CELL - r;
+                    let y0 = origin[1] + cy as f64 * START_CELL - r;
+                    let q = PAabb::new(
+                        Point::new((x0 - AABB_PAD) as f32, (y0 - AABB_PAD) as f32),
+                        Point::new(
+                            (x0 + START_CELL + 2.0 * r + AABB_PAD) as f32,
+                            (y0 + START_CELL + 2.0 * r + AABB_PAD) as f32,
+                        ),
+                    );
+                    let mut lca = NO_STATIC;
+                    for leaf in bvh.intersect_aabb(&q) {
+                        let p = flat.leaf_parent[leaf as usize];
+                        lca = if lca == NO_STATIC {
+                            p
+                        } else {
+                            flat.common_ancestor(lca, p)
+                        };
+                        if lca == 0 {
+                            break;
+                        }
+                    }
+                    tier[(cy * nx + cx) as usize] = lca;
+                }
+            }
+            starts.push(tier);
+        }
+        Some(StartCells {
+            origin,
+            nx,
+            ny,
+            starts,
+        })
+    }
+
+    /// The start node for a ray from `o` of length `range`: `Some(node)` (0 = root) or `None`
+    /// when no static block is in reach.
+    #[inline]
+    fn start(&self, o: [f64; 2], range: f64) -> Option<u32> {
+        let Some(tier) = START_TIERS.iter().position(|&r| range <= r) else {
+            return Some(0);
+        };
+        let cx = ((o[0] - self.origin[0]) / START_CELL).floor();
+        let cy = ((o[1] - self.origin[1]) / START_CELL).floor();
+        if !(cx >= 0.0 && cy >= 0.0 && cx < self.nx as f64 && cy < self.ny as f64) {
+            return Some(0);
+        }
+        match self.starts[tier][(cy as i32 * self.nx + cx as i32) as usize] {
+            NO_STATIC => None,
+            n => Some(n),
+        }
+    }
 }
 
 impl FlatBvh {
+    /// Lowest common ancestor of two nodes.
+    fn common_ancestor(&self, mut a: u32, mut b: u32) -> u32 {
+        while self.depth[a as usize] > self.depth[b as usize] {
+            a = self.parent[a as usize];
+        }
+        while self.depth[b as usize] > self.depth[a as usize] {
+            b = self.parent[b as usize];
+        }
+        while a != b {
+            a = self.parent[a as usize];
+            b = self.parent[b as usize];
+        }
+        a
+    }
+
     /// Rebuilds parry's topology from a full depth-first [`Bvh::traverse`], which calls back
     /// each node's left then right child and then descends (left first, right deferred on a
     /// stack); replaying that stack discipline pairs each callback with its parent.
-    fn from_parry(bvh: &Bvh) -> FlatBvh {
-        let mut out = FlatBvh::default();
+    fn from_parry(bvh: &Bvh, leaves: usize) -> FlatBvh {
+        let mut out = FlatBvh {
+            leaf_parent: vec![0; leaves],
+            ..FlatBvh::default()
+        };
         let mut seen: Vec<([f32; 4], Option<u32>, bool)> = Vec::new();
         bvh.traverse(|node| {
             let mn = node.mins();
@@ -168,8 +284,24 @@ impl FlatBvh {
                 if ll { LEAF_BIT | ld.unwrap_or(0) } else { 0 },
                 if rl { LEAF_BIT | rd.unwrap_or(0) } else { 0 },
             ]);
-            if let Some((parent, side)) = owner.map(|o| (o >> 1, (o & 1) as usize)) {
-                out.kids[parent as usize][side] = me;
+            for (is_leaf, data) in [(ll, ld), (rl, rd)] {
+                if let (true, Some(l)) = (is_leaf, data) {
+                    if let Some(slot) = out.leaf_parent.get_mut(l as usize) {
+                        *slot = me;
+                    }
+                }
+            }
+            match owner.map(|o| (o >> 1, (o & 1) as usize)) {
+                Some((parent, side)) => {
+                    out.kids[parent as usize][side] = me;
+                    out.parent.push(parent);
+                    let d = out.depth[parent as usize] + 1;
+                    out.depth.push(d);
+                }
+                None => {
+                    out.parent.push(u32::MAX);
+                    out.depth.push(0);
+                }
             }
             // where the next pair goes, mirroring parry's traversal
             match (!ll, !rl) {
@@ -218,12 +350,16 @@ impl StaticIndex {
             }
         }
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
-        let flat = FlatBvh::from_parry(&bvh);
+        let flat = FlatBvh::from_parry(&bvh, blocks.len());
+        let mut bounds = Aabb::EMPTY;
+        pts.iter().for_each(|p| bounds.add(*p));
+        let starts = StartCells::build(&bvh, &flat, bounds);
         StaticIndex {
             blocks,
             pts,
             bvh,
             flat,
+            starts,
         }
     }
 
@@ -494,8 +630,60 @@ impl Space {
             None => true,
         };
         let inv = [1.0 / d[0], 1.0 / d[1]];
-        let mut best_t = range;
-        let mut best: Option<RayHit> = None;
+        let best_t = range;
+        let best: Option<RayHit> = None;
+
+        // dynamic bodies first: in crowds their hits are near and bound the static walk
+        let best_t = Cell::new(best_t);
+        let best = Cell::new(best);
+        let mut consider = |m: u32| {
+            let tmax = best_t.get();
+            if self.roots[m as usize] == skip_root
+                || self.aabbs[m as usize].ray_entry(o, inv, tmax).is_none()
+                || !accept(m)
+            {
+                return;
+            }
+            let body = &self.bodies[m as usize];
+            let mut bt = tmax;
+            let mut bb = None;
+            for (bi, blk) in body.blocks.iter().enumerate() {
+                if !zok(blk.zmin, blk.zmax) || blk.aabb.ray_entry(o, inv, bt).is_none() {
+                    continue;
+                }
+                for (a, b) in body.edges(bi) {
+                    if let Some(t) = ray_segment(o, d, a, b, bt) {
+                        if bb.is_none() || t < bt {
+                            bt = t;
+                            bb = Some(bi as u32);
+                        }
+                    }
+                }
+            }
+            if let Some(b) = bb {
+                let cur = best.get();
+                if bt < tmax || cur.is_none_or(|h| m < h.model) {
+                    best_t.set(bt);
+                    best.set(Some(RayHit {
+                        model: m,
+                        block: b,
+                        range: bt,
+                    }));
+                }
+            }
+        };
+        if self.members.len() <= SMALL_DYNAMIC_SET {
+            for &m in &self.members {
+                consider(m);
+            }
+        } else {
+            for &m in &self.grid.overflow {
+                consider(m);
+            }
+            self.walk_grid(o, d, &best_t, &mut consider);
+        }
+        let mut best_t = best_t.get();
+        let mut best = best.get();
 
         // static blocks: near-child-first walk of the flattened parry BVH
         if !self.statics.blocks.is_empty() {
@@ -545,8 +733,9 @@ impl Space {
                 if slab(&b, pad(best_t)).is_finite() {
                     leaf(l, &mut best_t, &mut best);
                 }
-            } else {
+            } else if let Some(start) = st.starts.as_ref().map_or(Some(0), |c| c.start(o, range)) {
                 let mut stack: [(u32, f32); 32] = [(0, 0.0); 32];
+                stack[0] = (start, 0.0);
                 let mut spill: Vec<(u32, f32)> = Vec::new(); // only for trees deeper than 32
                 let mut sp = 1usize;
                 loop {
@@ -566,23 +755,27 @@ impl Space {
                     let lim = pad(best_t);
                     let tl = slab(&bx[0..4], lim);
                     let tr = slab(&bx[4..8], lim);
-                    let (near, far) = if tl <= tr {
-                        ((kids[0], tl), (kids[1], tr))
-                    } else {
-                        ((kids[1], tr), (kids[0], tl))
-                    };
-                    // leaves now, nearer first; inner nodes pushed farther first
-                    for (k, t) in [near, far] {
-                        if t.is_finite() && k & LEAF_BIT != 0 && t <= pad(best_t) {
-                            leaf(k & !LEAF_BIT, &mut best_t, &mut best);
-                        }
+                    // branch-free near/far ordering: the comparison is a coin flip per node
+                    let ts = [tl, tr];
+                    let i = (tr < tl) as usize;
+                    let (kn, tn) = (kids[i], ts[i]);
+                    let (kf, tf) = (kids[i ^ 1], ts[i ^ 1]);
+                    // leaves now, nearer first (a missed box has t = ∞ > lim)
+                    if kn & LEAF_BIT != 0 && tn <= lim {
+                        leaf(kn & !LEAF_BIT, &mut best_t, &mut best);
                     }
-                    for (k, t) in [far, near] {
-                        if t.is_finite() && k & LEAF_BIT == 0 {
-                            if sp < stack.len() {
-                                stack[sp] = (k, t);
-                                sp += 1;
-                            } else {
+                    if kf & LEAF_BIT != 0 && tf <= pad(best_t) {
+                        leaf(kf & !LEAF_BIT, &mut best_t, &mut best);
+                    }
+                    // inner nodes pushed farther first; a slot is written anyway and kept or not
+                    if sp + 2 <= stack.len() {
+                        stack[sp] = (kf, tf);
+                        sp += (kf & LEAF_BIT == 0 && tf <= lim) as usize;
+                        stack[sp] = (kn, tn);
+                        sp += (kn & LEAF_BIT == 0 && tn <= lim) as usize;
+                    } else {
+                        for (k, t) in [(kf, tf), (kn, tn)] {
+                            if k & LEAF_BIT == 0 && t <= lim {
                                 spill.push((k, t));
                             }
                         }
@@ -591,56 +784,7 @@ impl Space {
             }
         }
 
-        // dynamic bodies
-        let best_t = Cell::new(best_t);
-        let best = Cell::new(best);
-        let mut consider = |m: u32| {
-            let tmax = best_t.get();
-            if self.roots[m as usize] == skip_root
-                || self.aabbs[m as usize].ray_entry(o, inv, tmax).is_none()
-                || !accept(m)
-            {
-                return;
-            }
-            let body = &self.bodies[m as usize];
-            let mut bt = tmax;
-            let mut bb = None;
-            for (bi, blk) in body.blocks.iter().enumerate() {
-                if !zok(blk.zmin, blk.zmax) || blk.aabb.ray_entry(o, inv, bt).is_none() {
-                    continue;
-                }
-                for (a, b) in body.edges(bi) {
-                    if let Some(t) = ray_segment(o, d, a, b, bt) {
-                        if bb.is_none() || t < bt {
-                            bt = t;
-                            bb = Some(bi as u32);
-                        }
-                    }
-                }
-            }
-            if let Some(b) = bb {
-                let cur = best.get();
-                if bt < tmax || cur.is_none_or(|h| m < h.model) {
-                    best_t.set(bt);
-                    best.set(Some(RayHit {
-                        model: m,
-                        block: b,
-                        range: bt,
-                    }));
-                }
-            }
-        };
-        if self.members.len() <= SMALL_DYNAMIC_SET {
-            for &m in &self.members {
-                consider(m);
-            }
-        } else {
-            for &m in &self.grid.overflow {
-                consider(m);
-            }
-            self.walk_grid(o, d, &best_t, &mut consider);
-        }
-        best.get()
+        best
     }
 
     /// Visits the grid cells along the ray (DDA) in order, until the cell entry distance passes
@@ -912,12 +1056,18 @@ mod tests {
                 .collect();
             let n = bodies.len();
             let space = Space::new(bodies.clone(), &vec![false; n], (0..n as u32).collect());
-            for _ in 0..300 {
+            for k in 0..600 {
+                // half short rays (they start below the BVH root), half long ones
+                let range = if k % 2 == 0 {
+                    rng.uniform(0.1, 6.0)
+                } else {
+                    rng.uniform(0.5, 30.0)
+                };
                 let q = RayQuery {
-                    x: rng.uniform(-22.0, 22.0),
-                    y: rng.uniform(-22.0, 22.0),
+                    x: rng.uniform(-30.0, 30.0),
+                    y: rng.uniform(-30.0, 30.0),
                     a: rng.uniform(-4.0, 4.0),
-                    range: rng.uniform(0.5, 30.0),
+                    range,
                     z: Some(0.5),
                 };
                 let got = space.raycast(&q, |_| true);

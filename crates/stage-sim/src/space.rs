@@ -1,13 +1,15 @@
 //! The spatial engine: every body's outline in world space, a static BVH (parry2d) over the
-//! edges of bodies that never move, and a uniform grid over the bodies that do.
+//! blocks of bodies that never move, and a uniform grid over the bodies that do.
 //!
-//! * Static bodies (floorplans and everything not carried by a robot) are flattened into
-//!   segments once and indexed by a parry2d [`Bvh`] built once (binned SAH).
-//! * Dynamic bodies (robots and everything in their trees) live in a uniform grid of cells;
-//!   a moving model re-registers only when the set of cells its box covers changes, so moves
-//!   cost O(1) and the index is never rebuilt.
-//! * A static body that is moved later (teleported, picked up by a gripper) is switched off
-//!   in the static index (its segments are skipped) and joins the dynamic grid.
+//! * Static bodies (floorplans and everything not in a robot's tree) are indexed by a parry2d
+//!   [`Bvh`] built once (binned SAH, one leaf per block). Contact queries use it directly; ray
+//!   casts walk the same tree flattened into a compact array, nearer child first, starting from
+//!   a per-cell subtree root for short rays (or skipping static geometry when none is in reach).
+//! * Dynamic bodies (robots and everything in their trees) live in a uniform grid; a moving model
+//!   re-registers only when the set of cells its box covers changes, so moves cost O(1) and the
+//!   index is never rebuilt. Rays walk it cell by cell (DDA) and stop at the first hit.
+//! * A static body that is moved later (teleported, picked up by a gripper) is switched off in
+//!   the static index (its blocks are skipped) and joins the dynamic grid.
 //!
 //! Differences from Stage's occupancy grid (spec §6): ranges are exact distances to the first
 //! edge crossed, where Stage returns the near boundary of the first grid cell that an edge was

@@ -35,7 +35,7 @@ struct Args {
     /// Print the resolved world (models, properties, blocks) as JSON and exit.
     #[arg(long)]
     dump: bool,
-    /// Do not print warnings.
+    /// Do not print warnings (worldfile and simulator).
     #[arg(short, long)]
     quiet: bool,
     /// The worldfiles (several run in lock-step, as in Stage).
@@ -61,10 +61,12 @@ fn clock(us: u64) -> String {
 
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
-    let level = match args.debug {
-        0 => "warn",
-        1 => "info",
-        2 => "debug",
+    // simulator warnings (unknown controllers, legacy models) come through tracing
+    let level = match (args.quiet, args.debug) {
+        (true, 0) => "error",
+        (_, 0) => "warn",
+        (_, 1) => "info",
+        (_, 2) => "debug",
         _ => "trace",
     };
     tracing_subscriber::fmt()
@@ -73,6 +75,8 @@ fn main() -> anyhow::Result<()> {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level)),
         )
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .with_target(false)
         .without_time()
         .init();
 
@@ -107,11 +111,6 @@ fn main() -> anyhow::Result<()> {
         }
         let mut world = World::from_spec(&spec, args.seed)
             .map_err(|e| anyhow::anyhow!("{}: {e}", f.display()))?;
-        if !args.quiet {
-            for w in world.warnings() {
-                eprintln!("{}: warning: {w}", f.display());
-            }
-        }
         if let Some(q) = args.quit_time {
             anyhow::ensure!(q.is_finite() && q >= 0.0, "--quit-time must be >= 0");
             world.set_quit_time_us((q * 1e6) as u64);

@@ -1,39 +1,196 @@
-//! The `stage` binary. For now it only reads worldfiles: `stage --dump FILE.world` prints the
-//! resolved world as JSON (the simulator itself arrives with a later issue).
+//! The `stage` binary: runs Stage worldfiles headless (the viewer arrives with its own issue),
+//! or prints the resolved world as JSON with `--dump`.
 
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use clap::Parser;
+use stage_sim::World;
 use worldfile::{LoadOptions, WorldSpec};
 
-/// Stage 4.1.1-compatible simulator.
+/// Stage 4.1.1-compatible multi-robot simulator.
 #[derive(Parser, Debug)]
 #[command(name = "stage", version)]
 struct Args {
+    /// Headless: no GUI (Stage's `-g`). There is no viewer yet, so runs are always headless.
+    #[arg(short = 'g', long = "gui")]
+    headless: bool,
+    /// Print the simulation clock (`[Stage: 0m 01s 300msec]`) every `show_clock_interval` steps.
+    #[arg(short = 'c', long)]
+    clock: bool,
+    /// Stop at this simulated time (seconds), overriding the file's `quit_time`; 0 = never.
+    #[arg(long, value_name = "SECONDS")]
+    quit_time: Option<f64>,
+    /// Seed for every random choice (random colours, odometry errors, controllers).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    seed: u64,
+    /// Run as fast as possible, ignoring the file's `speedup`.
+    #[arg(long)]
+    fast: bool,
+    /// Debug level for log output (0 = warnings, 1 = info, 2 = debug, 3+ = trace).
+    #[arg(short = 'd', long, value_name = "LEVEL", default_value_t = 0)]
+    debug: u8,
     /// Print the resolved world (models, properties, blocks) as JSON and exit.
     #[arg(long)]
     dump: bool,
-    /// Do not print warnings.
+    /// Do not print warnings (worldfile and simulator).
     #[arg(short, long)]
     quiet: bool,
-    /// The worldfile.
-    worldfile: PathBuf,
+    /// The worldfiles (several run in lock-step, as in Stage).
+    #[arg(required = true)]
+    worldfiles: Vec<PathBuf>,
+}
+
+/// Stage's clock format: `[%uh]%um %02us %03umsec`.
+fn clock(us: u64) -> String {
+    let ms = us / 1000;
+    let (h, m, s, ms) = (
+        ms / 3_600_000,
+        (ms / 60_000) % 60,
+        (ms / 1000) % 60,
+        ms % 1000,
+    );
+    if h > 0 {
+        format!("{h}h{m}m {s:02}s {ms:03}msec")
+    } else {
+        format!(" {m}m {s:02}s {ms:03}msec")
+    }
 }
 
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
-    if !args.dump {
-        bail!("running the simulation is not built yet; use `stage --dump FILE.world`");
+    // simulator warnings (unknown controllers, legacy models) come through tracing
+    let level = match (args.quiet, args.debug) {
+        (true, 0) => "error",
+        (_, 0) => "warn",
+        (_, 1) => "info",
+        (_, 2) => "debug",
+        _ => "trace",
+    };
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level)),
+        )
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .with_target(false)
+        .without_time()
+        .init();
+
+    let opts = LoadOptions::from_env();
+    if args.dump {
+        for f in &args.worldfiles {
+            let spec = WorldSpec::load(f, &opts).map_err(|e| anyhow::anyhow!("{e}"))?;
+            if !args.quiet {
+                for w in &spec.warnings {
+                    eprintln!("{w}");
+                }
+            }
+            let json = serde_json::to_string_pretty(&spec).context("serialising the world")?;
+            println!("{json}");
+        }
+        return Ok(());
     }
-    let world = WorldSpec::load(&args.worldfile, &LoadOptions::from_env())
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    if !args.quiet {
-        for w in &world.warnings {
-            eprintln!("{w}");
+
+    let mut banner = String::from("Stage 4.1.1 (playerstage-rs)");
+    banner.push_str(" [GUI disabled]");
+    if args.clock {
+        banner.push_str(" [Clock enabled]");
+    }
+    let mut worlds = Vec::new();
+    for f in &args.worldfiles {
+        banner.push_str(&format!(" [Loading {}]", f.display()));
+        let spec = WorldSpec::load(f, &opts).map_err(|e| anyhow::anyhow!("{e}"))?;
+        if !args.quiet {
+            for w in &spec.warnings {
+                eprintln!("{w}");
+            }
+        }
+        let mut world = World::from_spec(&spec, args.seed)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", f.display()))?;
+        if let Some(q) = args.quit_time {
+            anyhow::ensure!(q.is_finite() && q >= 0.0, "--quit-time must be >= 0");
+            world.set_quit_time_us((q * 1e6) as u64);
+        }
+        worlds.push(world);
+    }
+    println!("{banner}");
+    if !args.headless {
+        eprintln!("note: there is no viewer yet; running headless (as with -g)");
+    }
+
+    // pacing: the slowest requested speed wins when several worlds run together
+    let speedup = if args.fast {
+        -1.0
+    } else {
+        worlds
+            .iter()
+            .map(|w| w.config().speedup)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let interval = worlds[0].config().interval_sim_us;
+    let step_wall = (speedup > 0.0 && speedup.is_finite())
+        .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / speedup));
+    let quit = worlds
+        .iter()
+        .map(|w| w.config().quit_time_us)
+        .max()
+        .unwrap_or(0);
+    let forever = worlds.iter().any(|w| w.config().quit_time_us == 0);
+    let tty = std::io::stderr().is_terminal();
+    let start = Instant::now();
+    let mut last_progress = start;
+    let mut steps: u64 = 0;
+    let mut stdout = std::io::stdout();
+    loop {
+        let mut any = false;
+        for w in worlds.iter_mut() {
+            if args.clock && w.updates() % w.config().show_clock_interval == 0 {
+                write!(stdout, "\r[Stage: {}]", clock(w.sim_time()))?;
+                stdout.flush()?;
+            }
+            any |= w.step();
+        }
+        if !any {
+            break;
+        }
+        steps += 1;
+        if let Some(d) = step_wall {
+            let due = start + d * steps as u32;
+            let now = Instant::now();
+            if due > now {
+                std::thread::sleep(due - now);
+            }
+        }
+        let now = Instant::now();
+        let every = if tty { 1 } else { 10 };
+        if now.duration_since(last_progress).as_secs() >= every && !args.quiet {
+            last_progress = now;
+            let t = worlds[0].sim_time() as f64 * 1e-6;
+            let rate = t / now.duration_since(start).as_secs_f64();
+            let total = if forever {
+                String::new()
+            } else {
+                format!(
+                    " / {:.1} s ({:.0}%)",
+                    quit as f64 * 1e-6,
+                    100.0 * t * 1e6 / quit as f64
+                )
+            };
+            let line = format!("[progress: {t:.1} s{total}, {rate:.1}x real time]");
+            if tty {
+                eprint!("\r{line}");
+            } else {
+                eprintln!("{line}");
+            }
         }
     }
-    let json = serde_json::to_string_pretty(&world).context("serialising the world")?;
-    println!("{json}");
+    if tty && !args.quiet && start.elapsed().as_secs() >= 1 {
+        eprintln!();
+    }
+    println!("\n[Stage: done]");
     Ok(())
 }

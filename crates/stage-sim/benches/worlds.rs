@@ -1,0 +1,119 @@
+//! World benchmarks: steps/s, simulated seconds per wall second (× real time), rays/s and
+//! threads, for Stage's own worlds (when `../shared/stage-worlds` or `PLAYERSTAGE_SHARED` is
+//! there) and generated swarm worlds of 1 … 10,000 robots. Run: `cargo bench -p stage-sim`.
+//! Stage 4.3 on the same 2-core machine: simple 809×, cave 15.9×, hospital 3.5× real time.
+
+use stage_sim::generate::swarm_world;
+use stage_sim::{RayQuery, World};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+use worldfile::LoadOptions;
+
+fn measure(label: &str, mut w: World, budget: Duration, max_steps: u64) {
+    // warm-up: one simulated second
+    for _ in 0..10 {
+        w.step();
+    }
+    let rays0 = w.rays_cast();
+    let t0 = Instant::now();
+    let mut steps = 0u64;
+    while steps < max_steps && (steps < 20 || t0.elapsed() < budget) {
+        if !w.step() {
+            break;
+        }
+        steps += 1;
+    }
+    let secs = t0.elapsed().as_secs_f64();
+    let sim = steps as f64 * w.config().interval_sim_us as f64 * 1e-6;
+    let rays = (w.rays_cast() - rays0) as f64;
+    println!(
+        "{label:<28} {:>10.0} steps/s {:>10.1}x real time {:>12.3e} rays/s  threads {}  ({} models, {} steps)",
+        steps as f64 / secs,
+        sim / secs,
+        rays / secs,
+        rayon::current_num_threads(),
+        w.model_count(),
+        steps
+    );
+}
+
+/// `$PLAYERSTAGE_SHARED/stage-worlds`, else `../shared/stage-worlds` beside the workspace.
+fn stage_worlds() -> Option<PathBuf> {
+    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
+        .map(PathBuf::from)
+        .or_else(|| {
+            Some(
+                Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .ancestors()
+                    .nth(2)?
+                    .join("../shared"),
+            )
+        })?;
+    let p = shared.join("stage-worlds");
+    p.is_dir().then_some(p)
+}
+
+/// Ray-cast micro-benchmark: `n` rays of length `range` from random points of the world's
+/// bounding box, ignoring nothing but the robots' own trees (none here).
+fn ray_micro(label: &str, w: &World, range: f64, n: usize) {
+    let mut bb = stage_sim::geom::Aabb::EMPTY;
+    for m in w.models() {
+        bb.merge(&w.body(m).aabb);
+    }
+    let mut rng = stage_sim::SimRng::new(3, 3);
+    let queries: Vec<RayQuery> = (0..n)
+        .map(|_| RayQuery {
+            x: rng.uniform(bb.min[0], bb.max[0]),
+            y: rng.uniform(bb.min[1], bb.max[1]),
+            a: rng.uniform(-3.2, 3.2),
+            range,
+            z: Some(0.25),
+        })
+        .collect();
+    let t0 = Instant::now();
+    let mut hits = 0usize;
+    for q in &queries {
+        hits += w.raycast(q, None).is_some() as usize;
+    }
+    let secs = t0.elapsed().as_secs_f64();
+    println!(
+        "{label:<28} {:>10.1} ns/ray (one thread, {:.0}% hit, {n} rays of {range} m)",
+        secs * 1e9 / n as f64,
+        100.0 * hits as f64 / n as f64
+    );
+}
+
+fn main() {
+    let quick = std::env::args().any(|a| a == "--quick");
+    let only: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with("--"));
+    let budget = Duration::from_secs_f64(if quick { 0.5 } else { 5.0 });
+    match stage_worlds() {
+        Some(root) => {
+            for (label, file) in [
+                ("simple.world", "simple.world"),
+                ("benchmark/cave.world", "benchmark/cave.world"),
+                ("benchmark/hospital.world", "benchmark/hospital.world"),
+            ] {
+                if only.as_ref().is_some_and(|o| !label.contains(o.as_str())) {
+                    continue;
+                }
+                let mut opts = LoadOptions::from_env();
+                opts.stage_path.push(root.clone());
+                let (mut w, _) = World::load_with(&root.join(file), &opts, 1).expect("suite world");
+                w.set_quit_time_us(0);
+                let n = if quick { 100_000 } else { 1_000_000 };
+                ray_micro(&format!("{label} rays"), &w, 2.0, n);
+                ray_micro(&format!("{label} rays"), &w, 8.0, n);
+                measure(label, w, budget, u64::MAX);
+            }
+        }
+        None => println!("Stage's worlds not found (set PLAYERSTAGE_SHARED): skipping them"),
+    }
+    for n in [1usize, 10, 100, 1000, 10_000] {
+        if only.as_ref().is_some_and(|o| *o != format!("swarm{n}")) {
+            continue;
+        }
+        let w = World::from_desc(&swarm_world(n, 1), 1).expect("generated world");
+        measure(&format!("swarm {n} robots"), w, budget, u64::MAX);
+    }
+}

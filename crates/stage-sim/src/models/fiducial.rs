@@ -1,0 +1,99 @@
+//! `fiducial` finder (spec §10).
+
+use crate::desc::FiducialDesc;
+use crate::pose::{Pose, normalize};
+use crate::space::RayQuery;
+use crate::world::{ModelId, View};
+
+/// One detected fiducial.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fiducial {
+    /// The target's `fiducial_return`, or 0 beyond `range_max_id`.
+    pub id: i32,
+    /// The target model.
+    pub model: ModelId,
+    /// Distance between the finder's and the target's pose points (m).
+    pub range: f64,
+    /// Bearing relative to the finder's heading (rad).
+    pub bearing: f64,
+    /// Target heading relative to the finder's heading (rad).
+    pub heading: f64,
+    /// Target size `[x y z]`.
+    pub geom: [f64; 3],
+    /// Target's absolute (global) pose.
+    pub pose: Pose,
+}
+
+/// A fiducial finder's latest data.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FiducialData {
+    /// Sim time of the update (µs).
+    pub time_us: u64,
+    /// Detections in model creation order.
+    pub fiducials: Vec<Fiducial>,
+}
+
+/// One fiducial-finder update.
+pub(crate) fn update(v: &View, f: u32, cfg: &FiducialDesc, d: &mut FiducialData) {
+    d.fiducials.clear();
+    let fg = v.globals[f as usize];
+    let fnode = &v.nodes[f as usize];
+    let key = fnode.fiducial_key;
+    let root = v.root(f);
+    let frame = v.body_frame(f);
+    for &h in v.fiducial_targets {
+        let hn = &v.nodes[h as usize];
+        if hn.fiducial_return == 0 || hn.fiducial_key != key || v.root(h) == root {
+            continue;
+        }
+        let hg = v.globals[h as usize];
+        let dx = hg.x - fg.x;
+        let dy = hg.y - fg.y;
+        if dx.abs() > cfg.range_max || dy.abs() > cfg.range_max {
+            continue;
+        }
+        let dist = dx.hypot(dy);
+        if dist >= cfg.range_max {
+            continue;
+        }
+        let dtheta = normalize(dy.atan2(dx) - fg.a);
+        if dtheta.abs() > cfg.fov / 2.0 {
+            continue;
+        }
+        let ray = frame.compose(&Pose {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            a: dtheta,
+        });
+        let q = RayQuery {
+            x: ray.x,
+            y: ray.y,
+            a: ray.a,
+            range: cfg.range_max,
+            z: Some(fg.z + fnode.origin.z),
+        };
+        let hit = v.space.raycast(&q, |m| v.root(m) != root);
+        let visible = match hit {
+            Some(hh) => hh.model == h,
+            None => cfg.ignore_zloc,
+        };
+        if !visible {
+            continue;
+        }
+        d.fiducials.push(Fiducial {
+            id: if dist < cfg.range_max_id {
+                hn.fiducial_return
+            } else {
+                0
+            },
+            model: ModelId(h),
+            range: dist,
+            bearing: dtheta,
+            heading: normalize(hg.a - fg.a),
+            geom: hn.size,
+            pose: hg,
+        });
+    }
+    d.time_us = v.sim_time;
+}

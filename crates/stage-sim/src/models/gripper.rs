@@ -1,0 +1,261 @@
+//! `gripper` (spec §11): paddles that open/close and lift, two break beams, two contact rays,
+//! grasping and carrying `gripper_return` models.
+
+use crate::desc::{BlockDesc, GripperDesc};
+use crate::pose::Pose;
+use crate::space::RayQuery;
+use crate::world::{ModelId, View};
+use std::f64::consts::FRAC_PI_2;
+
+/// Paddle (or lift) state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PaddleState {
+    /// Fully open.
+    Open,
+    /// Fully closed (or closed on an object).
+    Closed,
+    /// Opening.
+    Opening,
+    /// Closing.
+    Closing,
+}
+
+/// Lift state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LiftState {
+    /// Up.
+    Up,
+    /// Down.
+    Down,
+    /// Going up.
+    Upping,
+    /// Going down.
+    Downing,
+}
+
+/// A gripper command; it persists until replaced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GripperCmd {
+    /// Open the paddles (drops a carried object).
+    Open,
+    /// Close the paddles (grasps a `gripper_return` model between them).
+    Close,
+    /// Lift.
+    Up,
+    /// Lower.
+    Down,
+}
+
+/// What a server publishes for a gripper.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GripperData {
+    /// Sim time of the update (µs).
+    pub time_us: u64,
+    /// Paddle state.
+    pub paddles: PaddleState,
+    /// Lift state.
+    pub lift: LiftState,
+    /// Paddle position, 0 open … 1 closed.
+    pub paddle_pos: f64,
+    /// Lift position, 0 down … 1 up.
+    pub lift_pos: f64,
+    /// Model breaking each beam (inner beam 0, outer beam 1).
+    pub beams: [Option<ModelId>; 2],
+    /// Model touching each paddle (left, right).
+    pub contacts: [Option<ModelId>; 2],
+    /// Paddles blocked by a contact.
+    pub paddles_stalled: bool,
+    /// The model being carried.
+    pub carrying: Option<ModelId>,
+}
+
+/// A re-parenting decided during the update and applied after it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum GripAction {
+    Grasp(u32),
+    Release(u32),
+}
+
+/// Gripper state.
+#[derive(Clone, Debug)]
+pub struct GripperModel {
+    /// Configuration.
+    pub cfg: GripperDesc,
+    /// Current command.
+    pub cmd: GripperCmd,
+    /// Latest data.
+    pub data: GripperData,
+    pub(crate) close_limit: f64,
+    pub(crate) action: Option<GripAction>,
+    pub(crate) body_changed: bool,
+}
+
+impl GripperModel {
+    /// A gripper in its initial state.
+    pub fn new(cfg: GripperDesc) -> Self {
+        let pos = if cfg.closed { 1.0 } else { 0.0 };
+        let lift = if cfg.up { 1.0 } else { 0.0 };
+        GripperModel {
+            cmd: if cfg.closed {
+                GripperCmd::Close
+            } else {
+                GripperCmd::Open
+            },
+            data: GripperData {
+                time_us: 0,
+                paddles: if cfg.closed {
+                    PaddleState::Closed
+                } else {
+                    PaddleState::Open
+                },
+                lift: if cfg.up {
+                    LiftState::Up
+                } else {
+                    LiftState::Down
+                },
+                paddle_pos: pos,
+                lift_pos: lift,
+                beams: [None; 2],
+                contacts: [None; 2],
+                paddles_stalled: false,
+                carrying: None,
+            },
+            cfg,
+            close_limit: 1.0,
+            action: None,
+            body_changed: false,
+        }
+    }
+
+    /// The three blocks (base + two paddles) for the current state, in the body frame of a
+    /// gripper of `size`: the worldfile crate's layout and size scaling (spec §11.2, §2.3).
+    pub fn blocks(&self, size: [f64; 3]) -> Vec<BlockDesc> {
+        let raw = worldfile::body::gripper_blocks(
+            self.cfg.paddle_size,
+            self.data.paddle_pos,
+            self.data.lift_pos,
+        );
+        let (scaled, _) = worldfile::body::scale(&raw, size);
+        scaled
+            .into_iter()
+            .map(|b| BlockDesc {
+                points: b.points,
+                zmin: b.z[0],
+                zmax: b.z[1],
+                color: b.color,
+            })
+            .collect()
+    }
+}
+
+/// One gripper update (spec §11.3).
+pub(crate) fn update(v: &View, m: u32, g: &mut GripperModel) {
+    let d = &mut g.data;
+    g.action = None;
+    match g.cmd {
+        GripperCmd::Close if d.paddles != PaddleState::Closed => d.paddles = PaddleState::Closing,
+        GripperCmd::Open if d.paddles != PaddleState::Open => d.paddles = PaddleState::Opening,
+        GripperCmd::Up if d.lift != LiftState::Up => d.lift = LiftState::Upping,
+        GripperCmd::Down if d.lift != LiftState::Down => d.lift = LiftState::Downing,
+        _ => {}
+    }
+    let mut changed = false;
+    match d.paddles {
+        PaddleState::Opening => {
+            d.paddle_pos -= 0.05;
+            if d.paddle_pos < 0.0 {
+                d.paddle_pos = 0.0;
+                d.paddles = PaddleState::Open;
+            }
+            if let Some(obj) = d.carrying {
+                if d.paddle_pos == 0.0 || d.paddle_pos < g.close_limit {
+                    g.action = Some(GripAction::Release(obj.0));
+                    d.carrying = None;
+                    g.close_limit = 1.0;
+                }
+            }
+            changed = true;
+        }
+        PaddleState::Closing => {
+            d.paddle_pos += 0.05;
+            if d.paddle_pos > g.close_limit {
+                d.paddle_pos = g.close_limit;
+                d.paddles = PaddleState::Closed;
+            }
+            changed = true;
+        }
+        _ => {}
+    }
+    match d.lift {
+        LiftState::Downing => {
+            d.lift_pos -= 0.05;
+            if d.lift_pos < 0.0 {
+                d.lift_pos = 0.0;
+                d.lift = LiftState::Down;
+            }
+            changed = true;
+        }
+        LiftState::Upping => {
+            d.lift_pos += 0.05;
+            if d.lift_pos > 1.0 {
+                d.lift_pos = 1.0;
+                d.lift = LiftState::Up;
+            }
+            changed = true;
+        }
+        _ => {}
+    }
+    g.body_changed |= changed;
+
+    let node = &v.nodes[m as usize];
+    let [sx, sy, _] = node.size;
+    let [px, py, _] = g.cfg.paddle_size;
+    let pos = d.paddle_pos;
+    let frame = v.body_frame(m);
+    let pred = |h: u32| h != m && v.nodes[h as usize].gripper_return;
+    let cast = |x: f64, y: f64, a: f64, len: f64| -> Option<ModelId> {
+        if len <= 0.0 {
+            return None;
+        }
+        let o = frame.compose(&Pose { x, y, z: 0.0, a });
+        v.space
+            .raycast(
+                &RayQuery {
+                    x: o.x,
+                    y: o.y,
+                    a: o.a,
+                    range: len,
+                    z: None,
+                },
+                pred,
+            )
+            .map(|h| ModelId(h.model))
+    };
+    let gap_y = (1.0 - pos) * (sy / 2.0 - sy * py);
+    let beam_len = (1.0 - pos) * (sy - 2.0 * sy * py);
+    for (i, inset) in [0.75 * px, 0.25 * px].into_iter().enumerate() {
+        let x = sx * (1.0 - inset) - sx / 2.0;
+        d.beams[i] = cast(x, gap_y, -FRAC_PI_2, beam_len);
+    }
+    if g.cfg.autosnatch {
+        g.cmd = if d.beams.iter().any(Option::is_some) {
+            GripperCmd::Close
+        } else {
+            GripperCmd::Open
+        };
+    }
+    let cx = (1.0 - px) * sx - sx / 2.0;
+    d.contacts[0] = cast(cx, gap_y, 0.0, px * sx);
+    d.contacts[1] = cast(cx, -gap_y, 0.0, px * sx);
+    d.paddles_stalled = false;
+    if let Some(hit) = d.contacts[0].or(d.contacts[1]) {
+        d.paddles_stalled = true;
+        if d.paddles == PaddleState::Closing && d.carrying.is_none() && g.action.is_none() {
+            let osy = v.nodes[hit.0 as usize].size[1];
+            g.close_limit = (1.0 - osy / (sy - py / 2.0)).max(0.0);
+            d.carrying = Some(hit);
+            g.action = Some(GripAction::Grasp(hit.0));
+        }
+    }
+    d.time_us = v.sim_time;
+}

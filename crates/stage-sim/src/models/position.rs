@@ -1,0 +1,311 @@
+//! `position` (spec §7): control modes, per-update velocity computation, odometry / GPS
+//! localization, and the per-step motion delta.
+
+use crate::desc::{Drive, Localization, PositionDesc};
+use crate::pose::{Pose, normalize};
+use std::f64::consts::PI;
+
+/// How the goal of a position model is interpreted (spec §7.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ControlMode {
+    /// Goal = body-frame velocity (`car`: speed and steering angle).
+    Velocity,
+    /// Goal = target pose in the odometry frame.
+    Position,
+    /// Goal = accelerations (API only).
+    Acceleration,
+}
+
+/// What a server publishes for a position model (Player `position2d` DATA_STATE).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PositionData {
+    /// Sim time of the update that produced this (µs).
+    pub time_us: u64,
+    /// Reported pose: the localization estimate (odometry or GPS frame).
+    pub pose: Pose,
+    /// Body-frame velocity `(vx, vy, 0, va)` as last computed.
+    pub velocity: Pose,
+    /// The last move was blocked (sticky while stopped).
+    pub stall: bool,
+}
+
+/// The state of one position model.
+#[derive(Clone, Debug)]
+pub struct PositionModel {
+    /// Configuration from the worldfile.
+    pub cfg: PositionDesc,
+    /// Control mode.
+    pub mode: ControlMode,
+    /// Current goal.
+    pub goal: Pose,
+    /// Body-frame velocity applied at each move.
+    pub velocity: Pose,
+    /// Localization estimate.
+    pub est: Pose,
+    /// Origin of the estimate frame.
+    pub est_origin: Pose,
+    /// Odometry error factors `(x, y, z, a)`.
+    pub odom_error: [f64; 4],
+    /// Stall flag.
+    pub stall: bool,
+    /// Power draw (W) from the last update.
+    pub watts: f64,
+    /// Published data.
+    pub data: PositionData,
+}
+
+fn clamp(v: f64, lo: f64, hi: f64) -> f64 {
+    if v < lo {
+        lo
+    } else if v > hi {
+        hi
+    } else {
+        v
+    }
+}
+
+impl PositionModel {
+    /// A model at rest with its localization origin and odometry error factors resolved.
+    pub fn new(cfg: PositionDesc, est_origin: Pose, odom_error: [f64; 4]) -> PositionModel {
+        let velocity = cfg.velocity;
+        PositionModel {
+            cfg,
+            mode: ControlMode::Velocity,
+            goal: Pose::ZERO,
+            velocity,
+            est: Pose::ZERO,
+            est_origin,
+            odom_error,
+            stall: false,
+            watts: 0.0,
+            data: PositionData::default(),
+        }
+    }
+
+    /// Sets a velocity goal (Player CMD_VEL / CMD_CAR).
+    pub fn command_velocity(&mut self, x: f64, y: f64, a: f64) {
+        self.mode = ControlMode::Velocity;
+        self.goal = Pose { x, y, z: 0.0, a };
+    }
+
+    /// Sets a position goal in the odometry frame (Player CMD_POS).
+    pub fn command_position(&mut self, x: f64, y: f64, a: f64) {
+        self.mode = ControlMode::Position;
+        self.goal = Pose { x, y, z: 0.0, a };
+    }
+
+    /// Sets an acceleration goal (API only, as in Stage).
+    pub fn command_acceleration(&mut self, x: f64, y: f64, a: f64) {
+        self.mode = ControlMode::Acceleration;
+        self.goal = Pose { x, y, z: 0.0, a };
+    }
+
+    /// Zeroes goal and velocity (the last subscriber left, spec §5.4).
+    pub fn shutdown(&mut self) {
+        self.mode = ControlMode::Velocity;
+        self.goal = Pose::ZERO;
+        self.velocity = Pose::ZERO;
+    }
+
+    /// One control update (spec §7.3): velocity from the goal, bounds, localization.
+    /// `global` is the model's current global pose, `dt` the world step (s), `mass` in kg.
+    pub fn update(&mut self, global: &Pose, dt: f64, mass: f64, time_us: u64) {
+        let g = self.goal;
+        let mut v = Pose::ZERO;
+        match self.mode {
+            ControlMode::Velocity => match self.cfg.drive {
+                Drive::Diff => {
+                    v.x = g.x;
+                    v.a = g.a;
+                }
+                Drive::Omni => {
+                    v.x = g.x;
+                    v.y = g.y;
+                    v.a = g.a;
+                }
+                Drive::Car => {
+                    v.x = g.x * g.a.cos();
+                    v.a = g.x * g.a.sin() / self.cfg.wheelbase;
+                }
+            },
+            ControlMode::Position => {
+                let ex = g.x - self.est.x;
+                let ey = g.y - self.est.y;
+                let ea = normalize(g.a - self.est.a);
+                match self.cfg.drive {
+                    Drive::Omni => {
+                        v.x = ex.min(0.4);
+                        v.y = ey.min(0.4);
+                        v.a = ea.min(1.0);
+                    }
+                    Drive::Diff => {
+                        if ex.abs() < 0.02 && ey.abs() < 0.02 {
+                            v.a = ea.max(-1.0);
+                        } else {
+                            let e = normalize(ey.atan2(ex) - self.est.a);
+                            v.a = e.max(-1.0);
+                            if e.abs() < PI / 16.0 {
+                                v.x = ex.hypot(ey).min(0.4);
+                            }
+                        }
+                    }
+                    Drive::Car => {
+                        tracing::warn!(
+                            "position mode is not supported for car drive (as in Stage)"
+                        );
+                    }
+                }
+            }
+            ControlMode::Acceleration => {
+                let b = &self.cfg.acceleration_bounds;
+                let ax = clamp(g.x, b[0], b[1]);
+                let ay = clamp(g.y, b[2], b[3]);
+                let aa = clamp(g.a, b[6], b[7]);
+                v = self.velocity;
+                match self.cfg.drive {
+                    Drive::Diff => {
+                        v.x += ax * dt;
+                        v.y = 0.0;
+                        v.a += aa * dt;
+                    }
+                    Drive::Omni => {
+                        v.x += ax * dt;
+                        v.y += ay * dt;
+                        v.a += aa * dt;
+                    }
+                    Drive::Car => {
+                        tracing::warn!("acceleration mode is not supported for car drive");
+                    }
+                }
+            }
+        }
+        self.watts = 1.0 + (v.x.abs() + v.y.abs() + v.a.abs()) * 10.0 * mass;
+        let b = &self.cfg.velocity_bounds;
+        v.x = clamp(v.x, b[0], b[1]);
+        v.y = clamp(v.y, b[2], b[3]);
+        v.z = clamp(v.z, b[4], b[5]);
+        v.a = clamp(v.a, b[6], b[7]);
+        self.velocity = v;
+
+        match self.cfg.localization {
+            Localization::Gps => {
+                let o = &self.est_origin;
+                let (s, c) = o.a.sin_cos();
+                let dx = global.x - o.x;
+                let dy = global.y - o.y;
+                self.est = Pose {
+                    x: dx * c + dy * s,
+                    y: -dx * s + dy * c,
+                    z: 0.0,
+                    a: normalize(global.a - o.a),
+                };
+            }
+            Localization::Odom => {
+                let e = &self.odom_error;
+                self.est.a = normalize(self.est.a + v.a * dt * (1.0 + e[3]));
+                let dx = v.x * dt * (1.0 + e[0]);
+                let dy = v.y * dt * (1.0 + e[1]);
+                let (s, c) = self.est.a.sin_cos();
+                // Stage's sign quirk on the lateral terms (spec §7.7) is client-visible: kept.
+                self.est.x += dx * c + dy * s;
+                self.est.y += dx * s - dy * c;
+            }
+        }
+        self.data = PositionData {
+            time_us,
+            pose: self.est,
+            velocity: self.velocity,
+            stall: self.stall,
+        };
+    }
+
+    /// The pose change for one step of `dt` seconds, or `None` when the velocity is zero.
+    pub fn step_delta(&self, dt: f64) -> Option<Pose> {
+        let v = &self.velocity;
+        if v.x == 0.0 && v.y == 0.0 && v.z == 0.0 && v.a == 0.0 {
+            return None;
+        }
+        Some(Pose {
+            x: v.x * dt,
+            y: v.y * dt,
+            z: v.z * dt,
+            a: normalize(v.a * dt),
+        })
+    }
+
+    /// Records the outcome of a move attempt.
+    pub fn set_stall(&mut self, stall: bool) {
+        self.stall = stall;
+        self.data.stall = stall;
+    }
+
+    /// Player SET_ODOM: sets the estimate (lasting only in odom mode, spec §7.8).
+    pub fn set_odom(&mut self, p: Pose) {
+        self.est = p;
+        self.data.pose = p;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(drive: Drive) -> PositionModel {
+        PositionModel::new(
+            PositionDesc {
+                drive,
+                ..PositionDesc::default()
+            },
+            Pose::ZERO,
+            [0.0; 4],
+        )
+    }
+
+    #[test]
+    fn velocity_bounds_clamp_commands() {
+        let mut p = model(Drive::Diff);
+        p.command_velocity(5.0, 3.0, 10.0);
+        p.update(&Pose::ZERO, 0.1, 0.0, 0);
+        assert_eq!(p.velocity.x, 1.0);
+        assert_eq!(p.velocity.y, 0.0, "diff drive ignores y");
+        assert!((p.velocity.a - 90f64.to_radians()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn car_drive_uses_steering_angle_and_wheelbase() {
+        let mut p = model(Drive::Car);
+        p.cfg.wheelbase = 0.5;
+        p.command_velocity(0.5, 0.0, 0.3);
+        p.update(&Pose::ZERO, 0.1, 0.0, 0);
+        assert!((p.velocity.x - 0.5 * 0.3f64.cos()).abs() < 1e-12);
+        assert!((p.velocity.a - 0.5 * 0.3f64.sin() / 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn odometry_integrates_commanded_velocity_with_lateral_sign_quirk() {
+        let mut p = model(Drive::Omni);
+        p.cfg.localization = Localization::Odom;
+        p.command_velocity(0.0, 0.5, 0.0);
+        for _ in 0..10 {
+            p.update(&Pose::ZERO, 0.1, 0.0, 0);
+        }
+        assert!(
+            (p.est.y + 0.5).abs() < 1e-9,
+            "lateral motion is integrated negated: {:?}",
+            p.est
+        );
+    }
+
+    #[test]
+    fn position_mode_diff_turns_then_drives() {
+        let mut p = model(Drive::Diff);
+        p.command_position(1.0, 1.0, 0.0);
+        p.update(&Pose::ZERO, 0.1, 0.0, 0);
+        assert_eq!(p.velocity.x, 0.0, "not facing the goal yet");
+        assert!(p.velocity.a > 0.0);
+        p.est.a = std::f64::consts::FRAC_PI_4;
+        p.cfg.localization = Localization::Odom;
+        p.update(&Pose::ZERO, 0.1, 0.0, 0);
+        assert!((p.velocity.x - 0.4).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,138 @@
+//! `ranger` and its `sensor` transducers (spec §8).
+
+use crate::desc::SensorDesc;
+use crate::rng::SimRng;
+use crate::world::View;
+
+/// One transducer's latest scan.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SensorScan {
+    /// Range per sample (m); `range.max` on a miss.
+    pub ranges: Vec<f64>,
+    /// Intensity per sample: the hit model's `ranger_return`, 0 on a miss.
+    pub intensities: Vec<f64>,
+    /// Bearing of each sample relative to the sensor heading (rad).
+    pub bearings: Vec<f64>,
+}
+
+/// A ranger's configuration and data (what a server publishes as Player `ranger` data).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RangerData {
+    /// Sim time of the update that produced the scans (µs); 0 before the first update.
+    pub time_us: u64,
+    /// Transducer configuration, in entity order.
+    pub sensors: Vec<SensorDesc>,
+    /// Latest scan per transducer (empty before the first update and after shutdown).
+    pub scans: Vec<SensorScan>,
+    /// Per transducer: cos/sin of the first ray's heading and of the angular step.
+    dirs: Vec<[f64; 4]>,
+}
+
+impl RangerData {
+    /// A ranger with the given transducers and no data yet.
+    pub fn new(sensors: Vec<SensorDesc>) -> RangerData {
+        RangerData {
+            time_us: 0,
+            sensors,
+            scans: Vec::new(),
+            dirs: Vec::new(),
+        }
+    }
+
+    /// Total rays per update.
+    pub fn ray_count(&self) -> usize {
+        self.sensors.iter().map(|s| s.samples as usize).sum()
+    }
+
+    /// Player's flattening (spec §8.3): one sensor → all its samples; several → first sample
+    /// of each.
+    pub fn player_ranges(&self) -> Vec<f64> {
+        self.flatten(|s| &s.ranges)
+    }
+
+    /// Intensities flattened like [`RangerData::player_ranges`].
+    pub fn player_intensities(&self) -> Vec<f64> {
+        self.flatten(|s| &s.intensities)
+    }
+
+    fn flatten(&self, f: impl Fn(&SensorScan) -> &Vec<f64>) -> Vec<f64> {
+        if self.scans.len() == 1 {
+            f(&self.scans[0]).clone()
+        } else {
+            self.scans
+                .iter()
+                .filter_map(|s| f(s).first().copied())
+                .collect()
+        }
+    }
+
+    /// Clears the data (shutdown).
+    pub fn clear(&mut self) {
+        self.scans.clear();
+        self.time_us = 0;
+    }
+}
+
+/// One ranger update: casts every transducer's fan from the ranger's body frame.
+pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
+    let frame = v.body_frame(m);
+    let root = v.root(m);
+    d.scans.resize_with(d.sensors.len(), SensorScan::default);
+    let (fs, fc) = frame.a.sin_cos();
+    if d.dirs.len() != d.sensors.len() {
+        d.dirs = d
+            .sensors
+            .iter()
+            .map(|s| {
+                let n = s.samples.max(1);
+                let start = if n > 1 { -s.fov / 2.0 } else { 0.0 };
+                let incr = if n > 1 { s.fov / (n - 1) as f64 } else { 0.0 };
+                let (ss, sc) = (s.pose.a + start).sin_cos();
+                let (is, ic) = incr.sin_cos();
+                [sc, ss, ic, is]
+            })
+            .collect();
+    }
+    for ((sensor, scan), dir) in d.sensors.iter().zip(d.scans.iter_mut()).zip(&d.dirs) {
+        let n = sensor.samples.max(1) as usize;
+        let incr = if n > 1 {
+            sensor.fov / (n - 1) as f64
+        } else {
+            0.0
+        };
+        let start = if n > 1 { -sensor.fov / 2.0 } else { 0.0 };
+        let sx = sensor.pose.x;
+        let sy = sensor.pose.y;
+        let ox = frame.x + sx * fc - sy * fs;
+        let oy = frame.y + sx * fs + sy * fc;
+        let oz = frame.z + sensor.pose.z + sensor.size[2] / 2.0;
+        scan.ranges.resize(n, 0.0);
+        scan.intensities.resize(n, 0.0);
+        scan.bearings.resize(n, 0.0);
+        let max = sensor.range[1];
+        // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
+        let [sc, ss, ic, is] = *dir;
+        let (mut dc, mut ds) = (fc * sc - fs * ss, fs * sc + fc * ss);
+        let pred = |h: u32| v.nodes[h as usize].ranger_return >= 0.0;
+        for t in 0..n {
+            let hit = v
+                .space
+                .raycast_dir([ox, oy], [dc, ds], max, Some(oz), root, pred);
+            let (mut r, i) = match hit {
+                Some(h) => (h.range, v.nodes[h.model as usize].ranger_return),
+                None => (max, 0.0),
+            };
+            if sensor.noise > 0.0 {
+                r = (r + rng.normal(sensor.noise)).clamp(0.0, max);
+            }
+            if sensor.noise_relative > 0.0 {
+                r *= 1.0 + rng.normal(sensor.noise_relative);
+            }
+            scan.ranges[t] = r;
+            scan.intensities[t] = i;
+            scan.bearings[t] = start + t as f64 * incr;
+            (dc, ds) = (dc * ic - ds * is, dc * is + ds * ic);
+        }
+    }
+    d.time_us = v.sim_time;
+}

@@ -1,0 +1,1098 @@
+//! The spatial engine: every body's outline in world space, a static BVH (parry2d) over the
+//! blocks of bodies that never move, and a uniform grid over the bodies that do.
+//!
+//! * Static bodies (floorplans and everything not in a robot's tree) are indexed by a parry2d
+//!   [`Bvh`] built once (binned SAH, one leaf per block). Contact queries use it directly; ray
+//!   casts walk the same tree flattened into a compact array, nearer child first, starting from
+//!   a per-cell subtree root for short rays (or skipping static geometry when none is in reach).
+//! * Dynamic bodies (robots and everything in their trees) live in a uniform grid; a moving model
+//!   re-registers only when the set of cells its box covers changes, so moves cost O(1) and the
+//!   index is never rebuilt. Rays walk it cell by cell (DDA) and stop at the first hit.
+//! * A static body that is moved later (teleported, picked up by a gripper) is switched off in
+//!   the static index (its blocks are skipped) and joins the dynamic grid.
+//!
+//! Differences from Stage's occupancy grid (spec §6): ranges are exact distances to the first
+//! edge crossed, where Stage returns the near boundary of the first grid cell that an edge was
+//! rasterised into — so Stage reads up to one cell (`resolution`, 2 cm by default, more at
+//! oblique angles) shorter, and Stage's contacts fire up to one cell early. Sub-cell bodies, which
+//! Stage drops, are kept.
+
+use parry2d::bounding_volume::Aabb as PAabb;
+use parry2d::math::Point;
+use parry2d::partitioning::{Bvh, BvhBuildStrategy, TraversalAction};
+use std::cell::Cell;
+
+use crate::geom::{Aabb, ray_segment, segments_intersect};
+
+/// One block of a body in world space: its z interval and its vertex range in [`Body::pts`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldBlock {
+    /// Lower z bound (m, world).
+    pub zmin: f64,
+    /// Upper z bound (m, world).
+    pub zmax: f64,
+    /// First vertex in the body's point list.
+    pub start: u32,
+    /// One past the last vertex.
+    pub end: u32,
+    /// Bounding box of the block's vertices.
+    pub aabb: Aabb,
+}
+
+/// A model's body in world space (polygon outlines with z ranges); empty for bodiless models.
+#[derive(Clone, Debug, Default)]
+pub struct Body {
+    /// Blocks in model order (the index is the block index used in hits).
+    pub blocks: Vec<WorldBlock>,
+    /// All vertices of all blocks, block after block.
+    pub pts: Vec<[f64; 2]>,
+    /// Bounding box of all vertices.
+    pub aabb: Aabb,
+}
+
+impl Body {
+    /// Whether the model has any outline to see or touch.
+    pub fn is_empty(&self) -> bool {
+        self.blocks.is_empty()
+    }
+
+    /// The vertices of block `b`.
+    pub fn block_pts(&self, b: usize) -> &[[f64; 2]] {
+        let blk = &self.blocks[b];
+        &self.pts[blk.start as usize..blk.end as usize]
+    }
+
+    /// Iterates the edges of block `b` (closed polygon; a 2-point block is one segment).
+    #[inline]
+    pub fn edges(&self, b: usize) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+        edges_of(self.block_pts(b))
+    }
+}
+
+/// The edges of a closed polygon (a 2-point polygon is a single segment).
+#[inline]
+fn edges_of(p: &[[f64; 2]]) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+    let n = p.len();
+    let closing = (n > 2).then(|| (p[n - 1], p[0]));
+    p.windows(2).map(|w| (w[0], w[1])).chain(closing)
+}
+
+/// A ray hit: the model, which of its blocks, and the distance from the ray origin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayHit {
+    /// Index of the model hit.
+    pub model: u32,
+    /// Index of the block hit within that model.
+    pub block: u32,
+    /// Distance from the origin (m).
+    pub range: f64,
+}
+
+/// A ray: origin, heading, maximum length and (optionally) its height for the z test.
+#[derive(Clone, Copy, Debug)]
+pub struct RayQuery {
+    /// Origin x (m).
+    pub x: f64,
+    /// Origin y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub a: f64,
+    /// Maximum length (m).
+    pub range: f64,
+    /// `Some(z)`: only blocks with `zmin ≤ z ≤ zmax` stop the ray (Stage's `ztest`).
+    pub z: Option<f64>,
+}
+
+/// A static block: its model, block index, z interval and vertex range in `StaticIndex::pts`.
+#[derive(Clone, Copy)]
+struct StaticBlock {
+    model: u32,
+    block: u32,
+    zmin: f64,
+    zmax: f64,
+    start: u32,
+    end: u32,
+}
+
+/// The static bodies' blocks in a parry2d BVH (one leaf per block), with their outlines in
+/// one flat vertex array.
+struct StaticIndex {
+    blocks: Vec<StaticBlock>,
+    pts: Vec<[f64; 2]>,
+    bvh: Bvh,
+    /// The same tree, flattened for the ray loop (see [`FlatBvh`]).
+    flat: FlatBvh,
+    /// Per-cell start nodes for short rays.
+    starts: Option<StartCells>,
+}
+
+/// A child reference in [`FlatBvh`]: a node index, or a leaf (top bit set) with its data.
+const LEAF_BIT: u32 = 1 << 31;
+
+/// Parry's BVH copied into a compact array of two-child nodes (both children's boxes stored in
+/// the parent, as parry does), so rays can walk it near-child-first with a plain loop instead of
+/// through parry's generic closures: same tree, same boxes, about twice as fast per ray.
+#[derive(Default)]
+struct FlatBvh {
+    /// `[lminx, lminy, lmaxx, lmaxy, rminx, rminy, rmaxx, rmaxy]` per node.
+    boxes: Vec<[f32; 8]>,
+    /// `[left, right]` child references.
+    kids: Vec<[u32; 2]>,
+    /// A single leaf (a tree of one block has no two-child node).
+    lone: Option<([f32; 4], u32)>,
+    /// Parent of each node (`u32::MAX` for the root, node 0).
+    parent: Vec<u32>,
+    /// Depth of each node (root 0).
+    depth: Vec<u32>,
+    /// The node holding each leaf (by leaf data) as a child.
+    leaf_parent: Vec<u32>,
+}
+
+/// Where static ray walks start: for each 1 m cell of the static bounds and each ray-length tier,
+/// the lowest BVH node whose subtree holds every static block within that length of the cell
+/// (the common ancestor of those leaves), or [`NO_STATIC`] when there is none. Short rays then
+/// skip the descent from the root, and rays in open space skip the static walk altogether.
+struct StartCells {
+    origin: [f64; 2],
+    nx: i32,
+    ny: i32,
+    /// `starts[tier][cell]`.
+    starts: Vec<Vec<u32>>,
+}
+
+/// Ray-length tiers (m) of [`StartCells`]; longer rays start at the root.
+const START_TIERS: [f64; 3] = [1.0, 2.5, 5.5];
+/// Start-cell edge (m).
+const START_CELL: f64 = 1.0;
+/// A start cell with no static block in reach.
+const NO_STATIC: u32 = u32::MAX;
+
+impl StartCells {
+    fn build(bvh: &Bvh, flat: &FlatBvh, bounds: Aabb) -> Option<StartCells> {
+        if flat.lone.is_some() || flat.boxes.is_empty() || bounds.is_empty() {
+            return None;
+        }
+        let reach = START_TIERS[START_TIERS.len() - 1];
+        let origin = [bounds.min[0] - reach, bounds.min[1] - reach];
+        let nx = ((bounds.max[0] + reach - origin[0]) / START_CELL).ceil() as i64;
+        let ny = ((bounds.max[1] + reach - origin[1]) / START_CELL).ceil() as i64;
+        if nx * ny > 4_000_000 {
+            return None; // a huge sparse world: start every walk at the root
+        }
+        let (nx, ny) = (nx as i32, ny as i32);
+        let mut starts = Vec::with_capacity(START_TIERS.len());
+        for &r in &START_TIERS {
+            let mut tier = vec![NO_STATIC; (nx * ny) as usize];
+            for cy in 0..ny {
+                for cx in 0..nx {
+                    let x0 = origin[0] + cx as f64 * START_CELL - r;
+                    let y0 = origin[1] + cy as f64 * START_CELL - r;
+                    let q = PAabb::new(
+                        Point::new((x0 - AABB_PAD) as f32, (y0 - AABB_PAD) as f32),
+                        Point::new(
+                            (x0 + START_CELL + 2.0 * r + AABB_PAD) as f32,
+                            (y0 + START_CELL + 2.0 * r + AABB_PAD) as f32,
+                        ),
+                    );
+                    let mut lca = NO_STATIC;
+                    for leaf in bvh.intersect_aabb(&q) {
+                        let p = flat.leaf_parent[leaf as usize];
+                        lca = if lca == NO_STATIC {
+                            p
+                        } else {
+                            flat.common_ancestor(lca, p)
+                        };
+                        if lca == 0 {
+                            break;
+                        }
+                    }
+                    tier[(cy * nx + cx) as usize] = lca;
+                }
+            }
+            starts.push(tier);
+        }
+        Some(StartCells {
+            origin,
+            nx,
+            ny,
+            starts,
+        })
+    }
+
+    /// The start node for a ray from `o` of length `range`: `Some(node)` (0 = root) or `None`
+    /// when no static block is in reach.
+    #[inline]
+    fn start(&self, o: [f64; 2], range: f64) -> Option<u32> {
+        let Some(tier) = START_TIERS.iter().position(|&r| range <= r) else {
+            return Some(0);
+        };
+        let cx = ((o[0] - self.origin[0]) / START_CELL).floor();
+        let cy = ((o[1] - self.origin[1]) / START_CELL).floor();
+        if !(cx >= 0.0 && cy >= 0.0 && cx < self.nx as f64 && cy < self.ny as f64) {
+            return Some(0);
+        }
+        match self.starts[tier][(cy as i32 * self.nx + cx as i32) as usize] {
+            NO_STATIC => None,
+            n => Some(n),
+        }
+    }
+}
+
+impl FlatBvh {
+    /// Lowest common ancestor of two nodes.
+    fn common_ancestor(&self, mut a: u32, mut b: u32) -> u32 {
+        while self.depth[a as usize] > self.depth[b as usize] {
+            a = self.parent[a as usize];
+        }
+        while self.depth[b as usize] > self.depth[a as usize] {
+            b = self.parent[b as usize];
+        }
+        while a != b {
+            a = self.parent[a as usize];
+            b = self.parent[b as usize];
+        }
+        a
+    }
+
+    /// Rebuilds parry's topology from a full depth-first [`Bvh::traverse`], which calls back
+    /// each node's left then right child and then descends (left first, right deferred on a
+    /// stack); replaying that stack discipline pairs each callback with its parent.
+    fn from_parry(bvh: &Bvh, leaves: usize) -> FlatBvh {
+        let mut out = FlatBvh {
+            leaf_parent: vec![0; leaves],
+            ..FlatBvh::default()
+        };
+        let mut seen: Vec<([f32; 4], Option<u32>, bool)> = Vec::new();
+        bvh.traverse(|node| {
+            let mn = node.mins();
+            let mx = node.maxs();
+            seen.push(([mn.x, mn.y, mx.x, mx.y], node.leaf_data(), node.is_leaf()));
+            TraversalAction::Continue
+        });
+        if seen.len() == 1 {
+            let (b, data, _) = seen[0];
+            out.lone = Some((b, data.unwrap_or(0)));
+            return out;
+        }
+        // replay: callbacks come in (left, right) pairs, one pair per visited node
+        let mut owner_stack: Vec<u32> = Vec::new();
+        let mut owner: Option<u32> = None; // node whose children this pair describes
+        for pair in seen.chunks(2) {
+            let [(lb, ld, ll), (rb, rd, rl)] = [pair[0], pair[1]];
+            let me = out.boxes.len() as u32;
+            out.boxes
+                .push([lb[0], lb[1], lb[2], lb[3], rb[0], rb[1], rb[2], rb[3]]);
+            out.kids.push([
+                if ll { LEAF_BIT | ld.unwrap_or(0) } else { 0 },
+                if rl { LEAF_BIT | rd.unwrap_or(0) } else { 0 },
+            ]);
+            for (is_leaf, data) in [(ll, ld), (rl, rd)] {
+                if let (true, Some(l)) = (is_leaf, data) {
+                    if let Some(slot) = out.leaf_parent.get_mut(l as usize) {
+                        *slot = me;
+                    }
+                }
+            }
+            match owner.map(|o| (o >> 1, (o & 1) as usize)) {
+                Some((parent, side)) => {
+                    out.kids[parent as usize][side] = me;
+                    out.parent.push(parent);
+                    let d = out.depth[parent as usize] + 1;
+                    out.depth.push(d);
+                }
+                None => {
+                    out.parent.push(u32::MAX);
+                    out.depth.push(0);
+                }
+            }
+            // where the next pair goes, mirroring parry's traversal
+            match (!ll, !rl) {
+                (true, true) => {
+                    owner = Some(me << 1);
+                    owner_stack.push((me << 1) | 1);
+                }
+                (true, false) => owner = Some(me << 1),
+                (false, true) => owner = Some((me << 1) | 1),
+                (false, false) => owner = owner_stack.pop(),
+            }
+        }
+        out
+    }
+}
+
+const AABB_PAD: f64 = 1e-4;
+
+impl StaticIndex {
+    fn build(bodies: &[Body], dynamic: &[bool]) -> StaticIndex {
+        let mut blocks = Vec::new();
+        let mut pts = Vec::new();
+        let mut leaves = Vec::new();
+        for (m, body) in bodies.iter().enumerate() {
+            if dynamic[m] {
+                continue;
+            }
+            for (bi, wb) in body.blocks.iter().enumerate() {
+                let p = body.block_pts(bi);
+                let start = pts.len() as u32;
+                pts.extend_from_slice(p);
+                let mut bb = Aabb::EMPTY;
+                p.iter().for_each(|q| bb.add(*q));
+                leaves.push(PAabb::new(
+                    Point::new((bb.min[0] - AABB_PAD) as f32, (bb.min[1] - AABB_PAD) as f32),
+                    Point::new((bb.max[0] + AABB_PAD) as f32, (bb.max[1] + AABB_PAD) as f32),
+                ));
+                blocks.push(StaticBlock {
+                    model: m as u32,
+                    block: bi as u32,
+                    zmin: wb.zmin,
+                    zmax: wb.zmax,
+                    start,
+                    end: pts.len() as u32,
+                });
+            }
+        }
+        let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+        let flat = FlatBvh::from_parry(&bvh, blocks.len());
+        let mut bounds = Aabb::EMPTY;
+        pts.iter().for_each(|p| bounds.add(*p));
+        let starts = StartCells::build(&bvh, &flat, bounds);
+        StaticIndex {
+            blocks,
+            pts,
+            bvh,
+            flat,
+            starts,
+        }
+    }
+
+    /// Edges of static block `i`.
+    #[inline]
+    fn edges(&self, i: usize) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+        let b = &self.blocks[i];
+        edges_of(&self.pts[b.start as usize..b.end as usize])
+    }
+}
+
+/// The uniform grid holding dynamic bodies (model indices per cell).
+struct DynGrid {
+    origin: [f64; 2],
+    cell: f64,
+    inv_cell: f64,
+    nx: i32,
+    ny: i32,
+    cells: Vec<Vec<u32>>,
+    /// Models whose box leaves the grid: tested by every query.
+    overflow: Vec<u32>,
+    /// Registered cell range per model (`None`: not registered or in `overflow`).
+    span: Vec<Option<[i32; 4]>>,
+    in_overflow: Vec<bool>,
+}
+
+impl DynGrid {
+    fn new(bounds: Aabb, cell: f64, nmodels: usize) -> DynGrid {
+        let (origin, nx, ny) = if bounds.is_empty() {
+            ([0.0, 0.0], 1, 1)
+        } else {
+            let nx = (((bounds.max[0] - bounds.min[0]) / cell).ceil() as i64).clamp(1, 4096) as i32;
+            let ny = (((bounds.max[1] - bounds.min[1]) / cell).ceil() as i64).clamp(1, 4096) as i32;
+            (bounds.min, nx, ny)
+        };
+        DynGrid {
+            origin,
+            cell,
+            inv_cell: 1.0 / cell,
+            nx,
+            ny,
+            cells: vec![Vec::new(); (nx * ny) as usize],
+            overflow: Vec::new(),
+            span: vec![None; nmodels],
+            in_overflow: vec![false; nmodels],
+        }
+    }
+
+    #[inline]
+    fn cell_of(&self, p: [f64; 2]) -> [i32; 2] {
+        [
+            ((p[0] - self.origin[0]) * self.inv_cell).floor() as i32,
+            ((p[1] - self.origin[1]) * self.inv_cell).floor() as i32,
+        ]
+    }
+
+    fn span_of(&self, b: &Aabb) -> Option<[i32; 4]> {
+        let lo = self.cell_of(b.min);
+        let hi = self.cell_of(b.max);
+        (lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.nx && hi[1] < self.ny)
+            .then_some([lo[0], lo[1], hi[0], hi[1]])
+    }
+
+    fn remove(&mut self, m: u32) {
+        if let Some([x0, y0, x1, y1]) = self.span[m as usize].take() {
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let c = &mut self.cells[(y * self.nx + x) as usize];
+                    if let Some(i) = c.iter().position(|&v| v == m) {
+                        c.remove(i);
+                    }
+                }
+            }
+        }
+        if self.in_overflow[m as usize] {
+            self.in_overflow[m as usize] = false;
+            self.overflow.retain(|&v| v != m);
+        }
+    }
+
+    /// Registers (or re-registers) model `m` with box `b`.
+    fn update(&mut self, m: u32, b: &Aabb) {
+        if b.is_empty() {
+            self.remove(m);
+            return;
+        }
+        let new = self.span_of(b);
+        if new.is_some() && new == self.span[m as usize] {
+            return;
+        }
+        if new.is_none() && self.in_overflow[m as usize] {
+            return;
+        }
+        self.remove(m);
+        match new {
+            Some([x0, y0, x1, y1]) => {
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        self.cells[(y * self.nx + x) as usize].push(m);
+                    }
+                }
+                self.span[m as usize] = new;
+            }
+            None => {
+                self.in_overflow[m as usize] = true;
+                self.overflow.push(m);
+            }
+        }
+    }
+}
+
+/// Every body in world space plus the two indices; see the module docs.
+pub struct Space {
+    bodies: Vec<Body>,
+    /// Root of each model's tree (models with equal roots are related and never see each other).
+    roots: Vec<u32>,
+    /// Each body's box, densely packed for the hot ray loop.
+    aabbs: Vec<Aabb>,
+    /// Every model ever registered in the dynamic grid (a short list is scanned directly).
+    members: Vec<u32>,
+    is_member: Vec<bool>,
+    is_static: Vec<bool>,
+    static_live: Vec<bool>,
+    statics: StaticIndex,
+    grid: DynGrid,
+}
+
+/// `skip_root` value that skips no tree.
+pub const NO_ROOT: u32 = u32::MAX;
+
+/// Dynamic sets up to this size are scanned directly instead of walking the grid.
+const SMALL_DYNAMIC_SET: usize = 24;
+
+/// Edge of the dynamic grid's cells: four typical (median) moving bodies across, within
+/// `[0.25, 2]` m — small enough that a cell holds few robots, large enough that short sensor
+/// rays cross few cells.
+fn dynamic_cell(bodies: &[Body], dynamic: &[bool]) -> f64 {
+    let mut ext: Vec<f64> = bodies
+        .iter()
+        .zip(dynamic)
+        .filter(|(b, d)| **d && !b.is_empty())
+        .map(|(b, _)| (b.aabb.max[0] - b.aabb.min[0]).max(b.aabb.max[1] - b.aabb.min[1]))
+        .collect();
+    if ext.is_empty() {
+        return 1.0;
+    }
+    let mid = ext.len() / 2;
+    ext.select_nth_unstable_by(mid, f64::total_cmp);
+    (4.0 * ext[mid]).clamp(0.25, 2.0)
+}
+
+impl Space {
+    /// Builds the indices from every model's world-space body; `dynamic[m]` says whether model
+    /// `m` can move (it is in a robot's tree).
+    pub fn new(bodies: Vec<Body>, dynamic: &[bool], roots: Vec<u32>) -> Space {
+        let n = bodies.len();
+        let mut bounds = Aabb::EMPTY;
+        for body in &bodies {
+            bounds.merge(&body.aabb);
+        }
+        if !bounds.is_empty() {
+            bounds.min[0] -= 10.0;
+            bounds.min[1] -= 10.0;
+            bounds.max[0] += 10.0;
+            bounds.max[1] += 10.0;
+        }
+        let mut grid = DynGrid::new(bounds, dynamic_cell(&bodies, dynamic), n);
+        let mut members = Vec::new();
+        let mut is_member = vec![false; n];
+        for (m, body) in bodies.iter().enumerate() {
+            if dynamic[m] && !body.is_empty() {
+                grid.update(m as u32, &body.aabb);
+                members.push(m as u32);
+                is_member[m] = true;
+            }
+        }
+        Space {
+            roots,
+            aabbs: bodies.iter().map(|b| b.aabb).collect(),
+            members,
+            is_member,
+            is_static: dynamic.iter().map(|d| !d).collect(),
+            static_live: dynamic.iter().map(|d| !d).collect(),
+            statics: StaticIndex::build(&bodies, dynamic),
+            bodies,
+            grid,
+        }
+    }
+
+    /// Records that model `m` now belongs to the tree rooted at `root` (re-parenting).
+    pub fn set_root(&mut self, m: u32, root: u32) {
+        self.roots[m as usize] = root;
+    }
+
+    /// The world-space body of model `m`.
+    pub fn body(&self, m: u32) -> &Body {
+        &self.bodies[m as usize]
+    }
+
+    /// All bodies, indexed by model.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+
+    /// Number of blocks in the static index.
+    pub fn static_block_count(&self) -> usize {
+        self.statics.blocks.len()
+    }
+
+    /// Replaces model `m`'s body after it moved, updating the dynamic index incrementally.
+    /// A static body that moves leaves the static index for good and joins the grid.
+    pub fn set_body(&mut self, m: u32, body: Body) {
+        let i = m as usize;
+        if self.static_live[i] {
+            self.static_live[i] = false;
+        }
+        self.is_static[i] = false;
+        self.grid.update(m, &body.aabb);
+        self.aabbs[i] = body.aabb;
+        self.bodies[i] = body;
+        self.note_member(m);
+    }
+
+    /// Mutable access to a body's storage for in-place refresh; call [`Space::commit_body`] after.
+    pub fn body_mut(&mut self, m: u32) -> &mut Body {
+        let i = m as usize;
+        self.static_live[i] = false;
+        self.is_static[i] = false;
+        &mut self.bodies[i]
+    }
+
+    /// Re-registers model `m` in the dynamic index after [`Space::body_mut`] changed it.
+    pub fn commit_body(&mut self, m: u32) {
+        let aabb = self.bodies[m as usize].aabb;
+        self.grid.update(m, &aabb);
+        self.aabbs[m as usize] = aabb;
+        self.note_member(m);
+    }
+
+    fn note_member(&mut self, m: u32) {
+        if !self.is_member[m as usize] && !self.bodies[m as usize].is_empty() {
+            self.is_member[m as usize] = true;
+            self.members.push(m);
+        }
+    }
+
+    /// Casts a ray; `accept(model)` decides which models can stop it (Stage's match predicate).
+    /// Returns the nearest accepted edge crossing whose block passes the z test.
+    pub fn raycast(&self, q: &RayQuery, accept: impl Fn(u32) -> bool) -> Option<RayHit> {
+        let (s, c) = q.a.sin_cos();
+        self.raycast_dir([q.x, q.y], [c, s], q.range, q.z, NO_ROOT, accept)
+    }
+
+    /// [`Space::raycast`] with the unit direction given (saves the sine/cosine per ray when a
+    /// caller sweeps a fan), skipping every model whose tree root is `skip_root` (the caster's
+    /// own tree; [`NO_ROOT`] skips nothing) before `accept` is asked.
+    pub fn raycast_dir(
+        &self,
+        o: [f64; 2],
+        d: [f64; 2],
+        range: f64,
+        z: Option<f64>,
+        skip_root: u32,
+        accept: impl Fn(u32) -> bool,
+    ) -> Option<RayHit> {
+        let zok = |zmin: f64, zmax: f64| match z {
+            Some(z) => !(z < zmin || z > zmax),
+            None => true,
+        };
+        let inv = [1.0 / d[0], 1.0 / d[1]];
+        let best_t = range;
+        let best: Option<RayHit> = None;
+
+        // dynamic bodies first: in crowds their hits are near and bound the static walk
+        let best_t = Cell::new(best_t);
+        let best = Cell::new(best);
+        let mut consider = |m: u32| {
+            let tmax = best_t.get();
+            if self.roots[m as usize] == skip_root
+                || self.aabbs[m as usize].ray_entry(o, inv, tmax).is_none()
+                || !accept(m)
+            {
+                return;
+            }
+            let body = &self.bodies[m as usize];
+            let mut bt = tmax;
+            let mut bb = None;
+            for (bi, blk) in body.blocks.iter().enumerate() {
+                if !zok(blk.zmin, blk.zmax) || blk.aabb.ray_entry(o, inv, bt).is_none() {
+                    continue;
+                }
+                for (a, b) in body.edges(bi) {
+                    if let Some(t) = ray_segment(o, d, a, b, bt) {
+                        if bb.is_none() || t < bt {
+                            bt = t;
+                            bb = Some(bi as u32);
+                        }
+                    }
+                }
+            }
+            if let Some(b) = bb {
+                let cur = best.get();
+                if bt < tmax || cur.is_none_or(|h| m < h.model) {
+                    best_t.set(bt);
+                    best.set(Some(RayHit {
+                        model: m,
+                        block: b,
+                        range: bt,
+                    }));
+                }
+            }
+        };
+        if self.members.len() <= SMALL_DYNAMIC_SET {
+            for &m in &self.members {
+                consider(m);
+            }
+        } else {
+            for &m in &self.grid.overflow {
+                consider(m);
+            }
+            self.walk_grid(o, d, &best_t, &mut consider);
+        }
+        let mut best_t = best_t.get();
+        let mut best = best.get();
+
+        // static blocks: near-child-first walk of the flattened parry BVH
+        if !self.statics.blocks.is_empty() {
+            let st = &self.statics;
+            let (ox, oy) = (o[0] as f32, o[1] as f32);
+            let (ix, iy) = (inv[0] as f32, inv[1] as f32);
+            let slab = |b: &[f32], lim: f32| -> f32 {
+                let (a0, a1) = ((b[0] - ox) * ix, (b[2] - ox) * ix);
+                let (b0, b1) = ((b[1] - oy) * iy, (b[3] - oy) * iy);
+                let tmin = a0.min(a1).max(b0.min(b1)).max(0.0);
+                let tmax = a0.max(a1).min(b0.max(b1)).min(lim);
+                // NaN (0·inf on a face of a flat box) compares false: the box is kept
+                if tmin > tmax { f32::INFINITY } else { tmin }
+            };
+            let leaf = |l: u32, best_t: &mut f64, best: &mut Option<RayHit>| {
+                let sb = &st.blocks[l as usize];
+                if !zok(sb.zmin, sb.zmax)
+                    || !self.static_live[sb.model as usize]
+                    || self.roots[sb.model as usize] == skip_root
+                {
+                    return;
+                }
+                let mut hit: Option<f64> = None;
+                for (a, b) in st.edges(l as usize) {
+                    if let Some(t) = ray_segment(o, d, a, b, *best_t) {
+                        if hit.is_none_or(|h| t < h) {
+                            hit = Some(t);
+                        }
+                    }
+                }
+                let Some(t) = hit else { return };
+                let better = match best {
+                    None => true,
+                    Some(h) => t < h.range || (t == h.range && sb.model < h.model),
+                };
+                if better && accept(sb.model) {
+                    *best_t = t;
+                    *best = Some(RayHit {
+                        model: sb.model,
+                        block: sb.block,
+                        range: t,
+                    });
+                }
+            };
+            let pad = |t: f64| t as f32 + 1e-3;
+            if let Some((b, l)) = st.flat.lone {
+                if slab(&b, pad(best_t)).is_finite() {
+                    leaf(l, &mut best_t, &mut best);
+                }
+            } else if let Some(start) = st.starts.as_ref().map_or(Some(0), |c| c.start(o, range)) {
+                let mut stack: [(u32, f32); 32] = [(0, 0.0); 32];
+                stack[0] = (start, 0.0);
+                let mut spill: Vec<(u32, f32)> = Vec::new(); // only for trees deeper than 32
+                let mut sp = 1usize;
+                loop {
+                    let (node, entry) = if let Some(x) = spill.pop() {
+                        x
+                    } else if sp > 0 {
+                        sp -= 1;
+                        stack[sp]
+                    } else {
+                        break;
+                    };
+                    if entry > pad(best_t) {
+                        continue;
+                    }
+                    let bx = &st.flat.boxes[node as usize];
+                    let kids = st.flat.kids[node as usize];
+                    let lim = pad(best_t);
+                    let tl = slab(&bx[0..4], lim);
+                    let tr = slab(&bx[4..8], lim);
+                    // branch-free near/far ordering: the comparison is a coin flip per node
+                    let ts = [tl, tr];
+                    let i = (tr < tl) as usize;
+                    let (kn, tn) = (kids[i], ts[i]);
+                    let (kf, tf) = (kids[i ^ 1], ts[i ^ 1]);
+                    // leaves now, nearer first (a missed box has t = ∞ > lim)
+                    if kn & LEAF_BIT != 0 && tn <= lim {
+                        leaf(kn & !LEAF_BIT, &mut best_t, &mut best);
+                    }
+                    if kf & LEAF_BIT != 0 && tf <= pad(best_t) {
+                        leaf(kf & !LEAF_BIT, &mut best_t, &mut best);
+                    }
+                    // inner nodes pushed farther first; a slot is written anyway and kept or not
+                    if sp + 2 <= stack.len() {
+                        stack[sp] = (kf, tf);
+                        sp += (kf & LEAF_BIT == 0 && tf <= lim) as usize;
+                        stack[sp] = (kn, tn);
+                        sp += (kn & LEAF_BIT == 0 && tn <= lim) as usize;
+                    } else {
+                        for (k, t) in [(kf, tf), (kn, tn)] {
+                            if k & LEAF_BIT == 0 && t <= lim {
+                                spill.push((k, t));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+
+        best
+    }
+
+    /// Visits the grid cells along the ray (DDA) in order, until the cell entry distance passes
+    /// the best hit so far.
+    fn walk_grid(&self, o: [f64; 2], d: [f64; 2], best_t: &Cell<f64>, visit: &mut impl FnMut(u32)) {
+        let g = &self.grid;
+        let gmin = g.origin;
+        let gmax = [
+            g.origin[0] + g.nx as f64 * g.cell,
+            g.origin[1] + g.ny as f64 * g.cell,
+        ];
+        let inv = [1.0 / d[0], 1.0 / d[1]];
+        let bounds = Aabb {
+            min: gmin,
+            max: gmax,
+        };
+        let Some(t_enter) = bounds.ray_entry(o, inv, best_t.get()) else {
+            return;
+        };
+        let p = [o[0] + d[0] * t_enter, o[1] + d[1] * t_enter];
+        let c0 = g.cell_of(p);
+        let mut cx = c0[0].clamp(0, g.nx - 1);
+        let mut cy = c0[1].clamp(0, g.ny - 1);
+        let step_x = if d[0] >= 0.0 { 1 } else { -1 };
+        let step_y = if d[1] >= 0.0 { 1 } else { -1 };
+        let next_boundary = |c: i32, k: usize, step: i32| -> f64 {
+            let edge = g.origin[k] + (c + if step > 0 { 1 } else { 0 }) as f64 * g.cell;
+            (edge - o[k]) * inv[k]
+        };
+        let mut t_max_x = if d[0] == 0.0 {
+            f64::INFINITY
+        } else {
+            next_boundary(cx, 0, step_x)
+        };
+        let mut t_max_y = if d[1] == 0.0 {
+            f64::INFINITY
+        } else {
+            next_boundary(cy, 1, step_y)
+        };
+        let t_dx = (g.cell * inv[0]).abs();
+        let t_dy = (g.cell * inv[1]).abs();
+        let mut t_cell;
+        loop {
+            for &m in &g.cells[(cy * g.nx + cx) as usize] {
+                visit(m);
+            }
+            if t_max_x < t_max_y {
+                t_cell = t_max_x;
+                cx += step_x;
+                t_max_x += t_dx;
+            } else {
+                t_cell = t_max_y;
+                cy += step_y;
+                t_max_y += t_dy;
+            }
+            if cx < 0 || cy < 0 || cx >= g.nx || cy >= g.ny || t_cell > best_t.get() {
+                return;
+            }
+        }
+    }
+
+    /// Collects every accepted crossing along a ray (any z), nearest first, up to `max_hits`:
+    /// used by the camera, which resolves heights per pixel.
+    pub fn raycast_all(&self, q: &RayQuery, accept: impl Fn(u32) -> bool, out: &mut Vec<RayHit>) {
+        out.clear();
+        let (s, c) = q.a.sin_cos();
+        let d = [c, s];
+        let o = [q.x, q.y];
+        let inv = [1.0 / d[0], 1.0 / d[1]];
+        let mut probe = Aabb::EMPTY;
+        probe.add(o);
+        probe.add([o[0] + d[0] * q.range, o[1] + d[1] * q.range]);
+        let pa = PAabb::new(
+            Point::new(probe.min[0] as f32 - 1e-3, probe.min[1] as f32 - 1e-3),
+            Point::new(probe.max[0] as f32 + 1e-3, probe.max[1] as f32 + 1e-3),
+        );
+        for leaf in self.statics.bvh.intersect_aabb(&pa) {
+            let sb = self.statics.blocks[leaf as usize];
+            if !self.static_live[sb.model as usize] || !accept(sb.model) {
+                continue;
+            }
+            for (a, b) in self.statics.edges(leaf as usize) {
+                if let Some(t) = ray_segment(o, d, a, b, q.range) {
+                    out.push(RayHit {
+                        model: sb.model,
+                        block: sb.block,
+                        range: t,
+                    });
+                }
+            }
+        }
+        let mut seen: Vec<u32> = Vec::new();
+        let far = Cell::new(q.range);
+        let mut visit = |m: u32| {
+            if seen.contains(&m) || !accept(m) {
+                return;
+            }
+            seen.push(m);
+            let body = &self.bodies[m as usize];
+            if body.aabb.ray_entry(o, inv, q.range).is_none() {
+                return;
+            }
+            for bi in 0..body.blocks.len() {
+                for (a, b) in body.edges(bi) {
+                    if let Some(t) = ray_segment(o, d, a, b, q.range) {
+                        out.push(RayHit {
+                            model: m,
+                            block: bi as u32,
+                            range: t,
+                        });
+                    }
+                }
+            }
+        };
+        for &m in &self.grid.overflow {
+            visit(m);
+        }
+        self.walk_grid(o, d, &far, &mut visit);
+        out.sort_by(|a, b| {
+            a.range
+                .total_cmp(&b.range)
+                .then(a.model.cmp(&b.model))
+                .then(a.block.cmp(&b.block))
+        });
+    }
+
+    /// Contact test for a set of models (a moving model and its descendants): returns the first
+    /// other model whose outline intersects one of theirs with overlapping z intervals and that
+    /// `accept` admits (unrelated, `obstacle_return`). `None`: no contact.
+    pub fn first_contact(
+        &self,
+        movers: &[u32],
+        cand: &mut Vec<u32>,
+        accept: impl Fn(u32) -> bool,
+    ) -> Option<u32> {
+        let mut best: Option<u32> = None;
+        for &m in movers {
+            let body = &self.bodies[m as usize];
+            if body.is_empty() {
+                continue;
+            }
+            let bb = body.aabb;
+            // static edges near the mover
+            let pa = PAabb::new(
+                Point::new((bb.min[0] - AABB_PAD) as f32, (bb.min[1] - AABB_PAD) as f32),
+                Point::new((bb.max[0] + AABB_PAD) as f32, (bb.max[1] + AABB_PAD) as f32),
+            );
+            for leaf in self.statics.bvh.intersect_aabb(&pa) {
+                let sb = self.statics.blocks[leaf as usize];
+                if !self.static_live[sb.model as usize]
+                    || best.is_some_and(|b| sb.model >= b)
+                    || !accept(sb.model)
+                {
+                    continue;
+                }
+                if self
+                    .statics
+                    .edges(leaf as usize)
+                    .any(|(a, b)| self.edge_hits_body(body, a, b, sb.zmin, sb.zmax))
+                {
+                    best = Some(sb.model);
+                }
+            }
+            // dynamic bodies near the mover
+            cand.clear();
+            let g = &self.grid;
+            match g.span_of(&bb) {
+                Some([x0, y0, x1, y1]) => {
+                    for y in y0..=y1 {
+                        for x in x0..=x1 {
+                            cand.extend_from_slice(&g.cells[(y * g.nx + x) as usize]);
+                        }
+                    }
+                }
+                None => {
+                    // the mover is (partly) outside the grid: test every registered model
+                    for c in &g.cells {
+                        cand.extend_from_slice(c);
+                    }
+                }
+            }
+            cand.extend_from_slice(&g.overflow);
+            cand.sort_unstable();
+            cand.dedup();
+            for &o in cand.iter() {
+                if o == m || best.is_some_and(|b| o >= b) {
+                    continue;
+                }
+                let ob = &self.bodies[o as usize];
+                if !ob.aabb.intersects(&bb) || !accept(o) {
+                    continue;
+                }
+                'blocks: for (bi, blk) in ob.blocks.iter().enumerate() {
+                    for (a, b) in ob.edges(bi) {
+                        if self.edge_hits_body(body, a, b, blk.zmin, blk.zmax) {
+                            best = Some(o);
+                            break 'blocks;
+                        }
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    fn edge_hits_body(&self, body: &Body, a: [f64; 2], b: [f64; 2], zmin: f64, zmax: f64) -> bool {
+        let mut eb = Aabb::EMPTY;
+        eb.add(a);
+        eb.add(b);
+        if !eb.intersects(&body.aabb) {
+            return false;
+        }
+        for (bi, blk) in body.blocks.iter().enumerate() {
+            // inclusive z overlap (block.cc TestCollision); NaN bounds never overlap
+            if !(zmin <= blk.zmax && zmax >= blk.zmin && eb.intersects(&blk.aabb)) {
+                continue;
+            }
+            for (p, q) in body.edges(bi) {
+                if segments_intersect(p, q, a, b) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Models whose bodies are registered as static (never moved).
+    pub fn is_static(&self, m: u32) -> bool {
+        self.is_static[m as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::SimRng;
+
+    fn rect_body(x: f64, y: f64, w: f64, h: f64) -> Body {
+        let pts = vec![[x, y], [x + w, y], [x + w, y + h], [x, y + h]];
+        let mut aabb = Aabb::EMPTY;
+        pts.iter().for_each(|p| aabb.add(*p));
+        Body {
+            blocks: vec![WorldBlock {
+                zmin: 0.0,
+                zmax: 1.0,
+                start: 0,
+                end: 4,
+                aabb,
+            }],
+            pts,
+            aabb,
+        }
+    }
+
+    /// The BVH walk and the grid walk together find exactly what a brute-force scan of every
+    /// edge finds.
+    #[test]
+    fn static_ray_casts_match_brute_force() {
+        let mut rng = SimRng::new(5, 5);
+        for count in [1usize, 2, 3, 7, 100, 2000] {
+            let bodies: Vec<Body> = (0..count)
+                .map(|_| {
+                    rect_body(
+                        rng.uniform(-20.0, 20.0),
+                        rng.uniform(-20.0, 20.0),
+                        rng.uniform(0.0, 2.0),
+                        rng.uniform(0.0, 2.0),
+                    )
+                })
+                .collect();
+            let n = bodies.len();
+            // every third body is dynamic (grid), the rest static (BVH)
+            let dynamic: Vec<bool> = (0..n).map(|i| i % 3 == 1).collect();
+            let space = Space::new(bodies.clone(), &dynamic, (0..n as u32).collect());
+            for k in 0..600 {
+                // half short rays (they start below the BVH root), half long ones
+                let range = if k % 2 == 0 {
+                    rng.uniform(0.1, 6.0)
+                } else {
+                    rng.uniform(0.5, 30.0)
+                };
+                let q = RayQuery {
+                    x: rng.uniform(-30.0, 30.0),
+                    y: rng.uniform(-30.0, 30.0),
+                    a: rng.uniform(-4.0, 4.0),
+                    range,
+                    z: Some(0.5),
+                };
+                let got = space.raycast(&q, |_| true);
+                let (s, c) = q.a.sin_cos();
+                let mut want: Option<(f64, u32)> = None;
+                for (m, b) in bodies.iter().enumerate() {
+                    for (p, r) in b.edges(0) {
+                        if let Some(t) = ray_segment([q.x, q.y], [c, s], p, r, q.range) {
+                            if want.is_none_or(|(bt, bm)| t < bt || (t == bt && (m as u32) < bm)) {
+                                want = Some((t, m as u32));
+                            }
+                        }
+                    }
+                }
+                assert_eq!(
+                    got.map(|h| (h.range, h.model)),
+                    want,
+                    "{count} bodies, {q:?}"
+                );
+            }
+        }
+    }
+}

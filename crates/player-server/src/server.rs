@@ -62,6 +62,8 @@ pub struct Server {
     table: DeviceTable,
     drivers: Vec<PendingDriver>,
     listeners: HashMap<u32, std::net::TcpListener>,
+    /// The port the OS chose for devices configured on port 0, once one was.
+    port_zero: Option<u32>,
 }
 
 impl std::fmt::Debug for Server {
@@ -82,26 +84,59 @@ impl Server {
             table: DeviceTable::new(),
             drivers: Vec::new(),
             listeners: HashMap::new(),
+            port_zero: None,
         }
     }
 
-    /// Builds the driver of a cfg block with `registry` and adds its devices.
+    /// Gives devices configured on port 0 the port the OS picks (bound now, once, and served
+    /// later), so drivers only ever see final addresses.
+    fn resolve_port_zero(&mut self, block: &DriverBlock) -> Result<DriverBlock, ServerError> {
+        let mut block = block.clone();
+        if !block.provides.iter().any(|p| p.addr.robot == 0) {
+            return Ok(block);
+        }
+        let port = match self.port_zero {
+            Some(p) => p,
+            None => {
+                let err = |source| ServerError::Listen { port: 0, source };
+                let listener = std::net::TcpListener::bind(SocketAddr::new(self.config.bind, 0))
+                    .map_err(err)?;
+                let port = u32::from(listener.local_addr().map_err(err)?.port());
+                self.listeners.insert(port, listener);
+                self.port_zero = Some(port);
+                port
+            }
+        };
+        for p in &mut block.provides {
+            if p.addr.robot == 0 {
+                p.addr.robot = port;
+            }
+        }
+        Ok(block)
+    }
+
+    /// Builds the driver of a cfg block with `registry` and adds its devices. Devices on port
+    /// 0 get a port chosen by the OS before the driver is built.
     pub fn add_block(
         &mut self,
         block: &DriverBlock,
         registry: &mut DriverRegistry,
     ) -> Result<DriverId, ServerError> {
-        let driver = registry.create(block)?;
-        self.add_driver(block, driver)
+        let block = self.resolve_port_zero(block)?;
+        let driver = registry.create(&block)?;
+        self.add_driver(&block, driver)
     }
 
     /// Adds an already built driver serving the devices of `block` (its `name` is the driver
     /// name clients see; its `alwayson`, when written, overrides [`Driver::always_on`]).
+    /// Devices on port 0 are given the OS-chosen port here, after the driver was built: use
+    /// [`Server::add_block`] for drivers that need their final addresses.
     pub fn add_driver(
         &mut self,
         block: &DriverBlock,
         driver: Box<dyn Driver>,
     ) -> Result<DriverId, ServerError> {
+        let block = &self.resolve_port_zero(block)?;
         if block.provides.is_empty() {
             return Err(ServerError::NoInterfaces {
                 name: block.name.clone(),
@@ -149,6 +184,7 @@ impl Server {
             mut table,
             drivers,
             mut listeners,
+            port_zero: _,
         } = self;
         if table.is_empty() {
             return Err(ServerError::NoDevices);

@@ -1,0 +1,512 @@
+//! Player 3.0.2 `.cfg` files: `driver` blocks and device addresses (player-cfg.md §3–§6).
+
+use std::collections::BTreeMap;
+use std::net::Ipv4Addr;
+use std::path::{Path, PathBuf};
+
+use player_proto::InterfaceCode;
+use serde::{Serialize, Serializer};
+
+use crate::document::{Document, EntityId, Property};
+use crate::error::{Error, ErrorKind, Warning};
+use crate::lexer::Dialect;
+use crate::loader::{self, LoadOptions};
+use crate::numeric::atoi;
+use crate::source::SourceLoc;
+
+/// The host part of a device address.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Host {
+    /// Absent or empty: the server's default host (localhost).
+    Default,
+    /// All digits: a raw packed 32-bit address, as Player takes it (`atoi`).
+    Packed(u32),
+    /// A host name or dotted address (resolved by whoever uses it).
+    Name(String),
+}
+
+impl Host {
+    /// The IPv4 address, when it is known without a name lookup.
+    pub fn ipv4(&self) -> Option<Ipv4Addr> {
+        match self {
+            Host::Default => Some(Ipv4Addr::LOCALHOST),
+            // Player keeps addresses in network byte order in a host integer, so on the
+            // little-endian machines it ran on, 16777343 is 127.0.0.1.
+            Host::Packed(n) => Some(Ipv4Addr::from(n.to_le_bytes())),
+            Host::Name(n) if n == "localhost" => Some(Ipv4Addr::LOCALHOST),
+            Host::Name(n) => n.parse().ok(),
+        }
+    }
+
+    /// Whether this is the local machine (`0.0.0.0` and `127.0.0.1` count as equal in Player).
+    pub fn is_local(&self) -> bool {
+        self.ipv4()
+            .is_some_and(|ip| ip.is_loopback() || ip.is_unspecified())
+    }
+}
+
+/// A device address `[key:][host:][robot:]interface:index` (player-cfg.md §5).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DeviceAddr {
+    /// The string as written.
+    pub text: String,
+    /// Driver-specific role label (`odometry` in `odometry:::position2d:0`).
+    pub key: Option<String>,
+    /// Host.
+    pub host: Host,
+    /// The robot field, which in Player 3 is the TCP port; `None` means the server default.
+    pub port: Option<u16>,
+    /// Interface.
+    pub interface: InterfaceCode,
+    /// Index.
+    pub index: u16,
+    /// Where the string is written.
+    pub location: Option<SourceLoc>,
+}
+
+impl Serialize for DeviceAddr {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("DeviceAddr", 6)?;
+        st.serialize_field("text", &self.text)?;
+        st.serialize_field("key", &self.key)?;
+        st.serialize_field("host", &self.host)?;
+        st.serialize_field("port", &self.port)?;
+        st.serialize_field("interface", &self.interface.to_string())?;
+        st.serialize_field("index", &self.index)?;
+        st.end()
+    }
+}
+
+impl DeviceAddr {
+    /// Parses an address string the way `ConfigFile::ReadDeviceAddr` does: split from the right
+    /// on `:` into index, interface, robot, host, key; a fifth colon discards everything left of
+    /// it. Where Player's `atoi` would silently read a non-number as 0 we reject it.
+    pub fn parse(text: &str) -> Result<DeviceAddr, String> {
+        let mut fields: Vec<&str> = text.rsplitn(6, ':').collect();
+        if fields.len() == 6 {
+            fields.pop(); // Player drops whatever is left of the fifth colon from the right.
+        }
+        let (index, interface) = match (fields.first(), fields.get(1)) {
+            (Some(i), Some(f)) => (*i, *f),
+            _ => return Err("missing interface or index (expected `interface:index`)".into()),
+        };
+        let robot = fields.get(2).copied().filter(|s| !s.is_empty());
+        let host = fields.get(3).copied().filter(|s| !s.is_empty());
+        let key = fields.get(4).copied().filter(|s| !s.is_empty());
+        let interface = InterfaceCode::from_name(interface)
+            .ok_or_else(|| format!("unknown interface `{interface}`"))?;
+        let index = match atoi(index) {
+            Some(n) if (0..=u16::MAX as i64).contains(&n.value) => n.value as u16,
+            Some(_) => return Err(format!("index `{index}` is out of range")),
+            None => return Err(format!("index `{index}` is not a number")),
+        };
+        let port = match robot {
+            None => None,
+            Some(r) => match atoi(r) {
+                Some(n) if (0..=u16::MAX as i64).contains(&n.value) => Some(n.value as u16),
+                Some(_) => return Err(format!("port `{r}` is out of range")),
+                None => return Err(format!("port `{r}` is not a number")),
+            },
+        };
+        let host = match host {
+            None => Host::Default,
+            Some(h) if h.bytes().all(|c| c.is_ascii_digit()) => {
+                let n = atoi(h).map(|n| n.value).unwrap_or(0);
+                Host::Packed(u32::try_from(n).map_err(|_| format!("host `{h}` is out of range"))?)
+            }
+            Some(h) => Host::Name(h.to_string()),
+        };
+        Ok(DeviceAddr {
+            text: text.to_string(),
+            key: key.map(str::to_string),
+            host,
+            port,
+            interface,
+            index,
+            location: None,
+        })
+    }
+
+    /// The port, with the server default for an absent robot field.
+    pub fn port_or(&self, default: u16) -> u16 {
+        self.port.unwrap_or(default)
+    }
+
+    /// Short form for reports: `key:host:port:interface:index` with defaults filled in.
+    pub fn describe(&self, default_port: u16) -> String {
+        let host = match self.host.ipv4() {
+            Some(ip) => ip.to_string(),
+            None => match &self.host {
+                Host::Name(n) => n.clone(),
+                _ => String::new(),
+            },
+        };
+        let key = self
+            .key
+            .as_deref()
+            .map(|k| format!("{k}:"))
+            .unwrap_or_default();
+        format!(
+            "{key}{host}:{}:{}:{}",
+            self.port_or(default_port),
+            self.interface,
+            self.index
+        )
+    }
+}
+
+/// One `driver ( ... )` block.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DriverSpec {
+    /// Its section in the document.
+    pub section: EntityId,
+    /// Where the block is written.
+    pub location: Option<SourceLoc>,
+    /// Driver name (`stage`, `vfh`, ...).
+    pub name: String,
+    /// Plugin library to load first.
+    pub plugin: Option<String>,
+    /// Devices this driver offers, in order (up to the first malformed one).
+    pub provides: Vec<DeviceAddr>,
+    /// Devices it subscribes to (up to the first malformed one).
+    pub requires: Vec<DeviceAddr>,
+    /// Malformed addresses, at most one per field: like Player, parsing a field stops at its
+    /// first bad string, and a driver with one fails to start. The file itself still loads.
+    #[serde(skip)]
+    pub address_errors: Vec<Error>,
+    /// Stage model to bind (stage driver).
+    pub model: Option<String>,
+    /// Worldfile (stage driver's simulation block), as written.
+    pub worldfile: Option<String>,
+    /// `alwayson`.
+    pub alwayson: Option<bool>,
+    /// Every other field, raw: driver-specific options.
+    pub options: BTreeMap<String, Vec<String>>,
+}
+
+/// A parsed `.cfg` file.
+#[derive(Clone, Debug)]
+pub struct CfgFile {
+    /// The document (sections and raw fields).
+    pub doc: Document,
+    /// The path as given.
+    pub path: PathBuf,
+    /// Driver blocks in file order.
+    pub drivers: Vec<DriverSpec>,
+    /// Problems that do not stop loading.
+    pub warnings: Vec<Warning>,
+}
+
+const DRIVER_FIELDS: &[&str] = &[
+    "name",
+    "plugin",
+    "provides",
+    "requires",
+    "model",
+    "worldfile",
+    "alwayson",
+];
+
+impl CfgFile {
+    /// Loads a cfg file (and its includes).
+    pub fn load(path: &Path, opts: &LoadOptions) -> Result<CfgFile, Error> {
+        let doc = loader::load_document(path, Dialect::Cfg, opts)?;
+        Self::from_document(path, doc)
+    }
+
+    /// Parses `text` as the cfg file at `path`.
+    pub fn parse(path: &Path, text: &str, opts: &LoadOptions) -> Result<CfgFile, Error> {
+        let doc = loader::parse_document(path, text.as_bytes().to_vec(), Dialect::Cfg, opts)?;
+        Self::from_document(path, doc)
+    }
+
+    fn from_document(path: &Path, doc: Document) -> Result<CfgFile, Error> {
+        let mut warnings = doc.warnings.clone();
+        let mut drivers = Vec::new();
+        for section in doc.entities_of_type("driver") {
+            drivers.push(read_driver(&doc, section, &mut warnings)?);
+        }
+        Ok(CfgFile {
+            path: path.to_path_buf(),
+            doc,
+            drivers,
+            warnings,
+        })
+    }
+
+    /// The worldfile path the stage driver would load for `driver` (player-cfg.md §8.2):
+    /// absolute as written, else relative to the directory of the cfg path as given.
+    pub fn worldfile_path(&self, driver: &DriverSpec) -> Option<PathBuf> {
+        let wf = driver.worldfile.as_deref()?;
+        Some(if wf.starts_with('/') {
+            PathBuf::from(wf)
+        } else {
+            self.path.parent().unwrap_or(Path::new("")).join(wf)
+        })
+    }
+}
+
+fn field_text(p: &Property) -> Option<String> {
+    p.mark_used();
+    p.values.first().map(|v| v.text.to_string())
+}
+
+/// Player's `ReadBool`: yes/true/1 and no/false/0.
+fn read_bool(doc: &Document, p: &Property, warnings: &mut Vec<Warning>) -> Option<bool> {
+    let text = field_text(p)?;
+    match text.as_str() {
+        "yes" | "true" | "1" => Some(true),
+        "no" | "false" | "0" => Some(false),
+        _ => match atoi(&text) {
+            // `alwayson` is read with ReadInt by Player: any integer counts.
+            Some(n) if n.complete => Some(n.value != 0),
+            _ => {
+                warnings.push(Warning::at(
+                    doc.loc(p.loc),
+                    format!(
+                        "`{}` \"{text}\" is not a boolean; ignored as in Player",
+                        p.name
+                    ),
+                ));
+                None
+            }
+        },
+    }
+}
+
+fn read_driver(
+    doc: &Document,
+    section: EntityId,
+    warnings: &mut Vec<Warning>,
+) -> Result<DriverSpec, Error> {
+    let entity = doc.entity(section);
+    let location = entity.loc.map(|l| doc.loc(l));
+    let Some(name) = entity.property("name").and_then(field_text) else {
+        return Err(match entity.loc {
+            Some(loc) => Error::at(ErrorKind::MissingDriverName, &doc.sources, loc, "driver"),
+            None => Error::new(ErrorKind::MissingDriverName),
+        });
+    };
+    let mut address_errors = Vec::new();
+    let mut addresses = |field: &str| -> Vec<DeviceAddr> {
+        let mut out = Vec::new();
+        let Some(p) = entity.property(field) else {
+            return out;
+        };
+        p.mark_used();
+        for v in &p.values {
+            match DeviceAddr::parse(&v.text) {
+                Ok(mut a) => {
+                    a.location = Some(doc.loc(v.loc));
+                    out.push(a);
+                }
+                Err(reason) => {
+                    address_errors.push(Error::at(
+                        ErrorKind::BadDeviceAddress {
+                            field: field.into(),
+                            text: v.text.to_string(),
+                            reason,
+                        },
+                        &doc.sources,
+                        v.loc,
+                        &format!("\"{}\"", v.text),
+                    ));
+                    break;
+                }
+            }
+        }
+        out
+    };
+    let provides = addresses("provides");
+    let requires = addresses("requires");
+    let options = entity
+        .properties
+        .iter()
+        .filter(|p| !DRIVER_FIELDS.contains(&&*p.name))
+        .map(|p| {
+            (
+                p.name.to_string(),
+                p.values.iter().map(|v| v.text.to_string()).collect(),
+            )
+        })
+        .collect();
+    Ok(DriverSpec {
+        section,
+        location,
+        name,
+        plugin: entity.property("plugin").and_then(field_text),
+        provides,
+        requires,
+        address_errors,
+        model: entity.property("model").and_then(field_text),
+        worldfile: entity.property("worldfile").and_then(field_text),
+        alwayson: entity
+            .property("alwayson")
+            .and_then(|p| read_bool(doc, p, warnings)),
+        options,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn addr(s: &str) -> DeviceAddr {
+        DeviceAddr::parse(s).unwrap_or_else(|e| panic!("{s}: {e}"))
+    }
+
+    #[test]
+    fn address_short_forms_and_defaults() {
+        // player-cfg.md §5.3, with the server default port 6665.
+        let a = addr("ranger:1");
+        assert_eq!(
+            (a.host.clone(), a.port_or(6665), a.interface, a.index, a.key),
+            (Host::Default, 6665, InterfaceCode::RANGER, 1, None)
+        );
+        let a = addr("6666:position2d:0");
+        assert_eq!(
+            (a.port, a.interface, a.index),
+            (Some(6666), InterfaceCode::POSITION2D, 0)
+        );
+        let a = addr("6665:ranger:1");
+        assert_eq!((a.port, a.index), (Some(6665), 1));
+        let a = addr("127.0.0.1::ranger:2");
+        assert_eq!(
+            (a.host.clone(), a.port, a.index),
+            (Host::Name("127.0.0.1".into()), None, 2)
+        );
+        assert_eq!(a.host.ipv4(), Some(Ipv4Addr::LOCALHOST));
+        let a = addr("localhost:7000:fiducial:3");
+        assert_eq!(
+            (a.port, a.interface, a.index),
+            (Some(7000), InterfaceCode::FIDUCIAL, 3)
+        );
+        assert!(a.host.is_local());
+        let a = addr(":7002:ranger:0");
+        assert_eq!((a.host.clone(), a.port), (Host::Default, Some(7002)));
+        let a = addr("::ranger:1");
+        assert_eq!((a.host.clone(), a.port, a.index), (Host::Default, None, 1));
+        let a = addr("odometry:::position2d:4");
+        assert_eq!(
+            (a.key.as_deref(), a.host.clone(), a.port, a.index),
+            (Some("odometry"), Host::Default, None, 4)
+        );
+        let a = addr("2130706433:7001:gripper:6");
+        assert_eq!(
+            (a.host.clone(), a.port, a.index),
+            (Host::Packed(2130706433), Some(7001), 6)
+        );
+        assert_eq!(Host::Packed(16777343).ipv4(), Some(Ipv4Addr::LOCALHOST));
+        let a = addr("x:a:b:c:7000:ranger:5");
+        assert_eq!(
+            (a.key.as_deref(), a.host.clone(), a.port),
+            (Some("b"), Host::Name("c".into()), Some(7000))
+        );
+        assert_eq!(a.describe(6665), "b:c:7000:ranger:5");
+        assert_eq!(addr("ranger:1").describe(6665), "127.0.0.1:6665:ranger:1");
+    }
+
+    #[test]
+    fn address_errors() {
+        assert!(
+            DeviceAddr::parse("ranger")
+                .unwrap_err()
+                .contains("missing interface")
+        );
+        assert!(
+            DeviceAddr::parse("foo:0")
+                .unwrap_err()
+                .contains("unknown interface `foo`")
+        );
+        assert!(
+            DeviceAddr::parse("ranger:x")
+                .unwrap_err()
+                .contains("not a number")
+        );
+        assert!(
+            DeviceAddr::parse("70000:ranger:0")
+                .unwrap_err()
+                .contains("out of range")
+        );
+        assert!(
+            DeviceAddr::parse("abc:ranger:0")
+                .unwrap_err()
+                .contains("port `abc`")
+        );
+        assert!(
+            DeviceAddr::parse("ranger:70000")
+                .unwrap_err()
+                .contains("out of range")
+        );
+    }
+
+    #[test]
+    fn drivers_and_options() {
+        let cfg = CfgFile::parse(
+            Path::new("dir/x.cfg"),
+            "driver( name \"stage\" plugin \"stageplugin\" provides [\"simulation:0\"] worldfile \"w.world\" usegui false)\n\
+             driver\n(\n name \"vfh\"\n provides [\"6665:position2d:1\"\n   \"key:::laser:0\"]\n requires [\"position2d:0\"]\n safety_dist 0.1\n alwayson 1\n)\n",
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(cfg.drivers.len(), 2);
+        let d0 = &cfg.drivers[0];
+        assert_eq!(d0.name, "stage");
+        assert_eq!(d0.plugin.as_deref(), Some("stageplugin"));
+        assert_eq!(d0.options.get("usegui"), Some(&vec!["false".to_string()]));
+        assert_eq!(cfg.worldfile_path(d0), Some(PathBuf::from("dir/w.world")));
+        let d1 = &cfg.drivers[1];
+        assert_eq!(d1.provides.len(), 2);
+        assert_eq!(d1.provides[1].key.as_deref(), Some("key"));
+        assert_eq!(d1.requires[0].interface, InterfaceCode::POSITION2D);
+        assert_eq!(d1.alwayson, Some(true));
+        assert_eq!(
+            d1.options.get("safety_dist"),
+            Some(&vec!["0.1".to_string()])
+        );
+        assert_eq!(d1.location.as_ref().unwrap().line, 2);
+    }
+
+    #[test]
+    fn driver_errors_are_located() {
+        let e = CfgFile::parse(
+            Path::new("x.cfg"),
+            "\ndriver( provides [\"ranger:0\"] )\n",
+            &LoadOptions::default(),
+        )
+        .unwrap_err();
+        assert_eq!(e.kind, ErrorKind::MissingDriverName);
+        assert_eq!(e.location.as_ref().unwrap().line, 2);
+        // A bad address does not stop the file loading, but stops its field (as in Player).
+        let cfg = CfgFile::parse(
+            Path::new("x.cfg"),
+            "driver( name \"stage\" provides [\"simulation:0\" \"foo:0\" \"ranger:0\"] )\n",
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        let d = &cfg.drivers[0];
+        assert_eq!(d.provides.len(), 1);
+        assert_eq!(d.address_errors.len(), 1);
+        let e = &d.address_errors[0];
+        assert!(matches!(e.kind, ErrorKind::BadDeviceAddress { .. }));
+        assert_eq!(e.location.as_ref().unwrap().col, 47);
+    }
+
+    #[test]
+    fn duplicate_fields_merge_element_wise() {
+        let cfg = CfgFile::parse(
+            Path::new("x.cfg"),
+            "driver( name \"a\" provides [\"simulation:0\" \"ranger:0\" \"ranger:1\"] provides [\"simulation:9\"] )\n",
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        let texts: Vec<&str> = cfg.drivers[0]
+            .provides
+            .iter()
+            .map(|a| a.text.as_str())
+            .collect();
+        assert_eq!(texts, vec!["simulation:9", "ranger:0", "ranger:1"]);
+    }
+}

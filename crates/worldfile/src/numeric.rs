@@ -1,0 +1,156 @@
+//! C `atoi` / `atof` prefix semantics (stage-worldfile.md §6.4).
+//!
+//! Stage converts property text with `atoi`/`atof`, which read the longest numeric prefix and
+//! ignore the rest: `"1.2.3"` is 1.2, `"+5"` is 5, `"1.9"` read as an int is 1. We keep those
+//! values, but report whether the whole text was consumed (so callers can warn) and return `None`
+//! when there is no numeric prefix at all (where Stage silently uses 0, we raise an error).
+
+use nom::branch::alt;
+use nom::bytes::complete::{tag_no_case, take_while, take_while1};
+use nom::character::complete::one_of;
+use nom::combinator::{opt, recognize};
+use nom::sequence::{pair, preceded};
+use nom::{IResult, Parser};
+
+/// A number read from the front of a text.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prefix<T> {
+    /// The value of the numeric prefix.
+    pub value: T,
+    /// Whether the prefix was the whole text (after leading blanks).
+    pub complete: bool,
+}
+
+fn is_c_space(c: char) -> bool {
+    matches!(c, ' ' | '\t' | '\n' | '\r' | '\x0b' | '\x0c')
+}
+
+fn digits(input: &str) -> IResult<&str, &str> {
+    take_while1(|c: char| c.is_ascii_digit())(input)
+}
+
+fn decimal(input: &str) -> IResult<&str, &str> {
+    // digits [. digits*] | . digits, then an optional exponent that has at least one digit.
+    let mantissa = alt((
+        recognize(pair(
+            digits,
+            opt(pair(one_of("."), take_while(|c: char| c.is_ascii_digit()))),
+        )),
+        recognize(pair(one_of("."), digits)),
+    ));
+    let exponent = recognize((one_of("eE"), opt(one_of("+-")), digits));
+    recognize(pair(mantissa, opt(exponent))).parse(input)
+}
+
+fn special(input: &str) -> IResult<&str, &str> {
+    alt((
+        tag_no_case("infinity"),
+        tag_no_case("inf"),
+        tag_no_case("nan"),
+    ))
+    .parse(input)
+}
+
+fn hex(input: &str) -> IResult<&str, &str> {
+    preceded(
+        alt((tag_no_case("0x"),)),
+        take_while1(|c: char| c.is_ascii_hexdigit()),
+    )
+    .parse(input)
+}
+
+/// C `atof`: optional blanks and sign, then a decimal (with exponent), `inf`/`nan` or hex integer.
+pub fn atof(text: &str) -> Option<Prefix<f64>> {
+    let body = text.trim_start_matches(is_c_space);
+    let (after_sign, negative) = match body.as_bytes().first() {
+        Some(b'-') => (&body[1..], true),
+        Some(b'+') => (&body[1..], false),
+        _ => (body, false),
+    };
+    let (rest, value) = if let Ok((rest, h)) = hex(after_sign) {
+        // Very long hex runs overflow to infinity, as strtod does.
+        let v = h.chars().fold(0f64, |acc, c| {
+            acc * 16.0 + c.to_digit(16).unwrap_or(0) as f64
+        });
+        (rest, v)
+    } else if let Ok((rest, d)) = decimal(after_sign) {
+        (rest, d.parse::<f64>().ok()?)
+    } else if let Ok((rest, s)) = special(after_sign) {
+        let v = if s.eq_ignore_ascii_case("nan") {
+            f64::NAN
+        } else {
+            f64::INFINITY
+        };
+        (rest, v)
+    } else {
+        return None;
+    };
+    Some(Prefix {
+        value: if negative { -value } else { value },
+        complete: rest.is_empty(),
+    })
+}
+
+/// C `atoi`: optional blanks and sign, then decimal digits. Saturates instead of overflowing.
+pub fn atoi(text: &str) -> Option<Prefix<i64>> {
+    let body = text.trim_start_matches(is_c_space);
+    let (rest, (sign, ds)) = pair(opt(one_of::<_, _, nom::error::Error<&str>>("+-")), digits)
+        .parse(body)
+        .ok()?;
+    let magnitude = ds.chars().fold(0i64, |acc, c| {
+        acc.saturating_mul(10)
+            .saturating_add(c.to_digit(10).unwrap_or(0) as i64)
+    });
+    let value = if sign == Some('-') {
+        -magnitude
+    } else {
+        magnitude
+    };
+    Some(Prefix {
+        value,
+        complete: rest.is_empty(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn f(s: &str) -> Option<(f64, bool)> {
+        atof(s).map(|p| (p.value, p.complete))
+    }
+    fn i(s: &str) -> Option<(i64, bool)> {
+        atoi(s).map(|p| (p.value, p.complete))
+    }
+
+    #[test]
+    fn atof_prefix_semantics() {
+        assert_eq!(f("1.5"), Some((1.5, true)));
+        assert_eq!(f("1.2.3"), Some((1.2, false)));
+        assert_eq!(f("+5"), Some((5.0, true)));
+        assert_eq!(f("-.5"), Some((-0.5, true)));
+        assert_eq!(f("5."), Some((5.0, true)));
+        assert_eq!(f("1e3"), Some((1000.0, true)));
+        assert_eq!(f("1e"), Some((1.0, false)));
+        assert_eq!(f("  7"), Some((7.0, true)));
+        assert_eq!(f("0x10"), Some((16.0, true)));
+        assert_eq!(f("1-2"), Some((1.0, false)));
+        assert!(f("inf").unwrap().0.is_infinite());
+        assert!(f("nan").unwrap().0.is_nan());
+        assert_eq!(f("-"), None);
+        assert_eq!(f("."), None);
+        assert_eq!(f("abc"), None);
+        assert_eq!(f(""), None);
+    }
+
+    #[test]
+    fn atoi_prefix_semantics() {
+        assert_eq!(i("42"), Some((42, true)));
+        assert_eq!(i("1.9"), Some((1, false)));
+        assert_eq!(i("-3"), Some((-3, true)));
+        assert_eq!(i("+3x"), Some((3, false)));
+        assert_eq!(i("abc"), None);
+        assert_eq!(i("-"), None);
+        assert_eq!(i("99999999999999999999999"), Some((i64::MAX, true)));
+    }
+}

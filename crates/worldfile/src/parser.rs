@@ -1,0 +1,519 @@
+//! The token-level grammar (stage-worldfile.md §3, §5; player-cfg.md §3).
+//!
+//! This follows upstream's recursive structure on purpose: a macro instance is expanded by
+//! re-parsing the macro's stored token range (`PARENT ( body )`) at the point of use, so children
+//! written in a `define` are created anew for every instance, base-most body first, and later
+//! properties replace earlier ones. The differences from upstream are deliberate and documented:
+//! tuples may span lines and hold comments, every failure is an error with a location (upstream
+//! sometimes fails silently or builds a partial world), stray `(` and macro cycles are errors
+//! (upstream nests entities / overflows its stack), and expansion is bounded by [`Limits`].
+
+use std::collections::HashMap;
+
+use crate::document::{Document, Entity, EntityId, Property, Units, Value, ValueKind};
+use crate::error::{Error, ErrorKind, Warning};
+use crate::lexer::{Dialect, Token, TokenKind};
+use crate::loader::Limits;
+use crate::source::{Location, SourceMap};
+
+struct Macro {
+    /// Index of the PARENT word; the macro's tokens run from there to its closing `)`.
+    start: usize,
+    loc: Location,
+}
+
+struct Parser<'a> {
+    toks: &'a [Token],
+    sources: &'a SourceMap,
+    dialect: Dialect,
+    limits: &'a Limits,
+    entities: Vec<Entity>,
+    macros: HashMap<&'a str, Macro>,
+    expanding: Vec<&'a str>,
+    plugins: Vec<(String, Location)>,
+    warnings: Vec<Warning>,
+    steps: u64,
+    depth: usize,
+}
+
+/// Parses a spliced token stream into a document, then reads `unit_length`/`unit_angle`/`test`
+/// from the global entity.
+pub fn parse(
+    toks: Vec<Token>,
+    sources: SourceMap,
+    dialect: Dialect,
+    limits: &Limits,
+) -> Result<Document, Error> {
+    let (entities, plugins, warnings) = {
+        let mut p = Parser {
+            toks: &toks,
+            sources: &sources,
+            dialect,
+            limits,
+            entities: vec![Entity {
+                parent: None,
+                children: Vec::new(),
+                type_name: "".into(),
+                macro_name: None,
+                loc: None,
+                properties: Vec::new(),
+            }],
+            macros: HashMap::new(),
+            expanding: Vec::new(),
+            plugins: Vec::new(),
+            warnings: Vec::new(),
+            steps: 0,
+            depth: 0,
+        };
+        p.file()?;
+        (p.entities, p.plugins, p.warnings)
+    };
+    let mut doc = Document {
+        dialect,
+        sources,
+        entities,
+        units: Units::default(),
+        plugins,
+        warnings,
+    };
+    link_children(&mut doc.entities);
+    read_globals(&mut doc)?;
+    Ok(doc)
+}
+
+fn link_children(entities: &mut [Entity]) {
+    for id in 1..entities.len() {
+        if let Some(parent) = entities[id].parent {
+            entities[parent].children.push(id);
+        }
+    }
+}
+
+/// `unit_length`, `unit_angle` (after a successful parse, like upstream) and `test`.
+fn read_globals(doc: &mut Document) -> Result<(), Error> {
+    let mut warnings = Vec::new();
+    if let Some(p) = doc.property(0, "test") {
+        p.mark_used();
+        let v = p
+            .values
+            .first()
+            .and_then(|v| crate::numeric::atoi(&v.text))
+            .map(|n| n.value);
+        if v.unwrap_or(0) != 0 {
+            return Err(Error::at(ErrorKind::TestFile, &doc.sources, p.loc, "test"));
+        }
+    }
+    if let Some(p) = doc.property(0, "unit_length") {
+        p.mark_used();
+        match p.values.first().map(|v| &*v.text) {
+            Some("m") => doc.units.length = 1.0,
+            Some("cm") => doc.units.length = 0.01,
+            Some("mm") => doc.units.length = 0.001,
+            other => warnings.push(Warning::at(
+                doc.loc(p.loc),
+                format!(
+                    "unit_length {:?} is not \"m\", \"cm\" or \"mm\"; using metres as Stage does",
+                    other.unwrap_or("")
+                ),
+            )),
+        }
+    }
+    if let Some(p) = doc.property(0, "unit_angle") {
+        p.mark_used();
+        match p.values.first().map(|v| &*v.text) {
+            Some("degrees") => doc.units.angle = std::f64::consts::PI / 180.0,
+            Some("radians") => doc.units.angle = 1.0,
+            other => warnings.push(Warning::at(
+                doc.loc(p.loc),
+                format!(
+                    "unit_angle {:?} is not \"degrees\" or \"radians\"; using degrees as Stage does",
+                    other.unwrap_or("")
+                ),
+            )),
+        }
+    }
+    doc.warnings.extend(warnings);
+    Ok(())
+}
+
+fn is_blank(kind: TokenKind) -> bool {
+    matches!(kind, TokenKind::Space | TokenKind::Comment | TokenKind::Eol)
+}
+
+impl<'a> Parser<'a> {
+    fn err(&self, kind: ErrorKind, tok: &Token) -> Error {
+        Error::at(kind, self.sources, tok.loc, &tok.snippet())
+    }
+
+    fn step(&mut self, at: &Token) -> Result<(), Error> {
+        self.steps += 1;
+        if self.steps > self.limits.max_parse_steps {
+            return Err(self.err(
+                ErrorKind::TooLarge(format!(
+                    "macro expansion needs more than {} parser steps",
+                    self.limits.max_parse_steps
+                )),
+                at,
+            ));
+        }
+        Ok(())
+    }
+
+    fn file(&mut self) -> Result<(), Error> {
+        let toks = self.toks;
+        let mut i = 0;
+        while i < toks.len() {
+            let tok = &toks[i];
+            self.step(tok)?;
+            match tok.kind {
+                TokenKind::Word => {
+                    i = match &*tok.text {
+                        "include" => self.include_stmt(i)?,
+                        "define" => self.define(i)?,
+                        "plugin" if self.dialect == Dialect::Cfg => self.plugin(i)?,
+                        _ => self.word_item(0, i)?,
+                    };
+                }
+                k if is_blank(k) => {}
+                _ => {
+                    return Err(self.err(ErrorKind::UnexpectedAtTopLevel(tok.describe()), tok));
+                }
+            }
+            i += 1;
+        }
+        Ok(())
+    }
+
+    /// `include "file"` — the loader already spliced the file in; skip to the line end it added.
+    fn include_stmt(&mut self, i: usize) -> Result<usize, Error> {
+        let toks = self.toks;
+        for (j, tok) in toks.iter().enumerate().skip(i + 1) {
+            match tok.kind {
+                TokenKind::Str | TokenKind::Space => {}
+                TokenKind::Eol => return Ok(j),
+                _ => return Err(self.err(ErrorKind::BadInclude, tok)),
+            }
+        }
+        Err(self.err(ErrorKind::BadInclude, &toks[i]))
+    }
+
+    /// Top-level `plugin "name"` in a cfg file: recorded, not loaded.
+    fn plugin(&mut self, i: usize) -> Result<usize, Error> {
+        let toks = self.toks;
+        let mut seen = false;
+        for (j, tok) in toks.iter().enumerate().skip(i + 1) {
+            match tok.kind {
+                TokenKind::Str => {
+                    seen = true;
+                    self.plugins.push((tok.text.to_string(), tok.loc));
+                }
+                TokenKind::Space => {}
+                TokenKind::Eol if seen => return Ok(j),
+                _ => return Err(self.err(ErrorKind::BadPlugin, tok)),
+            }
+        }
+        if seen {
+            Ok(toks.len())
+        } else {
+            Err(self.err(ErrorKind::BadPlugin, &toks[i]))
+        }
+    }
+
+    /// `define NAME PARENT ( body )`: records the token range; the body is parsed at each use.
+    fn define(&mut self, i: usize) -> Result<usize, Error> {
+        let toks = self.toks;
+        let mut depth = 0i64;
+        let mut name: Option<&'a Token> = None;
+        let mut parent: Option<usize> = None;
+        for (j, tok) in toks.iter().enumerate().skip(i + 1) {
+            match tok.kind {
+                TokenKind::Word if depth == 0 => {
+                    if name.is_none() {
+                        name = Some(tok);
+                    } else if parent.is_none() {
+                        parent = Some(j);
+                    } else {
+                        return Err(
+                            self.err(ErrorKind::ExtraMacroTokens(tok.text.to_string()), tok)
+                        );
+                    }
+                }
+                TokenKind::Open => {
+                    if depth == 0 && (name.is_none() || parent.is_none()) {
+                        return Err(self.err(ErrorKind::MissingMacroName, tok));
+                    }
+                    depth += 1;
+                }
+                TokenKind::Close => {
+                    depth -= 1;
+                    if depth < 0 {
+                        return Err(self.err(ErrorKind::MisplacedCloseParen, tok));
+                    }
+                    if depth == 0 {
+                        let (Some(name), Some(start)) = (name, parent) else {
+                            return Err(self.err(ErrorKind::MissingMacroName, tok));
+                        };
+                        if let Some(first) = self.macros.get(&*name.text) {
+                            // Upstream silently keeps the first definition.
+                            let first_at = self.sources.resolve(first.loc);
+                            self.warnings.push(Warning::at(
+                                self.sources.resolve(name.loc),
+                                format!(
+                                    "macro `{}` is already defined at {first_at}; this definition is ignored (the first one wins, as in Stage)",
+                                    name.text
+                                ),
+                            ));
+                        } else {
+                            self.macros.insert(
+                                &name.text,
+                                Macro {
+                                    start,
+                                    loc: name.loc,
+                                },
+                            );
+                        }
+                        return Ok(j);
+                    }
+                }
+                _ => {}
+            }
+        }
+        let label = name
+            .map(|n| n.text.to_string())
+            .unwrap_or_else(|| "define".into());
+        Err(self.err(ErrorKind::MissingCloseParen(label), &toks[i]))
+    }
+
+    /// A name at top level or in a body: a property or an entity, decided by what follows.
+    fn word_item(&mut self, entity: EntityId, i: usize) -> Result<usize, Error> {
+        let toks = self.toks;
+        let name = &toks[i];
+        if &*name.text == "define" {
+            return Err(self.err(ErrorKind::DefineNotAtTopLevel, name));
+        }
+        let mut j = i + 1;
+        while j < toks.len() && is_blank(toks[j].kind) {
+            j += 1;
+        }
+        let Some(next) = toks.get(j) else {
+            return Err(self.err(
+                ErrorKind::ExpectedValueOrBody {
+                    name: name.text.to_string(),
+                    found: "end of file".into(),
+                },
+                name,
+            ));
+        };
+        match next.kind {
+            TokenKind::Open => self.entity(entity, i),
+            TokenKind::Number | TokenKind::Str | TokenKind::OpenTuple | TokenKind::Bool => {
+                self.property(entity, i)
+            }
+            _ => Err(self.err(
+                ErrorKind::ExpectedValueOrBody {
+                    name: name.text.to_string(),
+                    found: next.describe(),
+                },
+                next,
+            )),
+        }
+    }
+
+    /// `name value` or `name [ values ]`; the value must be on the name's line.
+    fn property(&mut self, entity: EntityId, i: usize) -> Result<usize, Error> {
+        let toks = self.toks;
+        let name = &toks[i];
+        let mut j = i + 1;
+        while j < toks.len() {
+            let tok = &toks[j];
+            match tok.kind {
+                TokenKind::Space => {}
+                TokenKind::Number | TokenKind::Str | TokenKind::Bool => {
+                    self.set(entity, name, vec![value_of(tok)], false)?;
+                    return Ok(j);
+                }
+                TokenKind::OpenTuple => {
+                    let (values, end) = self.tuple(name, j)?;
+                    self.set(entity, name, values, true)?;
+                    return Ok(end);
+                }
+                _ => break,
+            }
+            j += 1;
+        }
+        Err(self.err(ErrorKind::ValueNotOnSameLine(name.text.to_string()), name))
+    }
+
+    /// `[ v v ... ]` starting at the `[` at `open`; returns the values and the index of `]`.
+    fn tuple(&mut self, name: &Token, open: usize) -> Result<(Vec<Value>, usize), Error> {
+        let toks = self.toks;
+        let mut values = Vec::new();
+        for (j, tok) in toks.iter().enumerate().skip(open + 1) {
+            self.step(tok)?;
+            match tok.kind {
+                TokenKind::Number | TokenKind::Str => values.push(value_of(tok)),
+                // Stage rejects line ends and comments inside tuples; we accept tuples that span
+                // lines (Player's cfg parser already does).
+                TokenKind::Space | TokenKind::Eol | TokenKind::Comment => {}
+                TokenKind::CloseTuple => return Ok((values, j)),
+                _ => return Err(self.err(ErrorKind::BadTupleElement(tok.describe()), tok)),
+            }
+        }
+        Err(self.err(
+            ErrorKind::UnterminatedTuple(name.text.to_string()),
+            &toks[open],
+        ))
+    }
+
+    /// Stores a property: a worldfile replaces a same-named property whole; a cfg overwrites it
+    /// element by element, keeping any longer tail (player-cfg.md §3.1).
+    fn set(
+        &mut self,
+        entity: EntityId,
+        name: &Token,
+        values: Vec<Value>,
+        is_tuple: bool,
+    ) -> Result<(), Error> {
+        let props = &mut self.entities[entity].properties;
+        match props.iter_mut().find(|p| p.name == name.text) {
+            Some(existing) => match self.dialect {
+                Dialect::World => {
+                    *existing = Property::new(name.text.clone(), values, name.loc, is_tuple);
+                }
+                Dialect::Cfg => {
+                    for (k, v) in values.into_iter().enumerate() {
+                        if k < existing.values.len() {
+                            existing.values[k] = v;
+                        } else {
+                            existing.values.push(v);
+                        }
+                    }
+                    existing.is_tuple |= is_tuple;
+                }
+            },
+            None => props.push(Property::new(name.text.clone(), values, name.loc, is_tuple)),
+        }
+        Ok(())
+    }
+
+    /// `NAME ( body )` at `i`, where NAME is a macro or a base type word.
+    fn entity(&mut self, parent: EntityId, i: usize) -> Result<usize, Error> {
+        if self.depth >= self.limits.max_nesting {
+            return Err(self.err(
+                ErrorKind::TooLarge(format!(
+                    "entities and macros nested more than {} deep",
+                    self.limits.max_nesting
+                )),
+                &self.toks[i],
+            ));
+        }
+        self.depth += 1;
+        let result = self.entity_inner(parent, i);
+        self.depth -= 1;
+        result
+    }
+
+    fn entity_inner(&mut self, parent: EntityId, i: usize) -> Result<usize, Error> {
+        let toks = self.toks;
+        let name = &toks[i];
+        self.step(name)?;
+        let text: &'a str = &toks[i].text;
+        let id = if let Some(start) = self.macros.get(text).map(|m| m.start) {
+            if self.expanding.contains(&text) {
+                let mut chain: Vec<String> = self
+                    .expanding
+                    .iter()
+                    .skip_while(|m| **m != text)
+                    .map(|m| m.to_string())
+                    .collect();
+                chain.push(text.to_string());
+                return Err(self.err(ErrorKind::MacroCycle(chain), name));
+            }
+            self.expanding.push(text);
+            let id = self.entities.len();
+            let expanded = self.entity(parent, start);
+            self.expanding.pop();
+            expanded?;
+            // The outermost macro name and the instance's own location win.
+            self.entities[id].macro_name = Some(text.into());
+            self.entities[id].loc = Some(name.loc);
+            id
+        } else {
+            let id = self.entities.len();
+            if id >= self.limits.max_entities {
+                return Err(self.err(
+                    ErrorKind::TooLarge(format!("more than {} entities", self.limits.max_entities)),
+                    name,
+                ));
+            }
+            self.entities.push(Entity {
+                parent: Some(parent),
+                children: Vec::new(),
+                type_name: name.text.clone(),
+                macro_name: None,
+                loc: Some(name.loc),
+                properties: Vec::new(),
+            });
+            id
+        };
+        // Skip to this name's own `(`.
+        let mut j = i + 1;
+        while j < toks.len() && is_blank(toks[j].kind) {
+            j += 1;
+        }
+        match toks.get(j) {
+            Some(t) if t.kind == TokenKind::Open => {}
+            Some(t) => {
+                return Err(self.err(
+                    ErrorKind::ExpectedValueOrBody {
+                        name: name.text.to_string(),
+                        found: t.describe(),
+                    },
+                    t,
+                ));
+            }
+            None => {
+                return Err(self.err(ErrorKind::MissingCloseParen(name.text.to_string()), name));
+            }
+        }
+        self.body(id, j + 1, name)
+    }
+
+    /// Entity body items until the matching `)`; returns its index.
+    fn body(&mut self, entity: EntityId, mut j: usize, name: &Token) -> Result<usize, Error> {
+        let toks = self.toks;
+        while j < toks.len() {
+            let tok = &toks[j];
+            self.step(tok)?;
+            match tok.kind {
+                TokenKind::Word => j = self.word_item(entity, j)?,
+                TokenKind::Close => return Ok(j),
+                k if is_blank(k) => {}
+                TokenKind::Open => return Err(self.err(ErrorKind::StrayOpenParen, tok)),
+                _ => {
+                    return Err(self.err(
+                        ErrorKind::UnexpectedInBody {
+                            entity: name.text.to_string(),
+                            found: tok.describe(),
+                        },
+                        tok,
+                    ));
+                }
+            }
+            j += 1;
+        }
+        Err(self.err(ErrorKind::MissingCloseParen(name.text.to_string()), name))
+    }
+}
+
+fn value_of(tok: &Token) -> Value {
+    Value {
+        kind: match tok.kind {
+            TokenKind::Number => ValueKind::Number,
+            TokenKind::Bool => ValueKind::Bool,
+            _ => ValueKind::Str,
+        },
+        text: tok.text.clone(),
+        loc: tok.loc,
+    }
+}

@@ -29,6 +29,14 @@ pub enum ServerError {
         /// The driver's reason.
         source: DriverError,
     },
+    /// A cfg driver block the server cannot use (malformed address, unresolvable host).
+    #[error("{origin}: {message}")]
+    Config {
+        /// Where (`file:line:col`).
+        origin: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A driver block provides no device at all.
     #[error("{origin}: driver \"{name}\" has no (usable) interfaces")]
     NoInterfaces {

@@ -3,6 +3,7 @@
 //!
 //! * [`driver`] — the [`Driver`] trait, the cfg [`DriverBlock`] a driver is built from, and the
 //!   [`DriverRegistry`] of factories by driver name;
+//! * [`cfg`] — cfg `driver` blocks ([`worldfile::CfgFile`]) to [`DriverBlock`]s;
 //! * [`device`] — the [`DeviceTable`] (cfg order, duplicate check, ports);
 //! * [`queue`] — the per-connection outgoing queue with upstream's exact PUSH/PULL, replace-rule
 //!   and SYNCH semantics;
@@ -15,6 +16,7 @@
 
 #![warn(missing_docs)]
 
+pub mod cfg;
 pub mod clock;
 mod connection;
 mod core;

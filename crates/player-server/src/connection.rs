@@ -6,11 +6,13 @@
 //! can end a connection (malformed message, client not reading) without touching the socket.
 
 use std::net::SocketAddr;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use player_proto::constants::LOCALHOST_ADDR;
 use player_proto::{
-    BANNER, DecodeLimits, Error as ProtoError, Frame, Framer, InterfaceCode, Message, MsgHeader,
+    BANNER, Body, DecodeLimits, Error as ProtoError, Frame, Framer, InterfaceCode, Message,
+    MsgHeader, PlayerMsg, PlayerReq,
 };
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
@@ -19,8 +21,9 @@ use tokio::sync::{Notify, mpsc, watch};
 
 use crate::clock::ServerClock;
 use crate::device::{DeviceIndex, DeviceTable};
-use crate::driver::ClientId;
-use crate::queue::{OutQueue, QueueLimits};
+use crate::driver::{ClientId, DriverError};
+use crate::player_iface::{self, PlayerInput, Session, Subscriptions, UnsubscribeError};
+use crate::queue::{OutQueue, PushOutcome, QueueLimits};
 
 /// Size of one socket read. Small, because it is paid per connection; the framer grows on its
 /// own for large messages.
@@ -62,6 +65,11 @@ pub(crate) struct ConnShared {
     pub wake: Notify,
     /// Set once to end both tasks.
     pub closing: watch::Sender<bool>,
+    /// Messages sent to the core and not yet handled by it. While it is 0 the reader answers
+    /// player-interface requests itself (they only touch this connection's queue and the
+    /// read-only device table), saving the hop to the core thread; otherwise it queues them
+    /// behind the others, so replies always keep the order of the requests.
+    pub in_flight: AtomicUsize,
 }
 
 impl ConnShared {
@@ -134,6 +142,7 @@ pub(crate) async fn serve(
         queue: Mutex::new(OutQueue::new(ctx.limits.queue)),
         wake: Notify::new(),
         closing,
+        in_flight: AtomicUsize::new(0),
     });
     if ctx
         .core
@@ -189,7 +198,13 @@ async fn read_loop(
                 Err(e) => return Some(format!("malformed message: {e}")),
             };
             match classify(frame, shared, ctx, &limits) {
+                Ok(Some(Incoming::Player(msg)))
+                    if shared.in_flight.load(Ordering::Acquire) == 0 && !is_dev(&msg) =>
+                {
+                    answer_locally(&msg, shared, ctx);
+                }
                 Ok(Some(input)) => {
+                    shared.in_flight.fetch_add(1, Ordering::AcqRel);
                     let event = CoreEvent::Message {
                         id: shared.id,
                         input,
@@ -203,6 +218,48 @@ async fn read_loop(
                 Err(reason) => return Some(format!("malformed message: {reason}")),
             }
         }
+    }
+}
+
+/// DEV requests need the drivers: they always go to the core.
+fn is_dev(msg: &Message) -> bool {
+    matches!(msg.body, Body::Player(PlayerMsg::Req(PlayerReq::Dev(_))))
+}
+
+/// Answers a player-interface request (other than DEV) on the connection task.
+fn answer_locally(msg: &Message, shared: &ConnShared, ctx: &ConnContext) {
+    let outcome = {
+        let mut queue = shared.queue.lock().unwrap_or_else(|p| p.into_inner());
+        let mut session = Session {
+            table: &ctx.table,
+            port: shared.port,
+            now: ctx.clock.now(),
+            queue: &mut queue,
+            peer: &shared.peer,
+        };
+        player_iface::handle(PlayerInput::Typed(msg), &mut session, &mut NoDrivers)
+    };
+    if outcome == Some(PushOutcome::Overloaded) {
+        // Let the core close it, with its subscriptions.
+        let _ = ctx.core.try_send(CoreEvent::Closed {
+            id: shared.id,
+            reason: "not reading: outgoing queue exceeded its hard limit".into(),
+        });
+        shared.close();
+    } else {
+        shared.wake.notify_one();
+    }
+}
+
+/// Subscriptions are never made on a connection task (DEV goes to the core).
+struct NoDrivers;
+
+impl Subscriptions for NoDrivers {
+    fn subscribe(&mut self, _device: DeviceIndex) -> Result<(), DriverError> {
+        Err(DriverError::new("subscriptions are handled by the core"))
+    }
+    fn unsubscribe(&mut self, _device: DeviceIndex) -> Result<(), UnsubscribeError> {
+        Err(UnsubscribeError::NotSubscribed)
     }
 }
 

@@ -9,6 +9,7 @@
 
 use std::collections::HashMap;
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 use player_proto::{Body, Frame, Message, MsgHeader, MsgType};
 use tokio::sync::{mpsc, watch};
@@ -150,8 +151,10 @@ impl Core {
             }
             CoreEvent::Closed { id, reason } => self.close(id, &reason),
             CoreEvent::Message { id, input } => {
-                if self.conns.contains_key(&id) {
+                if let Some(conn) = self.conns.get(&id) {
+                    let shared = conn.shared.clone();
                     self.message(id, input);
+                    shared.in_flight.fetch_sub(1, Ordering::AcqRel);
                 }
             }
         }

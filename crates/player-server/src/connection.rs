@@ -67,7 +67,7 @@ pub(crate) struct ConnShared {
     pub closing: watch::Sender<bool>,
     /// Messages sent to the core and not yet handled by it. While it is 0 the reader answers
     /// player-interface requests itself (they only touch this connection's queue and the
-    /// read-only device table), saving the hop to the core thread; otherwise it queues them
+    /// read-only device table), saving the hop to the core task; otherwise it queues them
     /// behind the others, so replies always keep the order of the requests.
     pub in_flight: AtomicUsize,
 }

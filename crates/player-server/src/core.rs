@@ -1,11 +1,17 @@
-//! The core: one thread that owns the drivers, the subscriptions and the schedule.
+//! The core: one task that owns the drivers, the subscriptions and the schedule.
 //!
-//! Connection tasks send it `(client, message)` events; it answers player-interface requests,
-//! hands device messages to drivers, steps drivers on the [`Schedule`], and pushes replies and
-//! published DATA into the connections' queues, waking each touched writer once per batch.
-//! Owning every driver on one thread keeps drivers free of locks and makes a run's order of
-//! events the order of the messages, as upstream's single-threaded loop does; running it on its
-//! own thread keeps a long simulation step from stalling socket I/O.
+//! Connection tasks send it `(client, message)` events; it answers DEV requests (and any
+//! player-interface request queued behind a device message), hands device messages to drivers,
+//! steps drivers on the [`Schedule`], and pushes replies and published DATA into the
+//! connections' queues, waking each touched writer once per batch. Owning every driver in one
+//! task keeps drivers free of locks and makes a run's order of events the order of the
+//! messages, as upstream's single-threaded loop does.
+//!
+//! It runs on the I/O runtime rather than on a thread of its own: a woken task usually runs
+//! next on the same worker, so a request goes reader → core → writer without a thread switch
+//! (a separate core thread cost two cross-thread wake-ups per request, 165 µs instead of 30 µs
+//! at p50 on the loaded 2-core machine). Driver steps run inside `block_in_place`, so a long
+//! simulation step hands the worker's connections to another thread instead of stalling them.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -96,8 +102,12 @@ impl Core {
             self.flush();
             match self.schedule.due() {
                 Due::Now => {
-                    self.tick();
+                    // A step may compute for a while (a large world): let the runtime move
+                    // this worker's other tasks (connections) elsewhere meanwhile.
+                    tokio::task::block_in_place(|| self.tick());
                     self.flush();
+                    // As fast as possible, steps follow each other at once: stay fair.
+                    tokio::task::yield_now().await;
                     continue;
                 }
                 Due::At(at) => {

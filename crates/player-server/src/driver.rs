@@ -1,7 +1,7 @@
 //! What a driver is: the [`Driver`] trait, the cfg block it is built from, and the registry of
 //! factories keyed by driver name.
 //!
-//! Drivers are plain synchronous objects owned by the server's core thread: the core hands them
+//! Drivers are plain synchronous objects owned by the server's core task: the core hands them
 //! subscriptions, requests and commands between ticks and calls [`Driver::update`] on their own
 //! step. Nothing in here is async; a driver never touches a socket or a queue, it only returns
 //! replies and publishes data through its [`Context`].
@@ -186,7 +186,8 @@ impl<'a> Context<'a> {
 
 /// A driver: serves the devices of one cfg `driver` block.
 ///
-/// The core calls these methods from one thread, never concurrently. Every call should return
+/// The core calls these methods one at a time, never concurrently (possibly from different
+/// runtime threads over time, hence `Send`). Every call should return
 /// promptly: requests are answered between ticks, and clients time out after 5 s.
 pub trait Driver: Send {
     /// A client (or, for alwayson drivers, the server at start-up) subscribes to `addr`.

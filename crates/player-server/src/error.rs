@@ -77,7 +77,7 @@ pub enum ServerError {
     /// A port number that TCP cannot have.
     #[error("device port {0} is not a valid TCP port")]
     BadPort(u32),
-    /// Starting the runtime or the core thread failed.
+    /// Starting the runtime failed.
     #[error("failed to start the server threads: {0}")]
     Runtime(io::Error),
 }

@@ -11,8 +11,8 @@
 //! * [`server`] — [`Server`] (assembling) and [`ServerHandle`] (running);
 //! * [`test_driver`] — a small driver for tests and manual checks.
 //!
-//! Connection tasks only do I/O; one core thread owns the drivers (see `core`), so drivers are
-//! plain synchronous objects.
+//! Connection tasks do the I/O and answer the player interface's own requests; one core task
+//! owns the drivers and subscriptions, so drivers are plain synchronous objects.
 
 #![warn(missing_docs)]
 

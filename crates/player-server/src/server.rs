@@ -1,15 +1,14 @@
 //! Building and running a server: drivers from cfg blocks, the device table, one listener per
-//! port, the core thread and the I/O runtime.
+//! port, the core task and the I/O runtime.
 //!
 //! The API is synchronous: [`Server::start`] returns once every port listens, with a
-//! [`ServerHandle`] that reports the ports and stops everything. Connections run on a small
-//! tokio runtime owned by the handle; the drivers run on the core's own thread.
+//! [`ServerHandle`] that reports the ports and stops everything. Connections and the core task
+//! (which owns the drivers) run on a small tokio runtime owned by the handle.
 
 use std::collections::HashMap;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::thread::JoinHandle;
 use std::time::Duration;
 
 use tokio::net::{TcpListener, TcpSocket};
@@ -176,8 +175,8 @@ impl Server {
         &self.table
     }
 
-    /// Subscribes alwayson drivers, opens one listener per port, starts the core thread and
-    /// the I/O runtime. Port 0 is given a free port by the OS; its devices are relabelled.
+    /// Subscribes alwayson drivers, opens one listener per port, starts the runtime with the
+    /// core task and the acceptors. Port 0 is given a free port by the OS; its devices are relabelled.
     pub fn start(self) -> Result<ServerHandle, ServerError> {
         let Server {
             config,
@@ -265,7 +264,7 @@ pub struct ServerHandle {
     clock: ServerClock,
     stop: watch::Sender<bool>,
     runtime: Option<Runtime>,
-    core: Option<JoinHandle<()>>,
+    core: Option<tokio::task::JoinHandle<()>>,
 }
 
 impl std::fmt::Debug for ServerHandle {
@@ -329,26 +328,17 @@ impl ServerHandle {
         drop(ctx);
 
         let stop_on_exit = stop.clone();
-        let core = std::thread::Builder::new()
-            .name("player-core".into())
-            .spawn(move || {
-                // However the core ends (even by a driver panic), the whole server stops.
-                struct StopOnExit(watch::Sender<bool>);
-                impl Drop for StopOnExit {
-                    fn drop(&mut self) {
-                        self.0.send_replace(true);
-                    }
+        let core = runtime.spawn(async move {
+            // However the core ends (even by a driver panic), the whole server stops.
+            struct StopOnExit(watch::Sender<bool>);
+            impl Drop for StopOnExit {
+                fn drop(&mut self) {
+                    self.0.send_replace(true);
                 }
-                let _stop = StopOnExit(stop_on_exit);
-                match tokio::runtime::Builder::new_current_thread()
-                    .enable_all()
-                    .build()
-                {
-                    Ok(rt) => rt.block_on(core.run()),
-                    Err(e) => tracing::error!("cannot start the core runtime: {e}"),
-                }
-            })
-            .map_err(ServerError::Runtime)?;
+            }
+            let _stop = StopOnExit(stop_on_exit);
+            core.run().await;
+        });
 
         Ok(ServerHandle {
             ports,
@@ -427,9 +417,9 @@ impl ServerHandle {
 
     fn stop_and_join(&mut self) {
         self.stop.send_replace(true);
-        if let Some(core) = self.core.take() {
-            if core.join().is_err() {
-                tracing::error!("the core thread panicked");
+        if let (Some(core), Some(rt)) = (self.core.take(), self.runtime.as_ref()) {
+            if rt.block_on(core).is_err() {
+                tracing::error!("the core task panicked");
             }
         }
         if let Some(rt) = self.runtime.take() {

@@ -1,1 +1,39 @@
-//! The Player 3.0.2 device server: TCP sessions, the device table and the stage driver.
+//! The Player 3.0.2 device server: TCP sessions, the device table, and the machinery drivers
+//! plug into.
+//!
+//! * [`driver`] — the [`Driver`] trait, the cfg [`DriverBlock`] a driver is built from, and the
+//!   [`DriverRegistry`] of factories by driver name;
+//! * [`cfg`] — cfg `driver` blocks ([`worldfile::CfgFile`]) to [`DriverBlock`]s;
+//! * [`device`] — the [`DeviceTable`] (cfg order, duplicate check, ports);
+//! * [`queue`] — the per-connection outgoing queue with upstream's exact PUSH/PULL, replace-rule
+//!   and SYNCH semantics;
+//! * [`clock`] — the server clock and the schedule drivers are stepped on ([`Pace`]);
+//! * [`server`] — [`Server`] (assembling) and [`ServerHandle`] (running);
+//! * [`test_driver`] — a small driver for tests and manual checks.
+//!
+//! Connection tasks do the I/O and answer the player interface's own requests; one core task
+//! owns the drivers and subscriptions, so drivers are plain synchronous objects.
+
+#![warn(missing_docs)]
+
+pub mod cfg;
+pub mod clock;
+mod connection;
+mod core;
+pub mod device;
+pub mod driver;
+mod error;
+mod player_iface;
+pub mod queue;
+pub mod server;
+pub mod test_driver;
+
+pub use clock::{Pace, ServerClock};
+pub use connection::ConnectionLimits;
+pub use device::{Device, DeviceIndex, DeviceTable, DriverId};
+pub use driver::{
+    ClientId, Context, Driver, DriverBlock, DriverError, DriverRegistry, ProvidedDevice,
+    Publication, Reply,
+};
+pub use error::ServerError;
+pub use server::{Server, ServerConfig, ServerHandle};

@@ -1,11 +1,18 @@
-//! The `player` binary. For now it only checks configurations: `player --check FILE.cfg` parses
-//! the cfg and its worldfile and reports every driver and device it would create (serving
-//! arrives with a later issue).
+//! The `player` binary: `player [-p port] [-q] [-d level] [-l logfile] FILE.cfg`, Player
+//! 3.0.2's command line. Loads the cfg, builds every driver block, listens on every port a
+//! device names and serves until SIGINT/SIGTERM. `player --check FILE.cfg` only reports what
+//! the configuration would create.
 
+use std::fs::OpenOptions;
+use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::sync::Mutex;
 
 use anyhow::{Context, bail};
 use clap::Parser;
+use player_server::test_driver::{TEST_DRIVER_NAME, TestDriver};
+use player_server::{DriverRegistry, Pace, Server, ServerConfig};
+use tracing_subscriber::EnvFilter;
 use worldfile::{CfgFile, LoadOptions, check};
 
 /// Player 3.0.2-compatible robot server.
@@ -22,18 +29,58 @@ struct Args {
     /// Default port for addresses without one.
     #[arg(short = 'p', long = "port", default_value_t = 6665)]
     port: u16,
-    /// Do not print warnings.
+    /// Quiet start-up: no banner, no cfg warnings.
     #[arg(short, long)]
     quiet: bool,
+    /// Debug message level: 0 errors only, 1 (default) also warnings and client connections,
+    /// 2 debugging detail, 3 and up everything.
+    #[arg(short = 'd', long = "debug", default_value_t = 1)]
+    debug: u8,
+    /// Append log messages to this file instead of printing them.
+    #[arg(short = 'l', long = "logfile")]
+    logfile: Option<PathBuf>,
+    /// Step drivers (the simulation) as fast as they compute instead of in real time.
+    #[arg(long, conflicts_with = "speedup")]
+    fast: bool,
+    /// Run the simulation this many times faster than real time.
+    #[arg(long, value_name = "FACTOR")]
+    speedup: Option<f64>,
     /// The configuration file.
     cfgfile: PathBuf,
 }
 
-fn main() -> anyhow::Result<()> {
-    let args = Args::parse();
-    if !args.check {
-        bail!("serving is not built yet; use `player --check FILE.cfg`");
+fn init_logging(args: &Args) -> anyhow::Result<()> {
+    let level = match args.debug {
+        0 => "error",
+        1 => "info",
+        2 => "debug",
+        _ => "trace",
+    };
+    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(level));
+    let builder = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_target(false);
+    match &args.logfile {
+        Some(path) => {
+            let file = OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(path)
+                .with_context(|| format!("opening log file {}", path.display()))?;
+            builder
+                .with_ansi(false)
+                .with_writer(Mutex::new(file))
+                .init();
+        }
+        None => builder
+            .with_ansi(std::io::stderr().is_terminal())
+            .with_writer(std::io::stderr)
+            .init(),
     }
+    Ok(())
+}
+
+fn run_check(args: &Args) -> anyhow::Result<()> {
     let opts = LoadOptions::from_env();
     let cfg = CfgFile::load(&args.cfgfile, &opts).map_err(|e| anyhow::anyhow!("{e}"))?;
     let (report, _world) = check::check(&cfg, args.port, &opts);
@@ -57,4 +104,68 @@ fn main() -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The drivers this binary can build, by cfg name.
+fn registry() -> DriverRegistry {
+    let mut registry = DriverRegistry::new();
+    TestDriver::register(&mut registry, TEST_DRIVER_NAME);
+    registry
+}
+
+fn serve(args: &Args) -> anyhow::Result<()> {
+    init_logging(args)?;
+    eprintln!(
+        "Player v.3.0.2 (playerstage-rs {})",
+        env!("CARGO_PKG_VERSION")
+    );
+    let cfgname = args.cfgfile.display();
+    let opts = LoadOptions::from_env();
+    let cfg = CfgFile::load(&args.cfgfile, &opts)
+        .map_err(|e| anyhow::anyhow!("failed to load config file {cfgname}: {e}"))?;
+    if !args.quiet {
+        for w in &cfg.warnings {
+            eprintln!("{w}");
+        }
+    }
+    let pace = match (args.fast, args.speedup) {
+        (true, _) => Pace::AsFastAsPossible,
+        (false, Some(f)) if f > 0.0 && f.is_finite() => Pace::RealTime { speedup: f },
+        (false, Some(f)) => bail!("--speedup must be a positive number, not {f}"),
+        (false, None) => Pace::default(),
+    };
+    let mut server = Server::new(ServerConfig {
+        pace,
+        ..ServerConfig::default()
+    });
+    let mut registry = registry();
+    let blocks = player_server::cfg::driver_blocks(&cfg, args.port)
+        .map_err(|e| anyhow::anyhow!("failed to parse config file {cfgname} driver blocks: {e}"))?;
+    for block in &blocks {
+        server.add_block(block, &mut registry).map_err(|e| {
+            anyhow::anyhow!("failed to parse config file {cfgname} driver blocks: {e}")
+        })?;
+    }
+    if server.table().is_empty() {
+        bail!("No devices read in configuration file {cfgname}. Is it correct?");
+    }
+    let handle = server
+        .start()
+        .map_err(|e| anyhow::anyhow!("failed to start: {e}"))?;
+    let ports: Vec<String> = handle.ports().iter().map(u16::to_string).collect();
+    println!("Listening on ports: {}", ports.join(" "));
+    handle.stop_on_signals();
+    handle.wait();
+    println!("Quitting.");
+    handle.shutdown();
+    Ok(())
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = Args::parse();
+    if args.check {
+        run_check(&args)
+    } else {
+        serve(&args)
+    }
 }

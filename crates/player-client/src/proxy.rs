@@ -1,0 +1,800 @@
+//! Proxies: one subscribed device each, with typed accessors for its latest data and typed
+//! requests and commands, as libplayerc++'s `ClientProxy` subclasses.
+//!
+//! A proxy subscribes when created and unsubscribes when dropped. Data accessors return the
+//! values of the latest DATA received by [`PlayerClient::read`] (`None` before the first).
+
+use player_proto::constants::{
+    PLAYER_GRIPPER_STATE_CLOSED, PLAYER_PLAYER_MSG_REPLACE_RULE_ACCEPT,
+    PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE,
+};
+use player_proto::*;
+
+use crate::client::PlayerClient;
+use crate::error::ClientError;
+
+/// A subscribed device: the part every typed proxy shares.
+#[derive(Debug)]
+pub struct ClientProxy {
+    client: PlayerClient,
+    interf: InterfaceCode,
+    index: u16,
+    driver_name: String,
+}
+
+impl ClientProxy {
+    /// Subscribes to (`interf`, `index`) on the client's port.
+    pub fn subscribe(
+        client: &PlayerClient,
+        interf: InterfaceCode,
+        index: u16,
+    ) -> Result<ClientProxy, ClientError> {
+        let driver_name = client.subscribe(interf, index)?;
+        Ok(ClientProxy {
+            client: client.clone(),
+            interf,
+            index,
+            driver_name,
+        })
+    }
+
+    /// The client this proxy reads through.
+    pub fn client(&self) -> &PlayerClient {
+        &self.client
+    }
+
+    /// The interface.
+    pub fn interface(&self) -> InterfaceCode {
+        self.interf
+    }
+
+    /// The index.
+    pub fn index(&self) -> u16 {
+        self.index
+    }
+
+    /// The driver the server reports for the device (e.g. `stage`).
+    pub fn driver_name(&self) -> &str {
+        &self.driver_name
+    }
+
+    /// Sends a request to this device; the ACK's body (if any).
+    pub fn request(&self, body: impl Into<Body>) -> Result<Option<Body>, ClientError> {
+        self.client.request(self.interf, self.index, body)
+    }
+
+    /// Sends a command to this device.
+    pub fn command(&self, body: impl Into<Body>) -> Result<(), ClientError> {
+        self.client.command(self.interf, self.index, body)
+    }
+
+    /// The latest DATA body of `subtype`.
+    pub fn latest(&self, subtype: u8) -> Option<Body> {
+        self.client.latest(self.interf, self.index, subtype)
+    }
+
+    /// Timestamp of this device's latest DATA (server time; simulated seconds under Stage).
+    pub fn datatime(&self) -> f64 {
+        self.with_data(|d| d.datatime).unwrap_or(0.0)
+    }
+
+    /// True when data newer than the last [`ClientProxy::not_fresh`] arrived (`IsFresh`).
+    pub fn is_fresh(&self) -> bool {
+        self.with_data(|d| d.fresh).unwrap_or(false)
+    }
+
+    /// Marks the current data as seen (`NotFresh`).
+    pub fn not_fresh(&self) {
+        let mut inner = self.client.lock();
+        if let Some(d) = inner.devices.get_mut(&(self.interf, self.index)) {
+            d.fresh = false;
+        }
+    }
+
+    fn with_data<T>(&self, f: impl FnOnce(&crate::client::DeviceData) -> T) -> Option<T> {
+        let inner = self.client.lock();
+        inner.devices.get(&(self.interf, self.index)).map(f)
+    }
+
+    /// Keeps only the newest queued message of this device per (type, subtype) on the server
+    /// (`replace`), or all of them (`ClientProxy::SetReplaceRule`).
+    pub fn set_replace_rule(
+        &self,
+        replace: bool,
+        msg_type: i32,
+        subtype: i32,
+    ) -> Result<(), ClientError> {
+        let action = if replace {
+            PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
+        } else {
+            PLAYER_PLAYER_MSG_REPLACE_RULE_ACCEPT
+        };
+        self.client.add_replace_rule(
+            i32::from(self.interf.0),
+            i32::from(self.index),
+            msg_type,
+            subtype,
+            action,
+        )
+    }
+
+    /// Whether the device handles messages of (`msg_type`, `subtype`) (universal
+    /// CAPABILITIES request: ACK yes, NACK no).
+    pub fn has_capability(&self, msg_type: MsgType, subtype: u8) -> Result<bool, ClientError> {
+        let req = CapabilitiesReq {
+            msg_type: u32::from(msg_type.code()),
+            subtype: u32::from(subtype),
+        };
+        match self.request(Body::Universal(UniversalMsg::Req(
+            UniversalReq::Capabilities(Some(req)),
+        ))) {
+            Ok(_) => Ok(true),
+            Err(ClientError::Nack { .. }) => Ok(false),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn universal(&self, req: UniversalReq) -> Result<Option<UniversalReq>, ClientError> {
+        match self.request(Body::Universal(UniversalMsg::Req(req)))? {
+            Some(Body::Universal(UniversalMsg::Ack(r))) => Ok(Some(r)),
+            None => Ok(None),
+            Some(_) => Err(self.bad_reply("property request")),
+        }
+    }
+
+    fn bad_reply(&self, what: &str) -> ClientError {
+        ClientError::BadReply {
+            what: format!("{what} on {}:{}", self.interf, self.index),
+        }
+    }
+
+    /// An integer property (`GetIntProp`).
+    pub fn get_int_prop(&self, key: &str) -> Result<i32, ClientError> {
+        let req = IntPropReq {
+            key: Text::new(key),
+            value: 0,
+        };
+        match self.universal(UniversalReq::GetIntProp(Some(req)))? {
+            Some(UniversalReq::GetIntProp(Some(r))) => Ok(r.value),
+            _ => Err(self.bad_reply("GET_INTPROP")),
+        }
+    }
+
+    /// Sets an integer property (`SetIntProp`).
+    pub fn set_int_prop(&self, key: &str, value: i32) -> Result<(), ClientError> {
+        let req = IntPropReq {
+            key: Text::new(key),
+            value,
+        };
+        self.universal(UniversalReq::SetIntProp(Some(req)))
+            .map(|_| ())
+    }
+
+    /// A double property (`GetDblProp`).
+    pub fn get_dbl_prop(&self, key: &str) -> Result<f64, ClientError> {
+        let req = DblPropReq {
+            key: Text::new(key),
+            value: 0.0,
+        };
+        match self.universal(UniversalReq::GetDblProp(Some(req)))? {
+            Some(UniversalReq::GetDblProp(Some(r))) => Ok(r.value),
+            _ => Err(self.bad_reply("GET_DBLPROP")),
+        }
+    }
+
+    /// Sets a double property (`SetDblProp`).
+    pub fn set_dbl_prop(&self, key: &str, value: f64) -> Result<(), ClientError> {
+        let req = DblPropReq {
+            key: Text::new(key),
+            value,
+        };
+        self.universal(UniversalReq::SetDblProp(Some(req)))
+            .map(|_| ())
+    }
+
+    /// A string property (`GetStrProp`).
+    pub fn get_str_prop(&self, key: &str) -> Result<String, ClientError> {
+        let req = StrPropReq {
+            key: Text::new(key),
+            value: Text::empty(),
+        };
+        match self.universal(UniversalReq::GetStrProp(Some(req)))? {
+            Some(UniversalReq::GetStrProp(Some(r))) => Ok(r.value.to_str_lossy().into_owned()),
+            _ => Err(self.bad_reply("GET_STRPROP")),
+        }
+    }
+
+    /// Sets a string property (`SetStrProp`).
+    pub fn set_str_prop(&self, key: &str, value: &str) -> Result<(), ClientError> {
+        let req = StrPropReq {
+            key: Text::new(key),
+            value: Text::new(value),
+        };
+        self.universal(UniversalReq::SetStrProp(Some(req)))
+            .map(|_| ())
+    }
+
+    /// A boolean property (`GetBoolProp`).
+    pub fn get_bool_prop(&self, key: &str) -> Result<bool, ClientError> {
+        let req = BoolPropReq {
+            key: Text::new(key),
+            value: 0,
+        };
+        match self.universal(UniversalReq::GetBoolProp(Some(req)))? {
+            Some(UniversalReq::GetBoolProp(Some(r))) => Ok(r.value != 0),
+            _ => Err(self.bad_reply("GET_BOOLPROP")),
+        }
+    }
+
+    /// Sets a boolean property (`SetBoolProp`).
+    pub fn set_bool_prop(&self, key: &str, value: bool) -> Result<(), ClientError> {
+        let req = BoolPropReq {
+            key: Text::new(key),
+            value: i8::from(value),
+        };
+        self.universal(UniversalReq::SetBoolProp(Some(req)))
+            .map(|_| ())
+    }
+}
+
+impl Drop for ClientProxy {
+    /// Unsubscribes, as libplayerc++ proxy destructors do; errors (e.g. the server is gone)
+    /// are only logged.
+    fn drop(&mut self) {
+        if let Err(e) = self.client.unsubscribe(self.interf, self.index) {
+            tracing::debug!("unsubscribing {}:{} failed: {e}", self.interf, self.index);
+        }
+    }
+}
+
+/// Declares a typed proxy over [`ClientProxy`] for one interface.
+macro_rules! proxy {
+    ($(#[$attr:meta])* $name:ident, $code:ident) => {
+        $(#[$attr])*
+        #[derive(Debug)]
+        pub struct $name {
+            proxy: ClientProxy,
+        }
+
+        impl $name {
+            /// Subscribes to device `index` of this interface on the client's port.
+            pub fn new(client: &PlayerClient, index: u16) -> Result<$name, ClientError> {
+                Ok($name {
+                    proxy: ClientProxy::subscribe(client, InterfaceCode::$code, index)?,
+                })
+            }
+        }
+
+        impl std::ops::Deref for $name {
+            type Target = ClientProxy;
+            fn deref(&self) -> &ClientProxy {
+                &self.proxy
+            }
+        }
+    };
+}
+
+/// Pulls the typed ACK body out of a reply, or a `BadReply` error.
+macro_rules! ack_body {
+    ($proxy:expr, $reply:expr, $pat:pat => $out:expr, $what:literal) => {
+        match $reply {
+            Some($pat) => Ok($out),
+            _ => Err($proxy.bad_reply($what)),
+        }
+    };
+}
+
+proxy!(
+    /// A mobile base (`position2d`).
+    Position2dProxy,
+    POSITION2D
+);
+
+impl Position2dProxy {
+    /// The latest odometry state.
+    pub fn state(&self) -> Option<Position2dDataState> {
+        match self.latest(Position2dData::STATE)? {
+            Body::Position2d(Position2dMsg::Data(Position2dData::State(s))) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// Pose (m, m, rad); zero before the first data.
+    pub fn pose(&self) -> Pose2d {
+        self.state().map(|s| s.pos).unwrap_or_default()
+    }
+
+    /// Velocity (m/s, m/s, rad/s).
+    pub fn velocity(&self) -> Pose2d {
+        self.state().map(|s| s.vel).unwrap_or_default()
+    }
+
+    /// True when the base is stalled.
+    pub fn stall(&self) -> bool {
+        self.state().is_some_and(|s| s.stall != 0)
+    }
+
+    /// Velocity command (`SetSpeed`): forward, sideways (m/s), turn rate (rad/s).
+    pub fn set_speed(&self, xspeed: f64, yspeed: f64, yawspeed: f64) -> Result<(), ClientError> {
+        self.command(Position2dCmd::Vel(Position2dCmdVel {
+            vel: Pose2d {
+                px: xspeed,
+                py: yspeed,
+                pa: yawspeed,
+            },
+            state: 1,
+        }))
+    }
+
+    /// Car-like command (`SetCarlike`): speed (m/s) and turning angle (rad).
+    pub fn set_car(&self, velocity: f64, angle: f64) -> Result<(), ClientError> {
+        self.command(Position2dCmd::Car(Position2dCmdCar { velocity, angle }))
+    }
+
+    /// Position command (`GoTo`).
+    pub fn go_to(&self, x: f64, y: f64, yaw: f64) -> Result<(), ClientError> {
+        self.command(Position2dCmd::Pos(Position2dCmdPos {
+            pos: Pose2d {
+                px: x,
+                py: y,
+                pa: yaw,
+            },
+            vel: Pose2d::default(),
+            state: 1,
+        }))
+    }
+
+    /// Motor power on/off (`SetMotorEnable`).
+    pub fn set_motor_enable(&self, enable: bool) -> Result<(), ClientError> {
+        self.request(Position2dReq::MotorPower(Some(Position2dPowerConfig {
+            state: u8::from(enable),
+        })))
+        .map(|_| ())
+    }
+
+    /// Resets odometry to zero (`ResetOdometry`).
+    pub fn reset_odometry(&self) -> Result<(), ClientError> {
+        self.request(Position2dReq::ResetOdom).map(|_| ())
+    }
+
+    /// Sets the odometric pose (`SetOdometry`).
+    pub fn set_odometry(&self, x: f64, y: f64, yaw: f64) -> Result<(), ClientError> {
+        self.request(Position2dReq::SetOdom(Some(Position2dSetOdomReq {
+            pose: Pose2d {
+                px: x,
+                py: y,
+                pa: yaw,
+            },
+        })))
+        .map(|_| ())
+    }
+
+    /// The base's geometry (`RequestGeom`).
+    pub fn request_geom(&self) -> Result<Position2dGeom, ClientError> {
+        let reply = self.request(Position2dReq::GetGeom(None))?;
+        ack_body!(self, reply,
+            Body::Position2d(Position2dMsg::Ack(Position2dReq::GetGeom(Some(g)))) => g,
+            "position2d GET_GEOM")
+    }
+}
+
+proxy!(
+    /// A range sensor array (`ranger`): sonar rings, lasers.
+    RangerProxy,
+    RANGER
+);
+
+impl RangerProxy {
+    /// The latest ranges (m).
+    pub fn ranges(&self) -> Vec<f64> {
+        match self.latest(RangerData::RANGE) {
+            Some(Body::Ranger(RangerMsg::Data(RangerData::Range(r)))) => r.ranges,
+            _ => Vec::new(),
+        }
+    }
+
+    /// The latest intensities.
+    pub fn intensities(&self) -> Vec<f64> {
+        match self.latest(RangerData::INTNS) {
+            Some(Body::Ranger(RangerMsg::Data(RangerData::Intns(r)))) => r.intensities,
+            _ => Vec::new(),
+        }
+    }
+
+    /// The sensor geometry (`RequestGeom`).
+    pub fn request_geom(&self) -> Result<RangerGeom, ClientError> {
+        let reply = self.request(RangerReq::GetGeom(None))?;
+        ack_body!(self, reply,
+            Body::Ranger(RangerMsg::Ack(RangerReq::GetGeom(Some(g)))) => g,
+            "ranger GET_GEOM")
+    }
+
+    /// The scan configuration (`RequestConfigure`).
+    pub fn request_config(&self) -> Result<RangerConfig, ClientError> {
+        let reply = self.request(RangerReq::GetConfig(None))?;
+        ack_body!(self, reply,
+            Body::Ranger(RangerMsg::Ack(RangerReq::GetConfig(Some(c)))) => c,
+            "ranger GET_CONFIG")
+    }
+
+    /// Changes the configuration (`Configure`); returns what the device applied.
+    pub fn configure(&self, config: RangerConfig) -> Result<RangerConfig, ClientError> {
+        let reply = self.request(RangerReq::SetConfig(Some(config)))?;
+        ack_body!(self, reply,
+            Body::Ranger(RangerMsg::Ack(RangerReq::SetConfig(Some(c)))) => c,
+            "ranger SET_CONFIG")
+    }
+}
+
+proxy!(
+    /// A laser scanner (`laser`).
+    LaserProxy,
+    LASER
+);
+
+impl LaserProxy {
+    /// The latest scan.
+    pub fn scan(&self) -> Option<LaserDataScan> {
+        match self.latest(LaserData::SCAN)? {
+            Body::Laser(LaserMsg::Data(LaserData::Scan(s))) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// The latest ranges (m).
+    pub fn ranges(&self) -> Vec<f32> {
+        self.scan().map(|s| s.ranges).unwrap_or_default()
+    }
+
+    /// The scanner geometry (`RequestGeom`).
+    pub fn request_geom(&self) -> Result<LaserGeom, ClientError> {
+        let reply = self.request(LaserReq::GetGeom(None))?;
+        ack_body!(self, reply,
+            Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(g)))) => g,
+            "laser GET_GEOM")
+    }
+
+    /// The scan configuration (`RequestConfigure`).
+    pub fn request_config(&self) -> Result<LaserConfig, ClientError> {
+        let reply = self.request(LaserReq::GetConfig(None))?;
+        ack_body!(self, reply,
+            Body::Laser(LaserMsg::Ack(LaserReq::GetConfig(Some(c)))) => c,
+            "laser GET_CONFIG")
+    }
+}
+
+proxy!(
+    /// A sonar array (`sonar`).
+    SonarProxy,
+    SONAR
+);
+
+impl SonarProxy {
+    /// The latest ranges (m).
+    pub fn ranges(&self) -> Vec<f32> {
+        match self.latest(SonarData::RANGES) {
+            Some(Body::Sonar(SonarMsg::Data(SonarData::Ranges(r)))) => r.ranges,
+            _ => Vec::new(),
+        }
+    }
+
+    /// The transducer poses (`RequestGeom`).
+    pub fn request_geom(&self) -> Result<SonarGeom, ClientError> {
+        let reply = self.request(SonarReq::GetGeom(None))?;
+        ack_body!(self, reply,
+            Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g)))) => g,
+            "sonar GET_GEOM")
+    }
+}
+
+proxy!(
+    /// A colour blob detector (`blobfinder`).
+    BlobfinderProxy,
+    BLOBFINDER
+);
+
+impl BlobfinderProxy {
+    /// The latest detection frame.
+    pub fn data(&self) -> Option<BlobfinderDataBlobs> {
+        match self.latest(BlobfinderData::BLOBS)? {
+            Body::Blobfinder(BlobfinderMsg::Data(BlobfinderData::Blobs(b))) => Some(b),
+            _ => None,
+        }
+    }
+
+    /// The latest blobs.
+    pub fn blobs(&self) -> Vec<BlobfinderBlob> {
+        self.data().map(|d| d.blobs).unwrap_or_default()
+    }
+}
+
+proxy!(
+    /// A fiducial (marker) detector (`fiducial`).
+    FiducialProxy,
+    FIDUCIAL
+);
+
+impl FiducialProxy {
+    /// The latest detections.
+    pub fn fiducials(&self) -> Vec<FiducialItem> {
+        match self.latest(FiducialData::SCAN) {
+            Some(Body::Fiducial(FiducialMsg::Data(FiducialData::Scan(s)))) => s.fiducials,
+            _ => Vec::new(),
+        }
+    }
+
+    /// The detector geometry (`RequestGeometry`).
+    pub fn request_geometry(&self) -> Result<FiducialGeom, ClientError> {
+        let reply = self.request(FiducialReq::GetGeom(None))?;
+        ack_body!(self, reply,
+            Body::Fiducial(FiducialMsg::Ack(FiducialReq::GetGeom(Some(g)))) => g,
+            "fiducial GET_GEOM")
+    }
+}
+
+proxy!(
+    /// A gripper (`gripper`).
+    GripperProxy,
+    GRIPPER
+);
+
+impl GripperProxy {
+    /// The latest state.
+    pub fn data(&self) -> Option<GripperDataState> {
+        match self.latest(GripperData::STATE)? {
+            Body::Gripper(GripperMsg::Data(GripperData::State(s))) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// `PLAYER_GRIPPER_STATE_*` of the latest data (0 before any).
+    pub fn state(&self) -> u8 {
+        self.data().map(|d| d.state).unwrap_or(0)
+    }
+
+    /// True when closed.
+    pub fn is_closed(&self) -> bool {
+        self.state() == PLAYER_GRIPPER_STATE_CLOSED
+    }
+
+    /// Break-beam bits.
+    pub fn beams(&self) -> u32 {
+        self.data().map(|d| d.beams).unwrap_or(0)
+    }
+
+    /// Opens the gripper.
+    pub fn open(&self) -> Result<(), ClientError> {
+        self.command(GripperCmd::Open)
+    }
+
+    /// Closes the gripper.
+    pub fn close(&self) -> Result<(), ClientError> {
+        self.command(GripperCmd::Close)
+    }
+
+    /// Stops the gripper.
+    pub fn stop(&self) -> Result<(), ClientError> {
+        self.command(GripperCmd::Stop)
+    }
+
+    /// The gripper geometry (`RequestGeometry`).
+    pub fn request_geometry(&self) -> Result<GripperGeom, ClientError> {
+        let reply = self.request(GripperReq::GetGeom(None))?;
+        ack_body!(self, reply,
+            Body::Gripper(GripperMsg::Ack(GripperReq::GetGeom(Some(g)))) => g,
+            "gripper GET_GEOM")
+    }
+}
+
+proxy!(
+    /// The simulation itself (`simulation`): model poses and properties by name.
+    SimulationProxy,
+    SIMULATION
+);
+
+impl SimulationProxy {
+    /// A model's pose in its parent's frame (`GetPose2d`).
+    pub fn get_pose2d(&self, name: &str) -> Result<Pose2d, ClientError> {
+        let reply = self.request(SimulationReq::GetPose2d(Some(SimulationPose2dReq {
+            name: Text::new(name),
+            pose: Pose2d::default(),
+        })))?;
+        ack_body!(self, reply,
+            Body::Simulation(SimulationMsg::Ack(SimulationReq::GetPose2d(Some(r)))) => r.pose,
+            "simulation GET_POSE2D")
+    }
+
+    /// Moves a model (`SetPose2d`).
+    pub fn set_pose2d(&self, name: &str, x: f64, y: f64, a: f64) -> Result<(), ClientError> {
+        self.request(SimulationReq::SetPose2d(Some(SimulationPose2dReq {
+            name: Text::new(name),
+            pose: Pose2d {
+                px: x,
+                py: y,
+                pa: a,
+            },
+        })))
+        .map(|_| ())
+    }
+
+    /// A model's 3D pose and the simulation time in µs (`GetPose3d`).
+    pub fn get_pose3d(&self, name: &str) -> Result<(Pose3d, f64), ClientError> {
+        let reply = self.request(SimulationReq::GetPose3d(Some(SimulationPose3dReq {
+            name: Text::new(name),
+            ..SimulationPose3dReq::default()
+        })))?;
+        ack_body!(self, reply,
+            Body::Simulation(SimulationMsg::Ack(SimulationReq::GetPose3d(Some(r)))) => (r.pose, r.simtime),
+            "simulation GET_POSE3D")
+    }
+
+    /// Moves a model in 3D (`SetPose3d`).
+    pub fn set_pose3d(&self, name: &str, pose: Pose3d) -> Result<(), ClientError> {
+        self.request(SimulationReq::SetPose3d(Some(SimulationPose3dReq {
+            name: Text::new(name),
+            pose,
+            simtime: 0.0,
+        })))
+        .map(|_| ())
+    }
+
+    /// A model property's raw value bytes (`GetProperty`); `size` is the value's byte length.
+    pub fn get_property(
+        &self,
+        name: &str,
+        prop: &str,
+        size: usize,
+    ) -> Result<Vec<u8>, ClientError> {
+        let reply = self.request(SimulationReq::GetProperty(Some(SimulationPropertyReq {
+            name: Text::new(name),
+            prop: Text::new(prop),
+            index: 0,
+            value: vec![0; size],
+        })))?;
+        ack_body!(self, reply,
+            Body::Simulation(SimulationMsg::Ack(SimulationReq::GetProperty(Some(r)))) => r.value,
+            "simulation GET_PROPERTY")
+    }
+
+    /// Sets a model property from raw value bytes (`SetProperty`).
+    pub fn set_property(&self, name: &str, prop: &str, value: Vec<u8>) -> Result<(), ClientError> {
+        self.request(SimulationReq::SetProperty(Some(SimulationPropertyReq {
+            name: Text::new(name),
+            prop: Text::new(prop),
+            index: 0,
+            value,
+        })))
+        .map(|_| ())
+    }
+
+    /// A model's colour (r, g, b, a in 0..1): the `"color"` property, four floats in the
+    /// little-endian layout x86 libplayerc clients send.
+    pub fn get_color(&self, name: &str) -> Result<[f32; 4], ClientError> {
+        let bytes = self.get_property(name, "color", 16)?;
+        if bytes.len() != 16 {
+            return Err(self.bad_reply("simulation GET_PROPERTY color"));
+        }
+        let mut rgba = [0f32; 4];
+        for (v, chunk) in rgba.iter_mut().zip(bytes.chunks_exact(4)) {
+            *v = f32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
+        }
+        Ok(rgba)
+    }
+
+    /// Sets a model's colour (r, g, b, a in 0..1).
+    pub fn set_color(&self, name: &str, rgba: [f32; 4]) -> Result<(), ClientError> {
+        let bytes = rgba.iter().flat_map(|v| v.to_le_bytes()).collect();
+        self.set_property(name, "color", bytes)
+    }
+}
+
+proxy!(
+    /// Text to speech (`speech`): under Stage, a speech bubble.
+    SpeechProxy,
+    SPEECH
+);
+
+impl SpeechProxy {
+    /// Says `text` (`Say`).
+    pub fn say(&self, text: &str) -> Result<(), ClientError> {
+        self.command(SpeechCmd::Say(SpeechCmdSay {
+            string: Text::new(text),
+        }))
+    }
+}
+
+proxy!(
+    /// 2D drawing on a model (`graphics2d`).
+    Graphics2dProxy,
+    GRAPHICS2D
+);
+
+impl Graphics2dProxy {
+    /// Clears the drawing.
+    pub fn clear(&self) -> Result<(), ClientError> {
+        self.command(Graphics2dCmd::Clear)
+    }
+
+    /// Draws points.
+    pub fn draw_points(&self, points: Vec<Point2d>, color: Color) -> Result<(), ClientError> {
+        self.command(Graphics2dCmd::Points(Graphics2dCmdPoints { points, color }))
+    }
+
+    /// Draws an open polyline.
+    pub fn draw_polyline(&self, points: Vec<Point2d>, color: Color) -> Result<(), ClientError> {
+        self.command(Graphics2dCmd::Polyline(Graphics2dCmdPolyline {
+            points,
+            color,
+        }))
+    }
+
+    /// Draws a polygon, filled or not.
+    pub fn draw_polygon(
+        &self,
+        points: Vec<Point2d>,
+        color: Color,
+        fill_color: Option<Color>,
+    ) -> Result<(), ClientError> {
+        self.command(Graphics2dCmd::Polygon(Graphics2dCmdPolygon {
+            points,
+            color,
+            fill_color: fill_color.unwrap_or_default(),
+            filled: u8::from(fill_color.is_some()),
+        }))
+    }
+}
+
+proxy!(
+    /// An actuator array (`actarray`).
+    ActArrayProxy,
+    ACTARRAY
+);
+
+impl ActArrayProxy {
+    /// The latest actuator states.
+    pub fn data(&self) -> Option<ActarrayDataState> {
+        match self.latest(ActarrayData::STATE)? {
+            Body::Actarray(ActarrayMsg::Data(ActarrayData::State(s))) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// Moves one joint to a position (`MoveTo`).
+    pub fn move_to(&self, joint: i32, position: f32) -> Result<(), ClientError> {
+        self.command(ActarrayCmd::Pos(ActarrayPositionCmd { joint, position }))
+    }
+
+    /// Moves one joint at a speed (`MoveAtSpeed`).
+    pub fn move_at_speed(&self, joint: i32, speed: f32) -> Result<(), ClientError> {
+        self.command(ActarrayCmd::Speed(ActarraySpeedCmd { joint, speed }))
+    }
+
+    /// Sends a joint home (`MoveHome`).
+    pub fn move_home(&self, joint: i32) -> Result<(), ClientError> {
+        self.command(ActarrayCmd::Home(ActarrayHomeCmd { joint }))
+    }
+
+    /// The array geometry (`RequestGeometry`).
+    pub fn request_geometry(&self) -> Result<ActarrayGeom, ClientError> {
+        let reply = self.request(ActarrayReq::GetGeom(None))?;
+        ack_body!(self, reply,
+            Body::Actarray(ActarrayMsg::Ack(ActarrayReq::GetGeom(Some(g)))) => g,
+            "actarray GET_GEOM")
+    }
+}
+
+proxy!(
+    /// A camera (`camera`).
+    CameraProxy,
+    CAMERA
+);
+
+impl CameraProxy {
+    /// The latest image.
+    pub fn image(&self) -> Option<CameraDataState> {
+        match self.latest(CameraData::STATE)? {
+            Body::Camera(CameraMsg::Data(CameraData::State(s))) => Some(s),
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,369 @@
+//! What a driver is: the [`Driver`] trait, the cfg block it is built from, and the registry of
+//! factories keyed by driver name.
+//!
+//! Drivers are plain synchronous objects owned by the server's core task: the core hands them
+//! subscriptions, requests and commands between ticks and calls [`Driver::update`] on their own
+//! step. Nothing in here is async; a driver never touches a socket or a queue, it only returns
+//! replies and publishes data through its [`Context`].
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use player_proto::{Body, DeviceAddr, Message};
+
+use crate::error::ServerError;
+
+/// A connected client, as the server numbers them (for drivers that keep per-client state).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ClientId(pub u64);
+
+impl fmt::Display for ClientId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "client {}", self.0)
+    }
+}
+
+/// A driver's reason for refusing something (a cfg block, a subscription).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct DriverError(pub String);
+
+impl DriverError {
+    /// An error with this message.
+    pub fn new(msg: impl Into<String>) -> DriverError {
+        DriverError(msg.into())
+    }
+}
+
+/// One device in a block's `provides`, resolved to its wire address.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProvidedDevice {
+    /// The address: host, port (the cfg's or the server default), interface, index.
+    pub addr: DeviceAddr,
+    /// The optional `key` (role label) of the entry.
+    pub key: Option<String>,
+    /// Where the entry is written (`file:line`).
+    pub origin: String,
+}
+
+/// A cfg `driver ( ... )` block, as the server hands it to a driver factory.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DriverBlock {
+    /// The `name` field: which factory builds it.
+    pub name: String,
+    /// Where the block is written (`file:line`), for error messages.
+    pub origin: String,
+    /// The cfg file, when there is one: relative paths in options resolve against its folder.
+    pub cfg_path: Option<PathBuf>,
+    /// The devices it provides, in `provides` order.
+    pub provides: Vec<ProvidedDevice>,
+    /// The `alwayson` field, when written.
+    pub alwayson: Option<bool>,
+    /// Every other field, as its list of values (e.g. `model`, `worldfile`).
+    pub options: BTreeMap<String, Vec<String>>,
+}
+
+impl DriverBlock {
+    /// The first value of an option.
+    pub fn option(&self, key: &str) -> Option<&str> {
+        self.options.get(key)?.first().map(String::as_str)
+    }
+
+    /// An option read as a number, with a clear error naming the block when it is not one.
+    pub fn option_parse<T: std::str::FromStr>(&self, key: &str) -> Result<Option<T>, DriverError> {
+        match self.option(key) {
+            None => Ok(None),
+            Some(text) => text.parse().map(Some).map_err(|_| {
+                DriverError::new(format!("option `{key}` has an invalid value \"{text}\""))
+            }),
+        }
+    }
+
+    /// A path written in the block: absolute as written, else relative to the cfg file's
+    /// folder (as Player resolves the stage driver's `worldfile`).
+    pub fn resolve_path(&self, written: &str) -> PathBuf {
+        let p = Path::new(written);
+        if p.is_absolute() {
+            return p.to_path_buf();
+        }
+        match self.cfg_path.as_deref().and_then(Path::parent) {
+            Some(dir) => dir.join(p),
+            None => p.to_path_buf(),
+        }
+    }
+}
+
+/// A driver's answer to a request.
+// Returned by value and consumed at once; boxing the body would only add an allocation.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, PartialEq)]
+pub enum Reply {
+    /// RESP_ACK. The body, when the reply has one, is given as the request kind of the same
+    /// subtype, e.g. `Position2dReq::GetGeom(Some(geom)).into()`; the server sends it as the ACK.
+    Ack(Option<Body>),
+    /// RESP_NACK, no body.
+    Nack,
+    /// The driver does not handle this request: the client gets an empty NACK, as upstream's
+    /// `Driver::ProcessMessages` sends for unhandled requests.
+    NotHandled,
+}
+
+impl Reply {
+    /// An ACK carrying `body`.
+    pub fn ack(body: impl Into<Body>) -> Reply {
+        Reply::Ack(Some(body.into()))
+    }
+
+    /// An ACK without a body.
+    pub fn empty_ack() -> Reply {
+        Reply::Ack(None)
+    }
+}
+
+/// A DATA message a driver published.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Publication {
+    /// The publishing device.
+    pub addr: DeviceAddr,
+    /// The DATA body.
+    pub body: Body,
+    /// Header timestamp; `None` = the server clock now.
+    pub timestamp: Option<f64>,
+}
+
+/// What a driver can see and do while the core runs it.
+pub struct Context<'a> {
+    now: f64,
+    client: Option<ClientId>,
+    published: &'a mut Vec<Publication>,
+}
+
+impl<'a> Context<'a> {
+    /// A context at server time `now`, collecting publications into `published`.
+    pub fn new(
+        now: f64,
+        client: Option<ClientId>,
+        published: &'a mut Vec<Publication>,
+    ) -> Context<'a> {
+        Context {
+            now,
+            client,
+            published,
+        }
+    }
+
+    /// The server clock: wall-clock seconds, or simulated seconds when a driver supplies the
+    /// clock ([`Driver::clock`]).
+    pub fn now(&self) -> f64 {
+        self.now
+    }
+
+    /// The client whose message is being handled (`None` in `update`).
+    pub fn client(&self) -> Option<ClientId> {
+        self.client
+    }
+
+    /// Publishes DATA from `addr` to every subscriber, stamped with the server clock.
+    pub fn publish(&mut self, addr: DeviceAddr, body: impl Into<Body>) {
+        self.published.push(Publication {
+            addr,
+            body: body.into(),
+            timestamp: None,
+        });
+    }
+
+    /// Publishes DATA with an explicit timestamp (e.g. the time the sample was taken).
+    pub fn publish_at(&mut self, addr: DeviceAddr, body: impl Into<Body>, timestamp: f64) {
+        self.published.push(Publication {
+            addr,
+            body: body.into(),
+            timestamp: Some(timestamp),
+        });
+    }
+}
+
+/// A driver: serves the devices of one cfg `driver` block.
+///
+/// The core calls these methods one at a time, never concurrently (possibly from different
+/// runtime threads over time, hence `Send`). Every call should return
+/// promptly: requests are answered between ticks, and clients time out after 5 s.
+pub trait Driver: Send {
+    /// A client (or, for alwayson drivers, the server at start-up) subscribes to `addr`.
+    /// Called once per subscription, duplicates included. An error makes the DEV reply grant
+    /// access 3 (`PLAYER_ERROR_MODE`).
+    fn subscribe(&mut self, addr: DeviceAddr) -> Result<(), DriverError> {
+        let _ = addr;
+        Ok(())
+    }
+
+    /// One subscription to `addr` ends (DEV close, or the client disconnected).
+    fn unsubscribe(&mut self, addr: DeviceAddr) -> Result<(), DriverError> {
+        let _ = addr;
+        Ok(())
+    }
+
+    /// A REQ to one of this driver's devices (universal capability/property requests
+    /// included). `request.header.addr` is the device's address; the body is typed.
+    /// The server turns the [`Reply`] into exactly one ACK or NACK to the requesting client.
+    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
+        let _ = (ctx, request);
+        Reply::NotHandled
+    }
+
+    /// A CMD to one of this driver's devices. Commands are never answered.
+    fn handle_command(&mut self, ctx: &mut Context<'_>, command: &Message) {
+        let _ = ctx;
+        tracing::warn!(
+            "ignoring unhandled command {} to {}",
+            command.body.constant(),
+            command.header.addr
+        );
+    }
+
+    /// Steps the driver (and, for a simulator, the world) to `ctx.now()` and publishes data.
+    /// Called every [`Driver::step`] while the driver has a subscriber or is alwayson.
+    fn update(&mut self, ctx: &mut Context<'_>) {
+        let _ = ctx;
+    }
+
+    /// How often [`Driver::update`] runs, in server time (e.g. Stage's `interval_sim`).
+    /// `None` uses [`crate::clock::DEFAULT_STEP`].
+    fn step(&self) -> Option<Duration> {
+        None
+    }
+
+    /// The server clock this driver supplies, in seconds (Stage: simulated time), or `None`.
+    /// The first driver (in cfg order) that returns `Some` at start-up becomes the server's
+    /// clock: every timestamp the server writes then comes from it, read after each update.
+    fn clock(&self) -> Option<f64> {
+        None
+    }
+
+    /// Whether the driver runs without subscribers by default (a cfg `alwayson` field
+    /// overrides this). The server subscribes every device of an alwayson driver at start-up.
+    fn always_on(&self) -> bool {
+        false
+    }
+
+    /// The server is shutting down.
+    fn shutdown(&mut self) {}
+}
+
+/// Builds a driver from its cfg block. Factories may keep state across blocks (e.g. one
+/// simulated world shared by every `stage` block).
+pub type DriverFactory =
+    Box<dyn FnMut(&DriverBlock) -> Result<Box<dyn Driver>, DriverError> + Send>;
+
+/// The drivers a server can build, by cfg `name`.
+#[derive(Default)]
+pub struct DriverRegistry {
+    factories: BTreeMap<String, DriverFactory>,
+}
+
+impl fmt::Debug for DriverRegistry {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("DriverRegistry")
+            .field("names", &self.factories.keys().collect::<Vec<_>>())
+            .finish()
+    }
+}
+
+impl DriverRegistry {
+    /// An empty registry.
+    pub fn new() -> DriverRegistry {
+        DriverRegistry::default()
+    }
+
+    /// Registers (or replaces) the factory for driver `name`.
+    pub fn register(
+        &mut self,
+        name: impl Into<String>,
+        factory: impl FnMut(&DriverBlock) -> Result<Box<dyn Driver>, DriverError> + Send + 'static,
+    ) {
+        self.factories.insert(name.into(), Box::new(factory));
+    }
+
+    /// The registered names, sorted.
+    pub fn names(&self) -> Vec<&str> {
+        self.factories.keys().map(String::as_str).collect()
+    }
+
+    /// Builds the driver for `block`; an unknown name or a refusing factory is an error naming
+    /// the block's place in the cfg.
+    pub fn create(&mut self, block: &DriverBlock) -> Result<Box<dyn Driver>, ServerError> {
+        let known = self.names().join(", ");
+        let factory =
+            self.factories
+                .get_mut(&block.name)
+                .ok_or_else(|| ServerError::UnknownDriver {
+                    name: block.name.clone(),
+                    origin: block.origin.clone(),
+                    known,
+                })?;
+        factory(block).map_err(|source| ServerError::DriverFailed {
+            name: block.name.clone(),
+            origin: block.origin.clone(),
+            source,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Nothing;
+    impl Driver for Nothing {}
+
+    #[test]
+    fn registry_errors_name_the_block() {
+        let mut reg = DriverRegistry::new();
+        reg.register("b", |_| Ok(Box::new(Nothing) as Box<dyn Driver>));
+        reg.register("a", |block: &DriverBlock| {
+            Err(DriverError::new(format!(
+                "no model \"{}\"",
+                block.option("model").unwrap_or("")
+            )))
+        });
+        let mut block = DriverBlock {
+            name: "stage".into(),
+            origin: "w.cfg:3".into(),
+            ..Default::default()
+        };
+        assert_eq!(
+            reg.create(&block).err().unwrap().to_string(),
+            "w.cfg:3: couldn't find driver \"stage\" (known drivers: a, b)"
+        );
+        block.name = "a".into();
+        block.options.insert("model".into(), vec!["r0".into()]);
+        assert_eq!(
+            reg.create(&block).err().unwrap().to_string(),
+            "w.cfg:3: driver \"a\" failed to start: no model \"r0\""
+        );
+        block.name = "b".into();
+        assert!(reg.create(&block).is_ok());
+    }
+
+    #[test]
+    fn block_options_and_paths() {
+        let mut block = DriverBlock {
+            cfg_path: Some(PathBuf::from("worlds/x.cfg")),
+            ..Default::default()
+        };
+        block.options.insert("step".into(), vec!["50".into()]);
+        block.options.insert("bad".into(), vec!["5x".into()]);
+        assert_eq!(block.option_parse::<u64>("step"), Ok(Some(50)));
+        assert_eq!(block.option_parse::<u64>("none"), Ok(None));
+        assert_eq!(
+            block.option_parse::<u64>("bad").unwrap_err().to_string(),
+            "option `bad` has an invalid value \"5x\""
+        );
+        assert_eq!(block.resolve_path("a.world"), Path::new("worlds/a.world"));
+        assert_eq!(
+            block.resolve_path("/abs/a.world"),
+            Path::new("/abs/a.world")
+        );
+    }
+}

@@ -114,3 +114,8 @@ pub fn serve_cfg(cfg: &Path, pace: Pace) -> Running {
 pub fn bigbob2(pace: Pace) -> Running {
     serve_cfg(&root().join("worlds/bigbob2.cfg"), pace)
 }
+
+/// The conformance world's cfg (`conformance/sessions/world/bigbob.cfg`), when present.
+pub fn conformance_cfg() -> Option<PathBuf> {
+    shared("conformance/sessions/world/bigbob.cfg")
+}

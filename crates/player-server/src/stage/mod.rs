@@ -711,3 +711,6 @@ impl Driver for StageDriver {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;

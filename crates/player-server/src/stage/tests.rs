@@ -33,12 +33,29 @@ position
 model ( name "wall" size [0.2 4 1] pose [2 0 0 0] color "red" fiducial_return 7 )
 "#;
 
+/// A robot with an arm (one linear joint) and a camera, for the remaining interfaces.
+const ARM_WORLD: &str = r#"
+interval_sim 100
+position
+(
+  name "robot"
+  size [0.5 0.5 0.5]
+  actuator ( type "linear" axis [1 0 0] min_position 0 max_position 0.5 max_speed 1 )
+  camera ( resolution [8 6] range [0.2 8] fov [70 40] )
+)
+model ( name "wall" size [0.2 4 1] pose [2 0 0 0] color "red" )
+"#;
+
 /// A world file in a fresh temporary folder.
 fn world_file(tag: &str) -> PathBuf {
+    world_file_with(tag, WORLD)
+}
+
+fn world_file_with(tag: &str, text: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("stage-driver-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("small.world");
-    std::fs::write(&path, WORLD).unwrap();
+    std::fs::write(&path, text).unwrap();
     path
 }
 
@@ -74,9 +91,12 @@ struct Setup {
 }
 
 fn setup(tag: &str, robot_devices: &[(InterfaceCode, u16)]) -> Setup {
+    setup_on(world_file(tag), robot_devices)
+}
+
+fn setup_on(world: PathBuf, robot_devices: &[(InterfaceCode, u16)]) -> Setup {
     let mut registry = DriverRegistry::new();
     let handle = register(&mut registry, StageOptions::default());
-    let world = world_file(tag);
     let sim = registry
         .create(&block(
             &[(InterfaceCode::SIMULATION, 0)],
@@ -376,4 +396,94 @@ fn the_pause_flag_stops_simulated_time() {
     s.handle.paused().store(false, Ordering::Relaxed);
     step(&mut s);
     assert!((s.sim.clock().unwrap() - t - 0.1).abs() < 1e-9);
+}
+
+fn command(d: &mut Box<dyn Driver>, a: DeviceAddr, body: impl Into<Body>) {
+    let mut out = Vec::new();
+    let m = Message::new(a, 0.0, body);
+    d.handle_command(&mut Context::new(0.0, Some(ClientId(1)), &mut out), &m);
+}
+
+#[test]
+fn actarray_reports_one_linear_joint_and_its_goal() {
+    use player_proto::{ActarrayCmd, ActarrayData, ActarrayMsg, ActarrayPositionCmd, ActarrayReq};
+    let a = addr(InterfaceCode::ACTARRAY, 0);
+    let mut s = setup_on(
+        world_file_with("actarray", ARM_WORLD),
+        &[(InterfaceCode::ACTARRAY, 0)],
+    );
+    s.robot.subscribe(a).unwrap();
+    let Reply::Ack(Some(Body::Actarray(ActarrayMsg::Req(ActarrayReq::GetGeom(Some(g)))))) =
+        request(&mut s.robot, a, ActarrayReq::GetGeom(None))
+    else {
+        panic!("no geometry")
+    };
+    assert_eq!(g.actuators.len(), 1);
+    assert_eq!((g.actuators[0].min, g.actuators[0].max), (0.0, 0.5));
+    let state = |out: &[Publication]| match out.first().map(|p| &p.body) {
+        Some(Body::Actarray(ActarrayMsg::Data(ActarrayData::State(st)))) => st.clone(),
+        other => panic!("{other:?}"),
+    };
+    let idle = state(&step(&mut s));
+    assert_eq!(idle.actuators.len(), 1);
+    assert_eq!(
+        idle.actuators[0].state,
+        player_proto::constants::PLAYER_ACTARRAY_ACTSTATE_IDLE
+    );
+    command(
+        &mut s.robot,
+        a,
+        ActarrayCmd::Pos(ActarrayPositionCmd {
+            joint: 0,
+            position: 0.3,
+        }),
+    );
+    let moving = state(&step(&mut s));
+    assert_eq!(
+        moving.actuators[0].state,
+        player_proto::constants::PLAYER_ACTARRAY_ACTSTATE_MOVING
+    );
+}
+
+#[test]
+fn camera_publishes_the_ray_cast_image() {
+    use player_proto::{CameraData, CameraMsg};
+    let c = addr(InterfaceCode::CAMERA, 0);
+    let mut s = setup_on(
+        world_file_with("camera", ARM_WORLD),
+        &[(InterfaceCode::CAMERA, 0)],
+    );
+    s.robot.subscribe(c).unwrap();
+    let out = step(&mut s);
+    let Some(Body::Camera(CameraMsg::Data(CameraData::State(img)))) = out.first().map(|p| &p.body)
+    else {
+        panic!("{out:?}")
+    };
+    assert_eq!((img.width, img.height, img.bpp), (8, 6, 24));
+    assert_eq!(img.image.len(), 8 * 6 * 3);
+    // The red wall fills the middle of the view.
+    let mid = (3 * 8 + 4) * 3;
+    assert!(
+        img.image[mid] > 128 && img.image[mid + 1] < 64,
+        "{:?}",
+        &img.image[mid..mid + 3]
+    );
+}
+
+#[test]
+fn speech_sets_the_models_bubble() {
+    use player_proto::{SpeechCmd, SpeechCmdSay, Text};
+    let sp = addr(InterfaceCode::SPEECH, 0);
+    let mut s = setup("speech", &[(InterfaceCode::SPEECH, 0)]);
+    s.robot.subscribe(sp).unwrap();
+    command(
+        &mut s.robot,
+        sp,
+        SpeechCmd::Say(SpeechCmdSay {
+            string: Text::new("hello"),
+        }),
+    );
+    let world = s.handle.world().unwrap();
+    let w = world.read().unwrap();
+    assert_eq!(w.said(w.model_by_name("robot").unwrap()), "hello");
 }

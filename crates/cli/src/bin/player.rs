@@ -212,10 +212,11 @@ fn serve(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
     let ports: Vec<String> = handle.ports().iter().map(u16::to_string).collect();
     println!("Listening on ports: {}", ports.join(" "));
     // Seam for the world window (issue 6): when the cfg asks for Stage's GUI
-    // (`stage_handle.gui_requested()`, `usegui` defaults to 1) and there is a display, the
-    // window opens on `stage_handle.world()`, `stage_handle.world_spec()` and
-    // `stage_handle.paused()` here, on the main thread, and returns when it is closed.
-    // Until it lands the server runs headless.
+    // (`stage_handle.gui_requested()`, `usegui` defaults to 1) and there is a display, open
+    // `viewer::WorldHandle::from_shared(stage_handle.world()?, &stage_handle.world_spec()?,
+    // stage_handle.paused())` here with `viewer::world_window::run` on the main thread (the
+    // server runs on its own threads); when the window is closed, stop the server as on
+    // SIGINT; on `NoDisplay` go on headless. Until the viewer lands the server runs headless.
     if stage_handle.gui_requested() {
         tracing::debug!("the cfg asks for Stage's window; running headless (no window yet)");
     }

@@ -335,19 +335,7 @@ fn a_client_vanishing_mid_message_hurts_nobody() {
 
 #[test]
 fn legacy_laser_and_sonar_serve_the_rangers() {
-    let dir = std::env::temp_dir().join(format!("playerstage-e2e-legacy-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let cfg = dir.join("legacy.cfg");
-    let world = common::root().join("worlds/bigbob.world");
-    std::fs::write(
-        &cfg,
-        format!(
-            "driver( name \"stage\" provides [\"simulation:0\"] worldfile \"{}\" )\n\
-             driver( name \"stage\" provides [\"position2d:0\" \"sonar:0\" \"laser:0\"] model \"bob1\" )\n",
-            world.display()
-        ),
-    )
-    .unwrap();
+    let (cfg, dir) = extra_cfg("legacy", "\"position2d:0\" \"sonar:0\" \"laser:0\"");
     let server = serve_cfg(&cfg, Pace::AsFastAsPossible);
     let c = connect(&server, 6665);
     let sonar = SonarProxy::new(&c, 0).unwrap();
@@ -363,6 +351,70 @@ fn legacy_laser_and_sonar_serve_the_rangers() {
     assert!((lg.pose.px - 0.625).abs() < 1e-6, "{lg:?}");
     drop(server);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A cfg for bob1 with extra devices, written next to nothing (the world path is absolute).
+fn extra_cfg(tag: &str, devices: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("playerstage-e2e-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("extra.cfg");
+    let world = common::root().join("worlds/bigbob.world");
+    std::fs::write(
+        &cfg,
+        format!(
+            "driver( name \"stage\" provides [\"simulation:0\"] worldfile \"{}\" )\n\
+             driver( name \"stage\" provides [{devices}] model \"bob1\" )\n",
+            world.display()
+        ),
+    )
+    .unwrap();
+    (cfg, dir)
+}
+
+#[test]
+fn graphics_and_speech_from_a_client_reach_the_world_window() {
+    use player_client::{Graphics2dProxy, SpeechProxy};
+    use player_proto::{Color, Point2d};
+    let (cfg, dir) = extra_cfg("graphics", "\"graphics2d:0\" \"speech:0\"");
+    let server = serve_cfg(&cfg, Pace::AsFastAsPossible);
+    let c = connect(&server, 6665);
+    let g = Graphics2dProxy::new(&c, 0).unwrap();
+    let speech = SpeechProxy::new(&c, 0).unwrap();
+    let red = Color {
+        alpha: 0,
+        red: 255,
+        green: 0,
+        blue: 0,
+    };
+    g.draw_points(
+        vec![Point2d { px: 0.5, py: 0.0 }, Point2d { px: 1.0, py: 0.0 }],
+        red,
+    )
+    .unwrap();
+    speech.say("orange ahead").unwrap();
+    let drawings = server.stage.drawings();
+    let world = server.stage.world().unwrap();
+    let bob1 = world.read().unwrap().model_by_name("bob1").unwrap();
+    // Commands are asynchronous: wait until the server has applied them.
+    let start = Instant::now();
+    while drawings.lock().unwrap().on_model(bob1).count() == 0
+        || world.read().unwrap().said(bob1) != "orange ahead"
+    {
+        assert!(
+            start.elapsed() < Duration::from_secs(5),
+            "commands not applied"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // Unsubscribing takes this client's figures away.
+    drop(g);
+    let start = Instant::now();
+    while !drawings.lock().unwrap().is_empty() {
+        assert!(start.elapsed() < Duration::from_secs(5), "figures kept");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    drop(server);
+    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]

@@ -165,6 +165,22 @@ fn driving_changes_the_pose() {
 }
 
 #[test]
+fn odometry_requests_are_acknowledged_and_gps_overrides_them() {
+    let server = fast();
+    let c = connect(&server, 6665);
+    let pos = Position2dProxy::new(&c, 0).unwrap();
+    read_until(&c, "a first pose", || pos.state().is_some());
+    pos.set_odometry(1.0, 2.0, 0.5).unwrap();
+    pos.reset_odometry().unwrap();
+    // Bigbob localises by "gps": Stage recomputes the estimate from the true pose every update,
+    // so the odometry requests have no lasting effect (stage-models.md §7.8).
+    read_until(&c, "the true pose again", || {
+        let p = pos.pose();
+        (p.px + 5.0).abs() < 1e-6 && (p.py + 5.0).abs() < 1e-6
+    });
+}
+
+#[test]
 fn ranges_change_when_the_robot_is_moved() {
     let server = fast();
     let c = connect(&server, 6665);

@@ -487,3 +487,47 @@ fn speech_sets_the_models_bubble() {
     let w = world.read().unwrap();
     assert_eq!(w.said(w.model_by_name("robot").unwrap()), "hello");
 }
+
+#[test]
+fn odometry_requests_last_in_odom_localisation() {
+    use player_proto::{Position2dData, Position2dSetOdomReq};
+    let p = addr(InterfaceCode::POSITION2D, 0);
+    let world = world_file_with(
+        "odom",
+        r#"
+interval_sim 100
+position ( name "robot" size [0.5 0.5 0.5] localization "odom" odom_error [0 0 0 0] )
+"#,
+    );
+    let mut s = setup_on(world, &[(InterfaceCode::POSITION2D, 0)]);
+    s.robot.subscribe(p).unwrap();
+    let reply = request(
+        &mut s.robot,
+        p,
+        Position2dReq::SetOdom(Some(Position2dSetOdomReq {
+            pose: player_proto::Pose2d {
+                px: 1.0,
+                py: 2.0,
+                pa: 0.5,
+            },
+        })),
+    );
+    assert_eq!(reply, Reply::empty_ack());
+    let pose = |out: Vec<Publication>| {
+        out.into_iter()
+            .find_map(|p| match p.body {
+                Body::Position2d(Position2dMsg::Data(Position2dData::State(st))) => Some(st.pos),
+                _ => None,
+            })
+            .expect("position data")
+    };
+    step(&mut s);
+    let after = pose(step(&mut s));
+    assert_eq!((after.px, after.py, after.pa), (1.0, 2.0, 0.5));
+    assert_eq!(
+        request(&mut s.robot, p, Position2dReq::ResetOdom),
+        Reply::empty_ack()
+    );
+    let reset = pose(step(&mut s));
+    assert_eq!((reset.px, reset.py, reset.pa), (0.0, 0.0, 0.0));
+}

@@ -74,7 +74,7 @@ fn player_check_reports_bindings_and_problems() {
     std::fs::write(
         dir.join("bad.cfg"),
         "driver ( name \"stage\" provides [\"simulation:0\"] worldfile \"w.world\" )\n\
-         driver ( name \"stage\" provides [\"laser:0\"] model \"r0\" )\n",
+         driver ( name \"stage\" provides [\"bumper:0\"] model \"r0\" )\n",
     )
     .unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_player"))
@@ -85,7 +85,7 @@ fn player_check_reports_bindings_and_problems() {
     assert!(!out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
-        text.contains("does not support interface `laser`"),
+        text.contains("does not support interface `bumper`"),
         "{text}"
     );
     assert!(text.contains("listening ports: 7100"), "{text}");

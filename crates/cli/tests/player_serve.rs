@@ -4,7 +4,7 @@ use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
-use player_client::{PlayerClient, RangerProxy};
+use player_client::{BlobfinderProxy, PlayerClient, Position2dProxy, RangerProxy, SimulationProxy};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("cli-serve-{}-{name}", std::process::id()));
@@ -87,4 +87,55 @@ fn unknown_drivers_are_a_clear_start_up_error() {
     );
     assert!(err.contains("driver blocks"), "{err}");
     let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn player_without_a_cfg_serves_the_builtin_bigbob_world() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_player"))
+        .args(["-p", "0", "--speedup", "5"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    stdout.read_line(&mut line).unwrap();
+    let port: u16 = line
+        .trim()
+        .strip_prefix("Listening on ports: ")
+        .unwrap_or_else(|| panic!("start-up line: {line:?}"))
+        .parse()
+        .unwrap();
+    let client = PlayerClient::connect("localhost", port).unwrap();
+    let base = Position2dProxy::new(&client, 0).unwrap();
+    let sonar = RangerProxy::new(&client, 0).unwrap();
+    let eyes = BlobfinderProxy::new(&client, 0).unwrap();
+    let laser = RangerProxy::new(&client, 1).unwrap();
+    let sim = SimulationProxy::new(&client, 0).unwrap();
+    assert_eq!(base.driver_name(), "stage");
+    for _ in 0..5 {
+        client.read().unwrap();
+    }
+    assert_eq!(sonar.ranges().len(), 4);
+    assert_eq!(laser.ranges().len(), 180);
+    assert!(eyes.data().is_some());
+    let p = sim.get_pose2d("bob1").unwrap();
+    assert_eq!((p.px, p.py), (-5.0, -5.0));
+    drop((base, sonar, eyes, laser, sim, client));
+
+    let pid = child.id().to_string();
+    assert!(
+        Command::new("kill")
+            .args(["-TERM", &pid])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let mut rest = String::new();
+    stdout.read_line(&mut rest).unwrap();
+    assert_eq!(rest.trim(), "Quitting.");
+    assert!(child.wait().unwrap().success());
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert!(err.contains("built-in Bigbob world"), "{err}");
 }

@@ -1,10 +1,13 @@
-//! Server figures over loopback TCP, with the test driver:
+//! Server figures over loopback TCP, with the test driver and with the `stage` driver serving
+//! the Bigbob world (`worlds/bigbob.cfg`):
 //!
 //! * request round trips for one client (libplayerc-style: write, wait for the reply): a
 //!   player-interface request (DATAMODE, answered by the core) and a device request (position2d
-//!   GET_GEOM, answered by the driver) — requests per second, p50 and p99 latency;
+//!   GET_GEOM, answered by the driver); with Stage: position2d GET_GEOM and simulation
+//!   GET_POSE2D while the world runs in real time — requests per second, p50 and p99 latency;
 //! * DATA fan-out: one ranger publishing as fast as the core steps, 100 PUSH-mode clients
-//!   subscribed — messages per second delivered in total;
+//!   subscribed — messages per second delivered in total; with Stage: Bigbob's sonar and laser
+//!   rangers with the world stepped as fast as possible;
 //! * memory per connected client: RSS growth over 1000 idle subscribed PULL clients
 //!   (`/proc/self/status`; client sockets live in this process too).
 //!
@@ -19,8 +22,9 @@ use std::time::{Duration, Instant};
 use player_proto::constants::{LOCALHOST_ADDR, PLAYER_DATAMODE_PULL};
 use player_proto::{
     BANNER, DeviceAddr, DeviceDatamodeReq, DeviceReq, HEADER_SIZE, InterfaceCode, Message,
-    MsgHeader, PlayerReq, Position2dReq, Text,
+    MsgHeader, PlayerReq, Pose2d, Position2dReq, SimulationPose2dReq, SimulationReq, Text,
 };
+use player_server::stage::{self, StageOptions};
 use player_server::test_driver::TestDriver;
 use player_server::{
     DriverBlock, DriverRegistry, Pace, ProvidedDevice, Server, ServerConfig, ServerHandle,
@@ -161,13 +165,24 @@ fn bench_fan_out(clients: usize) {
         &[("step_ms", "1"), ("samples", "4")],
         Pace::AsFastAsPossible,
     );
-    let port = s.ports()[0];
+    fan_out(
+        "DATA fan-out to 100 PUSH clients",
+        s.ports()[0],
+        (InterfaceCode::RANGER, 0),
+        80,
+        clients,
+    );
+}
+
+/// `clients` PUSH clients subscribed to `device`, whose DATA are `msg_bytes` long (header
+/// included): messages per second delivered in total.
+fn fan_out(label: &str, port: u16, device: (InterfaceCode, u16), msg_bytes: u64, clients: usize) {
     let stop = Arc::new(AtomicBool::new(false));
     let received = Arc::new(AtomicU64::new(0));
     let mut threads = Vec::new();
     for _ in 0..clients {
         let mut c = connect(port);
-        subscribe(&mut c, InterfaceCode::RANGER, 0);
+        subscribe(&mut c, device.0, device.1);
         let stop = stop.clone();
         let received = received.clone();
         c.set_read_timeout(Some(Duration::from_millis(100)))
@@ -188,14 +203,14 @@ fn bench_fan_out(clients: usize) {
     let start = Instant::now();
     let before = received.load(Ordering::Relaxed);
     std::thread::sleep(Duration::from_secs(3));
-    let msgs = (received.load(Ordering::Relaxed) - before) / 80;
+    let msgs = (received.load(Ordering::Relaxed) - before) / msg_bytes;
     let elapsed = start.elapsed();
     stop.store(true, Ordering::Relaxed);
     for t in threads {
         t.join().unwrap();
     }
     println!(
-        "DATA fan-out to {clients} PUSH clients              {:>9.0} msg/s delivered ({:.0} per client)",
+        "{label:<44} {:>9.0} msg/s delivered ({:.0} per client)",
         msgs as f64 / elapsed.as_secs_f64(),
         msgs as f64 / elapsed.as_secs_f64() / clients as f64
     );
@@ -248,8 +263,101 @@ fn bench_memory(clients: usize) {
     );
 }
 
+/// Our server with the `stage` driver on `worlds/bigbob.cfg`, its port chosen by the OS.
+fn stage_server(pace: Pace) -> ServerHandle {
+    let cfg_path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../worlds/bigbob.cfg");
+    let cfg = worldfile::CfgFile::load(&cfg_path, &worldfile::LoadOptions::from_env()).unwrap();
+    let mut blocks = player_server::cfg::driver_blocks(&cfg, 6665).unwrap();
+    for b in &mut blocks {
+        for p in &mut b.provides {
+            p.addr.robot = 0;
+        }
+    }
+    let mut registry = DriverRegistry::new();
+    stage::register(
+        &mut registry,
+        StageOptions {
+            seed: 1,
+            usegui: Some(false),
+        },
+    );
+    let mut s = Server::new(ServerConfig {
+        pace,
+        ..ServerConfig::default()
+    });
+    for b in &blocks {
+        s.add_block(b, &mut registry).unwrap();
+    }
+    s.start().unwrap()
+}
+
+fn bench_stage_round_trips() {
+    let s = stage_server(Pace::default());
+    let port = s.ports()[0];
+    let mut c = connect(port);
+    // Subscribed, as a client would be; PULL mode so that data does not interleave.
+    let datamode = encode(
+        player_addr(),
+        PlayerReq::DataMode(Some(DeviceDatamodeReq {
+            mode: PLAYER_DATAMODE_PULL,
+        })),
+    );
+    c.write_all(&datamode).unwrap();
+    read_msg(&mut c, &mut Vec::new());
+    let geom = encode(
+        DeviceAddr::new(0, u32::from(port), InterfaceCode::POSITION2D, 0),
+        Position2dReq::GetGeom(None),
+    );
+    round_trips(
+        "stage: position2d GET_GEOM round trip",
+        &mut c,
+        &geom,
+        20_000,
+    );
+    let pose = encode(
+        DeviceAddr::new(0, u32::from(port), InterfaceCode::SIMULATION, 0),
+        SimulationReq::GetPose2d(Some(SimulationPose2dReq {
+            name: Text::new("bob1"),
+            pose: Pose2d::default(),
+        })),
+    );
+    round_trips(
+        "stage: simulation GET_POSE2D round trip",
+        &mut c,
+        &pose,
+        20_000,
+    );
+}
+
+fn bench_stage_fan_out(clients: usize) {
+    let s = stage_server(Pace::AsFastAsPossible);
+    // Sonars: 4 doubles per RANGE/INTNS (40 + 40 bytes).
+    fan_out(
+        "stage: sonar ranger:0 fan-out, 100 clients",
+        s.ports()[0],
+        (InterfaceCode::RANGER, 0),
+        80,
+        clients,
+    );
+    drop(s);
+    let s = stage_server(Pace::AsFastAsPossible);
+    // The tooth laser: 180 doubles per RANGE/INTNS (40 + 1448 bytes).
+    fan_out(
+        "stage: laser ranger:1 fan-out, 100 clients",
+        s.ports()[0],
+        (InterfaceCode::RANGER, 1),
+        1488,
+        clients,
+    );
+}
+
 fn main() {
-    bench_round_trips();
-    bench_fan_out(100);
-    bench_memory(1000);
+    let only_stage = std::env::args().any(|a| a == "stage");
+    if !only_stage {
+        bench_round_trips();
+        bench_fan_out(100);
+        bench_memory(1000);
+    }
+    bench_stage_round_trips();
+    bench_stage_fan_out(100);
 }

@@ -454,6 +454,7 @@ impl Subscriptions for SubscriptionBook<'_> {
         if slot.subscriptions == 0 {
             self.schedule.set_active(dev.driver.0, false);
         }
+        slot.driver.client_unsubscribed(dev.addr, self.id);
         slot.driver
             .unsubscribe(dev.addr)
             .map_err(UnsubscribeError::Driver)

@@ -204,6 +204,13 @@ pub trait Driver: Send {
         Ok(())
     }
 
+    /// `client`'s subscription to `addr` ended (called just before [`Driver::unsubscribe`]),
+    /// for drivers that keep per-client state (Stage's graphics are drawn per client and
+    /// discarded when that client unsubscribes).
+    fn client_unsubscribed(&mut self, addr: DeviceAddr, client: ClientId) {
+        let _ = (addr, client);
+    }
+
     /// A REQ to one of this driver's devices (universal capability/property requests
     /// included). `request.header.addr` is the device's address; the body is typed.
     /// The server turns the [`Reply`] into exactly one ACK or NACK to the requesting client.

@@ -9,6 +9,7 @@
 //!   and SYNCH semantics;
 //! * [`clock`] — the server clock and the schedule drivers are stepped on ([`Pace`]);
 //! * [`server`] — [`Server`] (assembling) and [`ServerHandle`] (running);
+//! * [`stage`] — the `stage` driver: Player devices on an embedded Stage world;
 //! * [`test_driver`] — a small driver for tests and manual checks.
 //!
 //! Connection tasks do the I/O and answer the player interface's own requests; one core task
@@ -26,6 +27,7 @@ mod error;
 mod player_iface;
 pub mod queue;
 pub mod server;
+pub mod stage;
 pub mod test_driver;
 
 pub use clock::{Pace, ServerClock};

@@ -11,8 +11,8 @@ use serde::Serialize;
 use crate::cfg::{CfgFile, DeviceAddr, DriverSpec};
 use crate::error::Warning;
 use crate::loader::LoadOptions;
-use crate::models::ModelType;
-use crate::world::{ModelId, WorldSpec};
+use crate::models::{ModelType, TypeSpec};
+use crate::world::{ModelId, ModelSpec, WorldSpec};
 
 /// What a device is attached to.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -79,21 +79,117 @@ pub struct CheckReport {
     pub warnings: Vec<Warning>,
 }
 
-/// The model type a stage-driver interface binds, `Ok(None)` for interfaces bound to the named
-/// model itself, `Err` for interfaces the 4.1.1 driver does not provide (player-cfg.md §8.5).
-fn required_type(interface: InterfaceCode) -> Result<Option<ModelType>, ()> {
-    Ok(Some(match interface {
-        InterfaceCode::POSITION2D => ModelType::Position,
-        InterfaceCode::RANGER => ModelType::Ranger,
-        InterfaceCode::FIDUCIAL => ModelType::Fiducial,
-        InterfaceCode::BLOBFINDER => ModelType::Blobfinder,
-        InterfaceCode::GRIPPER => ModelType::Gripper,
-        InterfaceCode::ACTARRAY => ModelType::Actuator,
+/// What a `stage`-driver device binds to (player-cfg.md §8.3, §8.5), by interface.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StageBinding {
+    /// `simulation`: the world itself (the first one creates it).
+    World,
+    /// The first model of this type not yet bound, in the named model's subtree (pre-order),
+    /// preferring one of the given ranger shape when there is a choice.
+    Model(ModelType, RangerShape),
+    /// The named model itself, not marked as bound (`speech`, `graphics2d`, `graphics3d`).
+    Named,
+}
+
+/// Which rangers a legacy interface prefers: Player 2 clients expect a `laser` on a
+/// single-transducer ranger and `sonar` on a ring of transducers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RangerShape {
+    /// No preference (also every non-ranger type).
+    Any,
+    /// Prefer rangers with exactly one transducer (laser-like), else any ranger.
+    Single,
+    /// Prefer rangers with several transducers (sonar-like), else any ranger.
+    Multiple,
+}
+
+/// How the stage driver binds a device of `interface`, or `None` for interfaces it does not
+/// provide. Stage 4.1.1's own set (§8.5) plus the legacy `laser` and `sonar` (on rangers) and
+/// `camera` (on camera models) that Stage 4 dropped and that Player 2 clients still use.
+pub fn stage_binding(interface: InterfaceCode) -> Option<StageBinding> {
+    let model = |t| Some(StageBinding::Model(t, RangerShape::Any));
+    match interface {
+        InterfaceCode::SIMULATION => Some(StageBinding::World),
+        InterfaceCode::POSITION2D => model(ModelType::Position),
+        InterfaceCode::RANGER => model(ModelType::Ranger),
+        InterfaceCode::FIDUCIAL => model(ModelType::Fiducial),
+        InterfaceCode::BLOBFINDER => model(ModelType::Blobfinder),
+        InterfaceCode::GRIPPER => model(ModelType::Gripper),
+        InterfaceCode::ACTARRAY => model(ModelType::Actuator),
+        InterfaceCode::CAMERA => model(ModelType::Camera),
+        InterfaceCode::LASER => Some(StageBinding::Model(ModelType::Ranger, RangerShape::Single)),
+        InterfaceCode::SONAR => Some(StageBinding::Model(
+            ModelType::Ranger,
+            RangerShape::Multiple,
+        )),
         InterfaceCode::SPEECH | InterfaceCode::GRAPHICS2D | InterfaceCode::GRAPHICS3D => {
-            return Ok(None);
+            Some(StageBinding::Named)
         }
-        _ => return Err(()),
-    }))
+        _ => None,
+    }
+}
+
+/// Number of transducers of a ranger-like model (a Stage 3 `laser` is one), `None` for others.
+fn transducers(m: &ModelSpec) -> Option<usize> {
+    match &m.spec {
+        TypeSpec::Ranger(r) => Some(r.sensors.len()),
+        TypeSpec::Laser(_) => Some(1),
+        _ => None,
+    }
+}
+
+/// Binds one stage-driver device of `interface` in `world` to a model (player-cfg.md §8.3):
+/// the model called `name` itself for `speech`/`graphics*`, else the first model of the
+/// required type in its subtree (pre-order) that is not in `bound`, which it is added to.
+/// Errors are the reason the server refuses the device.
+pub fn bind_stage_model(
+    world: &WorldSpec,
+    name: &str,
+    interface: InterfaceCode,
+    bound: &mut HashSet<ModelId>,
+) -> Result<ModelId, String> {
+    let rule = match stage_binding(interface) {
+        Some(StageBinding::World) => {
+            return Err("the simulation device is not bound to a model".into());
+        }
+        Some(rule) => rule,
+        None => {
+            return Err(format!(
+                "the stage driver does not support interface `{interface}`"
+            ));
+        }
+    };
+    let named = world
+        .find_model(name)
+        .ok_or_else(|| format!("no Stage model named \"{name}\""))?;
+    let StageBinding::Model(wanted, shape) = rule else {
+        return Ok(named);
+    };
+    let fits = |id: &ModelId| {
+        let m = world.model(*id);
+        let type_ok = m.model_type == wanted
+            || (wanted == ModelType::Ranger && m.model_type == ModelType::Laser);
+        type_ok && !bound.contains(id)
+    };
+    let candidates: Vec<ModelId> = world.subtree(named).into_iter().filter(fits).collect();
+    let preferred = candidates.iter().copied().find(|id| {
+        let n = transducers(world.model(*id));
+        match shape {
+            RangerShape::Any => true,
+            RangerShape::Single => n == Some(1),
+            RangerShape::Multiple => n.is_some_and(|n| n > 1),
+        }
+    });
+    match preferred.or(candidates.first().copied()) {
+        Some(id) => {
+            bound.insert(id);
+            Ok(id)
+        }
+        None => Err(format!(
+            "no unbound `{}` model in \"{name}\" or its children",
+            wanted.name()
+        )),
+    }
 }
 
 /// Checks `cfg`: parses its addresses, loads the stage driver's worldfile and binds models.
@@ -243,39 +339,22 @@ fn bind(
         *world = Some(w);
         return b;
     }
-    let Ok(wanted) = required_type(addr.interface) else {
-        return Binding::Problem(format!(
-            "the stage driver (Stage 4.1.1) does not support interface `{}`",
-            addr.interface
-        ));
-    };
     let Some(w) = world.as_ref() else {
         return Binding::Problem(
             "no world yet: the block providing `simulation` must come first".into(),
         );
     };
+    if stage_binding(addr.interface).is_none() {
+        return Binding::Problem(format!(
+            "the stage driver does not support interface `{}`",
+            addr.interface
+        ));
+    }
     let Some(name) = driver.model.as_deref() else {
         return Binding::Problem("the driver block has no `model` to bind this device to".into());
     };
-    let Some(named) = w.find_model(name) else {
-        return Binding::Problem(format!("no Stage model named \"{name}\""));
-    };
-    let Some(wanted) = wanted else {
-        let m = w.model(named);
-        return Binding::Model {
-            id: named,
-            name: m.name.clone(),
-            model_type: m.model_type,
-        };
-    };
-    // The first model of the right type not yet bound, in the named model's subtree, pre-order.
-    let found = w
-        .subtree(named)
-        .into_iter()
-        .find(|id| w.model(*id).model_type == wanted && !bound.contains(id));
-    match found {
-        Some(id) => {
-            bound.insert(id);
+    match bind_stage_model(w, name, addr.interface, bound) {
+        Ok(id) => {
             let m = w.model(id);
             Binding::Model {
                 id,
@@ -283,10 +362,7 @@ fn bind(
                 model_type: m.model_type,
             }
         }
-        None => Binding::Problem(format!(
-            "no unbound `{}` model in \"{name}\" or its children",
-            wanted.name()
-        )),
+        Err(p) => Binding::Problem(p),
     }
 }
 
@@ -352,5 +428,80 @@ impl fmt::Display for CheckReport {
             }
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn world(text: &str) -> WorldSpec {
+        WorldSpec::parse(Path::new("t.world"), text, &LoadOptions::default()).unwrap()
+    }
+
+    fn names(w: &WorldSpec, ids: &[Result<ModelId, String>]) -> Vec<String> {
+        ids.iter()
+            .map(|r| match r {
+                Ok(id) => w.model(*id).name.clone(),
+                Err(e) => format!("error: {e}"),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn devices_bind_unbound_models_in_preorder() {
+        // r0: a 2-transducer sonar ring first, then a one-transducer laser.
+        let w = world(
+            "define sonars ranger ( sensor ( pose [0 0 0 0] ) sensor ( pose [0 0 0 90] ) )\n\
+             define laser1 ranger ( sensor ( samples 180 ) )\n\
+             position ( name \"r0\" sonars ( ) laser1 ( ) gripper ( ) )\n",
+        );
+        let mut bound = HashSet::new();
+        let mut bind = |i| bind_stage_model(&w, "r0", i, &mut bound);
+        let got = [
+            bind(InterfaceCode::POSITION2D),
+            bind(InterfaceCode::LASER),
+            bind(InterfaceCode::SONAR),
+            bind(InterfaceCode::SPEECH),
+            bind(InterfaceCode::GRIPPER),
+            bind(InterfaceCode::RANGER),
+            bind(InterfaceCode::FIDUCIAL),
+            bind(InterfaceCode::WIFI),
+        ];
+        assert_eq!(
+            names(&w, &got),
+            [
+                "r0",
+                "r0.ranger:1",
+                "r0.ranger:0",
+                "r0",
+                "r0.gripper:0",
+                "error: no unbound `ranger` model in \"r0\" or its children",
+                "error: no unbound `fiducial` model in \"r0\" or its children",
+                "error: the stage driver does not support interface `wifi`",
+            ]
+        );
+        // Rangers in order of appearance; a laser falls back to a multi-transducer ranger.
+        let mut bound = HashSet::new();
+        let got = [
+            bind_stage_model(&w, "r0", InterfaceCode::RANGER, &mut bound),
+            bind_stage_model(&w, "r0", InterfaceCode::LASER, &mut bound),
+            bind_stage_model(&w, "nobody", InterfaceCode::LASER, &mut bound),
+        ];
+        assert_eq!(
+            names(&w, &got),
+            [
+                "r0.ranger:0",
+                "r0.ranger:1",
+                "error: no Stage model named \"nobody\""
+            ]
+        );
+        let mut bound = HashSet::new();
+        let got = [
+            bind_stage_model(&w, "r0", InterfaceCode::SONAR, &mut bound),
+            bind_stage_model(&w, "r0", InterfaceCode::SONAR, &mut bound),
+        ];
+        assert_eq!(names(&w, &got), ["r0.ranger:0", "r0.ranger:1"]);
     }
 }

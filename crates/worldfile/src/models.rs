@@ -402,8 +402,8 @@ impl PositionSpec {
 property_table! {
     /// One `sensor` of a ranger (stage-models.md §8.1).
     pub struct SensorSpec {
-        /// Pose in the ranger's body frame.
-        pose: Pose = [0.0; 4], pose("pose");
+        /// Pose in the ranger's body frame (heading as written, not normalised).
+        pose: Pose = [0.0; 4], raw_pose("pose");
         /// Visual size; `size[2] / 2` raises the ray origin.
         size: [f64; 3] = [0.02, 0.02, 0.02], size("size", 0.02);
         /// `[min max]` range, m (`min` is not applied to data in Stage).

@@ -292,6 +292,14 @@ impl<'d, 'w> Reader<'d, 'w> {
     /// A pose `[x y z a]` (lengths and an angle, heading normalised). The Stage 3 form `[x y a]`
     /// is accepted as `[x y 0 a]` with a warning.
     pub fn pose(&mut self, name: &str) -> Result<Option<Pose>, Error> {
+        Ok(self
+            .raw_pose(name)?
+            .map(|p| [p[0], p[1], p[2], normalize_angle(p[3])]))
+    }
+
+    /// A pose as [`Reader::pose`] with the heading as written (Stage keeps ranger transducer
+    /// headings unnormalised: `270` is reported as 4.712 rad, not −1.571).
+    pub fn raw_pose(&mut self, name: &str) -> Result<Option<Pose>, Error> {
         let Some(p) = self.prop(name) else {
             return Ok(None);
         };
@@ -320,7 +328,7 @@ impl<'d, 'w> Reader<'d, 'w> {
                 self.number(p, &p.values[3])? * a,
             ]
         };
-        Ok(Some([pose[0], pose[1], pose[2], normalize_angle(pose[3])]))
+        Ok(Some(pose))
     }
 
     /// A size `[x y z]` in lengths. The Stage 3 form `[x y]` keeps `default_z` with a warning.

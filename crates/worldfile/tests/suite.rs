@@ -245,7 +245,8 @@ fn hand_checked_cfg_reports() {
             .any(|p| p.contains("unknown interface `position`"))
     );
 
-    // wifi/wifi.cfg: the Stage 3 `laser`/`wifi`/`map` interfaces are not in the 4.1.1 driver.
+    // wifi/wifi.cfg: the Stage 3 `wifi` and `map` interfaces are not served (`laser` is, on
+    // the robots' one-transducer rangers).
     let (r, world) = report("wifi/wifi.cfg");
     assert_eq!(world.unwrap().models.len(), 10);
     assert!(r.problems.iter().any(|p| p.contains("interface `wifi`")));

@@ -1,15 +1,17 @@
-//! The `player` binary: `player [-p port] [-q] [-d level] [-l logfile] FILE.cfg`, Player
-//! 3.0.2's command line. Loads the cfg, builds every driver block, listens on every port a
-//! device names and serves until SIGINT/SIGTERM. `player --check FILE.cfg` only reports what
-//! the configuration would create.
+//! The `player` binary: `player [-p port] [-q] [-d level] [-l logfile] [FILE.cfg]`, Player
+//! 3.0.2's command line. Loads the cfg, builds every driver block (`stage` and `testdriver`),
+//! listens on every port a device names and serves until SIGINT/SIGTERM. Without a cfg it
+//! serves the built-in Bigbob world (`worlds/bigbob.cfg`, embedded). `player --check FILE.cfg`
+//! only reports what the configuration would create.
 
 use std::fs::OpenOptions;
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use anyhow::{Context, bail};
 use clap::Parser;
+use player_server::stage::{self, StageHandle, StageOptions};
 use player_server::test_driver::{TEST_DRIVER_NAME, TestDriver};
 use player_server::{DriverRegistry, Pace, Server, ServerConfig};
 use tracing_subscriber::EnvFilter;
@@ -45,8 +47,56 @@ struct Args {
     /// Run the simulation this many times faster than real time.
     #[arg(long, value_name = "FACTOR")]
     speedup: Option<f64>,
-    /// The configuration file.
-    cfgfile: PathBuf,
+    /// Seed of the simulation's random choices (runs are repeatable for a given seed).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// The configuration file; without one, the built-in Bigbob world (`worlds/bigbob.cfg`).
+    cfgfile: Option<PathBuf>,
+}
+
+/// The Bigbob world, built into the binary so that `player` alone has something to serve.
+const BUILTIN_WORLD: [(&str, &[u8]); 4] = [
+    (
+        "worlds/bigbob.cfg",
+        include_bytes!("../../../../worlds/bigbob.cfg"),
+    ),
+    (
+        "worlds/bigbob.world",
+        include_bytes!("../../../../worlds/bigbob.world"),
+    ),
+    (
+        "worlds/bigbob.inc",
+        include_bytes!("../../../../worlds/bigbob.inc"),
+    ),
+    (
+        "bitmaps/bigbob_cave.png",
+        include_bytes!("../../../../bitmaps/bigbob_cave.png"),
+    ),
+];
+
+/// Writes the built-in world into a fresh directory (the loaders read files) and returns the
+/// cfg's path; the directory is removed when the guard drops.
+fn unpack_builtin_world() -> anyhow::Result<(PathBuf, TempDir)> {
+    let dir = std::env::temp_dir().join(format!("playerstage-bigbob-{}", std::process::id()));
+    let guard = TempDir(dir.clone());
+    for (rel, bytes) in BUILTIN_WORLD {
+        let path = dir.join(rel);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent)
+                .with_context(|| format!("creating {}", parent.display()))?;
+        }
+        std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok((dir.join(BUILTIN_WORLD[0].0), guard))
+}
+
+/// A directory removed on drop.
+struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 fn init_logging(args: &Args) -> anyhow::Result<()> {
@@ -80,9 +130,9 @@ fn init_logging(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run_check(args: &Args) -> anyhow::Result<()> {
+fn run_check(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
     let opts = LoadOptions::from_env();
-    let cfg = CfgFile::load(&args.cfgfile, &opts).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let cfg = CfgFile::load(cfgfile, &opts).map_err(|e| anyhow::anyhow!("{e}"))?;
     let (report, _world) = check::check(&cfg, args.port, &opts);
     if !args.quiet {
         for w in &report.warnings {
@@ -106,22 +156,29 @@ fn run_check(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The drivers this binary can build, by cfg name.
-fn registry() -> DriverRegistry {
+/// The drivers this binary can build, by cfg name, and the stage driver's handle on its world.
+fn registry(args: &Args) -> (DriverRegistry, StageHandle) {
     let mut registry = DriverRegistry::new();
     TestDriver::register(&mut registry, TEST_DRIVER_NAME);
-    registry
+    let stage = stage::register(
+        &mut registry,
+        StageOptions {
+            seed: args.seed,
+            usegui: None,
+        },
+    );
+    (registry, stage)
 }
 
-fn serve(args: &Args) -> anyhow::Result<()> {
+fn serve(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
     init_logging(args)?;
     eprintln!(
         "Player v.3.0.2 (playerstage-rs {})",
         env!("CARGO_PKG_VERSION")
     );
-    let cfgname = args.cfgfile.display();
+    let cfgname = cfgfile.display();
     let opts = LoadOptions::from_env();
-    let cfg = CfgFile::load(&args.cfgfile, &opts)
+    let cfg = CfgFile::load(cfgfile, &opts)
         .map_err(|e| anyhow::anyhow!("failed to load config file {cfgname}: {e}"))?;
     if !args.quiet {
         for w in &cfg.warnings {
@@ -138,7 +195,7 @@ fn serve(args: &Args) -> anyhow::Result<()> {
         pace,
         ..ServerConfig::default()
     });
-    let mut registry = registry();
+    let (mut registry, stage_handle) = registry(args);
     let blocks = player_server::cfg::driver_blocks(&cfg, args.port)
         .map_err(|e| anyhow::anyhow!("failed to parse config file {cfgname} driver blocks: {e}"))?;
     for block in &blocks {
@@ -154,6 +211,15 @@ fn serve(args: &Args) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("failed to start: {e}"))?;
     let ports: Vec<String> = handle.ports().iter().map(u16::to_string).collect();
     println!("Listening on ports: {}", ports.join(" "));
+    // Seam for the world window (issue 6): when the cfg asks for Stage's GUI
+    // (`stage_handle.gui_requested()`, `usegui` defaults to 1) and there is a display, open
+    // `viewer::WorldHandle::from_shared(stage_handle.world()?, &stage_handle.world_spec()?,
+    // stage_handle.paused())` here with `viewer::world_window::run` on the main thread (the
+    // server runs on its own threads); when the window is closed, stop the server as on
+    // SIGINT; on `NoDisplay` go on headless. Until the viewer lands the server runs headless.
+    if stage_handle.gui_requested() {
+        tracing::debug!("the cfg asks for Stage's window; running headless (no window yet)");
+    }
     handle.stop_on_signals();
     handle.wait();
     println!("Quitting.");
@@ -163,9 +229,21 @@ fn serve(args: &Args) -> anyhow::Result<()> {
 
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
+    let (cfgfile, _unpacked) = match &args.cfgfile {
+        Some(path) => (path.clone(), None),
+        None => {
+            let (path, guard) = unpack_builtin_world()?;
+            if !args.quiet && !args.check {
+                eprintln!(
+                    "No cfg file given: serving the built-in Bigbob world (worlds/bigbob.cfg)"
+                );
+            }
+            (path, Some(guard))
+        }
+    };
     if args.check {
-        run_check(&args)
+        run_check(&args, &cfgfile)
     } else {
-        serve(&args)
+        serve(&args, &cfgfile)
     }
 }

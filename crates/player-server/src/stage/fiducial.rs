@@ -1,0 +1,70 @@
+//! `fiducial` on a Stage `fiducial` finder (player-protocol.md §6.4, stage-models.md §10.3).
+
+use std::ops::Deref;
+
+use player_proto::{
+    Bbox2d, Bbox3d, Body, FiducialData, FiducialDataScan, FiducialGeom, FiducialId, FiducialItem,
+    FiducialMsg, FiducialReq, Pose3d,
+};
+use stage_sim::World;
+
+use super::{Bound, Out, Writing};
+use crate::driver::Reply;
+
+/// DATA SCAN, also when nothing is seen: per detection its id and its position in the sensor
+/// frame (range and bearing) with the target's relative heading; `upose` (left uninitialised
+/// by Stage) is zero.
+pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
+    let Some(data) = b.world.fiducials(b.model) else {
+        return;
+    };
+    let fiducials = data
+        .fiducials
+        .iter()
+        .map(|f| FiducialItem {
+            id: f.id,
+            pose: Pose3d {
+                px: f.range * f.bearing.cos(),
+                py: f.range * f.bearing.sin(),
+                pyaw: f.heading,
+                ..Pose3d::default()
+            },
+            upose: Pose3d::default(),
+        })
+        .collect();
+    out.publish(FiducialData::Scan(FiducialDataScan { fiducials }));
+}
+
+/// GET_GEOM: the finder's pose in its parent and its size; Stage fills only a laser-sized
+/// part of the struct, so the height and the fiducial size are 0.
+fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> FiducialGeom {
+    let size = b.size();
+    FiducialGeom {
+        pose: b.local_pose3d(),
+        size: Bbox3d {
+            sw: size[1],
+            sl: size[0],
+            sh: 0.0,
+        },
+        fiducial_size: Bbox2d::default(),
+    }
+}
+
+pub(super) fn request(b: &mut Writing<'_>, body: &Body) -> Reply {
+    let Body::Fiducial(FiducialMsg::Req(req)) = body else {
+        return Reply::NotHandled;
+    };
+    match req {
+        FiducialReq::GetGeom(None) => Reply::ack(FiducialReq::GetGeom(Some(geometry(b)))),
+        // The finder's own fiducial return: the sensor itself becomes a beacon.
+        FiducialReq::GetId(_) => Reply::ack(FiducialReq::GetId(Some(FiducialId {
+            id: b.world.fiducial_id(b.model) as u32,
+        }))),
+        FiducialReq::SetId(Some(FiducialId { id })) => {
+            b.world.set_fiducial_id(b.model, *id as i32);
+            Reply::ack(FiducialReq::SetId(Some(FiducialId { id: *id })))
+        }
+        // FOV requests: NACK, as Stage.
+        _ => Reply::NotHandled,
+    }
+}

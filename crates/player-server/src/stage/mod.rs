@@ -1,0 +1,716 @@
+//! The `stage` driver: Player devices served from an embedded [`stage_sim::World`], as Stage
+//! 4.1.1's `libstageplugin` serves them (player-cfg.md §8, player-protocol.md §6).
+//!
+//! Every cfg `driver( name "stage" ... )` block becomes one [`StageDriver`]; all of them share
+//! one world, created by the block that provides `simulation` (which must come first) from its
+//! `worldfile`. That block's driver steps the world once per `interval_sim` and supplies the
+//! server clock (simulated seconds); every block publishes the data of its own devices, in
+//! `provides` order, each time the bound model produced a new sample (that is, at the model's
+//! `update_interval`), stamped with the sample's simulated time.
+//!
+//! Devices bind to models by [`worldfile::check::bind_stage_model`] (the same rule `player
+//! --check` reports): the first unbound model of the interface's type in the named model's
+//! subtree. One file per interface holds its requests, commands and data.
+//!
+//! Where we differ from Stage 4.1.1, on purpose:
+//! * model subscriptions are reference counted: a model stays subscribed until the *last*
+//!   client unsubscribes (Stage unsubscribes it on the first unsubscription, stopping the robot
+//!   and its sensors for every other client);
+//! * the legacy `laser`, `sonar` (on rangers) and `camera` interfaces are served;
+//! * fields Stage leaves uninitialised are 0; GET_PROPERTY "time" answers instead of crashing;
+//!   CAPABILITIES requests are answered (Stage crashes on the simulation one).
+//!
+//! The world is shared as a [`SharedWorld`] (`Arc<RwLock<World>>`): the [`StageHandle`]
+//! returned by [`register`] hands it (and the clients' graphics) to a world window.
+
+mod actarray;
+mod camera;
+mod fiducial;
+pub mod graphics;
+mod gripper;
+mod laser;
+mod position;
+mod ranger;
+mod simulation;
+mod sonar;
+mod speech;
+
+use std::collections::HashSet;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, RwLock, RwLockWriteGuard};
+use std::time::Duration;
+
+use player_proto::{Body, DeviceAddr, InterfaceCode, Message, Pose3d};
+use stage_sim::{ModelId, Pose, World};
+use worldfile::check::{StageBinding, bind_stage_model, stage_binding};
+use worldfile::{LoadOptions, WorldSpec};
+
+use crate::driver::{ClientId, Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply};
+pub use graphics::{Drawings, Figure, SharedDrawings};
+
+/// The simulated world, shared between the server (which steps it) and viewers.
+///
+/// Writers (the stage driver's steps and requests) hold the lock briefly; a window should take
+/// short read locks, once per frame.
+pub type SharedWorld = Arc<RwLock<World>>;
+
+/// The name the driver is registered under, as in cfg files.
+pub const STAGE_DRIVER_NAME: &str = "stage";
+
+/// How the `stage` driver builds its world.
+#[derive(Clone, Debug, Default)]
+pub struct StageOptions {
+    /// Seed of every random choice in the world (Stage seeds from the clock; we are
+    /// repeatable).
+    pub seed: u64,
+    /// Overrides the cfg's `usegui` (e.g. a `--no-gui` flag, or tests).
+    pub usegui: Option<bool>,
+}
+
+/// What the `stage` driver tells its host program once the cfg is built: the world and the
+/// drawings for a world window, and whether the cfg asked for one (`usegui`).
+#[derive(Clone, Debug, Default)]
+pub struct StageHandle {
+    inner: Arc<Mutex<HandleState>>,
+    paused: Arc<AtomicBool>,
+}
+
+#[derive(Default)]
+struct HandleState {
+    world: Option<SharedWorld>,
+    spec: Option<Arc<WorldSpec>>,
+    worldfile: Option<PathBuf>,
+    usegui: bool,
+    drawings: SharedDrawings,
+}
+
+impl std::fmt::Debug for HandleState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("HandleState")
+            .field("world", &self.world.is_some())
+            .field("worldfile", &self.worldfile)
+            .field("usegui", &self.usegui)
+            .finish()
+    }
+}
+
+impl StageHandle {
+    fn state(&self) -> std::sync::MutexGuard<'_, HandleState> {
+        self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The world, once a `simulation` device created it.
+    pub fn world(&self) -> Option<SharedWorld> {
+        self.state().world.clone()
+    }
+
+    /// The resolved worldfile the world was built from (window settings, names, sources).
+    pub fn world_spec(&self) -> Option<Arc<WorldSpec>> {
+        self.state().spec.clone()
+    }
+
+    /// The worldfile path.
+    pub fn worldfile(&self) -> Option<PathBuf> {
+        self.state().worldfile.clone()
+    }
+
+    /// The pause flag the driver honours: while it is set the world does not step (simulated
+    /// time stands still) and devices keep publishing the unchanged state. A world window
+    /// shares it (its pause button); clients cannot change it.
+    pub fn paused(&self) -> Arc<AtomicBool> {
+        self.paused.clone()
+    }
+
+    /// Whether the simulation block asked for Stage's window (`usegui`, default 1).
+    pub fn gui_requested(&self) -> bool {
+        let s = self.state();
+        s.world.is_some() && s.usegui
+    }
+
+    /// What clients drew through `graphics2d`/`graphics3d`, per model and client.
+    pub fn drawings(&self) -> SharedDrawings {
+        self.state().drawings.clone()
+    }
+}
+
+/// The state the factory keeps across cfg blocks: the one world and the models already bound.
+struct Shared {
+    world: SharedWorld,
+    spec: Arc<WorldSpec>,
+    bound: HashSet<worldfile::ModelId>,
+}
+
+/// Registers the `stage` driver in `registry`. The factory owns the shared world; the returned
+/// handle exposes it once the `simulation` block has been built.
+pub fn register(registry: &mut DriverRegistry, options: StageOptions) -> StageHandle {
+    let handle = StageHandle::default();
+    let h = handle.clone();
+    let mut shared: Option<Shared> = None;
+    registry.register(STAGE_DRIVER_NAME, move |block: &DriverBlock| {
+        let driver = StageDriver::build(block, &mut shared, &options, &h)?;
+        Ok(Box::new(driver) as Box<dyn Driver>)
+    });
+    handle
+}
+
+/// What a device of this driver is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Simulation,
+    Position,
+    Ranger,
+    Laser,
+    Sonar,
+    Blobfinder,
+    Fiducial,
+    Gripper,
+    Camera,
+    Actarray,
+    Speech,
+    Graphics2d,
+    Graphics3d,
+}
+
+impl Kind {
+    fn of(interface: InterfaceCode) -> Option<Kind> {
+        Some(match interface {
+            InterfaceCode::SIMULATION => Kind::Simulation,
+            InterfaceCode::POSITION2D => Kind::Position,
+            InterfaceCode::RANGER => Kind::Ranger,
+            InterfaceCode::LASER => Kind::Laser,
+            InterfaceCode::SONAR => Kind::Sonar,
+            InterfaceCode::BLOBFINDER => Kind::Blobfinder,
+            InterfaceCode::FIDUCIAL => Kind::Fiducial,
+            InterfaceCode::GRIPPER => Kind::Gripper,
+            InterfaceCode::CAMERA => Kind::Camera,
+            InterfaceCode::ACTARRAY => Kind::Actarray,
+            InterfaceCode::SPEECH => Kind::Speech,
+            InterfaceCode::GRAPHICS2D => Kind::Graphics2d,
+            InterfaceCode::GRAPHICS3D => Kind::Graphics3d,
+            _ => return None,
+        })
+    }
+}
+
+/// One device of a block.
+#[derive(Debug)]
+struct Device {
+    addr: DeviceAddr,
+    kind: Kind,
+    /// The bound model (`None` for `simulation`).
+    model: Option<ModelId>,
+    /// Current subscriptions (duplicates included).
+    subs: u32,
+    /// Sim time (µs) of the last sample published.
+    published_us: u64,
+    /// Scans published (the legacy laser's scan id).
+    count: u32,
+}
+
+/// The model a request, command or publication is about, with the world around it.
+pub(crate) struct Bound<'a, W> {
+    pub world: W,
+    pub spec: &'a WorldSpec,
+    pub model: ModelId,
+}
+
+/// Write access to a bound model.
+pub(crate) type Writing<'a> = Bound<'a, RwLockWriteGuard<'a, World>>;
+
+impl<W: std::ops::Deref<Target = World>> Bound<'_, W> {
+    /// The model's resolved worldfile entry (static configuration, as written).
+    pub fn model_spec(&self) -> &worldfile::ModelSpec {
+        self.spec.model(self.model.index())
+    }
+
+    /// The model's size `[x y z]`.
+    pub fn size(&self) -> [f64; 3] {
+        self.world.node(self.model).size
+    }
+
+    /// The model's pose in its parent's frame as a Player 3D pose (roll = pitch = 0).
+    pub fn local_pose3d(&self) -> Pose3d {
+        pose3d(&self.world.pose(self.model))
+    }
+}
+
+/// A Stage pose as a Player 3D pose: x, y, z, yaw; roll = pitch = 0.
+pub(crate) fn pose3d(p: &Pose) -> Pose3d {
+    Pose3d {
+        px: p.x,
+        py: p.y,
+        pz: p.z,
+        proll: 0.0,
+        ppitch: 0.0,
+        pyaw: p.a,
+    }
+}
+
+/// A worldfile pose `[x y z a]` as a Player 3D pose.
+pub(crate) fn spec_pose3d(p: &worldfile::Pose) -> Pose3d {
+    Pose3d {
+        px: p[0],
+        py: p[1],
+        pz: p[2],
+        proll: 0.0,
+        ppitch: 0.0,
+        pyaw: p[3],
+    }
+}
+
+/// A publication: DATA bodies stamped with the sample's simulated time.
+pub(crate) struct Out<'a, 'c> {
+    ctx: &'a mut Context<'c>,
+    addr: DeviceAddr,
+    stamp: f64,
+}
+
+impl Out<'_, '_> {
+    /// Publishes one DATA body.
+    pub fn publish(&mut self, body: impl Into<Body>) {
+        self.ctx.publish_at(self.addr, body, self.stamp);
+    }
+}
+
+/// Reads a boolean cfg option the way Player does (`1`/`0`, `yes`/`no`, `true`/`false`).
+fn bool_option(block: &DriverBlock, key: &str) -> Result<Option<bool>, DriverError> {
+    match block.option(key) {
+        None => Ok(None),
+        Some(v) => match v.to_ascii_lowercase().as_str() {
+            "yes" | "true" => Ok(Some(true)),
+            "no" | "false" => Ok(Some(false)),
+            other => other.parse::<i64>().map(|n| Some(n != 0)).map_err(|_| {
+                DriverError::new(format!("option `{key}` has an invalid value \"{v}\""))
+            }),
+        },
+    }
+}
+
+/// The stage driver of one cfg block.
+pub struct StageDriver {
+    world: SharedWorld,
+    spec: Arc<WorldSpec>,
+    drawings: SharedDrawings,
+    /// This block created the world: it steps it and supplies the clock.
+    steps_world: bool,
+    /// Set by a world window: the world does not step.
+    paused: Arc<AtomicBool>,
+    interval: Duration,
+    sim_time_us: u64,
+    quit_reported: bool,
+    devices: Vec<Device>,
+}
+
+impl std::fmt::Debug for StageDriver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StageDriver")
+            .field("steps_world", &self.steps_world)
+            .field("devices", &self.devices)
+            .finish()
+    }
+}
+
+impl StageDriver {
+    fn build(
+        block: &DriverBlock,
+        shared: &mut Option<Shared>,
+        options: &StageOptions,
+        handle: &StageHandle,
+    ) -> Result<StageDriver, DriverError> {
+        let mut steps_world = false;
+        let mut devices = Vec::with_capacity(block.provides.len());
+        for p in &block.provides {
+            let addr = p.addr;
+            let Some(kind) = Kind::of(addr.interf).filter(|_| stage_binding(addr.interf).is_some())
+            else {
+                return Err(DriverError::new(format!(
+                    "{}: the stage driver does not support interface `{}` ({})",
+                    p.origin, addr.interf, addr.interf.0
+                )));
+            };
+            let model = if kind == Kind::Simulation {
+                if shared.is_none() {
+                    *shared = Some(create_world(block, options, handle)?);
+                    steps_world = true;
+                } else {
+                    tracing::warn!(
+                        "{}: a second simulation device; Stage keeps one world",
+                        p.origin
+                    );
+                }
+                None
+            } else {
+                let Some(s) = shared.as_mut() else {
+                    return Err(DriverError::new(format!(
+                        "{}: no world yet for `{}:{}`: the block providing `simulation` (with \
+                         the `worldfile`) must come first",
+                        p.origin, addr.interf, addr.index
+                    )));
+                };
+                let Some(name) = block.option("model") else {
+                    return Err(DriverError::new(format!(
+                        "{}: `{}:{}` needs a `model` field naming the Stage model to serve",
+                        p.origin, addr.interf, addr.index
+                    )));
+                };
+                let id =
+                    bind_stage_model(&s.spec, name, addr.interf, &mut s.bound).map_err(|why| {
+                        DriverError::new(format!(
+                            "{}: cannot bind `{}:{}`: {why}",
+                            p.origin, addr.interf, addr.index
+                        ))
+                    })?;
+                debug_assert!(matches!(
+                    stage_binding(addr.interf),
+                    Some(StageBinding::Model(..) | StageBinding::Named)
+                ));
+                let m = ModelId(id as u32);
+                let w = s.world.read().unwrap_or_else(|e| e.into_inner());
+                if id >= w.model_count() || w.name(m) != s.spec.model(id).name {
+                    return Err(DriverError::new(format!(
+                        "{}: model \"{}\" is not in the simulated world",
+                        p.origin,
+                        s.spec.model(id).name
+                    )));
+                }
+                tracing::debug!(
+                    "{}: {}:{} bound to model \"{}\" ({})",
+                    p.origin,
+                    addr.interf,
+                    addr.index,
+                    w.name(m),
+                    w.type_name(m)
+                );
+                Some(m)
+            };
+            devices.push(Device {
+                addr,
+                kind,
+                model,
+                subs: 0,
+                published_us: 0,
+                count: 0,
+            });
+        }
+        let s = shared.as_ref().ok_or_else(|| {
+            DriverError::new(
+                "no world: the first stage block must provide `simulation:0` with a `worldfile`",
+            )
+        })?;
+        let (interval_us, sim_time_us) = {
+            let w = s.world.read().unwrap_or_else(|e| e.into_inner());
+            (w.config().interval_sim_us, w.sim_time())
+        };
+        Ok(StageDriver {
+            world: s.world.clone(),
+            spec: s.spec.clone(),
+            drawings: handle.drawings(),
+            steps_world,
+            paused: handle.paused(),
+            interval: Duration::from_micros(interval_us.max(1)),
+            sim_time_us,
+            quit_reported: false,
+            devices,
+        })
+    }
+
+    fn write(&self) -> RwLockWriteGuard<'_, World> {
+        self.world.write().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn device(&self, addr: &DeviceAddr) -> Option<usize> {
+        self.devices.iter().position(|d| {
+            d.addr.robot == addr.robot && d.addr.interf == addr.interf && d.addr.index == addr.index
+        })
+    }
+
+    /// Publishes every subscribed device's new samples, in `provides` order.
+    fn publish(&mut self, ctx: &mut Context<'_>) {
+        let world = self.world.read().unwrap_or_else(|e| e.into_inner());
+        for d in &mut self.devices {
+            let Some(model) = d.model else { continue };
+            if d.subs == 0 {
+                continue;
+            }
+            let stamp_us = match d.kind {
+                Kind::Position => world.position_state(model).map(|s| s.time_us),
+                Kind::Ranger | Kind::Laser | Kind::Sonar => {
+                    world.ranger_scans(model).map(|s| s.time_us)
+                }
+                Kind::Blobfinder => world.blobfinder_blobs(model).map(|s| s.time_us),
+                Kind::Fiducial => world.fiducials(model).map(|s| s.time_us),
+                Kind::Gripper => world.gripper_state(model).map(|s| s.time_us),
+                Kind::Camera => world.camera_image(model).map(|s| s.time_us),
+                Kind::Actarray => world.actuator(model).map(|s| s.time_us),
+                Kind::Simulation | Kind::Speech | Kind::Graphics2d | Kind::Graphics3d => None,
+            };
+            let Some(stamp_us) = stamp_us.filter(|&t| t > d.published_us) else {
+                continue;
+            };
+            d.published_us = stamp_us;
+            let bound = Bound {
+                world: &*world,
+                spec: &self.spec,
+                model,
+            };
+            let mut out = Out {
+                ctx: &mut *ctx,
+                addr: d.addr,
+                stamp: stamp_us as f64 * 1e-6,
+            };
+            match d.kind {
+                Kind::Position => position::publish(&bound, &mut out),
+                Kind::Ranger => ranger::publish(&bound, &mut out),
+                Kind::Laser => laser::publish(&bound, &mut out, d.count),
+                Kind::Sonar => sonar::publish(&bound, &mut out),
+                Kind::Blobfinder => blobfinder_publish(&bound, &mut out),
+                Kind::Fiducial => fiducial::publish(&bound, &mut out),
+                Kind::Gripper => gripper::publish(&bound, &mut out),
+                Kind::Camera => camera::publish(&bound, &mut out),
+                Kind::Actarray => actarray::publish(&bound, &mut out),
+                Kind::Simulation | Kind::Speech | Kind::Graphics2d | Kind::Graphics3d => {}
+            }
+            d.count = d.count.wrapping_add(1);
+        }
+    }
+}
+
+/// The blobfinder has data only (no requests Stage answers), so it lives here.
+fn blobfinder_publish(b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
+    use player_proto::{BlobfinderBlob, BlobfinderData, BlobfinderDataBlobs};
+    let Some(data) = b.world.blobfinder_blobs(b.model) else {
+        return;
+    };
+    // Stage fills in the image size only when there is a blob (spec §9.3).
+    let (width, height) = if data.blobs.is_empty() {
+        (0, 0)
+    } else {
+        (data.width, data.height)
+    };
+    let blobs = data
+        .blobs
+        .iter()
+        .map(|blob| BlobfinderBlob {
+            id: 0,
+            color: blob.color.packed_rgb(),
+            area: blob.player_area(),
+            x: blob.x(),
+            y: blob.y(),
+            left: blob.left,
+            right: blob.right,
+            top: blob.top,
+            bottom: blob.bottom,
+            range: blob.range as f32,
+        })
+        .collect();
+    out.publish(BlobfinderData::Blobs(BlobfinderDataBlobs {
+        width,
+        height,
+        blobs,
+    }));
+}
+
+/// Loads the world named by the simulation block.
+fn create_world(
+    block: &DriverBlock,
+    options: &StageOptions,
+    handle: &StageHandle,
+) -> Result<Shared, DriverError> {
+    let Some(written) = block.option("worldfile") else {
+        return Err(DriverError::new(
+            "the simulation device needs a `worldfile` field naming the Stage world",
+        ));
+    };
+    let path = block.resolve_path(written);
+    let usegui = match options.usegui {
+        Some(v) => v,
+        None => bool_option(block, "usegui")?.unwrap_or(true),
+    };
+    let (world, spec) = World::load_with(&path, &LoadOptions::from_env(), options.seed)
+        .map_err(|e| DriverError::new(format!("worldfile {}: {e}", path.display())))?;
+    tracing::info!(
+        "stage: world \"{}\" loaded from {} ({} models)",
+        world.config().name,
+        path.display(),
+        world.model_count()
+    );
+    let world = Arc::new(RwLock::new(world));
+    let spec = Arc::new(spec);
+    {
+        let mut h = handle.state();
+        h.world = Some(world.clone());
+        h.spec = Some(spec.clone());
+        h.worldfile = Some(path);
+        h.usegui = usegui;
+    }
+    Ok(Shared {
+        world,
+        spec,
+        bound: HashSet::new(),
+    })
+}
+
+impl Driver for StageDriver {
+    fn subscribe(&mut self, addr: DeviceAddr) -> Result<(), DriverError> {
+        let i = self
+            .device(&addr)
+            .ok_or_else(|| DriverError::new(format!("{addr} is not a device of this driver")))?;
+        let d = &mut self.devices[i];
+        d.subs += 1;
+        if d.subs == 1 {
+            if let Some(m) = d.model {
+                self.world
+                    .write()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .subscribe(m);
+            }
+        }
+        Ok(())
+    }
+
+    fn unsubscribe(&mut self, addr: DeviceAddr) -> Result<(), DriverError> {
+        let i = self
+            .device(&addr)
+            .ok_or_else(|| DriverError::new(format!("{addr} is not a device of this driver")))?;
+        let d = &mut self.devices[i];
+        if d.subs == 0 {
+            return Err(DriverError::new(format!("{addr} was not subscribed")));
+        }
+        d.subs -= 1;
+        if d.subs == 0 {
+            if let Some(m) = d.model {
+                self.world
+                    .write()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .unsubscribe(m);
+            }
+        }
+        Ok(())
+    }
+
+    fn client_unsubscribed(&mut self, addr: DeviceAddr, client: ClientId) {
+        if let Some(i) = self.device(&addr) {
+            let d = &self.devices[i];
+            if let (Kind::Graphics2d | Kind::Graphics3d, Some(m)) = (d.kind, d.model) {
+                graphics::forget(&self.drawings, m, addr.interf, client);
+            }
+        }
+    }
+
+    fn handle_request(&mut self, _ctx: &mut Context<'_>, request: &Message) -> Reply {
+        let Some(i) = self.device(&request.header.addr) else {
+            return Reply::NotHandled;
+        };
+        let (kind, model) = {
+            let d = &self.devices[i];
+            (d.kind, d.model)
+        };
+        if kind == Kind::Simulation {
+            return simulation::request(&mut self.write(), &request.body);
+        }
+        let Some(model) = model else {
+            return Reply::NotHandled;
+        };
+        let world = self.write();
+        let mut b = Bound {
+            world,
+            spec: &self.spec,
+            model,
+        };
+        match kind {
+            Kind::Position => position::request(&mut b, &request.body),
+            Kind::Ranger => ranger::request(&b, &request.body),
+            Kind::Laser => laser::request(&b, &request.body),
+            Kind::Sonar => sonar::request(&b, &request.body),
+            Kind::Fiducial => fiducial::request(&mut b, &request.body),
+            Kind::Gripper => gripper::request(&b, &request.body),
+            Kind::Actarray => actarray::request(&b, &request.body),
+            // Stage answers no blobfinder, camera, speech or graphics requests.
+            _ => Reply::NotHandled,
+        }
+    }
+
+    fn handle_command(&mut self, ctx: &mut Context<'_>, command: &Message) {
+        let Some(i) = self.device(&command.header.addr) else {
+            return;
+        };
+        let (kind, model, addr) = {
+            let d = &self.devices[i];
+            (d.kind, d.model, d.addr)
+        };
+        let body = &command.body;
+        let handled = match (kind, model) {
+            (Kind::Simulation, _) => false,
+            (_, None) => false,
+            (kind, Some(model)) => {
+                let world = self.write();
+                let mut b = Bound {
+                    world,
+                    spec: &self.spec,
+                    model,
+                };
+                match kind {
+                    Kind::Position => position::command(&mut b, body),
+                    Kind::Gripper => gripper::command(&mut b, body),
+                    Kind::Actarray => actarray::command(&mut b, body),
+                    Kind::Speech => speech::command(&mut b, body),
+                    Kind::Graphics2d | Kind::Graphics3d => match ctx.client() {
+                        Some(client) => graphics::command(&self.drawings, model, client, body),
+                        None => false,
+                    },
+                    _ => false,
+                }
+            }
+        };
+        if !handled {
+            tracing::warn!(
+                "stage: ignoring command {} to {}:{}",
+                body.constant(),
+                addr.interf,
+                addr.index
+            );
+        }
+    }
+
+    fn update(&mut self, ctx: &mut Context<'_>) {
+        if self.steps_world && !self.paused.load(Ordering::Relaxed) {
+            let mut w = self.world.write().unwrap_or_else(|e| e.into_inner());
+            if !w.step() && !self.quit_reported {
+                self.quit_reported = true;
+                tracing::info!(
+                    "stage: quit_time reached at {:.3} s: simulated time stops",
+                    w.sim_time() as f64 * 1e-6
+                );
+            }
+            self.sim_time_us = w.sim_time();
+        }
+        self.publish(ctx);
+    }
+
+    fn step(&self) -> Option<Duration> {
+        Some(self.interval)
+    }
+
+    fn clock(&self) -> Option<f64> {
+        self.steps_world.then_some(self.sim_time_us as f64 * 1e-6)
+    }
+
+    fn always_on(&self) -> bool {
+        // The world runs without clients (Stage makes the simulation driver alwayson).
+        self.steps_world
+    }
+
+    fn shutdown(&mut self) {
+        let mut w = self.world.write().unwrap_or_else(|e| e.into_inner());
+        for d in &mut self.devices {
+            if let (Some(m), true) = (d.model, d.subs > 0) {
+                w.unsubscribe(m);
+                d.subs = 0;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

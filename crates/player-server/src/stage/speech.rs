@@ -1,0 +1,15 @@
+//! `speech` on any model: CMD_SAY sets the model's speech bubble text (player-protocol.md
+//! §6.10). No data, no requests.
+
+use player_proto::{Body, SpeechCmd, SpeechMsg};
+
+use super::Writing;
+
+/// SAY: the text without its terminating NUL.
+pub(super) fn command(b: &mut Writing<'_>, body: &Body) -> bool {
+    let Body::Speech(SpeechMsg::Cmd(SpeechCmd::Say(say))) = body else {
+        return false;
+    };
+    b.world.say(b.model, &say.string.to_str_lossy());
+    true
+}

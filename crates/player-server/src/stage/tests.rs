@@ -1,0 +1,533 @@
+//! The stage driver on a small world, driven directly (no sockets): binding, start-up errors,
+//! reference-counted subscriptions, publication cadence and order, requests and the pause flag.
+
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+
+use player_proto::constants::LOCALHOST_ADDR;
+use player_proto::{
+    Body, CapabilitiesReq, DeviceAddr, InterfaceCode, Message, MsgType, Position2dCmd,
+    Position2dCmdVel, Position2dMsg, Position2dPowerConfig, Position2dReq,
+    Position2dVelocityModeConfig, RangerData, RangerMsg, RangerReq, SimulationReq, UniversalMsg,
+    UniversalReq,
+};
+
+use super::*;
+use crate::driver::{ProvidedDevice, Publication};
+
+const WORLD: &str = r#"
+interval_sim 100
+define eye sensor ( range [0 4] fov 20 samples 5 )
+position
+(
+  name "robot"
+  size [0.5 0.5 0.5]
+  pose [0 0 0 0]
+  drive "diff"
+  ranger ( eye ( pose [0.25 0 0 0] ) eye ( pose [0 0.25 0 90] ) )
+  ranger ( eye ( pose [0.25 0 0 0] ) )
+  blobfinder ( colors_count 1 colors [ "red" ] )
+  fiducial ( )
+  gripper ( pose [0.3 0 -0.5 0] )
+)
+model ( name "wall" size [0.2 4 1] pose [2 0 0 0] color "red" fiducial_return 7 )
+"#;
+
+/// A robot with an arm (one linear joint) and a camera, for the remaining interfaces.
+const ARM_WORLD: &str = r#"
+interval_sim 100
+position
+(
+  name "robot"
+  size [0.5 0.5 0.5]
+  actuator ( type "linear" axis [1 0 0] min_position 0 max_position 0.5 max_speed 1 )
+  camera ( resolution [8 6] range [0.2 8] fov [70 40] )
+)
+model ( name "wall" size [0.2 4 1] pose [2 0 0 0] color "red" )
+"#;
+
+/// A world file in a fresh temporary folder.
+fn world_file(tag: &str) -> PathBuf {
+    world_file_with(tag, WORLD)
+}
+
+fn world_file_with(tag: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("stage-driver-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("small.world");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn addr(interf: InterfaceCode, index: u16) -> DeviceAddr {
+    DeviceAddr::new(LOCALHOST_ADDR, 6665, interf, index)
+}
+
+fn block(devices: &[(InterfaceCode, u16)], options: &[(&str, &str)]) -> DriverBlock {
+    DriverBlock {
+        name: STAGE_DRIVER_NAME.into(),
+        origin: "small.cfg:3".into(),
+        provides: devices
+            .iter()
+            .map(|&(i, n)| ProvidedDevice {
+                addr: addr(i, n),
+                key: None,
+                origin: "small.cfg:4".into(),
+            })
+            .collect(),
+        options: options
+            .iter()
+            .map(|(k, v)| (k.to_string(), vec![v.to_string()]))
+            .collect(),
+        ..Default::default()
+    }
+}
+
+/// The simulation block's driver and the robot block's driver.
+struct Setup {
+    sim: Box<dyn Driver>,
+    robot: Box<dyn Driver>,
+    handle: StageHandle,
+}
+
+fn setup(tag: &str, robot_devices: &[(InterfaceCode, u16)]) -> Setup {
+    setup_on(world_file(tag), robot_devices)
+}
+
+fn setup_on(world: PathBuf, robot_devices: &[(InterfaceCode, u16)]) -> Setup {
+    let mut registry = DriverRegistry::new();
+    let handle = register(&mut registry, StageOptions::default());
+    let sim = registry
+        .create(&block(
+            &[(InterfaceCode::SIMULATION, 0)],
+            &[("worldfile", world.to_str().unwrap())],
+        ))
+        .unwrap();
+    let robot = registry
+        .create(&block(robot_devices, &[("model", "robot")]))
+        .unwrap();
+    Setup { sim, robot, handle }
+}
+
+/// Steps the world once and returns what the robot block published.
+fn step(s: &mut Setup) -> Vec<Publication> {
+    let mut out = Vec::new();
+    s.sim.update(&mut Context::new(0.0, None, &mut out));
+    s.robot.update(&mut Context::new(0.0, None, &mut out));
+    out
+}
+
+fn request(d: &mut Box<dyn Driver>, a: DeviceAddr, body: impl Into<Body>) -> Reply {
+    let mut out = Vec::new();
+    let m = Message::new(a, 0.0, body);
+    d.handle_request(&mut Context::new(0.0, Some(ClientId(1)), &mut out), &m)
+}
+
+#[test]
+fn a_device_before_the_simulation_block_is_a_clear_error() {
+    let mut registry = DriverRegistry::new();
+    register(&mut registry, StageOptions::default());
+    let err = registry
+        .create(&block(
+            &[(InterfaceCode::POSITION2D, 0)],
+            &[("model", "robot")],
+        ))
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        err.contains("small.cfg:4") && err.contains("must come first"),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_models_and_unsupported_interfaces_name_the_cfg_line() {
+    let mut registry = DriverRegistry::new();
+    register(&mut registry, StageOptions::default());
+    let world = world_file("errors");
+    registry
+        .create(&block(
+            &[(InterfaceCode::SIMULATION, 0)],
+            &[("worldfile", world.to_str().unwrap())],
+        ))
+        .unwrap();
+    let err = registry
+        .create(&block(
+            &[(InterfaceCode::POSITION2D, 0)],
+            &[("model", "nobody")],
+        ))
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        err.contains("small.cfg:4") && err.contains("nobody"),
+        "{err}"
+    );
+    let err = registry
+        .create(&block(&[(InterfaceCode::BUMPER, 0)], &[("model", "robot")]))
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        err.contains("does not support") && err.contains("bumper"),
+        "{err}"
+    );
+    // Three rangers wanted, two in the model.
+    let err = registry
+        .create(&block(
+            &[
+                (InterfaceCode::RANGER, 0),
+                (InterfaceCode::RANGER, 1),
+                (InterfaceCode::RANGER, 2),
+            ],
+            &[("model", "robot")],
+        ))
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(err.contains("ranger:2"), "{err}");
+}
+
+#[test]
+fn the_world_is_shared_through_the_handle() {
+    let s = setup("handle", &[(InterfaceCode::POSITION2D, 0)]);
+    let world = s.handle.world().expect("world");
+    assert!(
+        world
+            .read()
+            .unwrap()
+            .model_by_name("robot.ranger:1")
+            .is_some()
+    );
+    assert!(s.handle.gui_requested(), "usegui defaults to 1");
+    assert!(s.handle.world_spec().is_some());
+}
+
+#[test]
+fn ranger_publishes_range_then_intensities_per_update_only_while_subscribed() {
+    let r1 = addr(InterfaceCode::RANGER, 1);
+    let mut s = setup(
+        "ranger",
+        &[(InterfaceCode::RANGER, 0), (InterfaceCode::RANGER, 1)],
+    );
+    assert!(step(&mut s).is_empty(), "nothing without subscribers");
+    s.robot.subscribe(r1).unwrap();
+    s.robot.subscribe(r1).unwrap();
+    let mut stamps = Vec::new();
+    for _ in 0..5 {
+        let out = step(&mut s);
+        assert_eq!(out.len(), 2, "{out:?}");
+        assert!(out.iter().all(|p| p.addr == r1));
+        let Body::Ranger(RangerMsg::Data(RangerData::Range(r))) = &out[0].body else {
+            panic!("{:?}", out[0].body)
+        };
+        assert_eq!(r.ranges.len(), 5, "one transducer: all its samples");
+        assert!(
+            r.ranges.iter().all(|&v| (1.5..=4.0).contains(&v)),
+            "{:?}",
+            r.ranges
+        );
+        assert!(matches!(
+            out[1].body,
+            Body::Ranger(RangerMsg::Data(RangerData::Intns(_)))
+        ));
+        stamps.push(out[0].timestamp.unwrap());
+    }
+    assert!(
+        stamps.windows(2).all(|w| (w[1] - w[0] - 0.1).abs() < 1e-9),
+        "{stamps:?}"
+    );
+    // Two clients subscribed: the first unsubscription keeps the data flowing.
+    s.robot.unsubscribe(r1).unwrap();
+    assert_eq!(step(&mut s).len(), 2);
+    s.robot.unsubscribe(r1).unwrap();
+    assert!(step(&mut s).is_empty());
+    assert!(s.robot.unsubscribe(r1).is_err(), "not subscribed");
+}
+
+#[test]
+fn ranger_geometry_and_config_follow_the_worldfile() {
+    let r0 = addr(InterfaceCode::RANGER, 0);
+    let mut s = setup("rgeom", &[(InterfaceCode::RANGER, 0)]);
+    s.robot.subscribe(r0).unwrap();
+    step(&mut s);
+    let Reply::Ack(Some(Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(Some(g)))))) =
+        request(&mut s.robot, r0, RangerReq::GetGeom(None))
+    else {
+        panic!("no geometry")
+    };
+    assert_eq!(g.element_poses.len(), 2);
+    assert!((g.element_poses[1].pyaw - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    let Reply::Ack(Some(Body::Ranger(RangerMsg::Req(RangerReq::GetConfig(Some(c)))))) =
+        request(&mut s.robot, r0, RangerReq::GetConfig(None))
+    else {
+        panic!("no config")
+    };
+    assert_eq!(c.max_range, 4.0);
+    assert!((c.max_angle - 10f64.to_radians()).abs() < 1e-12);
+    assert_eq!(
+        request(&mut s.robot, r0, RangerReq::Power(Some(Default::default()))),
+        Reply::NotHandled,
+        "Stage refuses POWER"
+    );
+}
+
+#[test]
+fn blobfinder_and_fiducial_publish_every_update_even_when_empty() {
+    let b = addr(InterfaceCode::BLOBFINDER, 0);
+    let f = addr(InterfaceCode::FIDUCIAL, 0);
+    let mut s = setup(
+        "blobs",
+        &[(InterfaceCode::BLOBFINDER, 0), (InterfaceCode::FIDUCIAL, 0)],
+    );
+    s.robot.subscribe(b).unwrap();
+    s.robot.subscribe(f).unwrap();
+    let out = step(&mut s);
+    assert_eq!(out.len(), 2);
+    let Body::Blobfinder(player_proto::BlobfinderMsg::Data(player_proto::BlobfinderData::Blobs(
+        blobs,
+    ))) = &out[0].body
+    else {
+        panic!("{:?}", out[0].body)
+    };
+    // The red wall ahead is a blob.
+    assert_eq!(blobs.blobs.len(), 1, "{blobs:?}");
+    assert_eq!(blobs.blobs[0].color, 0xff0000);
+    let Body::Fiducial(player_proto::FiducialMsg::Data(player_proto::FiducialData::Scan(scan))) =
+        &out[1].body
+    else {
+        panic!("{:?}", out[1].body)
+    };
+    assert_eq!(scan.fiducials.len(), 1);
+    assert_eq!(scan.fiducials[0].id, 7);
+    // Turn away: both still publish, empty.
+    s.handle
+        .world()
+        .unwrap()
+        .write()
+        .unwrap()
+        .set_pose(ModelId(0), Pose::new(0.0, 0.0, 0.0, std::f64::consts::PI));
+    let out = step(&mut s);
+    assert_eq!(out.len(), 2);
+}
+
+#[test]
+fn position2d_requests_and_commands_as_stage_answers_them() {
+    let p = addr(InterfaceCode::POSITION2D, 0);
+    let mut s = setup("position", &[(InterfaceCode::POSITION2D, 0)]);
+    s.robot.subscribe(p).unwrap();
+    assert_eq!(
+        request(
+            &mut s.robot,
+            p,
+            Position2dReq::MotorPower(Some(Position2dPowerConfig { state: 1 }))
+        ),
+        Reply::empty_ack()
+    );
+    assert_eq!(
+        request(
+            &mut s.robot,
+            p,
+            Position2dReq::VelocityMode(Some(Position2dVelocityModeConfig { value: 0 }))
+        ),
+        Reply::NotHandled
+    );
+    let mut out = Vec::new();
+    let cmd = Message::new(
+        p,
+        0.0,
+        Position2dCmd::Vel(Position2dCmdVel {
+            vel: player_proto::Pose2d {
+                px: 0.5,
+                py: 0.0,
+                pa: 0.0,
+            },
+            state: 1,
+        }),
+    );
+    s.robot
+        .handle_command(&mut Context::new(0.0, Some(ClientId(1)), &mut out), &cmd);
+    let mut last = None;
+    for _ in 0..10 {
+        for publication in step(&mut s) {
+            if let Body::Position2d(Position2dMsg::Data(player_proto::Position2dData::State(st))) =
+                publication.body
+            {
+                last = Some(st);
+            }
+        }
+    }
+    let st = last.expect("position data");
+    assert!(st.pos.px > 0.3 && st.pos.px < 0.6, "{st:?}");
+    assert_eq!(st.vel.px, 0.5);
+}
+
+#[test]
+fn simulation_capabilities_ack_only_the_3d_pose_requests() {
+    let sim = addr(InterfaceCode::SIMULATION, 0);
+    let mut s = setup("caps", &[(InterfaceCode::POSITION2D, 0)]);
+    let cap = |subtype: u8| {
+        Body::Universal(UniversalMsg::Req(UniversalReq::Capabilities(Some(
+            CapabilitiesReq {
+                msg_type: u32::from(MsgType::Req.code()),
+                subtype: u32::from(subtype),
+            },
+        ))))
+    };
+    assert_eq!(
+        request(&mut s.sim, sim, cap(SimulationReq::GET_POSE3D)),
+        Reply::empty_ack()
+    );
+    assert_eq!(
+        request(&mut s.sim, sim, cap(SimulationReq::GET_POSE2D)),
+        Reply::Nack
+    );
+}
+
+#[test]
+fn the_pause_flag_stops_simulated_time() {
+    let mut s = setup("pause", &[(InterfaceCode::POSITION2D, 0)]);
+    step(&mut s);
+    let t = s.sim.clock().unwrap();
+    s.handle.paused().store(true, Ordering::Relaxed);
+    step(&mut s);
+    assert_eq!(s.sim.clock().unwrap(), t);
+    s.handle.paused().store(false, Ordering::Relaxed);
+    step(&mut s);
+    assert!((s.sim.clock().unwrap() - t - 0.1).abs() < 1e-9);
+}
+
+fn command(d: &mut Box<dyn Driver>, a: DeviceAddr, body: impl Into<Body>) {
+    let mut out = Vec::new();
+    let m = Message::new(a, 0.0, body);
+    d.handle_command(&mut Context::new(0.0, Some(ClientId(1)), &mut out), &m);
+}
+
+#[test]
+fn actarray_reports_one_linear_joint_and_its_goal() {
+    use player_proto::{ActarrayCmd, ActarrayData, ActarrayMsg, ActarrayPositionCmd, ActarrayReq};
+    let a = addr(InterfaceCode::ACTARRAY, 0);
+    let mut s = setup_on(
+        world_file_with("actarray", ARM_WORLD),
+        &[(InterfaceCode::ACTARRAY, 0)],
+    );
+    s.robot.subscribe(a).unwrap();
+    let Reply::Ack(Some(Body::Actarray(ActarrayMsg::Req(ActarrayReq::GetGeom(Some(g)))))) =
+        request(&mut s.robot, a, ActarrayReq::GetGeom(None))
+    else {
+        panic!("no geometry")
+    };
+    assert_eq!(g.actuators.len(), 1);
+    assert_eq!((g.actuators[0].min, g.actuators[0].max), (0.0, 0.5));
+    let state = |out: &[Publication]| match out.first().map(|p| &p.body) {
+        Some(Body::Actarray(ActarrayMsg::Data(ActarrayData::State(st)))) => st.clone(),
+        other => panic!("{other:?}"),
+    };
+    let idle = state(&step(&mut s));
+    assert_eq!(idle.actuators.len(), 1);
+    assert_eq!(
+        idle.actuators[0].state,
+        player_proto::constants::PLAYER_ACTARRAY_ACTSTATE_IDLE
+    );
+    command(
+        &mut s.robot,
+        a,
+        ActarrayCmd::Pos(ActarrayPositionCmd {
+            joint: 0,
+            position: 0.3,
+        }),
+    );
+    let moving = state(&step(&mut s));
+    assert_eq!(
+        moving.actuators[0].state,
+        player_proto::constants::PLAYER_ACTARRAY_ACTSTATE_MOVING
+    );
+}
+
+#[test]
+fn camera_publishes_the_ray_cast_image() {
+    use player_proto::{CameraData, CameraMsg};
+    let c = addr(InterfaceCode::CAMERA, 0);
+    let mut s = setup_on(
+        world_file_with("camera", ARM_WORLD),
+        &[(InterfaceCode::CAMERA, 0)],
+    );
+    s.robot.subscribe(c).unwrap();
+    let out = step(&mut s);
+    let Some(Body::Camera(CameraMsg::Data(CameraData::State(img)))) = out.first().map(|p| &p.body)
+    else {
+        panic!("{out:?}")
+    };
+    assert_eq!((img.width, img.height, img.bpp), (8, 6, 24));
+    assert_eq!(img.image.len(), 8 * 6 * 3);
+    // The red wall fills the middle of the view.
+    let mid = (3 * 8 + 4) * 3;
+    assert!(
+        img.image[mid] > 128 && img.image[mid + 1] < 64,
+        "{:?}",
+        &img.image[mid..mid + 3]
+    );
+}
+
+#[test]
+fn speech_sets_the_models_bubble() {
+    use player_proto::{SpeechCmd, SpeechCmdSay, Text};
+    let sp = addr(InterfaceCode::SPEECH, 0);
+    let mut s = setup("speech", &[(InterfaceCode::SPEECH, 0)]);
+    s.robot.subscribe(sp).unwrap();
+    command(
+        &mut s.robot,
+        sp,
+        SpeechCmd::Say(SpeechCmdSay {
+            string: Text::new("hello"),
+        }),
+    );
+    let world = s.handle.world().unwrap();
+    let w = world.read().unwrap();
+    assert_eq!(w.said(w.model_by_name("robot").unwrap()), "hello");
+}
+
+#[test]
+fn odometry_requests_last_in_odom_localisation() {
+    use player_proto::{Position2dData, Position2dSetOdomReq};
+    let p = addr(InterfaceCode::POSITION2D, 0);
+    let world = world_file_with(
+        "odom",
+        r#"
+interval_sim 100
+position ( name "robot" size [0.5 0.5 0.5] localization "odom" odom_error [0 0 0 0] )
+"#,
+    );
+    let mut s = setup_on(world, &[(InterfaceCode::POSITION2D, 0)]);
+    s.robot.subscribe(p).unwrap();
+    let reply = request(
+        &mut s.robot,
+        p,
+        Position2dReq::SetOdom(Some(Position2dSetOdomReq {
+            pose: player_proto::Pose2d {
+                px: 1.0,
+                py: 2.0,
+                pa: 0.5,
+            },
+        })),
+    );
+    assert_eq!(reply, Reply::empty_ack());
+    let pose = |out: Vec<Publication>| {
+        out.into_iter()
+            .find_map(|p| match p.body {
+                Body::Position2d(Position2dMsg::Data(Position2dData::State(st))) => Some(st.pos),
+                _ => None,
+            })
+            .expect("position data")
+    };
+    step(&mut s);
+    let after = pose(step(&mut s));
+    assert_eq!((after.px, after.py, after.pa), (1.0, 2.0, 0.5));
+    assert_eq!(
+        request(&mut s.robot, p, Position2dReq::ResetOdom),
+        Reply::empty_ack()
+    );
+    let reset = pose(step(&mut s));
+    assert_eq!((reset.px, reset.py, reset.pa), (0.0, 0.0, 0.0));
+}

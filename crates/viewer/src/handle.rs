@@ -1,12 +1,19 @@
 //! Sharing a world between its owner (the thread that steps it: the `stage` binary's simulation
-//! thread, or the `player` server's core) and the world window.
+//! thread, or the `player` server's stage driver) and the world window.
 //!
-//! The owner keeps stepping through [`WorldHandle::update`], which holds the write lock only for
-//! the step itself and first applies the edits the window queued ([`WorldCommand`]: drags,
-//! rotations, subscriptions for visualisation). The window reads the world under a short read
-//! lock once per frame while it builds its scene, so neither side stalls the other for long;
-//! [`WorldHandle::update`] also gives way to a window that is waiting to read, so a world
-//! stepping as fast as possible cannot starve the display.
+//! Both modes hold the world as an `Arc<RwLock<World>>` and the pause flag as an
+//! `Arc<AtomicBool>`; the window reads the world under a short read lock once per frame while it
+//! builds its scene, so neither side stalls the other for long.
+//!
+//! * Owned ([`WorldHandle::new`], [`WorldHandle::from_spec`]): the owner steps through
+//!   [`WorldHandle::update`] (for instance with [`spawn_simulation`]), which holds the write lock
+//!   only for the step and first applies the edits the window queued ([`WorldCommand`]: drags,
+//!   rotations, subscriptions for visualisation). [`WorldHandle::update`] also gives way to a
+//!   window that is waiting to read, so a world stepping as fast as possible cannot starve the
+//!   display.
+//! * Shared ([`WorldHandle::from_shared`]): someone else (the `player` server) steps the world
+//!   under its own lock and honours the pause flag; the window applies its edits itself, each
+//!   under a short write lock, and pause/run toggles the owner's flag.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
@@ -28,13 +35,23 @@ pub enum WorldCommand {
     Unsubscribe(ModelId),
 }
 
+/// Who applies the window's edits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// Queued for the owner's next [`WorldHandle::update`].
+    Owned,
+    /// Applied at once by the window (the owner steps the world elsewhere).
+    External,
+}
+
 struct Shared {
-    world: RwLock<World>,
+    world: Arc<RwLock<World>>,
+    mode: Mode,
     gui: WorldGui,
     window: WindowSpec,
     title: String,
     commands: Mutex<Vec<WorldCommand>>,
-    paused: AtomicBool,
+    paused: Arc<AtomicBool>,
     quit: AtomicBool,
     readers_waiting: AtomicUsize,
 }
@@ -55,37 +72,80 @@ impl std::fmt::Debug for WorldHandle {
 }
 
 impl WorldHandle {
-    /// Shares `world`; `gui` holds its models' GUI properties and `window` the worldfile's
-    /// `window` entity (Stage's defaults when it has none). The world starts paused when its
-    /// `paused` setting says so.
+    /// Shares `world`, which the caller steps through [`WorldHandle::update`]; `gui` holds its
+    /// models' GUI properties and `window` the worldfile's `window` entity (Stage's defaults
+    /// when it has none). The world starts paused when its `paused` setting says so.
     pub fn new(world: World, gui: WorldGui, window: Option<WindowSpec>, title: &str) -> Self {
         let paused = world.config().paused;
+        Self::build(
+            Arc::new(RwLock::new(world)),
+            Mode::Owned,
+            Arc::new(AtomicBool::new(paused)),
+            gui,
+            window,
+            title,
+        )
+    }
+
+    /// Shares a world built from `spec` (its GUI properties and `window` come from the spec);
+    /// the caller steps it through [`WorldHandle::update`].
+    pub fn from_spec(world: World, spec: &WorldSpec) -> Self {
+        WorldHandle::new(
+            world,
+            WorldGui::from_spec(spec),
+            spec.window.clone(),
+            &title_of(spec),
+        )
+    }
+
+    /// Shows a world someone else owns and steps (the `player` server's stage driver): `world`
+    /// is the owner's lock, `spec` the worldfile it was built from, `paused` the flag the owner
+    /// honours (it does not step while the flag is set). The window reads under short read
+    /// locks, applies its edits (drag, rotate, subscriptions for visualisation) itself under
+    /// short write locks, and toggles `paused` for pause/run. Do not call
+    /// [`WorldHandle::update`] or [`spawn_simulation`] on such a handle; watch
+    /// [`WorldHandle::quit_requested`] to learn that the window was closed.
+    pub fn from_shared(
+        world: Arc<RwLock<World>>,
+        spec: &WorldSpec,
+        paused: Arc<AtomicBool>,
+    ) -> Self {
+        Self::build(
+            world,
+            Mode::External,
+            paused,
+            WorldGui::from_spec(spec),
+            spec.window.clone(),
+            &title_of(spec),
+        )
+    }
+
+    fn build(
+        world: Arc<RwLock<World>>,
+        mode: Mode,
+        paused: Arc<AtomicBool>,
+        gui: WorldGui,
+        window: Option<WindowSpec>,
+        title: &str,
+    ) -> Self {
         WorldHandle {
             shared: Arc::new(Shared {
-                world: RwLock::new(world),
+                world,
+                mode,
                 gui,
                 window: window.unwrap_or_default(),
                 title: title.to_string(),
                 commands: Mutex::new(Vec::new()),
-                paused: AtomicBool::new(paused),
+                paused,
                 quit: AtomicBool::new(false),
                 readers_waiting: AtomicUsize::new(0),
             }),
         }
     }
 
-    /// Shares a world built from `spec` (its GUI properties and `window` come from the spec).
-    pub fn from_spec(world: World, spec: &WorldSpec) -> Self {
-        let title = std::path::Path::new(&spec.path)
-            .file_name()
-            .map(|f| f.to_string_lossy().into_owned())
-            .unwrap_or_else(|| spec.path.clone());
-        WorldHandle::new(
-            world,
-            WorldGui::from_spec(spec),
-            spec.window.clone(),
-            &title,
-        )
+    /// The world's lock (the same `Arc` the owner holds in shared mode).
+    pub fn world(&self) -> Arc<RwLock<World>> {
+        self.shared.world.clone()
     }
 
     /// Read access for drawing. Keep it short: the owner cannot step meanwhile.
@@ -120,8 +180,14 @@ impl WorldHandle {
         f(&mut w)
     }
 
-    /// Queues an edit for the owner's next [`WorldHandle::update`].
+    /// Makes an edit: queued for the owner's next [`WorldHandle::update`] in owned mode,
+    /// applied now under a short write lock in shared mode.
     pub fn send(&self, cmd: WorldCommand) {
+        if self.shared.mode == Mode::External {
+            let mut w = self.shared.world.write().unwrap_or_else(|p| p.into_inner());
+            apply(&mut w, cmd);
+            return;
+        }
         self.shared
             .commands
             .lock()
@@ -163,6 +229,14 @@ impl WorldHandle {
     pub fn quit_requested(&self) -> bool {
         self.shared.quit.load(Ordering::Acquire)
     }
+}
+
+/// The window title of a world: its file name.
+fn title_of(spec: &WorldSpec) -> String {
+    std::path::Path::new(&spec.path)
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| spec.path.clone())
 }
 
 fn apply(w: &mut World, c: WorldCommand) {
@@ -266,6 +340,40 @@ mod tests {
         let w = h.read();
         assert_eq!(w.pose(m), Pose::new(1.0, 2.0, 0.0, 0.5));
         assert_eq!(w.subscriptions(m), 1);
+    }
+
+    #[test]
+    fn a_shared_world_takes_edits_at_once_and_pauses_through_the_owners_flag() {
+        let text = "window ( size [ 300 200 ] scale 20 )\n\
+                    define bot position ( size [ 0.5 0.5 0.2 ] gui_move 1 )\n\
+                    bot ( name \"r0\" pose [ 1 2 0 0 ] )\n";
+        let spec = WorldSpec::parse(
+            std::path::Path::new("/tmp/shared.world"),
+            text,
+            &worldfile::LoadOptions::default(),
+        )
+        .expect("world parses");
+        let world = Arc::new(RwLock::new(World::from_spec(&spec, 1).expect("builds")));
+        let paused = Arc::new(AtomicBool::new(false));
+        let h = WorldHandle::from_shared(world.clone(), &spec, paused.clone());
+        assert_eq!(h.title(), "shared.world");
+        assert_eq!(h.window().size, [300, 200]);
+        assert!(Arc::ptr_eq(&h.world(), &world));
+        let m = world.read().unwrap().model_by_name("r0").expect("r0");
+        // no update() from the owner: the edit is already there
+        h.send(WorldCommand::SetPose(m, Pose::new(-1.0, 0.5, 0.0, 1.0)));
+        assert_eq!(
+            world.read().unwrap().pose(m),
+            Pose::new(-1.0, 0.5, 0.0, 1.0)
+        );
+        h.send(WorldCommand::Subscribe(m));
+        assert_eq!(world.read().unwrap().subscriptions(m), 1);
+        h.send(WorldCommand::Unsubscribe(m));
+        assert_eq!(world.read().unwrap().subscriptions(m), 0);
+        h.set_paused(true);
+        assert!(paused.load(Ordering::Acquire));
+        paused.store(false, Ordering::Release);
+        assert!(!h.paused());
     }
 
     #[test]

@@ -14,10 +14,23 @@
 //! # Ok(()) }
 //! ```
 //!
-//! A server whose core thread owns the world (the `player` binary) wraps the world in a
-//! [`WorldHandle`], steps it inside [`WorldHandle::update`] from its core, and calls [`run`] on
-//! the main thread; closing the window calls [`WorldHandle::request_quit`], which the owner
-//! should treat as a shutdown request.
+//! A server that owns and steps the world itself (the `player` binary's stage driver, which
+//! keeps it as an `Arc<RwLock<World>>` and honours a pause flag) shares it with
+//! [`WorldHandle::from_shared`] and calls [`run`] on the main thread while its core runs on
+//! other threads:
+//!
+//! ```no_run
+//! # use std::sync::{Arc, RwLock, atomic::AtomicBool};
+//! # fn demo(world: Arc<RwLock<stage_sim::World>>, spec: &worldfile::WorldSpec,
+//! #         paused: Arc<AtomicBool>) -> Result<(), viewer::ViewerError> {
+//! let handle = viewer::WorldHandle::from_shared(world, spec, paused);
+//! viewer::world_window::run(handle.clone(), viewer::world_window::WindowOptions::default())?;
+//! assert!(handle.quit_requested()); // the window was closed: shut the server down
+//! # Ok(()) }
+//! ```
+//!
+//! [`run`] returns [`ViewerError::NoDisplay`] at once when no display is announced and an error
+//! when the window cannot be created; the caller then goes on headless.
 //!
 //! Controls: wheel zooms at the pointer; left-drag on a movable model moves it, elsewhere pans;
 //! right-drag on a movable model turns it, elsewhere turns the view; middle-drag pans; `P` or

@@ -1,1 +1,34 @@
-//! The Stage world window and the playerv client viewer, rendered with wgpu through egui.
+//! The Stage world window and the playerv client viewer: egui for menus and panels, wgpu for
+//! the world drawing.
+//!
+//! * [`scene`] — plain primitives in world coordinates (fills, pixel-wide segments, images,
+//!   labels) by layer; [`world_scene`] builds one from a `stage_sim::World`,
+//!   [`playerv::scene`] from a playerv client state. Pure and unit-tested.
+//! * [`render`] — draws a scene with wgpu in a few batched, instanced draw calls per layer, into
+//!   the eframe window ([`canvas`]) or an offscreen texture ([`offscreen`]).
+//! * [`world_window`] — the Stage window: [`world_window::run`] with a [`WorldHandle`] the
+//!   simulation owner shares (the `stage` binary now, the `player` server's core later).
+//! * [`playerv`] — the playerv client: [`playerv::run`].
+//!
+//! Everything renders with no GPU through Mesa's software Vulkan (llvmpipe/lavapipe).
+
+#![warn(missing_docs)]
+
+pub mod canvas;
+pub mod error;
+pub mod handle;
+pub mod offscreen;
+pub mod playerv;
+pub mod render;
+pub mod scene;
+mod triangulate;
+pub mod view;
+pub mod world_scene;
+pub mod world_window;
+
+pub use error::ViewerError;
+pub use handle::{WorldCommand, WorldHandle};
+pub use offscreen::{Offscreen, Pixels};
+pub use render::SceneRenderer;
+pub use scene::{Layer, Rgba8, Scene};
+pub use view::View;

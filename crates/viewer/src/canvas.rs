@@ -1,0 +1,96 @@
+//! A [`Scene`] drawn inside an egui window: the background and labels through egui's painter,
+//! everything else by our [`SceneRenderer`] in an `egui_wgpu` paint callback (so the bulk of
+//! the drawing never goes through egui's CPU tessellator).
+
+use std::sync::Arc;
+
+use egui::{Color32, Rect};
+
+use crate::render::SceneRenderer;
+use crate::scene::{Rgba8, Scene};
+use crate::view::View;
+
+/// Adds the scene renderer to eframe's wgpu state (once, at start-up).
+pub fn install(rs: &egui_wgpu::RenderState) {
+    let renderer = SceneRenderer::new(&rs.device, rs.target_format, 1);
+    rs.renderer.write().callback_resources.insert(renderer);
+}
+
+struct SceneCallback {
+    scene: Arc<Scene>,
+    view: View,
+}
+
+impl egui_wgpu::CallbackTrait for SceneCallback {
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        _screen: &egui_wgpu::ScreenDescriptor,
+        _encoder: &mut wgpu::CommandEncoder,
+        resources: &mut egui_wgpu::CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
+        if let Some(r) = resources.get_mut::<SceneRenderer>() {
+            r.prepare(device, queue, &self.scene, &self.view);
+        }
+        Vec::new()
+    }
+
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
+        if let Some(r) = resources.get::<SceneRenderer>() {
+            r.paint(pass);
+        }
+    }
+}
+
+/// egui colour of a scene colour.
+pub fn color32(c: Rgba8) -> Color32 {
+    Color32::from_rgba_unmultiplied(c.0[0], c.0[1], c.0[2], c.0[3])
+}
+
+/// Paints `scene` into `rect` (in points) as `view` (whose `size` is `rect`'s size in points)
+/// shows it.
+pub fn paint(ui: &egui::Ui, rect: Rect, scene: Arc<Scene>, view: &View) {
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(rect, 0.0, color32(scene.background));
+    let ppp = ui.ctx().pixels_per_point() as f64;
+    let gpu_view = View {
+        scale: view.scale * ppp,
+        size: [view.size[0] * ppp, view.size[1] * ppp],
+        ..*view
+    };
+    let labels: Vec<_> = scene.labels.clone();
+    painter.add(egui_wgpu::Callback::new_paint_callback(
+        rect,
+        SceneCallback {
+            scene,
+            view: gpu_view,
+        },
+    ));
+    for l in labels {
+        let s = view.to_screen([l.pos[0] as f64, l.pos[1] as f64]);
+        let at = rect.min + egui::vec2(s[0] as f32, s[1] as f32);
+        if !rect.contains(at) {
+            continue;
+        }
+        let font = egui::FontId::proportional(12.0);
+        let galley = painter.layout_no_wrap(l.text, font, color32(l.color));
+        let text_rect = Rect::from_min_size(at, galley.size());
+        if let Some(bg) = l.bubble {
+            let r = text_rect.expand(4.0);
+            painter.rect_filled(r, 6.0, color32(bg));
+            painter.rect_stroke(
+                r,
+                6.0,
+                egui::Stroke::new(1.0, Color32::BLACK),
+                egui::StrokeKind::Outside,
+            );
+        }
+        painter.galley(at, galley, color32(l.color));
+    }
+}

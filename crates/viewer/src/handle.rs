@@ -1,0 +1,393 @@
+//! Sharing a world between its owner (the thread that steps it: the `stage` binary's simulation
+//! thread, or the `player` server's stage driver) and the world window.
+//!
+//! Both modes hold the world as an `Arc<RwLock<World>>` and the pause flag as an
+//! `Arc<AtomicBool>`; the window reads the world under a short read lock once per frame while it
+//! builds its scene, so neither side stalls the other for long.
+//!
+//! * Owned ([`WorldHandle::new`], [`WorldHandle::from_spec`]): the owner steps through
+//!   [`WorldHandle::update`] (for instance with [`spawn_simulation`]), which holds the write lock
+//!   only for the step and first applies the edits the window queued ([`WorldCommand`]: drags,
+//!   rotations, subscriptions for visualisation). [`WorldHandle::update`] also gives way to a
+//!   window that is waiting to read, so a world stepping as fast as possible cannot starve the
+//!   display.
+//! * Shared ([`WorldHandle::from_shared`]): someone else (the `player` server) steps the world
+//!   under its own lock and honours the pause flag; the window applies its edits itself, each
+//!   under a short write lock, and pause/run toggles the owner's flag.
+
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
+use std::time::{Duration, Instant};
+
+use stage_sim::{ModelId, Pose, World};
+use worldfile::{WindowSpec, WorldSpec};
+
+use crate::world_scene::WorldGui;
+
+/// An edit the window asks the world's owner to make.
+#[derive(Clone, Debug, PartialEq)]
+pub enum WorldCommand {
+    /// Move a model (pose in its parent's frame; Stage's drag and rotate, no collision test).
+    SetPose(ModelId, Pose),
+    /// Add a subscription (the window shows this sensor's data).
+    Subscribe(ModelId),
+    /// Drop a subscription the window added.
+    Unsubscribe(ModelId),
+}
+
+/// Who applies the window's edits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// Queued for the owner's next [`WorldHandle::update`].
+    Owned,
+    /// Applied at once by the window (the owner steps the world elsewhere).
+    External,
+}
+
+struct Shared {
+    world: Arc<RwLock<World>>,
+    mode: Mode,
+    gui: WorldGui,
+    window: WindowSpec,
+    title: String,
+    commands: Mutex<Vec<WorldCommand>>,
+    paused: Arc<AtomicBool>,
+    quit: AtomicBool,
+    readers_waiting: AtomicUsize,
+}
+
+/// A world shared between the thread that steps it and the world window. Cheap to clone.
+#[derive(Clone)]
+pub struct WorldHandle {
+    shared: Arc<Shared>,
+}
+
+impl std::fmt::Debug for WorldHandle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WorldHandle")
+            .field("title", &self.shared.title)
+            .field("paused", &self.paused())
+            .finish()
+    }
+}
+
+impl WorldHandle {
+    /// Shares `world`, which the caller steps through [`WorldHandle::update`]; `gui` holds its
+    /// models' GUI properties and `window` the worldfile's `window` entity (Stage's defaults
+    /// when it has none). The world starts paused when its `paused` setting says so.
+    pub fn new(world: World, gui: WorldGui, window: Option<WindowSpec>, title: &str) -> Self {
+        let paused = world.config().paused;
+        Self::build(
+            Arc::new(RwLock::new(world)),
+            Mode::Owned,
+            Arc::new(AtomicBool::new(paused)),
+            gui,
+            window,
+            title,
+        )
+    }
+
+    /// Shares a world built from `spec` (its GUI properties and `window` come from the spec);
+    /// the caller steps it through [`WorldHandle::update`].
+    pub fn from_spec(world: World, spec: &WorldSpec) -> Self {
+        WorldHandle::new(
+            world,
+            WorldGui::from_spec(spec),
+            spec.window.clone(),
+            &title_of(spec),
+        )
+    }
+
+    /// Shows a world someone else owns and steps (the `player` server's stage driver): `world`
+    /// is the owner's lock, `spec` the worldfile it was built from, `paused` the flag the owner
+    /// honours (it does not step while the flag is set). The window reads under short read
+    /// locks, applies its edits (drag, rotate, subscriptions for visualisation) itself under
+    /// short write locks, and toggles `paused` for pause/run. Do not call
+    /// [`WorldHandle::update`] or [`spawn_simulation`] on such a handle; watch
+    /// [`WorldHandle::quit_requested`] to learn that the window was closed.
+    pub fn from_shared(
+        world: Arc<RwLock<World>>,
+        spec: &WorldSpec,
+        paused: Arc<AtomicBool>,
+    ) -> Self {
+        Self::build(
+            world,
+            Mode::External,
+            paused,
+            WorldGui::from_spec(spec),
+            spec.window.clone(),
+            &title_of(spec),
+        )
+    }
+
+    fn build(
+        world: Arc<RwLock<World>>,
+        mode: Mode,
+        paused: Arc<AtomicBool>,
+        gui: WorldGui,
+        window: Option<WindowSpec>,
+        title: &str,
+    ) -> Self {
+        WorldHandle {
+            shared: Arc::new(Shared {
+                world,
+                mode,
+                gui,
+                window: window.unwrap_or_default(),
+                title: title.to_string(),
+                commands: Mutex::new(Vec::new()),
+                paused,
+                quit: AtomicBool::new(false),
+                readers_waiting: AtomicUsize::new(0),
+            }),
+        }
+    }
+
+    /// The world's lock (the same `Arc` the owner holds in shared mode).
+    pub fn world(&self) -> Arc<RwLock<World>> {
+        self.shared.world.clone()
+    }
+
+    /// Read access for drawing. Keep it short: the owner cannot step meanwhile.
+    pub fn read(&self) -> RwLockReadGuard<'_, World> {
+        self.shared.readers_waiting.fetch_add(1, Ordering::AcqRel);
+        let g = self.shared.world.read().unwrap_or_else(|p| p.into_inner());
+        self.shared.readers_waiting.fetch_sub(1, Ordering::AcqRel);
+        g
+    }
+
+    /// The owner's access: applies the window's queued edits, then runs `f` (a step, a driver
+    /// update) under the write lock.
+    pub fn update<R>(&self, f: impl FnOnce(&mut World) -> R) -> R {
+        // let a waiting reader in first (a bounded wait: at most a few milliseconds)
+        let start = Instant::now();
+        while self.shared.readers_waiting.load(Ordering::Acquire) > 0
+            && start.elapsed() < Duration::from_millis(5)
+        {
+            std::thread::yield_now();
+        }
+        let mut w = self.shared.world.write().unwrap_or_else(|p| p.into_inner());
+        let cmds = std::mem::take(
+            &mut *self
+                .shared
+                .commands
+                .lock()
+                .unwrap_or_else(|p| p.into_inner()),
+        );
+        for c in cmds {
+            apply(&mut w, c);
+        }
+        f(&mut w)
+    }
+
+    /// Makes an edit: queued for the owner's next [`WorldHandle::update`] in owned mode,
+    /// applied now under a short write lock in shared mode.
+    pub fn send(&self, cmd: WorldCommand) {
+        if self.shared.mode == Mode::External {
+            let mut w = self.shared.world.write().unwrap_or_else(|p| p.into_inner());
+            apply(&mut w, cmd);
+            return;
+        }
+        self.shared
+            .commands
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(cmd);
+    }
+
+    /// The models' GUI properties.
+    pub fn gui(&self) -> &WorldGui {
+        &self.shared.gui
+    }
+
+    /// The worldfile's `window` settings.
+    pub fn window(&self) -> &WindowSpec {
+        &self.shared.window
+    }
+
+    /// The window title (the worldfile's name).
+    pub fn title(&self) -> &str {
+        &self.shared.title
+    }
+
+    /// Whether the world is paused (the owner should not step it).
+    pub fn paused(&self) -> bool {
+        self.shared.paused.load(Ordering::Acquire)
+    }
+
+    /// Pauses or resumes the world.
+    pub fn set_paused(&self, paused: bool) {
+        self.shared.paused.store(paused, Ordering::Release);
+    }
+
+    /// Asks everyone sharing the world to stop (the window was closed).
+    pub fn request_quit(&self) {
+        self.shared.quit.store(true, Ordering::Release);
+    }
+
+    /// Whether [`WorldHandle::request_quit`] was called.
+    pub fn quit_requested(&self) -> bool {
+        self.shared.quit.load(Ordering::Acquire)
+    }
+}
+
+/// The window title of a world: its file name.
+fn title_of(spec: &WorldSpec) -> String {
+    std::path::Path::new(&spec.path)
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| spec.path.clone())
+}
+
+fn apply(w: &mut World, c: WorldCommand) {
+    let valid = |m: ModelId| m.index() < w.model_count();
+    match c {
+        WorldCommand::SetPose(m, p) if valid(m) => {
+            if [p.x, p.y, p.z, p.a].iter().all(|v| v.is_finite()) {
+                w.set_pose(m, p);
+            }
+        }
+        WorldCommand::Subscribe(m) if valid(m) => w.subscribe(m),
+        WorldCommand::Unsubscribe(m) if valid(m) => w.unsubscribe(m),
+        _ => tracing::debug!("ignoring a command for an unknown model"),
+    }
+}
+
+/// How [`spawn_simulation`] paces the world.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pacing {
+    /// Multiple of real time; `<= 0` runs as fast as possible.
+    pub speedup: f64,
+}
+
+/// Steps the shared world on a thread of its own, as Stage's GUI does: `interval_sim /
+/// speedup` of real time per step, nothing while paused, and a pause (not an exit) when the
+/// world reaches its `quit_time`. Stops when [`WorldHandle::request_quit`] is called.
+/// `on_step` runs after every step under the write lock (clock printing, drivers).
+pub fn spawn_simulation(
+    handle: WorldHandle,
+    pacing: Pacing,
+    mut on_step: impl FnMut(&World) + Send + 'static,
+) -> std::thread::JoinHandle<()> {
+    std::thread::Builder::new()
+        .name("simulation".into())
+        .spawn(move || {
+            let interval = handle.read().config().interval_sim_us;
+            let step_wall = (pacing.speedup > 0.0 && pacing.speedup.is_finite())
+                .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / pacing.speedup));
+            let mut next = Instant::now();
+            while !handle.quit_requested() {
+                if handle.paused() {
+                    // still apply the window's edits while paused
+                    handle.update(|_| ());
+                    std::thread::sleep(Duration::from_millis(10));
+                    next = Instant::now();
+                    continue;
+                }
+                let stepped = handle.update(|w| {
+                    let s = w.step();
+                    if s {
+                        on_step(w);
+                    }
+                    s
+                });
+                if !stepped {
+                    // quit_time reached: the GUI world pauses (it can be resumed)
+                    handle.set_paused(true);
+                    continue;
+                }
+                if let Some(d) = step_wall {
+                    next += d;
+                    let now = Instant::now();
+                    if next > now {
+                        std::thread::sleep(next - now);
+                    } else if now - next > Duration::from_millis(250) {
+                        // too far behind (a slow world): do not try to catch up in a burst
+                        next = now;
+                    }
+                }
+            }
+        })
+        .expect("spawning the simulation thread")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use stage_sim::{KindDesc, ModelDesc, WorldDesc};
+
+    fn world() -> (World, WorldGui) {
+        let mut d = WorldDesc {
+            quit_time_us: 1_000_000,
+            ..WorldDesc::default()
+        };
+        d.add(ModelDesc::new("box", KindDesc::Model), None);
+        let gui = WorldGui::from_desc(&d);
+        (World::from_desc(&d, 1).unwrap(), gui)
+    }
+
+    #[test]
+    fn commands_apply_at_the_next_update() {
+        let (w, gui) = world();
+        let h = WorldHandle::new(w, gui, None, "t");
+        let m = ModelId(0);
+        h.send(WorldCommand::SetPose(m, Pose::new(1.0, 2.0, 0.0, 0.5)));
+        h.send(WorldCommand::Subscribe(m));
+        h.send(WorldCommand::SetPose(ModelId(99), Pose::ZERO));
+        h.send(WorldCommand::SetPose(m, Pose::new(f64::NAN, 0.0, 0.0, 0.0)));
+        assert_eq!(h.read().pose(m), Pose::ZERO);
+        h.update(|_| ());
+        let w = h.read();
+        assert_eq!(w.pose(m), Pose::new(1.0, 2.0, 0.0, 0.5));
+        assert_eq!(w.subscriptions(m), 1);
+    }
+
+    #[test]
+    fn a_shared_world_takes_edits_at_once_and_pauses_through_the_owners_flag() {
+        let text = "window ( size [ 300 200 ] scale 20 )\n\
+                    define bot position ( size [ 0.5 0.5 0.2 ] gui_move 1 )\n\
+                    bot ( name \"r0\" pose [ 1 2 0 0 ] )\n";
+        let spec = WorldSpec::parse(
+            std::path::Path::new("/tmp/shared.world"),
+            text,
+            &worldfile::LoadOptions::default(),
+        )
+        .expect("world parses");
+        let world = Arc::new(RwLock::new(World::from_spec(&spec, 1).expect("builds")));
+        let paused = Arc::new(AtomicBool::new(false));
+        let h = WorldHandle::from_shared(world.clone(), &spec, paused.clone());
+        assert_eq!(h.title(), "shared.world");
+        assert_eq!(h.window().size, [300, 200]);
+        assert!(Arc::ptr_eq(&h.world(), &world));
+        let m = world.read().unwrap().model_by_name("r0").expect("r0");
+        // no update() from the owner: the edit is already there
+        h.send(WorldCommand::SetPose(m, Pose::new(-1.0, 0.5, 0.0, 1.0)));
+        assert_eq!(
+            world.read().unwrap().pose(m),
+            Pose::new(-1.0, 0.5, 0.0, 1.0)
+        );
+        h.send(WorldCommand::Subscribe(m));
+        assert_eq!(world.read().unwrap().subscriptions(m), 1);
+        h.send(WorldCommand::Unsubscribe(m));
+        assert_eq!(world.read().unwrap().subscriptions(m), 0);
+        h.set_paused(true);
+        assert!(paused.load(Ordering::Acquire));
+        paused.store(false, Ordering::Release);
+        assert!(!h.paused());
+    }
+
+    #[test]
+    fn the_simulation_thread_pauses_at_quit_time_and_stops_on_request() {
+        let (w, gui) = world();
+        let h = WorldHandle::new(w, gui, None, "t");
+        let t = spawn_simulation(h.clone(), Pacing { speedup: -1.0 }, |_| {});
+        let start = Instant::now();
+        while !h.paused() && start.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(h.paused(), "quit_time should pause the world");
+        assert_eq!(h.read().sim_time(), 1_000_000);
+        h.request_quit();
+        t.join().unwrap();
+    }
+}

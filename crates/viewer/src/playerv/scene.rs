@@ -1,0 +1,244 @@
+//! A playerv client state as a [`Scene`], in the robot's frame (the robot at the origin facing
+//! +x, as playerv draws it): a 1 m grid, the base with its velocity, ranger/laser/sonar scans as
+//! rays and footprints, fiducials, the gripper, the blobfinder image with its blob boxes, the
+//! camera image, and the bull's-eye target of position control.
+
+use crate::scene::{ImagePrim, Layer, Rgba8, Scene};
+use crate::view::View;
+
+use super::state::{CommandMode, DeviceData, PlayervState, Pose2};
+
+/// Canvas background.
+pub const BACKGROUND: Rgba8 = Rgba8::rgb(240, 240, 240);
+/// Grid lines.
+pub const GRID: Rgba8 = Rgba8::rgb(205, 205, 205);
+/// The robot body.
+pub const BASE: Rgba8 = Rgba8::rgb(200, 60, 60);
+/// Ranger footprints (translucent).
+pub const FOOTPRINT: Rgba8 = Rgba8([0, 110, 255, 60]);
+/// Ranger rays.
+pub const RAY: Rgba8 = Rgba8([0, 70, 200, 255]);
+/// The bull's-eye.
+pub const TARGET: Rgba8 = Rgba8::rgb(220, 0, 0);
+
+fn at(p: Pose2, x: f64, y: f64) -> [f64; 2] {
+    let (s, c) = p.a.sin_cos();
+    [p.x + x * c - y * s, p.y + x * s + y * c]
+}
+
+/// Builds the playerv scene into `scene` (cleared first). `target` is the bull's-eye position
+/// in the robot's frame when position control is on.
+pub fn build(
+    state: &PlayervState,
+    target: Option<(CommandMode, Pose2)>,
+    view: &View,
+    scene: &mut Scene,
+) {
+    scene.clear();
+    scene.background = BACKGROUND;
+    let px = view.pixel();
+    // grid over the visible area, 1 m (10 m when zoomed far out)
+    let (min, max) = view.visible_world();
+    let mut step = 1.0;
+    while step * view.scale < 6.0 {
+        step *= 10.0;
+    }
+    let mut x = (min[0] / step).ceil() * step;
+    while x <= max[0] {
+        let c = if x == 0.0 { GRID.darker(0.8) } else { GRID };
+        scene.line(Layer::Grid, [x, min[1]], [x, max[1]], 1.0, c);
+        x += step;
+    }
+    let mut y = (min[1] / step).ceil() * step;
+    while y <= max[1] {
+        let c = if y == 0.0 { GRID.darker(0.8) } else { GRID };
+        scene.line(Layer::Grid, [min[0], y], [max[0], y], 1.0, c);
+        y += step;
+    }
+    let mut inset_y = 10.0;
+    for (key, sub) in &state.subscribed {
+        match &sub.data {
+            DeviceData::Position2d {
+                pose,
+                velocity,
+                stall,
+                size,
+            } => {
+                let (hx, hy) = (size[0] / 2.0, size[1] / 2.0);
+                let body = [[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]];
+                let color = if *stall { BASE.darker(0.6) } else { BASE };
+                scene.fill(Layer::Bodies, &body, color);
+                scene.stroke_outline(Layer::Bodies, &body, px, Rgba8::BLACK);
+                scene.stroke(Layer::Bodies, [0.0, 0.0], [hx, 0.0], 2.0 * px, Rgba8::BLACK);
+                // velocity: where the base would be in one second
+                let v = [velocity.x, velocity.y];
+                if v[0] != 0.0 || v[1] != 0.0 {
+                    scene.line(Layer::Overlay, [0.0, 0.0], v, 2.0, Rgba8::rgb(0, 150, 0));
+                }
+                scene.label(
+                    [-hx, -hy - 14.0 * px],
+                    format!(
+                        "{key}: ({:.2}, {:.2}, {:.0}°) v ({:.2}, {:.2}, {:.0}°/s){}",
+                        pose.x,
+                        pose.y,
+                        pose.a.to_degrees(),
+                        velocity.x,
+                        velocity.y,
+                        velocity.a.to_degrees(),
+                        if *stall { " STALL" } else { "" }
+                    ),
+                    Rgba8::BLACK,
+                );
+            }
+            DeviceData::Ranges { scans } => {
+                for s in scans {
+                    let o = [s.origin.x, s.origin.y];
+                    let n = s.ranges.len().min(s.bearings.len());
+                    if s.cone > 0.0 && n == 1 {
+                        let r = s.ranges[0];
+                        let rim: Vec<[f64; 2]> = (0..=8)
+                            .map(|i| {
+                                let a = s.origin.a + s.bearings[0] - s.cone / 2.0
+                                    + s.cone * i as f64 / 8.0;
+                                [o[0] + r * a.cos(), o[1] + r * a.sin()]
+                            })
+                            .collect();
+                        scene.fan(Layer::Footprints, o, &rim, FOOTPRINT);
+                    }
+                    let ends: Vec<[f64; 2]> = (0..n)
+                        .map(|i| {
+                            let a = s.origin.a + s.bearings[i];
+                            let r = s.ranges[i];
+                            [o[0] + r * a.cos(), o[1] + r * a.sin()]
+                        })
+                        .collect();
+                    if n > 1 {
+                        scene.fan(Layer::Footprints, o, &ends, FOOTPRINT);
+                    }
+                    for e in &ends {
+                        scene.line(Layer::Data, o, *e, 1.0, RAY);
+                    }
+                }
+            }
+            DeviceData::Fiducials { origin, items } => {
+                let c = Rgba8::rgb(0, 150, 0);
+                for (id, p) in items {
+                    let t = at(*origin, p.x, p.y);
+                    scene.line(Layer::Data, [origin.x, origin.y], t, 1.0, c);
+                    let d = 0.1;
+                    let q = Pose2 {
+                        x: t[0],
+                        y: t[1],
+                        a: origin.a + p.a,
+                    };
+                    let r = [at(q, -d, -d), at(q, d, -d), at(q, d, d), at(q, -d, d)];
+                    scene.outline(Layer::Data, &r, 2.0, c);
+                    scene.label(t, id.to_string(), c);
+                }
+            }
+            DeviceData::Gripper {
+                state,
+                beams,
+                pose,
+                size,
+                num_beams,
+            } => {
+                // paddles at the sides of the gripper box, closer when closed
+                let closed = *state == player_proto::constants::PLAYER_GRIPPER_STATE_CLOSED;
+                let (hx, hy) = (size[0] / 2.0, size[1] / 2.0);
+                let gap = if closed { hy * 0.2 } else { hy * 0.8 };
+                let c = Rgba8::rgb(60, 60, 60);
+                for side in [-1.0, 1.0] {
+                    let y0 = side * gap;
+                    let y1 = side * (gap + hy * 0.2);
+                    let paddle = [
+                        at(*pose, -hx, y0),
+                        at(*pose, hx, y0),
+                        at(*pose, hx, y1),
+                        at(*pose, -hx, y1),
+                    ];
+                    scene.fill(Layer::Data, &paddle, c);
+                }
+                for b in 0..(*num_beams).min(32) {
+                    let x = -hx + size[0] * (b as f64 + 1.0) / (*num_beams as f64 + 1.0);
+                    let broken = beams & (1 << b) != 0;
+                    let bc = if broken {
+                        Rgba8::rgb(255, 0, 0)
+                    } else {
+                        Rgba8::rgb(0, 200, 0)
+                    };
+                    scene.line(Layer::Data, at(*pose, x, -gap), at(*pose, x, gap), 2.0, bc);
+                }
+            }
+            DeviceData::Blobs { size, blobs } => {
+                let (w, h) = (size[0].clamp(1, 640) as f64, size[1].clamp(1, 480) as f64);
+                let k = (160.0 / w).min(1.0);
+                let tl = [view.size[0] - 10.0 - w * k, inset_y];
+                let corner = |x: f64, y: f64| view.to_world([tl[0] + x * k, tl[1] + y * k]);
+                let frame = [
+                    corner(0.0, 0.0),
+                    corner(w, 0.0),
+                    corner(w, h),
+                    corner(0.0, h),
+                ];
+                scene.fill(Layer::Overlay, &frame, Rgba8::rgb(30, 30, 30));
+                scene.outline(Layer::Overlay, &frame, 1.0, Rgba8::BLACK);
+                for (color, [l, t, r, b]) in blobs {
+                    let (l, t) = (*l as f64, *t as f64);
+                    let (r, b) = ((*r as f64 + 1.0).min(w), (*b as f64 + 1.0).min(h));
+                    let q = [corner(l, t), corner(r, t), corner(r, b), corner(l, b)];
+                    scene.fill(Layer::Overlay, &q, Rgba8::from_packed_rgb(*color));
+                }
+                scene.label(corner(0.0, h), key.to_string(), Rgba8::BLACK);
+                inset_y += h * k + 24.0;
+            }
+            DeviceData::Camera {
+                width,
+                height,
+                rgba,
+            } => {
+                let (w, h) = (*width as f64, *height as f64);
+                // every camera inset is 240 pixels wide
+                let k = 240.0 / w;
+                let tl = [view.size[0] - 10.0 - w * k, inset_y];
+                let corner = |x: f64, y: f64| {
+                    let p = view.to_world([tl[0] + x * k, tl[1] + y * k]);
+                    [p[0] as f32, p[1] as f32]
+                };
+                scene.image(
+                    Layer::Overlay,
+                    ImagePrim {
+                        corners: [
+                            corner(0.0, 0.0),
+                            corner(w, 0.0),
+                            corner(w, h),
+                            corner(0.0, h),
+                        ],
+                        width: *width,
+                        height: *height,
+                        rgba: rgba.clone(),
+                    },
+                );
+                let bl = view.to_world([tl[0], tl[1] + h * k]);
+                scene.label(bl, key.to_string(), Rgba8::BLACK);
+                inset_y += h * k + 24.0;
+            }
+            DeviceData::Other => {}
+        }
+    }
+    if let Some((mode, t)) = target {
+        if mode != CommandMode::Off {
+            let c = [t.x, t.y];
+            for (i, r) in [6.0, 12.0, 18.0].iter().enumerate() {
+                scene.circle(
+                    Layer::Overlay,
+                    c,
+                    r * px,
+                    if i == 0 { 3.0 } else { 1.5 },
+                    TARGET,
+                );
+            }
+            scene.line(Layer::Overlay, [0.0, 0.0], c, 1.0, TARGET.with_alpha(120));
+        }
+    }
+}

@@ -1,0 +1,404 @@
+//! Plain drawing primitives in world coordinates: what a world (or a playerv client state) looks
+//! like, independent of how it is drawn.
+//!
+//! A [`Scene`] is built on the CPU by pure functions ([`crate::world_scene`],
+//! [`crate::playerv::scene`]) and drawn by [`crate::render`] with wgpu. Everything is batched by
+//! [`Layer`] so the renderer issues a few draw calls per layer whatever the number of robots:
+//! filled triangles (polygons are triangulated here), segments of a given pixel width (rays,
+//! outlines, grid lines), images (camera frames) and text labels (drawn by egui, on top).
+
+use crate::triangulate;
+
+/// An sRGB colour with alpha, 8 bits per channel (what the render targets store).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+pub struct Rgba8(pub [u8; 4]);
+
+impl Rgba8 {
+    /// Opaque black.
+    pub const BLACK: Rgba8 = Rgba8([0, 0, 0, 255]);
+    /// Opaque white.
+    pub const WHITE: Rgba8 = Rgba8([255, 255, 255, 255]);
+
+    /// From components in `0..=1` (clamped).
+    pub fn from_f64(r: f64, g: f64, b: f64, a: f64) -> Rgba8 {
+        let q = |v: f64| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+        Rgba8([q(r), q(g), q(b), q(a)])
+    }
+
+    /// From a simulator / worldfile colour.
+    pub fn from_color(c: &stage_sim::Color) -> Rgba8 {
+        Rgba8::from_f64(c.r, c.g, c.b, c.a)
+    }
+
+    /// Opaque colour from 8-bit components.
+    pub const fn rgb(r: u8, g: u8, b: u8) -> Rgba8 {
+        Rgba8([r, g, b, 255])
+    }
+
+    /// The same colour with another alpha.
+    pub fn with_alpha(self, a: u8) -> Rgba8 {
+        Rgba8([self.0[0], self.0[1], self.0[2], a])
+    }
+
+    /// The colour scaled towards black by `f` (0 black, 1 unchanged); alpha kept.
+    pub fn darker(self, f: f32) -> Rgba8 {
+        let s = |v: u8| (v as f32 * f).round().clamp(0.0, 255.0) as u8;
+        Rgba8([s(self.0[0]), s(self.0[1]), s(self.0[2]), self.0[3]])
+    }
+
+    /// Player's packed `0x00RRGGBB` colour (blobfinder blobs), opaque.
+    pub fn from_packed_rgb(c: u32) -> Rgba8 {
+        Rgba8::rgb((c >> 16) as u8, (c >> 8) as u8, c as u8)
+    }
+}
+
+/// A world-space vertex of a filled triangle.
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+pub struct FillVertex {
+    /// Position (m).
+    pub pos: [f32; 2],
+    /// Colour.
+    pub color: Rgba8,
+}
+
+/// A straight segment drawn `width` pixels wide whatever the zoom (one GPU instance).
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+pub struct Segment {
+    /// Start (m).
+    pub a: [f32; 2],
+    /// End (m).
+    pub b: [f32; 2],
+    /// Width in pixels.
+    pub width: f32,
+    /// Colour.
+    pub color: Rgba8,
+}
+
+/// An RGBA image drawn on a world-space quad (camera frames).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImagePrim {
+    /// Corners in world space: top-left, top-right, bottom-right, bottom-left of the image.
+    pub corners: [[f32; 2]; 4],
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width * height` RGBA pixels, row by row from the top.
+    pub rgba: Vec<u8>,
+}
+
+/// A text label anchored at a world point (drawn by egui over the scene; offscreen renders
+/// leave text out).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Label {
+    /// Anchor (m).
+    pub pos: [f32; 2],
+    /// Text.
+    pub text: String,
+    /// Text colour.
+    pub color: Rgba8,
+    /// Draw a filled bubble (background colour) behind the text, as Stage's speech bubbles.
+    pub bubble: Option<Rgba8>,
+}
+
+/// Drawing order, back to front. Within a layer fills are drawn before segments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Layer {
+    /// Floor grid and map images.
+    Grid = 0,
+    /// Translucent sensor footprints (ranger scans), under the bodies as in Stage.
+    Footprints = 1,
+    /// Model bodies.
+    Bodies = 2,
+    /// Sensor data: rays, links, beams, blob images.
+    Data = 3,
+    /// Selection, noses, bubbles, the playerv target: always on top.
+    Overlay = 4,
+}
+
+/// Number of [`Layer`]s.
+pub const LAYERS: usize = 5;
+
+/// The primitives of one layer.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LayerData {
+    /// Filled triangles, three vertices each.
+    pub triangles: Vec<FillVertex>,
+    /// Segments.
+    pub segments: Vec<Segment>,
+    /// Images.
+    pub images: Vec<ImagePrim>,
+}
+
+/// Everything to draw, in world coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Clear colour.
+    pub background: Rgba8,
+    /// Layers, back to front (indexed by [`Layer`]).
+    pub layers: [LayerData; LAYERS],
+    /// Text labels (drawn last, by egui).
+    pub labels: Vec<Label>,
+}
+
+impl Default for Scene {
+    fn default() -> Self {
+        Scene::new(Rgba8::WHITE)
+    }
+}
+
+impl Scene {
+    /// An empty scene on `background`.
+    pub fn new(background: Rgba8) -> Scene {
+        Scene {
+            background,
+            layers: Default::default(),
+            labels: Vec::new(),
+        }
+    }
+
+    /// Empties the scene, keeping its allocations (scenes are rebuilt every frame).
+    pub fn clear(&mut self) {
+        for l in &mut self.layers {
+            l.triangles.clear();
+            l.segments.clear();
+            l.images.clear();
+        }
+        self.labels.clear();
+    }
+
+    /// The primitives of `layer`.
+    pub fn layer(&self, layer: Layer) -> &LayerData {
+        &self.layers[layer as usize]
+    }
+
+    /// The primitives of `layer`, to add to.
+    pub fn layer_mut(&mut self, layer: Layer) -> &mut LayerData {
+        &mut self.layers[layer as usize]
+    }
+
+    /// Number of segments over all layers.
+    pub fn segment_count(&self) -> usize {
+        self.layers.iter().map(|l| l.segments.len()).sum()
+    }
+
+    /// Number of triangles over all layers.
+    pub fn triangle_count(&self) -> usize {
+        self.layers.iter().map(|l| l.triangles.len() / 3).sum()
+    }
+
+    /// A segment.
+    pub fn line(&mut self, layer: Layer, a: [f64; 2], b: [f64; 2], width: f32, color: Rgba8) {
+        self.layer_mut(layer).segments.push(Segment {
+            a: f32x2(a),
+            b: f32x2(b),
+            width,
+            color,
+        });
+    }
+
+    /// An open polyline.
+    pub fn polyline(&mut self, layer: Layer, pts: &[[f64; 2]], width: f32, color: Rgba8) {
+        for w in pts.windows(2) {
+            self.line(layer, w[0], w[1], width, color);
+        }
+    }
+
+    /// A closed polygon outline.
+    pub fn outline(&mut self, layer: Layer, pts: &[[f64; 2]], width: f32, color: Rgba8) {
+        self.polyline(layer, pts, width, color);
+        if pts.len() > 2 {
+            self.line(layer, pts[pts.len() - 1], pts[0], width, color);
+        }
+    }
+
+    /// A filled simple polygon (convex or not; self-intersecting ones are filled as well as the
+    /// ear clipper manages). Fewer than three points draw nothing.
+    pub fn fill(&mut self, layer: Layer, pts: &[[f64; 2]], color: Rgba8) {
+        let tris = &mut self.layers[layer as usize].triangles;
+        triangulate::fill_polygon(pts, |p| {
+            tris.push(FillVertex {
+                pos: f32x2(p),
+                color,
+            })
+        });
+    }
+
+    /// A filled triangle fan around `center` through `rim` (a ranger footprint); `rim` need not
+    /// be convex, as seen from `center` it never folds back.
+    pub fn fan(&mut self, layer: Layer, center: [f64; 2], rim: &[[f64; 2]], color: Rgba8) {
+        let tris = &mut self.layers[layer as usize].triangles;
+        let c = FillVertex {
+            pos: f32x2(center),
+            color,
+        };
+        for w in rim.windows(2) {
+            tris.push(c);
+            tris.push(FillVertex {
+                pos: f32x2(w[0]),
+                color,
+            });
+            tris.push(FillVertex {
+                pos: f32x2(w[1]),
+                color,
+            });
+        }
+    }
+
+    /// A segment `width` metres wide drawn as two triangles, so it stays in the fill order of
+    /// its layer (model outlines must not show through the models stacked on them).
+    pub fn stroke(&mut self, layer: Layer, a: [f64; 2], b: [f64; 2], width: f64, color: Rgba8) {
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len = dx.hypot(dy);
+        if len == 0.0 || !len.is_finite() {
+            return;
+        }
+        let (nx, ny) = (-dy / len * width / 2.0, dx / len * width / 2.0);
+        let q = [
+            [a[0] + nx, a[1] + ny],
+            [b[0] + nx, b[1] + ny],
+            [b[0] - nx, b[1] - ny],
+            [a[0] - nx, a[1] - ny],
+        ];
+        let tris = &mut self.layers[layer as usize].triangles;
+        for i in [0, 1, 2, 0, 2, 3] {
+            tris.push(FillVertex {
+                pos: f32x2(q[i]),
+                color,
+            });
+        }
+    }
+
+    /// A closed polygon outline of [`Scene::stroke`]s.
+    pub fn stroke_outline(&mut self, layer: Layer, pts: &[[f64; 2]], width: f64, color: Rgba8) {
+        let n = pts.len();
+        if n < 2 {
+            return;
+        }
+        let edges = if n == 2 { 1 } else { n };
+        for i in 0..edges {
+            self.stroke(layer, pts[i], pts[(i + 1) % n], width, color);
+        }
+    }
+
+    /// An axis-aligned filled rectangle `[x0, x1] × [y0, y1]`.
+    pub fn fill_rect(&mut self, layer: Layer, min: [f64; 2], max: [f64; 2], color: Rgba8) {
+        self.fill(
+            layer,
+            &[min, [max[0], min[1]], max, [min[0], max[1]]],
+            color,
+        );
+    }
+
+    /// A filled circle of `radius` metres (as a 24-gon).
+    pub fn fill_circle(&mut self, layer: Layer, c: [f64; 2], radius: f64, color: Rgba8) {
+        let pts = circle_points(c, radius, 24);
+        self.fill(layer, &pts, color);
+    }
+
+    /// A circle outline of `radius` metres.
+    pub fn circle(&mut self, layer: Layer, c: [f64; 2], radius: f64, width: f32, color: Rgba8) {
+        let pts = circle_points(c, radius, 48);
+        self.outline(layer, &pts, width, color);
+    }
+
+    /// An image on a world quad.
+    pub fn image(&mut self, layer: Layer, img: ImagePrim) {
+        self.layer_mut(layer).images.push(img);
+    }
+
+    /// A text label.
+    pub fn label(&mut self, pos: [f64; 2], text: impl Into<String>, color: Rgba8) {
+        self.labels.push(Label {
+            pos: f32x2(pos),
+            text: text.into(),
+            color,
+            bubble: None,
+        });
+    }
+
+    /// World-space bounds of every primitive (`None` for an empty scene).
+    pub fn bounds(&self) -> Option<([f64; 2], [f64; 2])> {
+        let mut min = [f64::INFINITY; 2];
+        let mut max = [f64::NEG_INFINITY; 2];
+        let mut add = |p: [f32; 2]| {
+            for k in 0..2 {
+                min[k] = min[k].min(p[k] as f64);
+                max[k] = max[k].max(p[k] as f64);
+            }
+        };
+        for l in &self.layers {
+            l.triangles.iter().for_each(|v| add(v.pos));
+            for s in &l.segments {
+                add(s.a);
+                add(s.b);
+            }
+            for i in &l.images {
+                i.corners.iter().for_each(|&c| add(c));
+            }
+        }
+        (min[0] <= max[0]).then_some((min, max))
+    }
+}
+
+/// `n` points on a circle, counter-clockwise from angle 0.
+pub fn circle_points(c: [f64; 2], r: f64, n: usize) -> Vec<[f64; 2]> {
+    (0..n)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU / n as f64;
+            [c[0] + r * a.cos(), c[1] + r * a.sin()]
+        })
+        .collect()
+}
+
+#[inline]
+fn f32x2(p: [f64; 2]) -> [f32; 2] {
+    [p[0] as f32, p[1] as f32]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn colors_convert_and_clamp() {
+        assert_eq!(
+            Rgba8::from_f64(1.0, 0.5, -1.0, 2.0),
+            Rgba8([255, 128, 0, 255])
+        );
+        assert_eq!(Rgba8::from_packed_rgb(0x00ff_a500), Rgba8::rgb(255, 165, 0));
+        assert_eq!(Rgba8::rgb(200, 100, 0).darker(0.5), Rgba8::rgb(100, 50, 0));
+        let c = stage_sim::Color::rgb(0.0, 0.0, 1.0);
+        assert_eq!(Rgba8::from_color(&c), Rgba8::rgb(0, 0, 255));
+    }
+
+    #[test]
+    fn primitives_land_in_their_layers() {
+        let mut s = Scene::new(Rgba8::WHITE);
+        s.fill_rect(Layer::Bodies, [0.0, 0.0], [1.0, 2.0], Rgba8::BLACK);
+        s.outline(
+            Layer::Overlay,
+            &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
+            1.0,
+            Rgba8::BLACK,
+        );
+        s.fan(
+            Layer::Footprints,
+            [0.0, 0.0],
+            &[[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]],
+            Rgba8::BLACK,
+        );
+        assert_eq!(s.layer(Layer::Bodies).triangles.len(), 6);
+        assert_eq!(s.layer(Layer::Overlay).segments.len(), 3);
+        assert_eq!(s.layer(Layer::Footprints).triangles.len(), 6);
+        assert_eq!(s.triangle_count(), 4);
+        assert_eq!(s.segment_count(), 3);
+        let (min, max) = s.bounds().unwrap();
+        assert_eq!((min, max), ([-1.0, 0.0], [1.0, 2.0]));
+        s.clear();
+        assert!(s.bounds().is_none());
+    }
+}

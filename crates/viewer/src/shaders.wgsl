@@ -1,0 +1,104 @@
+// Scene shaders: filled triangles, pixel-wide segments (one instance each) and images, all in
+// world metres mapped to clip space by one affine matrix.
+
+struct Globals {
+    // columns of the world -> clip affine map
+    m0: vec4<f32>,
+    m1: vec4<f32>,
+    m2: vec4<f32>,
+    // canvas size in pixels
+    viewport: vec2<f32>,
+    // 1 when the target stores linear colour (an *Srgb format)
+    linear_target: u32,
+    _pad: u32,
+};
+
+@group(0) @binding(0) var<uniform> g: Globals;
+
+fn to_clip(p: vec2<f32>) -> vec2<f32> {
+    return g.m0.xy * p.x + g.m1.xy * p.y + g.m2.xy;
+}
+
+// Colours arrive sRGB-encoded; a linear target needs them decoded.
+fn out_color(c: vec4<f32>) -> vec4<f32> {
+    if (g.linear_target == 1u) {
+        let lo = c.rgb / 12.92;
+        let hi = pow((c.rgb + 0.055) / 1.055, vec3<f32>(2.4));
+        return vec4<f32>(select(hi, lo, c.rgb <= vec3<f32>(0.04045)), c.a);
+    }
+    return c;
+}
+
+struct ColorOut {
+    @builtin(position) pos: vec4<f32>,
+    @location(0) color: vec4<f32>,
+};
+
+@vertex
+fn vs_fill(@location(0) pos: vec2<f32>, @location(1) color: vec4<f32>) -> ColorOut {
+    var o: ColorOut;
+    o.pos = vec4<f32>(to_clip(pos), 0.0, 1.0);
+    o.color = color;
+    return o;
+}
+
+@vertex
+fn vs_segment(
+    @builtin(vertex_index) vi: u32,
+    @location(0) a: vec2<f32>,
+    @location(1) b: vec2<f32>,
+    @location(2) width: f32,
+    @location(3) color: vec4<f32>,
+) -> ColorOut {
+    let ca = to_clip(a);
+    let cb = to_clip(b);
+    let half_vp = g.viewport * 0.5;
+    // direction and normal in pixels
+    var d = (cb - ca) * half_vp;
+    let len = length(d);
+    if (len < 1e-6) {
+        d = vec2<f32>(1.0, 0.0);
+    } else {
+        d = d / len;
+    }
+    let n = vec2<f32>(-d.y, d.x);
+    // two triangles: corners (end, side)
+    var ends = array<f32, 6>(0.0, 1.0, 1.0, 0.0, 1.0, 0.0);
+    var sides = array<f32, 6>(-1.0, -1.0, 1.0, -1.0, 1.0, 1.0);
+    let t = ends[vi];
+    let s = sides[vi];
+    let base = mix(ca, cb, t);
+    // half a pixel of cap at each end so short segments still show
+    let along = (t * 2.0 - 1.0) * 0.5;
+    let off_px = n * (s * width * 0.5) + d * along;
+    var o: ColorOut;
+    o.pos = vec4<f32>(base + off_px / half_vp, 0.0, 1.0);
+    o.color = color;
+    return o;
+}
+
+@fragment
+fn fs_color(i: ColorOut) -> @location(0) vec4<f32> {
+    return out_color(i.color);
+}
+
+struct ImageOut {
+    @builtin(position) pos: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+};
+
+@group(1) @binding(0) var image_tex: texture_2d<f32>;
+@group(1) @binding(1) var image_sampler: sampler;
+
+@vertex
+fn vs_image(@location(0) pos: vec2<f32>, @location(1) uv: vec2<f32>) -> ImageOut {
+    var o: ImageOut;
+    o.pos = vec4<f32>(to_clip(pos), 0.0, 1.0);
+    o.uv = uv;
+    return o;
+}
+
+@fragment
+fn fs_image(i: ImageOut) -> @location(0) vec4<f32> {
+    return out_color(textureSample(image_tex, image_sampler, i.uv));
+}

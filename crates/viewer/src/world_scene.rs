@@ -1,0 +1,689 @@
+//! A simulated world as a [`Scene`]: floor and grid, every model's blocks in their colours with
+//! outlines, noses and model grids (`gui_nose`, `gui_grid`, `gui_outline`), and the sensor
+//! visualisations of Stage's View menu (ranger footprints, rays, strikes, fields of view;
+//! fiducial links; blobfinder images; gripper beams; camera frustums; blinkenlights; speech
+//! bubbles). Pure: the same world, settings and view give the same primitives.
+
+use stage_sim::{KindDesc, ModelId, Pose, World, WorldDesc};
+use worldfile::{WindowSpec, WorldSpec};
+
+use crate::scene::{Layer, Rgba8, Scene};
+use crate::view::View;
+
+/// Stage's canvas clear colour (outside the floor).
+pub const BACKGROUND: Rgba8 = Rgba8::rgb(179, 179, 204);
+/// Floor colour inside the world's extent.
+pub const FLOOR: Rgba8 = Rgba8::WHITE;
+/// Grid line colour.
+pub const GRID: Rgba8 = Rgba8::rgb(216, 216, 216);
+/// Selection highlight.
+pub const SELECTED: Rgba8 = Rgba8::rgb(255, 0, 255);
+
+/// The GUI-only properties of one model (the simulator does not keep them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ModelGui {
+    /// `gui_nose`: draw a heading line.
+    pub nose: bool,
+    /// `gui_grid`: draw a 1 m grid over the model.
+    pub grid: bool,
+    /// `gui_outline`: draw the bounding box.
+    pub outline: bool,
+    /// `gui_move`: the user may drag and turn it.
+    pub movable: bool,
+    /// A gripper's `paddle_size` (for its break beams).
+    pub paddle_size: Option<[f64; 3]>,
+    /// A camera's horizontal field of view, pan (rad) and far clip (m), for its frustum.
+    pub camera: Option<[f64; 3]>,
+}
+
+/// GUI properties of every model, indexed like the world's models.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WorldGui {
+    /// Per model, in creation order (the world's [`ModelId`] index).
+    pub models: Vec<ModelGui>,
+}
+
+impl WorldGui {
+    /// From the resolved worldfile the world was built from (same model order).
+    pub fn from_spec(spec: &WorldSpec) -> WorldGui {
+        WorldGui {
+            models: spec
+                .models
+                .iter()
+                .map(|m| ModelGui {
+                    nose: m.common.gui_nose,
+                    grid: m.common.gui_grid,
+                    outline: m.common.gui_outline,
+                    movable: m.gui_move,
+                    paddle_size: match &m.spec {
+                        worldfile::models::TypeSpec::Gripper(g) => Some(g.paddle_size),
+                        _ => None,
+                    },
+                    // the worldfile keeps Stage's raw camera degrees
+                    camera: match &m.spec {
+                        worldfile::models::TypeSpec::Camera(c) => {
+                            Some([c.fov[0].to_radians(), c.pantilt[0].to_radians(), c.range[1]])
+                        }
+                        _ => None,
+                    },
+                })
+                .collect(),
+        }
+    }
+
+    /// For a world built from a description: top-level models movable (Stage's default),
+    /// noses on position models.
+    pub fn from_desc(desc: &WorldDesc) -> WorldGui {
+        WorldGui {
+            models: desc
+                .models
+                .iter()
+                .map(|m| ModelGui {
+                    nose: matches!(m.kind, KindDesc::Position(_)),
+                    grid: false,
+                    outline: false,
+                    movable: m.parent.is_none(),
+                    paddle_size: match &m.kind {
+                        KindDesc::Gripper(g) => Some(g.paddle_size),
+                        _ => None,
+                    },
+                    camera: match &m.kind {
+                        KindDesc::Camera(c) => Some([c.fov[0], c.pantilt[0], c.range[1]]),
+                        _ => None,
+                    },
+                })
+                .collect(),
+        }
+    }
+
+    /// The model's properties (defaults for an unknown model).
+    pub fn get(&self, m: ModelId) -> ModelGui {
+        self.models.get(m.index()).copied().unwrap_or_default()
+    }
+}
+
+/// The View menu: what the world window draws. Defaults and worldfile names are Stage's
+/// (`window` entity, stage-worldfile.md §11).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VisOptions {
+    /// `show_data`: draw sensor data at all.
+    pub data: bool,
+    /// `show_blocks`: draw model bodies.
+    pub blocks: bool,
+    /// `show_grid`: the floor grid.
+    pub grid: bool,
+    /// `show_boundingboxes`: each body's bounding box.
+    pub bounding_boxes: bool,
+    /// `show_clock`: the clock in the status line.
+    pub clock: bool,
+    /// `show_ranger_ranges`: the filled area each ranger scan sees (its footprint).
+    pub ranger_ranges: bool,
+    /// `show_ranger_beams`: one line per ray.
+    pub ranger_beams: bool,
+    /// `show_ranger_strikes`: a dot where a ray hit something.
+    pub ranger_strikes: bool,
+    /// `show_ranger_fov`: the field of view at maximum range.
+    pub ranger_fov: bool,
+    /// `show_ranger_transducers`: the transducers' boxes.
+    pub ranger_transducers: bool,
+    /// `show_fiducial`: links from finders to the fiducials they see.
+    pub fiducial: bool,
+    /// `show_fiducial_fov`: fiducial finders' fields of view.
+    pub fiducial_fov: bool,
+    /// `blobfinder_vis`: blobfinder images with their blobs.
+    pub blobfinder: bool,
+    /// `show_gripper_data`: gripper break beams.
+    pub gripper: bool,
+    /// `show_camera`: camera frustums.
+    pub camera: bool,
+    /// `show_blinken`: blinkenlights.
+    pub blinken: bool,
+    /// `show_position_coords`: odometry pose text at each position model.
+    pub position_coords: bool,
+    /// Speech bubbles (`say`).
+    pub speech: bool,
+}
+
+impl Default for VisOptions {
+    fn default() -> Self {
+        VisOptions::from_window(&WindowSpec::default())
+    }
+}
+
+impl VisOptions {
+    /// The toggles a worldfile `window` sets.
+    pub fn from_window(w: &WindowSpec) -> VisOptions {
+        VisOptions {
+            data: w.show_data,
+            blocks: w.show_blocks,
+            grid: w.show_grid,
+            bounding_boxes: w.show_boundingboxes,
+            clock: w.show_clock,
+            ranger_ranges: w.ranger_vis && w.show_ranger_ranges,
+            ranger_beams: w.ranger_vis && w.show_ranger_beams,
+            ranger_strikes: w.ranger_vis && w.show_ranger_strikes,
+            ranger_fov: w.ranger_vis && w.show_ranger_fov,
+            ranger_transducers: w.ranger_vis && w.show_ranger_transducers,
+            fiducial: w.show_fiducial,
+            fiducial_fov: w.show_fiducial_fov,
+            blobfinder: w.blobfinder_vis,
+            gripper: w.show_gripper_data,
+            camera: w.show_camera,
+            blinken: w.show_blinken,
+            position_coords: w.show_position_coords,
+            speech: true,
+        }
+    }
+
+    fn ranger_any(&self) -> bool {
+        self.ranger_ranges || self.ranger_beams || self.ranger_strikes
+    }
+
+    /// Whether model type `type_name`'s data is drawn, so it is worth subscribing to: the
+    /// simulator only updates subscribed sensors (spec §5.4), so the window subscribes the
+    /// sensors it shows.
+    pub fn shows_data_of(&self, type_name: &str) -> bool {
+        self.data
+            && match type_name {
+                "ranger" => self.ranger_any(),
+                "fiducial" => self.fiducial,
+                "blobfinder" => self.blobfinder,
+                "gripper" => self.gripper,
+                _ => false,
+            }
+    }
+}
+
+/// The sensors whose data the options show (each deserves one subscription from the window).
+pub fn visualised_sensors(world: &World, vis: &VisOptions) -> Vec<ModelId> {
+    world
+        .models()
+        .filter(|&m| vis.shows_data_of(world.type_name(m)))
+        .collect()
+}
+
+/// The bounds of every body (the world's extent), or a 16 m square around the origin.
+pub fn world_extent(world: &World) -> ([f64; 2], [f64; 2]) {
+    let mut min = [f64::INFINITY; 2];
+    let mut max = [f64::NEG_INFINITY; 2];
+    for m in world.models() {
+        let b = world.body(m);
+        if b.is_empty() {
+            continue;
+        }
+        for k in 0..2 {
+            min[k] = min[k].min(b.aabb.min[k]);
+            max[k] = max[k].max(b.aabb.max[k]);
+        }
+    }
+    if min[0] > max[0] {
+        ([-8.0, -8.0], [8.0, 8.0])
+    } else {
+        (min, max)
+    }
+}
+
+fn transform(p: &Pose, q: [f64; 2]) -> [f64; 2] {
+    let (x, y) = p.transform_xy(q[0], q[1]);
+    [x, y]
+}
+
+/// The model's body frame (pose composed with its origin offset).
+fn body_frame(world: &World, m: ModelId) -> Pose {
+    world.global_pose(m).compose(&world.node(m).origin)
+}
+
+/// The rectangle `size` covers in the model's body frame, in world coordinates.
+fn size_rect(world: &World, m: ModelId) -> [[f64; 2]; 4] {
+    let f = body_frame(world, m);
+    let [sx, sy, _] = world.node(m).size;
+    let (hx, hy) = (sx / 2.0, sy / 2.0);
+    [[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]].map(|q| transform(&f, q))
+}
+
+/// Builds the scene of `world` as seen through `view` into `scene` (cleared first).
+pub fn build(
+    world: &World,
+    gui: &WorldGui,
+    vis: &VisOptions,
+    view: &View,
+    selected: &[ModelId],
+    scene: &mut Scene,
+) {
+    scene.clear();
+    scene.background = BACKGROUND;
+    let px = view.pixel();
+    let (emin, emax) = world_extent(world);
+    scene.fill_rect(Layer::Grid, emin, emax, FLOOR);
+    if vis.grid {
+        grid(scene, view, emin, emax);
+    }
+    if vis.blocks {
+        bodies(world, gui, px, scene);
+    }
+    if vis.bounding_boxes {
+        for m in world.models() {
+            let b = world.body(m);
+            if !b.is_empty() {
+                let (a, c) = (b.aabb.min, b.aabb.max);
+                let pts = [a, [c[0], a[1]], c, [a[0], c[1]]];
+                scene.outline(Layer::Overlay, &pts, 1.0, Rgba8::rgb(0, 200, 0));
+            }
+        }
+    }
+    if vis.data {
+        for m in world.models() {
+            data(world, gui, vis, view, m, scene);
+        }
+    }
+    if vis.speech {
+        for m in world.models() {
+            let text = world.said(m);
+            if !text.is_empty() {
+                let g = world.global_pose(m);
+                let [sx, sy, _] = world.node(m).size;
+                let off = 0.5 * sx.max(sy) + 8.0 * px;
+                scene.labels.push(crate::scene::Label {
+                    pos: [(g.x + off) as f32, (g.y + off) as f32],
+                    text: text.to_string(),
+                    color: Rgba8::BLACK,
+                    bubble: Some(Rgba8::rgb(255, 255, 224)),
+                });
+            }
+        }
+    }
+    for &m in selected {
+        if m.index() < world.model_count() {
+            let r = size_rect(world, m);
+            scene.outline(Layer::Overlay, &r, 2.0, SELECTED);
+        }
+    }
+}
+
+/// Floor grid: 1 m lines (10 m when 1 m would be under 6 pixels) over the visible part of the
+/// world's extent.
+fn grid(scene: &mut Scene, view: &View, emin: [f64; 2], emax: [f64; 2]) {
+    let (vmin, vmax) = view.visible_world();
+    let min = [emin[0].max(vmin[0]), emin[1].max(vmin[1])];
+    let max = [emax[0].min(vmax[0]), emax[1].min(vmax[1])];
+    if min[0] >= max[0] || min[1] >= max[1] {
+        return;
+    }
+    let mut step = 1.0;
+    while step * view.scale < 6.0 {
+        step *= 10.0;
+    }
+    let lines = |lo: f64, hi: f64| {
+        let first = (lo / step).ceil() as i64;
+        let last = (hi / step).floor() as i64;
+        (first..=last).map(move |k| k as f64 * step)
+    };
+    for x in lines(min[0], max[0]) {
+        scene.line(Layer::Grid, [x, min[1]], [x, max[1]], 1.0, GRID);
+    }
+    for y in lines(min[1], max[1]) {
+        scene.line(Layer::Grid, [min[0], y], [max[0], y], 1.0, GRID);
+    }
+}
+
+/// Model bodies, lowest first (Stage draws in 3D: what is higher covers what is lower), each
+/// block filled in its colour with a darker outline, plus noses, model grids and outlines.
+fn bodies(world: &World, gui: &WorldGui, px: f64, scene: &mut Scene) {
+    let mut order: Vec<(f64, ModelId)> = world
+        .models()
+        .filter_map(|m| {
+            let b = world.body(m);
+            let top = b
+                .blocks
+                .iter()
+                .map(|k| k.zmax)
+                .fold(f64::NEG_INFINITY, f64::max);
+            (!b.is_empty()).then_some((top, m))
+        })
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (_, m) in order {
+        let body = world.body(m);
+        let g = gui.get(m);
+        for k in 0..body.blocks.len() {
+            let pts = body.block_pts(k);
+            let color = Rgba8::from_color(&world.block_color(m, k));
+            if pts.len() >= 3 {
+                scene.fill(Layer::Bodies, pts, color);
+            }
+            scene.stroke_outline(Layer::Bodies, pts, px, color.darker(0.5));
+        }
+        if g.grid {
+            model_grid(world, m, px, scene);
+        }
+        if g.outline {
+            let r = size_rect(world, m);
+            scene.stroke_outline(Layer::Bodies, &r, px, Rgba8::BLACK);
+        }
+        if g.nose {
+            let f = body_frame(world, m);
+            let sx = world.node(m).size[0];
+            let a = transform(&f, [0.0, 0.0]);
+            let b = transform(&f, [sx / 2.0, 0.0]);
+            let c = Rgba8::from_color(&world.color(m)).darker(0.4);
+            scene.stroke(Layer::Bodies, a, b, 2.0 * px, c);
+        }
+    }
+}
+
+/// `gui_grid`: 1 m lines across the model's size rectangle, in its frame.
+fn model_grid(world: &World, m: ModelId, px: f64, scene: &mut Scene) {
+    let f = body_frame(world, m);
+    let [sx, sy, _] = world.node(m).size;
+    let (hx, hy) = (sx / 2.0, sy / 2.0);
+    if sx / 1.0 > 10_000.0 || sy / 1.0 > 10_000.0 {
+        return;
+    }
+    let c = Rgba8::rgb(160, 160, 160);
+    let mut x = (-hx).ceil();
+    while x <= hx {
+        scene.stroke(
+            Layer::Bodies,
+            transform(&f, [x, -hy]),
+            transform(&f, [x, hy]),
+            px,
+            c,
+        );
+        x += 1.0;
+    }
+    let mut y = (-hy).ceil();
+    while y <= hy {
+        scene.stroke(
+            Layer::Bodies,
+            transform(&f, [-hx, y]),
+            transform(&f, [hx, y]),
+            px,
+            c,
+        );
+        y += 1.0;
+    }
+}
+
+/// The visualisation of one model's data.
+fn data(
+    world: &World,
+    gui: &WorldGui,
+    vis: &VisOptions,
+    view: &View,
+    m: ModelId,
+    scene: &mut Scene,
+) {
+    let px = view.pixel();
+    let frame = body_frame(world, m);
+    if let Some(r) = world.ranger_scans(m) {
+        ranger(&frame, r, vis, px, scene);
+    }
+    if let Some(f) = world.fiducials(m) {
+        if vis.fiducial {
+            let g = world.global_pose(m);
+            let c = Rgba8::rgb(0, 160, 0);
+            for fd in &f.fiducials {
+                let t = [fd.pose.x, fd.pose.y];
+                scene.line(Layer::Data, [g.x, g.y], t, 1.0, c);
+                let (hx, hy) = (fd.geom[0] / 2.0, fd.geom[1] / 2.0);
+                let r =
+                    [[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]].map(|q| transform(&fd.pose, q));
+                scene.outline(Layer::Data, &r, 1.0, c);
+                scene.label(t, fd.id.to_string(), c);
+            }
+        }
+        if vis.fiducial_fov {
+            if let Some(cfg) = world.fiducial_config(m) {
+                wedge(
+                    scene,
+                    &frame,
+                    cfg.fov,
+                    cfg.range_max,
+                    Rgba8::rgb(0, 160, 0).with_alpha(128),
+                );
+            }
+        }
+    }
+    if vis.blobfinder {
+        if let (Some(d), Some(cfg)) = (world.blobfinder_blobs(m), world.blobfinder_config(m)) {
+            blob_image(world, m, d, cfg.image, view, scene);
+            let pan = frame.compose(&Pose::new(0.0, 0.0, 0.0, cfg.pan));
+            wedge(
+                scene,
+                &pan,
+                cfg.fov,
+                cfg.range,
+                Rgba8::rgb(200, 200, 0).with_alpha(100),
+            );
+        }
+    }
+    if vis.gripper {
+        if let (Some(d), Some(ps)) = (world.gripper_state(m), gui.get(m).paddle_size) {
+            let [sx, sy, _] = world.node(m).size;
+            let pos = d.paddle_pos;
+            let gap_y = (1.0 - pos) * (sy / 2.0 - sy * ps[1]);
+            for (i, inset) in [0.75 * ps[0], 0.25 * ps[0]].into_iter().enumerate() {
+                let x = sx * (1.0 - inset) - sx / 2.0;
+                let a = transform(&frame, [x, gap_y]);
+                let b = transform(&frame, [x, -gap_y]);
+                let c = if d.beams[i].is_some() {
+                    Rgba8::rgb(255, 0, 0)
+                } else {
+                    Rgba8::rgb(0, 200, 0)
+                };
+                scene.line(Layer::Data, a, b, 2.0, c);
+            }
+        }
+    }
+    if vis.camera {
+        if let Some([fov, pan, far]) = gui.get(m).camera {
+            // the horizontal extent of the camera's view volume (Stage draws the frustum)
+            let f = frame.compose(&Pose::new(0.0, 0.0, 0.0, pan));
+            wedge(scene, &f, fov, far, Rgba8::rgb(0, 0, 0).with_alpha(90));
+        }
+    }
+    if vis.blinken {
+        if let (Some(on), "blinkenlight") = (world.light_on(m), world.type_name(m)) {
+            let g = world.global_pose(m);
+            let c = if on {
+                Rgba8::from_color(&world.color(m))
+            } else {
+                Rgba8::from_color(&world.color(m)).darker(0.3)
+            };
+            let r = 0.5
+                * world.node(m).size[0]
+                    .max(world.node(m).size[1])
+                    .max(4.0 * px);
+            scene.fill_circle(Layer::Data, [g.x, g.y], r, c);
+        }
+    }
+    if vis.position_coords {
+        if let Some(p) = world.position_state(m) {
+            let g = world.global_pose(m);
+            scene.label(
+                [g.x, g.y],
+                format!(
+                    "({:.2}, {:.2}, {:.0}°)",
+                    p.pose.x,
+                    p.pose.y,
+                    p.pose.a.to_degrees()
+                ),
+                Rgba8::rgb(0, 0, 120),
+            );
+        }
+    }
+}
+
+/// Ranger scans: footprint fans, rays, strikes, fields of view and transducers.
+fn ranger(frame: &Pose, r: &stage_sim::RangerData, vis: &VisOptions, px: f64, scene: &mut Scene) {
+    for (k, sensor) in r.sensors.iter().enumerate() {
+        let origin = frame.compose(&sensor.pose);
+        let o = [origin.x, origin.y];
+        let color = Rgba8::from_color(&sensor.color);
+        if vis.ranger_transducers {
+            let (hx, hy) = (sensor.size[0] / 2.0, sensor.size[1] / 2.0);
+            let q = [[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]].map(|q| transform(&origin, q));
+            scene.outline(Layer::Data, &q, 1.0, color);
+        }
+        if vis.ranger_fov {
+            wedge(
+                scene,
+                &origin,
+                sensor.fov,
+                sensor.range[1],
+                color.with_alpha(90),
+            );
+        }
+        let Some(scan) = r.scans.get(k) else { continue };
+        let n = scan.ranges.len().min(scan.bearings.len());
+        if n == 0 {
+            continue;
+        }
+        let (s0, c0) = origin.a.sin_cos();
+        let end = |i: usize| {
+            let (bs, bc) = scan.bearings[i].sin_cos();
+            let (dx, dy) = (c0 * bc - s0 * bs, s0 * bc + c0 * bs);
+            let rr = scan.ranges[i];
+            [o[0] + rr * dx, o[1] + rr * dy]
+        };
+        let ends: Vec<[f64; 2]> = (0..n).map(end).collect();
+        if vis.ranger_ranges {
+            if n == 1 {
+                // a single-sample transducer (sonar): its cone at the measured range
+                let half = sensor.fov / 2.0;
+                let rr = scan.ranges[0];
+                let rim: Vec<[f64; 2]> = (0..=8)
+                    .map(|i| {
+                        let a = origin.a + scan.bearings[0] - half + sensor.fov * i as f64 / 8.0;
+                        [o[0] + rr * a.cos(), o[1] + rr * a.sin()]
+                    })
+                    .collect();
+                scene.fan(Layer::Footprints, o, &rim, color.with_alpha(40));
+            } else {
+                scene.fan(Layer::Footprints, o, &ends, color.with_alpha(40));
+            }
+        }
+        if vis.ranger_beams {
+            let c = color.with_alpha(150);
+            for e in &ends {
+                scene.line(Layer::Data, o, *e, 1.0, c);
+            }
+        }
+        if vis.ranger_strikes {
+            let d = 1.5 * px;
+            for (i, e) in ends.iter().enumerate() {
+                if scan.ranges[i] < sensor.range[1] {
+                    scene.fill_rect(
+                        Layer::Data,
+                        [e[0] - d, e[1] - d],
+                        [e[0] + d, e[1] + d],
+                        color,
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// A field-of-view wedge outline from `frame` (centred on its heading).
+fn wedge(scene: &mut Scene, frame: &Pose, fov: f64, range: f64, color: Rgba8) {
+    if !(fov.is_finite() && range.is_finite() && range > 0.0) {
+        return;
+    }
+    let o = [frame.x, frame.y];
+    let steps = 24;
+    let mut pts = vec![o];
+    for i in 0..=steps {
+        let a = frame.a - fov / 2.0 + fov * i as f64 / steps as f64;
+        pts.push([o[0] + range * a.cos(), o[1] + range * a.sin()]);
+    }
+    scene.outline(Layer::Data, &pts, 1.0, color);
+}
+
+/// A blobfinder's image: a dark frame of the camera's size in screen pixels next to the model
+/// (screen-aligned, like an inset), each blob a box in its colour.
+fn blob_image(
+    world: &World,
+    m: ModelId,
+    d: &stage_sim::BlobfinderData,
+    image: [u32; 2],
+    view: &View,
+    scene: &mut Scene,
+) {
+    let (w, h) = (image[0].clamp(1, 640) as f64, image[1].clamp(1, 480) as f64);
+    // half-size inset in screen pixels, anchored above-right of the model
+    let k = 0.5;
+    let g = world.global_pose(m);
+    let anchor = view.to_screen([g.x, g.y]);
+    let top_left = [anchor[0] + 10.0, anchor[1] - 10.0 - h * k];
+    let corner = |x: f64, y: f64| view.to_world([top_left[0] + x * k, top_left[1] + y * k]);
+    let frame = [
+        corner(0.0, 0.0),
+        corner(w, 0.0),
+        corner(w, h),
+        corner(0.0, h),
+    ];
+    scene.fill(Layer::Data, &frame, Rgba8::rgb(40, 40, 40).with_alpha(200));
+    scene.outline(Layer::Data, &frame, 1.0, Rgba8::BLACK);
+    for b in &d.blobs {
+        let (l, r) = (b.left as f64, (b.right as f64 + 1.0).min(w));
+        let (t, btm) = (b.top as f64, (b.bottom as f64 + 1.0).min(h));
+        let q = [corner(l, t), corner(r, t), corner(r, btm), corner(l, btm)];
+        scene.fill(Layer::Data, &q, Rgba8::from_color(&b.color));
+    }
+}
+
+/// The topmost model under world point `p`, or its nearest movable ancestor when `movable`
+/// (Stage selects the model the user may drag).
+pub fn pick(world: &World, gui: &WorldGui, p: [f64; 2], movable: bool) -> Option<ModelId> {
+    let mut best: Option<(f64, ModelId)> = None;
+    for m in world.models() {
+        let b = world.body(m);
+        if b.is_empty()
+            || p[0] < b.aabb.min[0]
+            || p[0] > b.aabb.max[0]
+            || p[1] < b.aabb.min[1]
+            || p[1] > b.aabb.max[1]
+        {
+            continue;
+        }
+        for k in 0..b.blocks.len() {
+            if point_in_polygon(p, b.block_pts(k)) {
+                let top = b.blocks[k].zmax;
+                if best.is_none_or(|(z, _)| top >= z) {
+                    best = Some((top, m));
+                }
+            }
+        }
+    }
+    let (_, mut m) = best?;
+    if !movable {
+        return Some(m);
+    }
+    loop {
+        if gui.get(m).movable {
+            return Some(m);
+        }
+        m = world.parent(m)?;
+    }
+}
+
+/// Even-odd point-in-polygon test.
+pub fn point_in_polygon(p: [f64; 2], poly: &[[f64; 2]]) -> bool {
+    let n = poly.len();
+    if n < 3 {
+        return false;
+    }
+    let mut inside = false;
+    let mut j = n - 1;
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[j]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
+        {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}

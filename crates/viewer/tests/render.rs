@@ -1,0 +1,258 @@
+//! Headless render tests: a known world and a playerv view of a known ranger scan are drawn
+//! offscreen with wgpu (Mesa's software Vulkan where there is no GPU), read back, and the
+//! pixels where the world puts walls, robots and ray ends are checked. Without any adapter the
+//! tests skip with a note, unless `PLAYERSTAGE_REQUIRE_GPU=1`.
+
+mod common;
+
+use viewer::View;
+use viewer::offscreen::{self, Pixels};
+use viewer::playerv::state::{DeviceData, DeviceKey, PlayervState, Pose2, Scan, Subscribed};
+use viewer::scene::{Rgba8, Scene};
+use viewer::world_scene::{self, VisOptions};
+
+fn pixel_at(px: &Pixels, view: &View, p: [f64; 2]) -> [u8; 4] {
+    let s = view.to_screen(p);
+    px.get(s[0].floor() as i64, s[1].floor() as i64)
+        .expect("point inside the image")
+}
+
+/// Pixels within `r` pixels of world point `p`.
+fn around(px: &Pixels, view: &View, p: [f64; 2], r: i64) -> Vec<[u8; 4]> {
+    let s = view.to_screen(p);
+    let (x, y) = (s[0].floor() as i64, s[1].floor() as i64);
+    let mut v = Vec::new();
+    for dy in -r..=r {
+        for dx in -r..=r {
+            if let Some(c) = px.get(x + dx, y + dy) {
+                v.push(c);
+            }
+        }
+    }
+    v
+}
+
+/// Saves the render under `$PLAYERSTAGE_RENDER_DUMP` (for looking at a failure).
+fn dump(px: &Pixels, name: &str) {
+    if let Some(dir) = std::env::var_os("PLAYERSTAGE_RENDER_DUMP") {
+        let path = std::path::Path::new(&dir).join(format!("{name}.png"));
+        viewer::world_window::save_png(&path, px.width, px.height, &px.rgba).expect("dump");
+    }
+}
+
+fn rgb(c: [u8; 4]) -> [u8; 3] {
+    [c[0], c[1], c[2]]
+}
+
+fn bluish(c: [u8; 4]) -> bool {
+    let [r, g, b, _] = c.map(i32::from);
+    b >= 180 && b > r + 60 && b > g + 60
+}
+
+fn world_view() -> View {
+    View {
+        center: [0.0, 0.0],
+        scale: 40.0,
+        yaw: 0.0,
+        size: [400.0, 320.0],
+    }
+}
+
+#[test]
+fn known_world_renders_walls_robot_and_rays_where_the_world_puts_them() {
+    let Some(mut gpu) = offscreen::for_tests() else {
+        return;
+    };
+    eprintln!("adapter: {:?}", gpu.adapter_info());
+    let (world, gui) = common::known_world();
+    let vis = VisOptions {
+        data: true,
+        ranger_beams: true,
+        ranger_ranges: true,
+        ..VisOptions::default()
+    };
+    let view = world_view();
+    let mut scene = Scene::default();
+    world_scene::build(&world, &gui, &vis, &view, &[], &mut scene);
+    let px = gpu.render(&scene, &view).expect("render");
+    dump(&px, "known_world");
+    assert_eq!((px.width, px.height), (400, 320));
+
+    // walls: black inside the top and left walls
+    for p in [
+        [0.0, 3.1],
+        [-3.0, 3.1],
+        [3.5, 3.15],
+        [-3.9, 0.5],
+        [-3.9, -2.5],
+    ] {
+        assert_eq!(rgb(pixel_at(&px, &view, p)), [0, 0, 0], "wall at {p:?}");
+    }
+    // the robot's body: red behind its laser (whose rays cover its front half), off its nose
+    for p in [[1.2, -1.2], [0.8, -1.2], [0.75, -1.25]] {
+        assert_eq!(rgb(pixel_at(&px, &view, p)), [255, 0, 0], "robot at {p:?}");
+    }
+    // the straight-ahead ray ends at the top wall: ray colour just before it, wall after
+    assert!(
+        around(&px, &view, [1.0, 2.9], 1).into_iter().any(bluish),
+        "a ray reaches (1, 2.9)"
+    );
+    // the leftmost ray ends at the left wall's face x = -3.8
+    assert!(
+        around(&px, &view, [-3.7, -1.0], 1).into_iter().any(bluish),
+        "a ray reaches (-3.7, -1)"
+    );
+    // rays do not pass through walls: beyond the top wall is the canvas background
+    assert_eq!(
+        rgb(pixel_at(&px, &view, [1.0, 3.5])),
+        rgb(world_scene::BACKGROUND.0),
+        "outside the world's extent"
+    );
+    // behind the robot (the laser covers only its front half): the plain floor
+    assert_eq!(rgb(pixel_at(&px, &view, [1.5, -2.5])), [255, 255, 255]);
+    // in front, between rays, the floor is tinted by the translucent scan footprint
+    let tinted = pixel_at(&px, &view, [2.5, 0.4]);
+    assert!(
+        tinted[2] > tinted[0] && tinted[0] < 255,
+        "footprint tint at (2.5, 0.4): {tinted:?}"
+    );
+    // and outside the canvas' world: background in the corners
+    assert_eq!(rgb(px.get(2, 2).unwrap()), rgb(world_scene::BACKGROUND.0));
+}
+
+#[test]
+fn moving_the_view_moves_the_picture() {
+    let Some(mut gpu) = offscreen::for_tests() else {
+        return;
+    };
+    let (world, gui) = common::known_world();
+    let vis = VisOptions::default();
+    // rotated a quarter turn and zoomed: the top wall is now on the left of the canvas
+    let view = View {
+        center: [0.5, 1.0],
+        scale: 50.0,
+        yaw: std::f64::consts::FRAC_PI_2,
+        size: [300.0, 300.0],
+    };
+    let mut scene = Scene::default();
+    world_scene::build(&world, &gui, &vis, &view, &[], &mut scene);
+    let px = gpu.render(&scene, &view).expect("render");
+    dump(&px, "rotated");
+    let s = view.to_screen([0.0, 3.1]);
+    assert!(s[0] < 150.0, "the wall is left of centre");
+    assert_eq!(rgb(pixel_at(&px, &view, [0.0, 3.1])), [0, 0, 0]);
+    assert_eq!(rgb(pixel_at(&px, &view, [1.2, -1.2])), [255, 0, 0]);
+    // no data shown (show_data defaults to off): the floor in front of the robot is plain
+    assert_eq!(rgb(pixel_at(&px, &view, [1.5, 1.5])), [255, 255, 255]);
+}
+
+/// A playerv state with a base and one 181-ray ranger: 2 m everywhere, 1 m between bearings
+/// 35° and 55°.
+fn playerv_state() -> PlayervState {
+    let mut st = PlayervState::new("localhost:6665", player_client::DataMode::Pull, 5.0);
+    let bearings: Vec<f64> = (0..181).map(|i| (i as f64 - 90.0).to_radians()).collect();
+    let ranges: Vec<f64> = (0..181i32)
+        .map(|i| {
+            let deg = i - 90;
+            if (35..=55).contains(&deg) { 1.0 } else { 2.0 }
+        })
+        .collect();
+    st.subscribed.insert(
+        DeviceKey::parse("position2d:0").unwrap(),
+        Subscribed {
+            driver: "stage".into(),
+            data: DeviceData::Position2d {
+                pose: Pose2::default(),
+                velocity: Pose2::default(),
+                stall: false,
+                size: [0.5, 0.5],
+            },
+            datatime: 0.0,
+        },
+    );
+    st.subscribed.insert(
+        DeviceKey::parse("ranger:0").unwrap(),
+        Subscribed {
+            driver: "stage".into(),
+            data: DeviceData::Ranges {
+                scans: vec![Scan {
+                    origin: Pose2::default(),
+                    bearings,
+                    ranges,
+                    max_range: 4.0,
+                    cone: 0.0,
+                }],
+            },
+            datatime: 0.0,
+        },
+    );
+    st
+}
+
+#[test]
+fn playerv_view_of_a_known_scan_puts_rays_where_the_ranges_say() {
+    let Some(mut gpu) = offscreen::for_tests() else {
+        return;
+    };
+    let st = playerv_state();
+    let view = View {
+        center: [0.0, 0.0],
+        scale: 50.0,
+        yaw: 0.0,
+        size: [400.0, 400.0],
+    };
+    let mut scene = Scene::default();
+    viewer::playerv::scene::build(&st, None, &view, &mut scene);
+    let px = gpu.render(&scene, &view).expect("render");
+    dump(&px, "playerv");
+    let at = |deg: f64, r: f64| {
+        let a = deg.to_radians();
+        [r * a.cos(), r * a.sin()]
+    };
+    // the short rays end at 1 m: ray colour before, untouched background beyond
+    assert!(
+        around(&px, &view, at(45.0, 0.95), 1)
+            .into_iter()
+            .any(bluish)
+    );
+    assert_eq!(
+        rgb(pixel_at(&px, &view, at(45.0, 1.5))),
+        rgb(viewer::playerv::scene::BACKGROUND.0),
+        "nothing beyond the short rays"
+    );
+    // the long rays reach 2 m and stop there
+    assert!(
+        around(&px, &view, at(-45.0, 1.9), 1)
+            .into_iter()
+            .any(bluish)
+    );
+    assert_eq!(
+        rgb(pixel_at(&px, &view, at(-45.0, 2.4))),
+        rgb(viewer::playerv::scene::BACKGROUND.0)
+    );
+    // the robot's body behind the sensor (rays cover the front half only)
+    assert_eq!(
+        rgb(pixel_at(&px, &view, [-0.15, -0.15])),
+        rgb(viewer::playerv::scene::BASE.0)
+    );
+    // a camera image is drawn where the scene puts it
+    let mut st2 = st.clone();
+    st2.subscribed.insert(
+        DeviceKey::parse("camera:0").unwrap(),
+        Subscribed {
+            driver: "stage".into(),
+            data: DeviceData::Camera {
+                width: 4,
+                height: 2,
+                rgba: [[0u8, 255, 0, 255]; 8].concat(),
+            },
+            datatime: 0.0,
+        },
+    );
+    viewer::playerv::scene::build(&st2, None, &view, &mut scene);
+    let px = gpu.render(&scene, &view).expect("render");
+    // the inset sits at the top right, 10 px in
+    let c = px.get(400 - 10 - 60, 10 + 30).unwrap();
+    assert_eq!(rgb(c), [0, 255, 0], "camera image pixel");
+    let _ = Rgba8::WHITE;
+}

@@ -1,0 +1,191 @@
+//! The world scene builder (pure, no GPU): which primitives a known world produces under which
+//! View-menu settings, picking, subscriptions for visualisation, and every Stage world.
+
+mod common;
+
+use stage_sim::ModelId;
+use viewer::View;
+use viewer::scene::{Layer, Rgba8, Scene};
+use viewer::world_scene::{self, VisOptions, WorldGui};
+
+fn view() -> View {
+    View {
+        center: [0.0, 0.0],
+        scale: 40.0,
+        yaw: 0.0,
+        size: [400.0, 320.0],
+    }
+}
+
+fn has_color(scene: &Scene, layer: Layer, c: Rgba8) -> bool {
+    scene.layer(layer).triangles.iter().any(|v| v.color == c)
+}
+
+#[test]
+fn bodies_and_rays_follow_the_view_menu() {
+    let (world, gui) = common::known_world();
+    let mut scene = Scene::default();
+    let off = VisOptions::default();
+    assert!(!off.data, "show_data is off by default, as in Stage");
+    world_scene::build(&world, &gui, &off, &view(), &[], &mut scene);
+    assert!(has_color(&scene, Layer::Bodies, Rgba8::rgb(255, 0, 0)));
+    assert!(has_color(&scene, Layer::Bodies, Rgba8::rgb(0, 0, 0)));
+    assert!(scene.layer(Layer::Data).segments.is_empty());
+    assert!(scene.layer(Layer::Footprints).triangles.is_empty());
+    // grid lines every metre over the visible floor
+    assert!(!scene.layer(Layer::Grid).segments.is_empty());
+
+    let on = VisOptions {
+        data: true,
+        ranger_beams: true,
+        ranger_strikes: true,
+        ..VisOptions::default()
+    };
+    world_scene::build(&world, &gui, &on, &view(), &[], &mut scene);
+    let rays = &scene.layer(Layer::Data).segments;
+    assert_eq!(rays.len(), 181, "one segment per ray");
+    // every ray starts at the laser and the straight-ahead one ends on the top wall's face
+    for r in rays {
+        assert!((r.a[0] - 1.0).abs() < 1e-4 && (r.a[1] + 1.0).abs() < 1e-4);
+    }
+    let ahead = rays[90];
+    assert!(
+        (ahead.b[0] - 1.0).abs() < 1e-3 && (ahead.b[1] - 3.0).abs() < 1e-3,
+        "{ahead:?}"
+    );
+    // footprints: a fan of 180 triangles
+    assert_eq!(scene.layer(Layer::Footprints).triangles.len(), 180 * 3);
+    // strikes: a dot for every ray that hit something (the ones to the right escape the world)
+    assert!(!scene.layer(Layer::Data).triangles.is_empty());
+
+    let no_grid = VisOptions {
+        grid: false,
+        blocks: false,
+        ..VisOptions::default()
+    };
+    world_scene::build(&world, &gui, &no_grid, &view(), &[], &mut scene);
+    assert!(scene.layer(Layer::Grid).segments.is_empty());
+    assert!(scene.layer(Layer::Bodies).triangles.is_empty());
+}
+
+#[test]
+fn visualised_sensors_are_the_ones_shown() {
+    let (world, _) = common::known_world();
+    let laser = world.model_by_name("laser").unwrap();
+    let mut vis = VisOptions::default();
+    assert!(world_scene::visualised_sensors(&world, &vis).is_empty());
+    vis.data = true;
+    assert_eq!(world_scene::visualised_sensors(&world, &vis), vec![laser]);
+    vis.ranger_ranges = false;
+    vis.ranger_beams = false;
+    vis.ranger_strikes = false;
+    assert!(world_scene::visualised_sensors(&world, &vis).is_empty());
+}
+
+#[test]
+fn picking_finds_the_top_model_or_its_movable_ancestor() {
+    let (world, gui) = common::known_world();
+    let robot = world.model_by_name("robot").unwrap();
+    let laser = world.model_by_name("laser").unwrap();
+    let walls = world.model_by_name("walls").unwrap();
+    assert_eq!(
+        world_scene::pick(&world, &gui, [1.2, -1.2], true),
+        Some(robot)
+    );
+    // the laser sits on top of the robot: it is hit, the robot is what moves
+    assert_eq!(
+        world_scene::pick(&world, &gui, [1.0, -1.0], false),
+        Some(laser)
+    );
+    assert_eq!(
+        world_scene::pick(&world, &gui, [1.0, -1.0], true),
+        Some(robot)
+    );
+    assert_eq!(
+        world_scene::pick(&world, &gui, [0.0, 3.1], true),
+        Some(walls)
+    );
+    assert_eq!(world_scene::pick(&world, &gui, [0.0, 0.0], true), None);
+    // a model that is not movable and has no movable ancestor is not picked for dragging
+    let mut fixed = gui.clone();
+    fixed.models[walls.index()].movable = false;
+    assert_eq!(world_scene::pick(&world, &fixed, [0.0, 3.1], true), None);
+}
+
+#[test]
+fn selection_and_speech_are_drawn_on_top() {
+    let (mut world, gui) = common::known_world();
+    let robot = world.model_by_name("robot").unwrap();
+    world.say(robot, "hello");
+    let mut scene = Scene::default();
+    world_scene::build(
+        &world,
+        &gui,
+        &VisOptions::default(),
+        &view(),
+        &[robot],
+        &mut scene,
+    );
+    assert!(
+        scene
+            .layer(Layer::Overlay)
+            .segments
+            .iter()
+            .any(|s| s.color == world_scene::SELECTED)
+    );
+    assert_eq!(scene.labels.len(), 1);
+    assert_eq!(scene.labels[0].text, "hello");
+    assert!(scene.labels[0].bubble.is_some());
+    // an out-of-range selection is ignored
+    world_scene::build(
+        &world,
+        &gui,
+        &VisOptions::default(),
+        &view(),
+        &[ModelId(999)],
+        &mut scene,
+    );
+}
+
+#[test]
+fn every_stage_world_builds_a_scene() {
+    let Some(shared) = common::shared_dir() else {
+        return;
+    };
+    let dir = shared.join("stage-worlds");
+    let mut worlds: Vec<_> = std::fs::read_dir(&dir)
+        .expect("stage-worlds")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "world"))
+        .collect();
+    worlds.sort();
+    assert!(!worlds.is_empty());
+    let mut built = 0;
+    for path in &worlds {
+        let Ok((mut world, spec)) = stage_sim::World::load(path, 1) else {
+            continue;
+        };
+        for _ in 0..3 {
+            world.step();
+        }
+        let gui = WorldGui::from_spec(&spec);
+        assert_eq!(gui.models.len(), world.model_count());
+        let vis = VisOptions {
+            data: true,
+            ..VisOptions::from_window(&spec.window.clone().unwrap_or_default())
+        };
+        let mut v = View::from_window(&spec.window.clone().unwrap_or_default());
+        let (min, max) = world_scene::world_extent(&world);
+        v.fit(min, max);
+        let mut scene = Scene::default();
+        world_scene::build(&world, &gui, &vis, &v, &[], &mut scene);
+        assert!(
+            scene.triangle_count() > 0,
+            "{} draws bodies",
+            path.display()
+        );
+        built += 1;
+    }
+    eprintln!("{built} of {} Stage worlds drawn", worlds.len());
+    assert!(built * 2 >= worlds.len());
+}

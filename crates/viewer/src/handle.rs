@@ -260,40 +260,52 @@ pub struct Pacing {
     pub speedup: f64,
 }
 
-/// Steps the shared world on a thread of its own, as Stage's GUI does: `interval_sim /
-/// speedup` of real time per step, nothing while paused, and a pause (not an exit) when the
-/// world reaches its `quit_time`. Stops when [`WorldHandle::request_quit`] is called.
-/// `on_step` runs after every step under the write lock (clock printing, drivers).
+/// Steps the shared worlds on a thread of its own, in lock-step as Stage does with several
+/// worldfiles: `interval_sim / speedup` of real time per step (the first world's
+/// `interval_sim`), no steps for a paused world, and a pause (not an exit) when a world reaches
+/// its `quit_time`, as in Stage's GUI. Stops when [`WorldHandle::request_quit`] is called on any
+/// of them. `on_step(i, world)` runs after every step of world `i` under its write lock (clock
+/// printing, drivers). Fails only when the thread cannot be created.
 pub fn spawn_simulation(
-    handle: WorldHandle,
+    handles: Vec<WorldHandle>,
     pacing: Pacing,
-    mut on_step: impl FnMut(&World) + Send + 'static,
-) -> std::thread::JoinHandle<()> {
+    mut on_step: impl FnMut(usize, &World) + Send + 'static,
+) -> std::io::Result<std::thread::JoinHandle<()>> {
     std::thread::Builder::new()
         .name("simulation".into())
         .spawn(move || {
-            let interval = handle.read().config().interval_sim_us;
+            let Some(first) = handles.first() else {
+                return;
+            };
+            let interval = first.read().config().interval_sim_us;
             let step_wall = (pacing.speedup > 0.0 && pacing.speedup.is_finite())
                 .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / pacing.speedup));
             let mut next = Instant::now();
-            while !handle.quit_requested() {
-                if handle.paused() {
-                    // still apply the window's edits while paused
-                    handle.update(|_| ());
+            while !handles.iter().any(WorldHandle::quit_requested) {
+                let mut stepped_any = false;
+                for (i, h) in handles.iter().enumerate() {
+                    if h.paused() {
+                        // still apply the window's edits while paused
+                        h.update(|_| ());
+                        continue;
+                    }
+                    let stepped = h.update(|w| {
+                        let s = w.step();
+                        if s {
+                            on_step(i, w);
+                        }
+                        s
+                    });
+                    if stepped {
+                        stepped_any = true;
+                    } else {
+                        // quit_time reached: the GUI world pauses (it can be resumed)
+                        h.set_paused(true);
+                    }
+                }
+                if !stepped_any {
                     std::thread::sleep(Duration::from_millis(10));
                     next = Instant::now();
-                    continue;
-                }
-                let stepped = handle.update(|w| {
-                    let s = w.step();
-                    if s {
-                        on_step(w);
-                    }
-                    s
-                });
-                if !stepped {
-                    // quit_time reached: the GUI world pauses (it can be resumed)
-                    handle.set_paused(true);
                     continue;
                 }
                 if let Some(d) = step_wall {
@@ -308,7 +320,6 @@ pub fn spawn_simulation(
                 }
             }
         })
-        .expect("spawning the simulation thread")
 }
 
 #[cfg(test)]
@@ -380,7 +391,7 @@ mod tests {
     fn the_simulation_thread_pauses_at_quit_time_and_stops_on_request() {
         let (w, gui) = world();
         let h = WorldHandle::new(w, gui, None, "t");
-        let t = spawn_simulation(h.clone(), Pacing { speedup: -1.0 }, |_| {});
+        let t = spawn_simulation(vec![h.clone()], Pacing { speedup: -1.0 }, |_, _| {}).unwrap();
         let start = Instant::now();
         while !h.paused() && start.elapsed() < Duration::from_secs(10) {
             std::thread::sleep(Duration::from_millis(5));

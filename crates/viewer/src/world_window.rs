@@ -7,7 +7,8 @@
 //! # fn demo(world: stage_sim::World, spec: &worldfile::WorldSpec) -> Result<(), viewer::ViewerError> {
 //! use viewer::handle::{Pacing, WorldHandle, spawn_simulation};
 //! let handle = WorldHandle::from_spec(world, spec);
-//! let sim = spawn_simulation(handle.clone(), Pacing { speedup: 1.0 }, |_| {});
+//! let sim = spawn_simulation(vec![handle.clone()], Pacing { speedup: 1.0 }, |_, _| {})
+//!     .expect("a thread");
 //! viewer::world_window::run(handle.clone(), viewer::world_window::WindowOptions::default())?;
 //! handle.request_quit(); // run returns when the window closes (it also requests the quit)
 //! sim.join().ok();

@@ -1,5 +1,6 @@
-//! The `stage` binary: runs Stage worldfiles headless (the viewer arrives with its own issue),
-//! or prints the resolved world as JSON with `--dump`.
+//! The `stage` binary: runs Stage worldfiles in the world window when a display exists (the
+//! simulation steps on its own thread, the window runs on the main thread), headless with `-g`
+//! or without a display, or prints the resolved world as JSON with `--dump`.
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -8,13 +9,15 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use clap::Parser;
 use stage_sim::World;
+use viewer::handle::{Pacing, WorldHandle, spawn_simulation};
+use viewer::world_window::{self, WindowOptions};
 use worldfile::{LoadOptions, WorldSpec};
 
 /// Stage 4.1.1-compatible multi-robot simulator.
 #[derive(Parser, Debug)]
 #[command(name = "stage", version)]
 struct Args {
-    /// Headless: no GUI (Stage's `-g`). There is no viewer yet, so runs are always headless.
+    /// Headless: no window (Stage's `-g`); also the case when no display exists.
     #[arg(short = 'g', long = "gui")]
     headless: bool,
     /// Print the simulation clock (`[Stage: 0m 01s 300msec]`) every `show_clock_interval` steps.
@@ -38,7 +41,13 @@ struct Args {
     /// Do not print warnings (worldfile and simulator).
     #[arg(short, long)]
     quiet: bool,
-    /// The worldfiles (several run in lock-step, as in Stage).
+    /// Save a PNG of the world window after `--screenshot-after` seconds, then quit.
+    #[arg(long, value_name = "FILE.png")]
+    screenshot: Option<PathBuf>,
+    /// Wall seconds before `--screenshot` is taken.
+    #[arg(long, value_name = "SECONDS", default_value_t = 2.0)]
+    screenshot_after: f64,
+    /// The worldfiles (several run in lock-step, as in Stage; the window shows the first).
     #[arg(required = true)]
     worldfiles: Vec<PathBuf>,
 }
@@ -95,8 +104,18 @@ fn main() -> anyhow::Result<()> {
         return Ok(());
     }
 
+    let gui = !args.headless && world_window::display_available();
+    if !args.headless && !gui {
+        eprintln!("note: no display (DISPLAY and WAYLAND_DISPLAY unset): running headless (as -g)");
+    }
+    anyhow::ensure!(
+        args.screenshot_after.is_finite() && args.screenshot_after >= 0.0,
+        "--screenshot-after must be >= 0"
+    );
     let mut banner = String::from("Stage 4.1.1 (playerstage-rs)");
-    banner.push_str(" [GUI disabled]");
+    if !gui {
+        banner.push_str(" [GUI disabled]");
+    }
     if args.clock {
         banner.push_str(" [Clock enabled]");
     }
@@ -115,12 +134,9 @@ fn main() -> anyhow::Result<()> {
             anyhow::ensure!(q.is_finite() && q >= 0.0, "--quit-time must be >= 0");
             world.set_quit_time_us((q * 1e6) as u64);
         }
-        worlds.push(world);
+        worlds.push(WorldHandle::from_spec(world, &spec));
     }
     println!("{banner}");
-    if !args.headless {
-        eprintln!("note: there is no viewer yet; running headless (as with -g)");
-    }
 
     // pacing: the slowest requested speed wins when several worlds run together
     let speedup = if args.fast {
@@ -128,18 +144,63 @@ fn main() -> anyhow::Result<()> {
     } else {
         worlds
             .iter()
-            .map(|w| w.config().speedup)
+            .map(|w| w.read().config().speedup)
             .fold(f64::INFINITY, f64::min)
     };
-    let interval = worlds[0].config().interval_sim_us;
+    if gui {
+        match windowed(&args, &worlds, speedup) {
+            Ok(()) => return Ok(()),
+            Err(e) => eprintln!("note: cannot open the world window ({e}): running headless"),
+        }
+    }
+    headless(&args, &worlds, speedup)
+}
+
+/// The world window on this thread, the simulation on its own; returns when the window closes.
+fn windowed(args: &Args, worlds: &[WorldHandle], speedup: f64) -> anyhow::Result<()> {
+    if worlds.len() > 1 {
+        eprintln!(
+            "note: the window shows {}; the other worlds run alongside it",
+            worlds[0].title()
+        );
+    }
+    let clock_on = args.clock;
+    let sim = spawn_simulation(worlds.to_vec(), Pacing { speedup }, move |_, w| {
+        if clock_on && w.updates() % w.config().show_clock_interval == 0 {
+            print!("\r[Stage: {}]", clock(w.sim_time()));
+            std::io::stdout().flush().ok();
+        }
+    })
+    .context("starting the simulation thread")?;
+    let options = WindowOptions {
+        screenshot: args.screenshot.clone(),
+        screenshot_after: Duration::from_secs_f64(args.screenshot_after),
+    };
+    let shown = world_window::run(worlds[0].clone(), options);
+    for w in worlds {
+        w.request_quit();
+    }
+    sim.join()
+        .map_err(|_| anyhow::anyhow!("the simulation thread panicked"))?;
+    if let Some(p) = &args.screenshot {
+        if shown.is_ok() {
+            println!("\nscreenshot saved to {}", p.display());
+        }
+    }
+    shown.map_err(Into::into)
+}
+
+/// Steps the worlds on this thread until all reach their `quit_time` (Stage's `-g`).
+fn headless(args: &Args, worlds: &[WorldHandle], speedup: f64) -> anyhow::Result<()> {
+    let interval = worlds[0].read().config().interval_sim_us;
     let step_wall = (speedup > 0.0 && speedup.is_finite())
         .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / speedup));
     let quit = worlds
         .iter()
-        .map(|w| w.config().quit_time_us)
+        .map(|w| w.read().config().quit_time_us)
         .max()
         .unwrap_or(0);
-    let forever = worlds.iter().any(|w| w.config().quit_time_us == 0);
+    let forever = worlds.iter().any(|w| w.read().config().quit_time_us == 0);
     let tty = std::io::stderr().is_terminal();
     let start = Instant::now();
     let mut last_progress = start;
@@ -147,12 +208,18 @@ fn main() -> anyhow::Result<()> {
     let mut stdout = std::io::stdout();
     loop {
         let mut any = false;
-        for w in worlds.iter_mut() {
-            if args.clock && w.updates() % w.config().show_clock_interval == 0 {
-                write!(stdout, "\r[Stage: {}]", clock(w.sim_time()))?;
+        for h in worlds {
+            // nobody else holds the lock here: this costs an uncontended lock per step
+            let (stepped, line) = h.update(|w| {
+                let line = (args.clock && w.updates() % w.config().show_clock_interval == 0)
+                    .then(|| clock(w.sim_time()));
+                (w.step(), line)
+            });
+            if let Some(l) = line {
+                write!(stdout, "\r[Stage: {l}]")?;
                 stdout.flush()?;
             }
-            any |= w.step();
+            any |= stepped;
         }
         if !any {
             break;
@@ -169,7 +236,7 @@ fn main() -> anyhow::Result<()> {
         let every = if tty { 1 } else { 10 };
         if now.duration_since(last_progress).as_secs() >= every && !args.quiet {
             last_progress = now;
-            let t = worlds[0].sim_time() as f64 * 1e-6;
+            let t = worlds[0].read().sim_time() as f64 * 1e-6;
             let rate = t / now.duration_since(start).as_secs_f64();
             let total = if forever {
                 String::new()

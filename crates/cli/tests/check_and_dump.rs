@@ -17,6 +17,8 @@ fn stage_dump_prints_the_resolved_world() {
     let dir = scratch("dump");
     std::fs::write(dir.join("w.world"), WORLD).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_stage"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
         .arg("--dump")
         .arg(dir.join("w.world"))
         .output()
@@ -33,6 +35,8 @@ fn stage_dump_prints_the_resolved_world() {
 
     std::fs::write(dir.join("bad.world"), "bot ( pose [ 1, 2 ] )\n").unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_stage"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
         .arg("--dump")
         .arg(dir.join("bad.world"))
         .output()
@@ -57,6 +61,8 @@ fn player_check_reports_bindings_and_problems() {
     )
     .unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_player"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
         .arg("--check")
         .arg(dir.join("ok.cfg"))
         .output()
@@ -78,6 +84,8 @@ fn player_check_reports_bindings_and_problems() {
     )
     .unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_player"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
         .args(["--check", "-p", "7100"])
         .arg(dir.join("bad.cfg"))
         .output()

@@ -23,6 +23,8 @@ fn player_serves_a_cfg_until_sigterm() {
     )
     .unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_player"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
         .args(["-p", "0", "-q"])
         .arg(&cfg)
         .stdout(Stdio::piped())
@@ -73,6 +75,8 @@ fn unknown_drivers_are_a_clear_start_up_error() {
     )
     .unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_player"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
         .args(["-p", "0"])
         .arg(&cfg)
         .env("RUST_BACKTRACE", "0")
@@ -92,6 +96,8 @@ fn unknown_drivers_are_a_clear_start_up_error() {
 #[test]
 fn player_without_a_cfg_serves_the_builtin_bigbob_world() {
     let mut child = Command::new(env!("CARGO_BIN_EXE_player"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
         .args(["-p", "0", "--speedup", "5"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

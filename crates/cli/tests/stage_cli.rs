@@ -20,6 +20,8 @@ fn stage_worlds() -> Option<PathBuf> {
 
 fn stage(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_stage"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
         .args(args)
         .output()
         .expect("run stage")

@@ -180,19 +180,39 @@ impl WorldHandle {
         f(&mut w)
     }
 
-    /// Makes an edit: queued for the owner's next [`WorldHandle::update`] in owned mode,
-    /// applied now under a short write lock in shared mode.
+    /// Makes an edit: queued for the owner's next [`WorldHandle::update`] in owned mode; in
+    /// shared mode for the window's next [`WorldHandle::apply_pending`] (the window sends
+    /// edits while it holds a read lock, so applying them at once would deadlock).
     pub fn send(&self, cmd: WorldCommand) {
-        if self.shared.mode == Mode::External {
-            let mut w = self.shared.world.write().unwrap_or_else(|p| p.into_inner());
-            apply(&mut w, cmd);
-            return;
-        }
         self.shared
             .commands
             .lock()
             .unwrap_or_else(|p| p.into_inner())
             .push(cmd);
+    }
+
+    /// In shared mode (the world is stepped by an owner that never calls
+    /// [`WorldHandle::update`]), applies the queued edits under one short write lock; the
+    /// window calls it once per frame before it reads the world. Does nothing in owned mode,
+    /// where the owner applies them.
+    pub fn apply_pending(&self) {
+        if self.shared.mode != Mode::External {
+            return;
+        }
+        let cmds = std::mem::take(
+            &mut *self
+                .shared
+                .commands
+                .lock()
+                .unwrap_or_else(|p| p.into_inner()),
+        );
+        if cmds.is_empty() {
+            return;
+        }
+        let mut w = self.shared.world.write().unwrap_or_else(|p| p.into_inner());
+        for c in cmds {
+            apply(&mut w, c);
+        }
     }
 
     /// The models' GUI properties.
@@ -354,7 +374,7 @@ mod tests {
     }
 
     #[test]
-    fn a_shared_world_takes_edits_at_once_and_pauses_through_the_owners_flag() {
+    fn a_shared_world_takes_edits_between_frames_and_pauses_through_the_owners_flag() {
         let text = "window ( size [ 300 200 ] scale 20 )\n\
                     define bot position ( size [ 0.5 0.5 0.2 ] gui_move 1 )\n\
                     bot ( name \"r0\" pose [ 1 2 0 0 ] )\n";
@@ -371,15 +391,23 @@ mod tests {
         assert_eq!(h.window().size, [300, 200]);
         assert!(Arc::ptr_eq(&h.world(), &world));
         let m = world.read().unwrap().model_by_name("r0").expect("r0");
-        // no update() from the owner: the edit is already there
-        h.send(WorldCommand::SetPose(m, Pose::new(-1.0, 0.5, 0.0, 1.0)));
+        // no update() from the owner: the window applies its own edits between frames
+        let before = world.read().unwrap().pose(m);
+        {
+            // the window sends edits while it reads: that must not deadlock nor apply yet
+            let _reading = h.read();
+            h.send(WorldCommand::SetPose(m, Pose::new(-1.0, 0.5, 0.0, 1.0)));
+            h.send(WorldCommand::Subscribe(m));
+        }
+        assert_eq!(world.read().unwrap().pose(m), before);
+        h.apply_pending();
         assert_eq!(
             world.read().unwrap().pose(m),
             Pose::new(-1.0, 0.5, 0.0, 1.0)
         );
-        h.send(WorldCommand::Subscribe(m));
         assert_eq!(world.read().unwrap().subscriptions(m), 1);
         h.send(WorldCommand::Unsubscribe(m));
+        h.apply_pending();
         assert_eq!(world.read().unwrap().subscriptions(m), 0);
         h.set_paused(true);
         assert!(paused.load(Ordering::Acquire));

@@ -451,6 +451,8 @@ impl eframe::App for WorldApp {
         }
         egui::Panel::top("menu").show(ui, |ui| self.menus(ui));
         let handle = self.handle.clone();
+        // last frame's edits (drags, visualisation subscriptions) before this frame's read
+        handle.apply_pending();
         // one short read lock per frame: scene build, status and picking
         {
             let world = handle.read();
@@ -475,6 +477,10 @@ impl eframe::App for WorldApp {
             });
         }
         self.screenshot(&ctx);
+        if self.handle.quit_requested() {
+            // the owner is going away (e.g. the server got SIGINT): close with it
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
         ctx.request_repaint_after(self.interval);
     }
 

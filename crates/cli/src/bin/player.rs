@@ -15,6 +15,8 @@ use player_server::stage::{self, StageHandle, StageOptions};
 use player_server::test_driver::{TEST_DRIVER_NAME, TestDriver};
 use player_server::{DriverRegistry, Pace, Server, ServerConfig};
 use tracing_subscriber::EnvFilter;
+use viewer::handle::WorldHandle;
+use viewer::world_window::{self, WindowOptions};
 use worldfile::{CfgFile, LoadOptions, check};
 
 /// Player 3.0.2-compatible robot server.
@@ -50,6 +52,10 @@ struct Args {
     /// Seed of the simulation's random choices (runs are repeatable for a given seed).
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Never open Stage's world window, even when the worldfile asks for it and a display
+    /// exists (an addition to Player's flags, like Stage's `-g`).
+    #[arg(short = 'g', long = "no-gui")]
+    no_gui: bool,
     /// The configuration file; without one, the built-in Bigbob world (`worlds/bigbob.cfg`).
     cfgfile: Option<PathBuf>,
 }
@@ -211,20 +217,43 @@ fn serve(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("failed to start: {e}"))?;
     let ports: Vec<String> = handle.ports().iter().map(u16::to_string).collect();
     println!("Listening on ports: {}", ports.join(" "));
-    // Seam for the world window (issue 6): when the cfg asks for Stage's GUI
-    // (`stage_handle.gui_requested()`, `usegui` defaults to 1) and there is a display, open
-    // `viewer::WorldHandle::from_shared(stage_handle.world()?, &stage_handle.world_spec()?,
-    // stage_handle.paused())` here with `viewer::world_window::run` on the main thread (the
-    // server runs on its own threads); when the window is closed, stop the server as on
-    // SIGINT; on `NoDisplay` go on headless. Until the viewer lands the server runs headless.
-    if stage_handle.gui_requested() {
-        tracing::debug!("the cfg asks for Stage's window; running headless (no window yet)");
+    handle.stop_on_signals();
+    if stage_handle.gui_requested() && !args.no_gui {
+        world_window(&handle, &stage_handle);
     }
     handle.stop_on_signals();
     handle.wait();
     println!("Quitting.");
     handle.shutdown();
     Ok(())
+}
+
+/// Stage's world window on the main thread while the server runs on its own threads (as
+/// Player/Stage shows it when the worldfile asks for the GUI and a display exists). Closing the
+/// window stops the server; a stopped server (SIGINT) closes the window. Without a display, or
+/// when the window cannot open, the server simply goes on headless.
+fn world_window(server: &player_server::ServerHandle, stage: &StageHandle) {
+    let (Some(world), Some(spec)) = (stage.world(), stage.world_spec()) else {
+        return;
+    };
+    if !world_window::display_available() {
+        tracing::info!("no display: running headless");
+        return;
+    }
+    let shared = WorldHandle::from_shared(world, &spec, stage.paused());
+    std::thread::scope(|scope| {
+        // the window closes when the server stops (signal) and the server stops when it closes
+        scope.spawn(|| {
+            server.wait();
+            shared.request_quit();
+        });
+        if let Err(e) = world_window::run(shared.clone(), WindowOptions::default()) {
+            eprintln!("note: cannot open the world window ({e}): running headless");
+            // keep serving: the watcher ends with the server (SIGINT)
+            return;
+        }
+        server.stop();
+    });
 }
 
 fn main() -> anyhow::Result<()> {

@@ -199,7 +199,7 @@ impl PlayervApp {
         egui::Grid::new("devices").striped(true).show(ui, |ui| {
             for (key, driver) in &st.devices {
                 let sub = st.subscribed.contains_key(key);
-                ui.label(if sub { "●" } else { "○" });
+                ui.monospace(if sub { "[x]" } else { "[ ]" });
                 ui.label(key.to_string());
                 ui.label(driver);
                 ui.end_row();

@@ -2,6 +2,12 @@
 //! threads, for Stage's own worlds (when `../shared/stage-worlds` or `PLAYERSTAGE_SHARED` is
 //! there) and generated swarm worlds of 1 … 10,000 robots. Run: `cargo bench -p stage-sim`.
 //! Stage 4.3 on the same 2-core machine: simple 809×, cave 15.9×, hospital 3.5× real time.
+//!
+//! Options: a word filters the worlds by label (`cave`, `swarm1000`); `--quick` shortens the
+//! runs; `--steps N` runs exactly N steps per world after the warm-up and skips the ray
+//! micro-benchmarks (for instruction counts under `valgrind --tool=callgrind`); `--digest`
+//! prints each world's state digest after the run (same code and seed ⇒ same digest, so a
+//! change that must not alter results can be checked with `--steps N --digest`).
 
 use stage_sim::generate::swarm_world;
 use stage_sim::{RayQuery, World};
@@ -9,7 +15,15 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use worldfile::LoadOptions;
 
-fn measure(label: &str, mut w: World, budget: Duration, max_steps: u64) {
+/// How a world is run.
+struct Run {
+    budget: Duration,
+    /// Exactly this many steps (no time budget).
+    steps: Option<u64>,
+    digest: bool,
+}
+
+fn measure(label: &str, mut w: World, run: &Run) {
     // warm-up: one simulated second
     for _ in 0..10 {
         w.step();
@@ -17,7 +31,10 @@ fn measure(label: &str, mut w: World, budget: Duration, max_steps: u64) {
     let rays0 = w.rays_cast();
     let t0 = Instant::now();
     let mut steps = 0u64;
-    while steps < max_steps && (steps < 20 || t0.elapsed() < budget) {
+    while match run.steps {
+        Some(n) => steps < n,
+        None => steps < 20 || t0.elapsed() < run.budget,
+    } {
         if !w.step() {
             break;
         }
@@ -35,6 +52,9 @@ fn measure(label: &str, mut w: World, budget: Duration, max_steps: u64) {
         w.model_count(),
         steps
     );
+    if run.digest {
+        println!("{label:<28} digest {:016x}", w.state_digest());
+    }
 }
 
 /// `$PLAYERSTAGE_SHARED/stage-worlds`, else `../shared/stage-worlds` beside the workspace.
@@ -84,9 +104,24 @@ fn ray_micro(label: &str, w: &World, range: f64, n: usize) {
 }
 
 fn main() {
-    let quick = std::env::args().any(|a| a == "--quick");
-    let only: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with("--"));
-    let budget = Duration::from_secs_f64(if quick { 0.5 } else { 5.0 });
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let steps = args
+        .iter()
+        .position(|a| a == "--steps")
+        .and_then(|i| args.get(i + 1)?.parse::<u64>().ok());
+    let only: Option<String> = args
+        .iter()
+        .enumerate()
+        .find(|(i, a)| {
+            !a.starts_with("--") && (*i == 0 || args[i - 1] != "--steps") && a.as_str() != "--bench"
+        })
+        .map(|(_, a)| a.clone());
+    let run = Run {
+        budget: Duration::from_secs_f64(if quick { 0.5 } else { 5.0 }),
+        steps,
+        digest: args.iter().any(|a| a == "--digest"),
+    };
     match stage_worlds() {
         Some(root) => {
             for (label, file) in [
@@ -101,10 +136,12 @@ fn main() {
                 opts.stage_path.push(root.clone());
                 let (mut w, _) = World::load_with(&root.join(file), &opts, 1).expect("suite world");
                 w.set_quit_time_us(0);
-                let n = if quick { 100_000 } else { 1_000_000 };
-                ray_micro(&format!("{label} rays"), &w, 2.0, n);
-                ray_micro(&format!("{label} rays"), &w, 8.0, n);
-                measure(label, w, budget, u64::MAX);
+                if run.steps.is_none() {
+                    let n = if quick { 100_000 } else { 1_000_000 };
+                    ray_micro(&format!("{label} rays"), &w, 2.0, n);
+                    ray_micro(&format!("{label} rays"), &w, 8.0, n);
+                }
+                measure(label, w, &run);
             }
         }
         None => println!("Stage's worlds not found (set PLAYERSTAGE_SHARED): skipping them"),
@@ -114,6 +151,6 @@ fn main() {
             continue;
         }
         let w = World::from_desc(&swarm_world(n, 1), 1).expect("generated world");
-        measure(&format!("swarm {n} robots"), w, budget, u64::MAX);
+        measure(&format!("swarm {n} robots"), w, &run);
     }
 }

@@ -99,3 +99,34 @@ fn player_check_reports_bindings_and_problems() {
     assert!(text.contains("listening ports: 7100"), "{text}");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn dump_into_a_closed_pipe_ends_quietly() {
+    use std::io::Read;
+    use std::process::Stdio;
+    let world = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../worlds/bigbob.world");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_stage"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .arg("--dump")
+        .arg(&world)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("stage runs");
+    // read a little, then hang up, as `| head` does
+    let mut out = child.stdout.take().expect("stdout");
+    let mut first = [0u8; 16];
+    out.read_exact(&mut first).expect("some output");
+    drop(out);
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .expect("stderr")
+        .read_to_string(&mut err)
+        .expect("stderr");
+    let status = child.wait().expect("exits");
+    assert!(!err.contains("panicked"), "stage panicked: {err}");
+    assert!(status.success(), "stage failed: {err}");
+}

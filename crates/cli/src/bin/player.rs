@@ -146,12 +146,10 @@ fn run_check(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
         }
     }
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).context("serialising the report")?
-        );
+        let json = serde_json::to_string_pretty(&report).context("serialising the report")?;
+        cli::print_out(&json).context("writing the report")?;
     } else {
-        println!("{report}");
+        cli::print_out(&report.to_string()).context("writing the report")?;
     }
     if !report.problems.is_empty() {
         bail!(

@@ -99,7 +99,7 @@ fn main() -> anyhow::Result<()> {
                 }
             }
             let json = serde_json::to_string_pretty(&spec).context("serialising the world")?;
-            println!("{json}");
+            cli::print_out(&json).context("writing the world")?;
         }
         return Ok(());
     }

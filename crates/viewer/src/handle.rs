@@ -167,13 +167,7 @@ impl WorldHandle {
             std::thread::yield_now();
         }
         let mut w = self.shared.world.write().unwrap_or_else(|p| p.into_inner());
-        let cmds = std::mem::take(
-            &mut *self
-                .shared
-                .commands
-                .lock()
-                .unwrap_or_else(|p| p.into_inner()),
-        );
+        let cmds = self.take_commands();
         for c in cmds {
             apply(&mut w, c);
         }
@@ -191,6 +185,17 @@ impl WorldHandle {
             .push(cmd);
     }
 
+    /// The queued edits, oldest first, leaving the queue empty.
+    fn take_commands(&self) -> Vec<WorldCommand> {
+        std::mem::take(
+            &mut *self
+                .shared
+                .commands
+                .lock()
+                .unwrap_or_else(|p| p.into_inner()),
+        )
+    }
+
     /// In shared mode (the world is stepped by an owner that never calls
     /// [`WorldHandle::update`]), applies the queued edits under one short write lock; the
     /// window calls it once per frame before it reads the world. Does nothing in owned mode,
@@ -199,13 +204,7 @@ impl WorldHandle {
         if self.shared.mode != Mode::External {
             return;
         }
-        let cmds = std::mem::take(
-            &mut *self
-                .shared
-                .commands
-                .lock()
-                .unwrap_or_else(|p| p.into_inner()),
-        );
+        let cmds = self.take_commands();
         if cmds.is_empty() {
             return;
         }

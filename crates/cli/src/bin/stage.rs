@@ -52,19 +52,13 @@ struct Args {
     worldfiles: Vec<PathBuf>,
 }
 
-/// Stage's clock format: `[%uh]%um %02us %03umsec`.
+/// Stage's clock format: `[%uh]%um %02us %03umsec`, with Stage's leading space under an hour.
 fn clock(us: u64) -> String {
-    let ms = us / 1000;
-    let (h, m, s, ms) = (
-        ms / 3_600_000,
-        (ms / 60_000) % 60,
-        (ms / 1000) % 60,
-        ms % 1000,
-    );
-    if h > 0 {
-        format!("{h}h{m}m {s:02}s {ms:03}msec")
+    let text = viewer::world_window::clock_text(us);
+    if us < 3_600_000_000 {
+        format!(" {text}")
     } else {
-        format!(" {m}m {s:02}s {ms:03}msec")
+        text
     }
 }
 

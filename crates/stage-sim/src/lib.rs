@@ -24,7 +24,8 @@
 //! # Geometry
 //!
 //! Bodies are polygon *outlines* in world space ([`space`]): static bodies (floorplans and
-//! everything not in a robot's tree) in a parry2d BVH built once, moving ones in a uniform grid
+//! everything not in a robot's tree) in a parry2d BVH (contacts) and a uniform edge grid (rays),
+//! both built once, moving ones in a uniform grid
 //! updated incrementally on every move. Rays stop at the first edge crossed whose block spans the
 //! ray's height (inclusive, as Stage's `ztest`); contacts are edge–edge intersections with
 //! overlapping z ranges; a ray starting inside a body passes out of it and containment is not

@@ -1,10 +1,11 @@
 //! The spatial engine: every body's outline in world space, a static BVH (parry2d) over the
 //! blocks of bodies that never move, and a uniform grid over the bodies that do.
 //!
-//! * Static bodies (floorplans and everything not in a robot's tree) are indexed by a parry2d
-//!   [`Bvh`] built once (binned SAH, one leaf per block). Contact queries use it directly; ray
-//!   casts walk the same tree flattened into a compact array, nearer child first, starting from
-//!   a per-cell subtree root for short rays (or skipping static geometry when none is in reach).
+//! * Static bodies (floorplans and everything not in a robot's tree) are indexed twice, both
+//!   built once: a parry2d [`Bvh`] (binned SAH, one leaf per block) answers contact queries and
+//!   the camera's all-hits casts; for single rays their edges also sit in a uniform grid
+//!   (`static_grid`) walked cell by cell with empty-space jumps: 259k instead of 413k
+//!   instructions per step on simple.world (callgrind) than the flattened BVH walk, same answers.
 //! * Dynamic bodies (robots and everything in their trees) live in a uniform grid; a moving model
 //!   re-registers only when the set of cells its box covers changes, so moves cost O(1) and the
 //!   index is never rebuilt. Rays walk it cell by cell (DDA) and stop at the first hit.
@@ -19,10 +20,13 @@
 
 use parry2d::bounding_volume::Aabb as PAabb;
 use parry2d::math::Point;
-use parry2d::partitioning::{Bvh, BvhBuildStrategy, TraversalAction};
+use parry2d::partitioning::{Bvh, BvhBuildStrategy};
 use std::cell::Cell;
 
 use crate::geom::{Aabb, ray_segment, segments_intersect};
+
+mod static_grid;
+use static_grid::{GridEdge, StaticGrid};
 
 /// One block of a body in world space: its z interval and its vertex range in [`Body::pts`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -120,204 +124,8 @@ struct StaticIndex {
     blocks: Vec<StaticBlock>,
     pts: Vec<[f64; 2]>,
     bvh: Bvh,
-    /// The same tree, flattened for the ray loop (see [`FlatBvh`]).
-    flat: FlatBvh,
-    /// Per-cell start nodes for short rays.
-    starts: Option<StartCells>,
-}
-
-/// A child reference in [`FlatBvh`]: a node index, or a leaf (top bit set) with its data.
-const LEAF_BIT: u32 = 1 << 31;
-
-/// Parry's BVH copied into a compact array of two-child nodes (both children's boxes stored in
-/// the parent, as parry does), so rays can walk it near-child-first with a plain loop instead of
-/// through parry's generic closures: same tree, same boxes, about twice as fast per ray.
-#[derive(Default)]
-struct FlatBvh {
-    /// `[lminx, lminy, lmaxx, lmaxy, rminx, rminy, rmaxx, rmaxy]` per node.
-    boxes: Vec<[f32; 8]>,
-    /// `[left, right]` child references.
-    kids: Vec<[u32; 2]>,
-    /// A single leaf (a tree of one block has no two-child node).
-    lone: Option<([f32; 4], u32)>,
-    /// Parent of each node (`u32::MAX` for the root, node 0).
-    parent: Vec<u32>,
-    /// Depth of each node (root 0).
-    depth: Vec<u32>,
-    /// The node holding each leaf (by leaf data) as a child.
-    leaf_parent: Vec<u32>,
-}
-
-/// Where static ray walks start: for each 1 m cell of the static bounds and each ray-length tier,
-/// the lowest BVH node whose subtree holds every static block within that length of the cell
-/// (the common ancestor of those leaves), or [`NO_STATIC`] when there is none. Short rays then
-/// skip the descent from the root, and rays in open space skip the static walk altogether.
-struct StartCells {
-    origin: [f64; 2],
-    nx: i32,
-    ny: i32,
-    /// `starts[tier][cell]`.
-    starts: Vec<Vec<u32>>,
-}
-
-/// Ray-length tiers (m) of [`StartCells`]; longer rays start at the root.
-const START_TIERS: [f64; 3] = [1.0, 2.5, 5.5];
-/// Start-cell edge (m).
-const START_CELL: f64 = 1.0;
-/// A start cell with no static block in reach.
-const NO_STATIC: u32 = u32::MAX;
-
-impl StartCells {
-    fn build(bvh: &Bvh, flat: &FlatBvh, bounds: Aabb) -> Option<StartCells> {
-        if flat.lone.is_some() || flat.boxes.is_empty() || bounds.is_empty() {
-            return None;
-        }
-        let reach = START_TIERS[START_TIERS.len() - 1];
-        let origin = [bounds.min[0] - reach, bounds.min[1] - reach];
-        let nx = ((bounds.max[0] + reach - origin[0]) / START_CELL).ceil() as i64;
-        let ny = ((bounds.max[1] + reach - origin[1]) / START_CELL).ceil() as i64;
-        if nx * ny > 4_000_000 {
-            return None; // a huge sparse world: start every walk at the root
-        }
-        let (nx, ny) = (nx as i32, ny as i32);
-        let mut starts = Vec::with_capacity(START_TIERS.len());
-        for &r in &START_TIERS {
-            let mut tier = vec![NO_STATIC; (nx * ny) as usize];
-            for cy in 0..ny {
-                for cx in 0..nx {
-                    let x0 = origin[0] + cx as f64 * START_CELL - r;
-                    let y0 = origin[1] + cy as f64 * START_CELL - r;
-                    let q = PAabb::new(
-                        Point::new((x0 - AABB_PAD) as f32, (y0 - AABB_PAD) as f32),
-                        Point::new(
-                            (x0 + START_CELL + 2.0 * r + AABB_PAD) as f32,
-                            (y0 + START_CELL + 2.0 * r + AABB_PAD) as f32,
-                        ),
-                    );
-                    let mut lca = NO_STATIC;
-                    for leaf in bvh.intersect_aabb(&q) {
-                        let p = flat.leaf_parent[leaf as usize];
-                        lca = if lca == NO_STATIC {
-                            p
-                        } else {
-                            flat.common_ancestor(lca, p)
-                        };
-                        if lca == 0 {
-                            break;
-                        }
-                    }
-                    tier[(cy * nx + cx) as usize] = lca;
-                }
-            }
-            starts.push(tier);
-        }
-        Some(StartCells {
-            origin,
-            nx,
-            ny,
-            starts,
-        })
-    }
-
-    /// The start node for a ray from `o` of length `range`: `Some(node)` (0 = root) or `None`
-    /// when no static block is in reach.
-    #[inline]
-    fn start(&self, o: [f64; 2], range: f64) -> Option<u32> {
-        let Some(tier) = START_TIERS.iter().position(|&r| range <= r) else {
-            return Some(0);
-        };
-        let cx = ((o[0] - self.origin[0]) / START_CELL).floor();
-        let cy = ((o[1] - self.origin[1]) / START_CELL).floor();
-        if !(cx >= 0.0 && cy >= 0.0 && cx < self.nx as f64 && cy < self.ny as f64) {
-            return Some(0);
-        }
-        match self.starts[tier][(cy as i32 * self.nx + cx as i32) as usize] {
-            NO_STATIC => None,
-            n => Some(n),
-        }
-    }
-}
-
-impl FlatBvh {
-    /// Lowest common ancestor of two nodes.
-    fn common_ancestor(&self, mut a: u32, mut b: u32) -> u32 {
-        while self.depth[a as usize] > self.depth[b as usize] {
-            a = self.parent[a as usize];
-        }
-        while self.depth[b as usize] > self.depth[a as usize] {
-            b = self.parent[b as usize];
-        }
-        while a != b {
-            a = self.parent[a as usize];
-            b = self.parent[b as usize];
-        }
-        a
-    }
-
-    /// Rebuilds parry's topology from a full depth-first [`Bvh::traverse`], which calls back
-    /// each node's left then right child and then descends (left first, right deferred on a
-    /// stack); replaying that stack discipline pairs each callback with its parent.
-    fn from_parry(bvh: &Bvh, leaves: usize) -> FlatBvh {
-        let mut out = FlatBvh {
-            leaf_parent: vec![0; leaves],
-            ..FlatBvh::default()
-        };
-        let mut seen: Vec<([f32; 4], Option<u32>, bool)> = Vec::new();
-        bvh.traverse(|node| {
-            let mn = node.mins();
-            let mx = node.maxs();
-            seen.push(([mn.x, mn.y, mx.x, mx.y], node.leaf_data(), node.is_leaf()));
-            TraversalAction::Continue
-        });
-        if seen.len() == 1 {
-            let (b, data, _) = seen[0];
-            out.lone = Some((b, data.unwrap_or(0)));
-            return out;
-        }
-        // replay: callbacks come in (left, right) pairs, one pair per visited node
-        let mut owner_stack: Vec<u32> = Vec::new();
-        let mut owner: Option<u32> = None; // node whose children this pair describes
-        for pair in seen.chunks(2) {
-            let [(lb, ld, ll), (rb, rd, rl)] = [pair[0], pair[1]];
-            let me = out.boxes.len() as u32;
-            out.boxes
-                .push([lb[0], lb[1], lb[2], lb[3], rb[0], rb[1], rb[2], rb[3]]);
-            out.kids.push([
-                if ll { LEAF_BIT | ld.unwrap_or(0) } else { 0 },
-                if rl { LEAF_BIT | rd.unwrap_or(0) } else { 0 },
-            ]);
-            for (is_leaf, data) in [(ll, ld), (rl, rd)] {
-                if let (true, Some(l)) = (is_leaf, data) {
-                    if let Some(slot) = out.leaf_parent.get_mut(l as usize) {
-                        *slot = me;
-                    }
-                }
-            }
-            match owner.map(|o| (o >> 1, (o & 1) as usize)) {
-                Some((parent, side)) => {
-                    out.kids[parent as usize][side] = me;
-                    out.parent.push(parent);
-                    let d = out.depth[parent as usize] + 1;
-                    out.depth.push(d);
-                }
-                None => {
-                    out.parent.push(u32::MAX);
-                    out.depth.push(0);
-                }
-            }
-            // where the next pair goes, mirroring parry's traversal
-            match (!ll, !rl) {
-                (true, true) => {
-                    owner = Some(me << 1);
-                    owner_stack.push((me << 1) | 1);
-                }
-                (true, false) => owner = Some(me << 1),
-                (false, true) => owner = Some((me << 1) | 1),
-                (false, false) => owner = owner_stack.pop(),
-            }
-        }
-        out
-    }
+    /// The same blocks' edges in a uniform grid, for rays.
+    grid: Option<StaticGrid>,
 }
 
 const AABB_PAD: f64 = 1e-4;
@@ -352,16 +160,22 @@ impl StaticIndex {
             }
         }
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
-        let flat = FlatBvh::from_parry(&bvh, blocks.len());
-        let mut bounds = Aabb::EMPTY;
-        pts.iter().for_each(|p| bounds.add(*p));
-        let starts = StartCells::build(&bvh, &flat, bounds);
+        let mut edges = Vec::new();
+        for (i, sb) in blocks.iter().enumerate() {
+            for (a, b) in edges_of(&pts[sb.start as usize..sb.end as usize]) {
+                edges.push(GridEdge {
+                    a,
+                    b,
+                    block: i as u32,
+                });
+            }
+        }
+        let grid = StaticGrid::build(&edges);
         StaticIndex {
             blocks,
             pts,
             bvh,
-            flat,
-            starts,
+            grid,
         }
     }
 
@@ -687,103 +501,38 @@ impl Space {
         let mut best_t = best_t.get();
         let mut best = best.get();
 
-        // static blocks: near-child-first walk of the flattened parry BVH
-        if !self.statics.blocks.is_empty() {
+        // static edges: walk the static grid; the answer is the least (distance, model, block)
+        if let Some(grid) = &self.statics.grid {
             let st = &self.statics;
-            let (ox, oy) = (o[0] as f32, o[1] as f32);
-            let (ix, iy) = (inv[0] as f32, inv[1] as f32);
-            let slab = |b: &[f32], lim: f32| -> f32 {
-                let (a0, a1) = ((b[0] - ox) * ix, (b[2] - ox) * ix);
-                let (b0, b1) = ((b[1] - oy) * iy, (b[3] - oy) * iy);
-                let tmin = a0.min(a1).max(b0.min(b1)).max(0.0);
-                let tmax = a0.max(a1).min(b0.max(b1)).min(lim);
-                // NaN (0·inf on a face of a flat box) compares false: the box is kept
-                if tmin > tmax { f32::INFINITY } else { tmin }
-            };
-            let leaf = |l: u32, best_t: &mut f64, best: &mut Option<RayHit>| {
-                let sb = &st.blocks[l as usize];
-                if !zok(sb.zmin, sb.zmax)
-                    || !self.static_live[sb.model as usize]
-                    || self.roots[sb.model as usize] == skip_root
-                {
-                    return;
-                }
-                let mut hit: Option<f64> = None;
-                for (a, b) in st.edges(l as usize) {
-                    if let Some(t) = ray_segment(o, d, a, b, *best_t) {
-                        if hit.is_none_or(|h| t < h) {
-                            hit = Some(t);
-                        }
-                    }
-                }
-                let Some(t) = hit else { return };
-                let better = match best {
-                    None => true,
-                    Some(h) => t < h.range || (t == h.range && sb.model < h.model),
-                };
-                if better && accept(sb.model) {
-                    *best_t = t;
-                    *best = Some(RayHit {
-                        model: sb.model,
-                        block: sb.block,
-                        range: t,
-                    });
-                }
-            };
-            let pad = |t: f64| t as f32 + 1e-3;
-            if let Some((b, l)) = st.flat.lone {
-                if slab(&b, pad(best_t)).is_finite() {
-                    leaf(l, &mut best_t, &mut best);
-                }
-            } else if let Some(start) = st.starts.as_ref().map_or(Some(0), |c| c.start(o, range)) {
-                let mut stack: [(u32, f32); 32] = [(0, 0.0); 32];
-                stack[0] = (start, 0.0);
-                let mut spill: Vec<(u32, f32)> = Vec::new(); // only for trees deeper than 32
-                let mut sp = 1usize;
-                loop {
-                    let (node, entry) = if let Some(x) = spill.pop() {
-                        x
-                    } else if sp > 0 {
-                        sp -= 1;
-                        stack[sp]
-                    } else {
-                        break;
-                    };
-                    if entry > pad(best_t) {
+            grid.walk(o, d, inv, best_t, |list| {
+                for e in list {
+                    let Some(t) = ray_segment(o, d, e.a, e.b, best_t) else {
                         continue;
-                    }
-                    let bx = &st.flat.boxes[node as usize];
-                    let kids = st.flat.kids[node as usize];
-                    let lim = pad(best_t);
-                    let tl = slab(&bx[0..4], lim);
-                    let tr = slab(&bx[4..8], lim);
-                    // branch-free near/far ordering: the comparison is a coin flip per node
-                    let ts = [tl, tr];
-                    let i = (tr < tl) as usize;
-                    let (kn, tn) = (kids[i], ts[i]);
-                    let (kf, tf) = (kids[i ^ 1], ts[i ^ 1]);
-                    // leaves now, nearer first (a missed box has t = ∞ > lim)
-                    if kn & LEAF_BIT != 0 && tn <= lim {
-                        leaf(kn & !LEAF_BIT, &mut best_t, &mut best);
-                    }
-                    if kf & LEAF_BIT != 0 && tf <= pad(best_t) {
-                        leaf(kf & !LEAF_BIT, &mut best_t, &mut best);
-                    }
-                    // inner nodes pushed farther first; a slot is written anyway and kept or not
-                    if sp + 2 <= stack.len() {
-                        stack[sp] = (kf, tf);
-                        sp += (kf & LEAF_BIT == 0 && tf <= lim) as usize;
-                        stack[sp] = (kn, tn);
-                        sp += (kn & LEAF_BIT == 0 && tn <= lim) as usize;
-                    } else {
-                        for (k, t) in [(kf, tf), (kn, tn)] {
-                            if k & LEAF_BIT == 0 && t <= lim {
-                                spill.push((k, t));
-                            }
+                    };
+                    let sb = &st.blocks[e.block as usize];
+                    let better = match best {
+                        None => true,
+                        Some(h) => {
+                            t < h.range
+                                || (t == h.range && (sb.model, sb.block) < (h.model, h.block))
                         }
+                    };
+                    if better
+                        && zok(sb.zmin, sb.zmax)
+                        && self.static_live[sb.model as usize]
+                        && self.roots[sb.model as usize] != skip_root
+                        && accept(sb.model)
+                    {
+                        best_t = t;
+                        best = Some(RayHit {
+                            model: sb.model,
+                            block: sb.block,
+                            range: t,
+                        });
                     }
                 }
-            }
+                best_t
+            });
         }
 
         best

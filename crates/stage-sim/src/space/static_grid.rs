@@ -1,0 +1,393 @@
+//! The static edges in a uniform grid, walked cell by cell by rays (Stage's own approach, but
+//! exact: cells only narrow down which edges a ray is tested against).
+//!
+//! * Every edge of every static block is stored, as its two end points, in each cell it comes
+//!   within [`EDGE_PAD`] of (cell lists in one flat array), so a ray touching an edge anywhere
+//!   — a corner included, floating-point error included — visits a cell that lists it.
+//! * Each cell also stores its *clearance* `k`: the `(2k−1)²` block of cells centred on it holds
+//!   no edge. A ray in such a cell jumps straight to where it leaves that block, so rays cross
+//!   open space in a few steps whatever the cell size.
+//! * A walk visits cells in ray order and stops once a cell begins beyond the best hit so far;
+//!   the answer is the exact lexicographic minimum of (distance, model, block) over the edges
+//!   tested, so it does not depend on the cell size or on the order of the lists.
+
+use crate::geom::Aabb;
+
+/// How far (m) beyond its cells an edge may lie and still be listed there: far above the
+/// floating-point error of the cell walk (≈1e-13 m in a 1 km world), far below any geometry.
+const EDGE_PAD: f64 = 1e-7;
+/// Most cells a grid may have (memory: ~5 bytes per cell plus the lists).
+const MAX_CELLS: f64 = 4.0e6;
+
+/// One edge, with the index of its static block.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct GridEdge {
+    pub a: [f64; 2],
+    pub b: [f64; 2],
+    pub block: u32,
+}
+
+/// See the module docs.
+pub(super) struct StaticGrid {
+    origin: [f64; 2],
+    cell: f64,
+    inv_cell: f64,
+    nx: i32,
+    ny: i32,
+    /// Cell `c`'s edges are `edges[first[c]..first[c + 1]]`.
+    first: Vec<u32>,
+    edges: Vec<GridEdge>,
+    /// Clearance per cell (0: the cell lists edges), capped at 255.
+    clear: Vec<u8>,
+}
+
+impl StaticGrid {
+    /// Builds the grid over `edges` (`(a, b, block)`); `None` when there are none.
+    pub fn build(edges: &[GridEdge]) -> Option<StaticGrid> {
+        if edges.is_empty() {
+            return None;
+        }
+        let mut bounds = Aabb::EMPTY;
+        let mut len = 0.0;
+        for e in edges {
+            bounds.add(e.a);
+            bounds.add(e.b);
+            len += ((e.b[0] - e.a[0]).powi(2) + (e.b[1] - e.a[1]).powi(2)).sqrt();
+        }
+        // a margin so that every edge (padded) lies strictly inside
+        let margin = 1e-3 + 1e-9 * bounds.max[0].abs().max(bounds.max[1].abs());
+        let origin = [bounds.min[0] - margin, bounds.min[1] - margin];
+        let w = bounds.max[0] - bounds.min[0] + 2.0 * margin;
+        let h = bounds.max[1] - bounds.min[1] + 2.0 * margin;
+        // cells about twice the mean edge length: few edges per cell, short walks
+        let mean = len / edges.len() as f64;
+        let mut cell = (2.0 * mean).clamp(0.05, 4.0);
+        let min_cell = (w * h / MAX_CELLS).sqrt();
+        if cell < min_cell {
+            cell = min_cell;
+        }
+        if !cell.is_finite() || cell <= 0.0 {
+            return None;
+        }
+        let nx = ((w / cell).ceil() as i32).max(1);
+        let ny = ((h / cell).ceil() as i32).max(1);
+        let mut g = StaticGrid {
+            origin,
+            cell,
+            inv_cell: 1.0 / cell,
+            nx,
+            ny,
+            first: vec![0; (nx * ny) as usize + 1],
+            edges: Vec::new(),
+            clear: Vec::new(),
+        };
+        // two passes: count per cell, then fill
+        let mut count = vec![0u32; (nx * ny) as usize];
+        for e in edges {
+            g.for_cells_of(e, |c| count[c] += 1);
+        }
+        let mut acc = 0u32;
+        for (c, n) in count.iter().enumerate() {
+            g.first[c] = acc;
+            acc += n;
+        }
+        g.first[(nx * ny) as usize] = acc;
+        let mut fill: Vec<u32> = g.first[..(nx * ny) as usize].to_vec();
+        let placeholder = GridEdge {
+            a: [0.0; 2],
+            b: [0.0; 2],
+            block: 0,
+        };
+        let mut out = vec![placeholder; acc as usize];
+        for e in edges {
+            g.for_cells_of(e, |c| {
+                out[fill[c] as usize] = *e;
+                fill[c] += 1;
+            });
+        }
+        g.edges = out;
+        g.clear = chebyshev_clearance(&count, nx as usize, ny as usize);
+        Some(g)
+    }
+
+    /// Calls `f` with every cell the edge comes within [`EDGE_PAD`] of.
+    fn for_cells_of(&self, e: &GridEdge, mut f: impl FnMut(usize)) {
+        let lo = [e.a[0].min(e.b[0]) - EDGE_PAD, e.a[1].min(e.b[1]) - EDGE_PAD];
+        let hi = [e.a[0].max(e.b[0]) + EDGE_PAD, e.a[1].max(e.b[1]) + EDGE_PAD];
+        let c0 = self.cell_of(lo);
+        let c1 = self.cell_of(hi);
+        let (x0, y0) = (c0[0].max(0), c0[1].max(0));
+        let (x1, y1) = (c1[0].min(self.nx - 1), c1[1].min(self.ny - 1));
+        let axis_aligned = e.a[0] == e.b[0] || e.a[1] == e.b[1];
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                if !axis_aligned {
+                    // a slanted edge only goes into the cells its padded line crosses
+                    let mn = [
+                        self.origin[0] + x as f64 * self.cell - EDGE_PAD,
+                        self.origin[1] + y as f64 * self.cell - EDGE_PAD,
+                    ];
+                    let mx = [
+                        mn[0] + self.cell + 2.0 * EDGE_PAD,
+                        mn[1] + self.cell + 2.0 * EDGE_PAD,
+                    ];
+                    if !segment_meets_box(e.a, e.b, mn, mx) {
+                        continue;
+                    }
+                }
+                f((y * self.nx + x) as usize);
+            }
+        }
+    }
+
+    #[inline]
+    fn cell_of(&self, p: [f64; 2]) -> [i32; 2] {
+        [
+            floor_i32((p[0] - self.origin[0]) * self.inv_cell),
+            floor_i32((p[1] - self.origin[1]) * self.inv_cell),
+        ]
+    }
+
+    /// Walks the cells along the ray `o + t·d` (`inv` = 1/d) from its entry into the grid, in
+    /// order, calling `visit` with each non-empty cell's edges; stops when the next cell begins
+    /// beyond `limit()` (re-read after each visit) or the ray leaves the grid.
+    #[inline]
+    pub fn walk(
+        &self,
+        o: [f64; 2],
+        d: [f64; 2],
+        inv: [f64; 2],
+        limit: f64,
+        mut visit: impl FnMut(&[GridEdge]) -> f64,
+    ) {
+        let gmax = [
+            self.origin[0] + self.nx as f64 * self.cell,
+            self.origin[1] + self.ny as f64 * self.cell,
+        ];
+        let bounds = Aabb {
+            min: self.origin,
+            max: gmax,
+        };
+        let Some(t0) = bounds.ray_entry(o, inv, limit) else {
+            return;
+        };
+        let mut limit = limit;
+        let c0 = self.cell_of([o[0] + d[0] * t0, o[1] + d[1] * t0]);
+        let mut cx = c0[0].clamp(0, self.nx - 1);
+        let mut cy = c0[1].clamp(0, self.ny - 1);
+        let sx: i32 = if d[0] >= 0.0 { 1 } else { -1 };
+        let sy: i32 = if d[1] >= 0.0 { 1 } else { -1 };
+        // the x (y) of cell index i's boundary in the walk direction is origin + (i + fx)·cell
+        let fx = (sx > 0) as i32;
+        let fy = (sy > 0) as i32;
+        let (flat_x, flat_y) = (d[0] == 0.0, d[1] == 0.0);
+        let tx_of = |i: i32| -> f64 {
+            if flat_x {
+                f64::INFINITY
+            } else {
+                (self.origin[0] + i as f64 * self.cell - o[0]) * inv[0]
+            }
+        };
+        let ty_of = |i: i32| -> f64 {
+            if flat_y {
+                f64::INFINITY
+            } else {
+                (self.origin[1] + i as f64 * self.cell - o[1]) * inv[1]
+            }
+        };
+        loop {
+            let c = (cy * self.nx + cx) as usize;
+            let k = self.clear[c] as i32;
+            let t_next;
+            if k <= 1 {
+                if k == 0 {
+                    let list = &self.edges[self.first[c] as usize..self.first[c + 1] as usize];
+                    limit = visit(list);
+                }
+                let tx = tx_of(cx + fx);
+                let ty = ty_of(cy + fy);
+                if tx < ty {
+                    t_next = tx;
+                    cx += sx;
+                } else {
+                    t_next = ty;
+                    cy += sy;
+                }
+            } else {
+                // leave the empty (2k−1)² block around this cell in one jump; the other
+                // coordinate never moves backwards, so every step makes progress
+                let r = k - 1;
+                let tx = tx_of(cx + sx * r + fx);
+                let ty = ty_of(cy + sy * r + fy);
+                if tx < ty {
+                    t_next = tx;
+                    let y = floor_i32((o[1] + d[1] * tx - self.origin[1]) * self.inv_cell);
+                    cy = if sy > 0 {
+                        y.clamp(cy, cy + r)
+                    } else {
+                        y.clamp(cy - r, cy)
+                    };
+                    cx += sx * (r + 1);
+                } else {
+                    t_next = ty;
+                    let x = floor_i32((o[0] + d[0] * ty - self.origin[0]) * self.inv_cell);
+                    cx = if sx > 0 {
+                        x.clamp(cx, cx + r)
+                    } else {
+                        x.clamp(cx - r, cx)
+                    };
+                    cy += sy * (r + 1);
+                }
+            }
+            // a small slack keeps hits exactly at a cell boundary (ties) in reach
+            if cx < 0 || cy < 0 || cx >= self.nx || cy >= self.ny || t_next > limit + 1e-9 {
+                return;
+            }
+        }
+    }
+
+    /// Number of cells.
+    #[cfg(test)]
+    pub fn cell_count(&self) -> usize {
+        (self.nx * self.ny) as usize
+    }
+}
+
+/// `x.floor() as i32` without a libm call (saturating like `as`).
+#[inline]
+fn floor_i32(x: f64) -> i32 {
+    let i = x as i32;
+    if (i as f64) > x {
+        i.saturating_sub(1)
+    } else {
+        i
+    }
+}
+
+/// Whether segment `a–b` meets the closed box `[mn, mx]` (Liang–Barsky clipping).
+fn segment_meets_box(a: [f64; 2], b: [f64; 2], mn: [f64; 2], mx: [f64; 2]) -> bool {
+    let mut t0 = 0.0f64;
+    let mut t1 = 1.0f64;
+    for k in 0..2 {
+        let d = b[k] - a[k];
+        if d == 0.0 {
+            if a[k] < mn[k] || a[k] > mx[k] {
+                return false;
+            }
+            continue;
+        }
+        let (mut u, mut v) = ((mn[k] - a[k]) / d, (mx[k] - a[k]) / d);
+        if u > v {
+            std::mem::swap(&mut u, &mut v);
+        }
+        t0 = t0.max(u);
+        t1 = t1.min(v);
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
+}
+
+/// Chebyshev distance (in cells, capped at 255) from each cell to the nearest cell holding
+/// edges; cells beyond the grid count as empty.
+fn chebyshev_clearance(count: &[u32], nx: usize, ny: usize) -> Vec<u8> {
+    const FAR: u32 = 255;
+    let mut d: Vec<u32> = count.iter().map(|&n| if n > 0 { 0 } else { FAR }).collect();
+    // two chamfer passes with unit weights on all eight neighbours give the exact L∞ distance
+    for y in 0..ny {
+        for x in 0..nx {
+            let i = y * nx + x;
+            let mut v = d[i];
+            if x > 0 {
+                v = v.min(d[i - 1] + 1);
+            }
+            if y > 0 {
+                v = v.min(d[i - nx] + 1);
+                if x > 0 {
+                    v = v.min(d[i - nx - 1] + 1);
+                }
+                if x + 1 < nx {
+                    v = v.min(d[i - nx + 1] + 1);
+                }
+            }
+            d[i] = v;
+        }
+    }
+    for y in (0..ny).rev() {
+        for x in (0..nx).rev() {
+            let i = y * nx + x;
+            let mut v = d[i];
+            if x + 1 < nx {
+                v = v.min(d[i + 1] + 1);
+            }
+            if y + 1 < ny {
+                v = v.min(d[i + nx] + 1);
+                if x + 1 < nx {
+                    v = v.min(d[i + nx + 1] + 1);
+                }
+                if x > 0 {
+                    v = v.min(d[i + nx - 1] + 1);
+                }
+            }
+            d[i] = v;
+        }
+    }
+    d.into_iter().map(|v| v.min(FAR) as u8).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clearance_is_chebyshev_distance() {
+        let (nx, ny) = (9usize, 7usize);
+        let mut count = vec![0u32; nx * ny];
+        count[2 * nx + 3] = 1;
+        count[6 * nx + 8] = 2;
+        let got = chebyshev_clearance(&count, nx, ny);
+        for y in 0..ny {
+            for x in 0..nx {
+                let want = [(3usize, 2usize), (8, 6)]
+                    .iter()
+                    .map(|&(ox, oy)| x.abs_diff(ox).max(y.abs_diff(oy)))
+                    .min()
+                    .unwrap();
+                assert_eq!(got[y * nx + x] as usize, want, "cell ({x}, {y})");
+            }
+        }
+    }
+
+    #[test]
+    fn floor_matches_std() {
+        for x in [
+            -2.5, -2.0, -1e-300, -0.0, 0.0, 0.3, 1.0, 7.999, -7.999, 1e12, -1e12,
+        ] {
+            assert_eq!(floor_i32(x), x.floor() as i32, "{x}");
+        }
+    }
+
+    #[test]
+    fn slanted_edges_go_only_into_crossed_cells() {
+        let e = GridEdge {
+            a: [0.0, 0.0],
+            b: [10.0, 10.0],
+            block: 0,
+        };
+        // many short edges make the cells small
+        let mut edges: Vec<GridEdge> = (0..100)
+            .map(|i| GridEdge {
+                a: [0.1 * i as f64, 10.0],
+                b: [0.1 * i as f64 + 0.05, 10.0],
+                block: 1,
+            })
+            .collect();
+        edges.push(e);
+        let g = StaticGrid::build(&edges).unwrap();
+        let mut n = 0;
+        g.for_cells_of(&e, |_| n += 1);
+        assert!(n < g.cell_count() / 4, "{n} of {} cells", g.cell_count());
+        assert!(n >= g.nx as usize, "{n} cells");
+    }
+}

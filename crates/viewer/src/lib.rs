@@ -17,6 +17,7 @@
 pub mod canvas;
 pub mod error;
 pub mod handle;
+pub mod lod;
 pub mod offscreen;
 pub mod playerv;
 pub mod render;

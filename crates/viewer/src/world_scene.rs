@@ -7,6 +7,7 @@
 use stage_sim::{KindDesc, ModelId, Pose, World, WorldDesc};
 use worldfile::{WindowSpec, WorldSpec};
 
+use crate::lod;
 use crate::scene::{Layer, Rgba8, Scene};
 use crate::view::View;
 
@@ -272,8 +273,9 @@ pub fn build(
         }
     }
     if vis.data {
+        let visible = view.visible_world();
         for m in world.models() {
-            data(world, gui, vis, view, m, scene);
+            data(world, gui, vis, view, visible, m, scene);
         }
     }
     if vis.speech {
@@ -410,13 +412,14 @@ fn data(
     gui: &WorldGui,
     vis: &VisOptions,
     view: &View,
+    visible: ([f64; 2], [f64; 2]),
     m: ModelId,
     scene: &mut Scene,
 ) {
     let px = view.pixel();
     let frame = body_frame(world, m);
     if let Some(r) = world.ranger_scans(m) {
-        ranger(&frame, r, vis, px, scene);
+        ranger(&frame, r, vis, px, visible, scene);
     }
     if let Some(f) = world.fiducials(m) {
         if vis.fiducial {
@@ -515,10 +518,29 @@ fn data(
 }
 
 /// Ranger scans: footprint fans, rays, strikes, fields of view and transducers.
-fn ranger(frame: &Pose, r: &stage_sim::RangerData, vis: &VisOptions, px: f64, scene: &mut Scene) {
+///
+/// Level of detail keeps 1,000 lasers cheap without changing the picture by more than half a
+/// pixel: sensors whose reach is off screen are skipped, footprint rims are thinned to the
+/// points that matter at that tolerance ([`lod::simplify_rim`]), sonar cones get as many chords
+/// as their arc needs, and a ray or strike landing within a pixel of the previous one drawn is
+/// left out (rays share their origin, so the two lines are within a pixel all along).
+fn ranger(
+    frame: &Pose,
+    r: &stage_sim::RangerData,
+    vis: &VisOptions,
+    px: f64,
+    (vmin, vmax): ([f64; 2], [f64; 2]),
+    scene: &mut Scene,
+) {
+    let tol = 0.5 * px;
+    let mut keep = Vec::new();
     for (k, sensor) in r.sensors.iter().enumerate() {
         let origin = frame.compose(&sensor.pose);
         let o = [origin.x, origin.y];
+        let reach = sensor.range[1].max(sensor.size[0].hypot(sensor.size[1]));
+        if !lod::disc_touches_box(o, reach, vmin, vmax) {
+            continue;
+        }
         let color = Rgba8::from_color(&sensor.color);
         if vis.ranger_transducers {
             let (hx, hy) = (sensor.size[0] / 2.0, sensor.size[1] / 2.0);
@@ -552,33 +574,46 @@ fn ranger(frame: &Pose, r: &stage_sim::RangerData, vis: &VisOptions, px: f64, sc
                 // a single-sample transducer (sonar): its cone at the measured range
                 let half = sensor.fov / 2.0;
                 let rr = scan.ranges[0];
-                let rim: Vec<[f64; 2]> = (0..=8)
+                let chords = lod::arc_segments(rr, sensor.fov, tol, 32);
+                let rim: Vec<[f64; 2]> = (0..=chords)
                     .map(|i| {
-                        let a = origin.a + scan.bearings[0] - half + sensor.fov * i as f64 / 8.0;
+                        let a = origin.a + scan.bearings[0] - half
+                            + sensor.fov * i as f64 / chords as f64;
                         [o[0] + rr * a.cos(), o[1] + rr * a.sin()]
                     })
                     .collect();
                 scene.fan(Layer::Footprints, o, &rim, color.with_alpha(40));
             } else {
-                scene.fan(Layer::Footprints, o, &ends, color.with_alpha(40));
+                lod::simplify_rim(&ends, tol, &mut keep);
+                let rim: Vec<[f64; 2]> = keep.iter().map(|&i| ends[i]).collect();
+                scene.fan(Layer::Footprints, o, &rim, color.with_alpha(40));
             }
         }
         if vis.ranger_beams {
             let c = color.with_alpha(150);
+            let mut last: Option<[f64; 2]> = None;
             for e in &ends {
+                if last.is_some_and(|l| (e[0] - l[0]).hypot(e[1] - l[1]) < px) {
+                    continue;
+                }
                 scene.line(Layer::Data, o, *e, 1.0, c);
+                last = Some(*e);
             }
         }
         if vis.ranger_strikes {
             let d = 1.5 * px;
+            let mut last: Option<[f64; 2]> = None;
             for (i, e) in ends.iter().enumerate() {
-                if scan.ranges[i] < sensor.range[1] {
+                if scan.ranges[i] < sensor.range[1]
+                    && !last.is_some_and(|l| (e[0] - l[0]).hypot(e[1] - l[1]) < px)
+                {
                     scene.fill_rect(
                         Layer::Data,
                         [e[0] - d, e[1] - d],
                         [e[0] + d, e[1] + d],
                         color,
                     );
+                    last = Some(*e);
                 }
             }
         }

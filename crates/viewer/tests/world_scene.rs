@@ -41,11 +41,17 @@ fn bodies_and_rays_follow_the_view_menu() {
         ranger_strikes: true,
         ..VisOptions::default()
     };
-    world_scene::build(&world, &gui, &on, &view(), &[], &mut scene);
-    let rays = &scene.layer(Layer::Data).segments;
+    // zoomed in (400 px/m) every ray lands more than a pixel from its neighbour: all are drawn
+    let close = View {
+        scale: 400.0,
+        center: [1.0, 0.0],
+        ..view()
+    };
+    world_scene::build(&world, &gui, &on, &close, &[], &mut scene);
+    let rays = scene.layer(Layer::Data).segments.clone();
     assert_eq!(rays.len(), 181, "one segment per ray");
     // every ray starts at the laser and the straight-ahead one ends on the top wall's face
-    for r in rays {
+    for r in &rays {
         assert!((r.a[0] - 1.0).abs() < 1e-4 && (r.a[1] + 1.0).abs() < 1e-4);
     }
     let ahead = rays[90];
@@ -53,10 +59,40 @@ fn bodies_and_rays_follow_the_view_menu() {
         (ahead.b[0] - 1.0).abs() < 1e-3 && (ahead.b[1] - 3.0).abs() < 1e-3,
         "{ahead:?}"
     );
-    // footprints: a fan of 180 triangles
-    assert_eq!(scene.layer(Layer::Footprints).triangles.len(), 180 * 3);
     // strikes: a dot for every ray that hit something (the ones to the right escape the world)
     assert!(!scene.layer(Layer::Data).triangles.is_empty());
+
+    // at 5 px/m rays ending within a pixel of the previous one drawn are left out, and the
+    // footprint fan keeps only the rim points that matter at half a pixel (straight walls need
+    // their ends only): fewer primitives, the same picture
+    let distant = View {
+        scale: 5.0,
+        ..view()
+    };
+    world_scene::build(&world, &gui, &on, &distant, &[], &mut scene);
+    let far = scene.layer(Layer::Data).segments.clone();
+    assert!(far.len() < 181 && far.len() > 30, "{} rays", far.len());
+    // the first ray is always drawn
+    assert!((far[0].b[0] - rays[0].b[0]).abs() < 1e-4 && (far[0].b[1] - rays[0].b[1]).abs() < 1e-4);
+    let px = 1.0 / 5.0;
+    for w in far.windows(2) {
+        let gap = (w[0].b[0] - w[1].b[0]).hypot(w[0].b[1] - w[1].b[1]) as f64;
+        assert!(gap >= px * 0.999, "rays drawn {gap} m apart");
+    }
+    let fan = &scene.layer(Layer::Footprints).triangles;
+    assert_eq!(fan.len() % 3, 0);
+    assert!(
+        fan.len() >= 2 * 3 && fan.len() < 180 * 3,
+        "{} fan vertices",
+        fan.len()
+    );
+    for t in fan.chunks(3) {
+        assert!((t[0].pos[0] - 1.0).abs() < 1e-4 && (t[0].pos[1] + 1.0).abs() < 1e-4);
+    }
+    // consecutive fan triangles share their rim edge, so the footprint has no gaps
+    for w in fan.chunks(3).collect::<Vec<_>>().windows(2) {
+        assert_eq!(w[0][2].pos, w[1][1].pos);
+    }
 
     let no_grid = VisOptions {
         grid: false,

@@ -3,7 +3,8 @@
 //! 1280x720 (wgpu on whatever adapter exists: Mesa's lavapipe on a machine without a GPU).
 //! Prints the scene-build time, render without and with read-back, and frames per second.
 //! Run: `cargo bench -p viewer --bench frame` (`-- --robots N` for another count,
-//! `--no-footprints` / `--no-bodies` to leave those out and see what they cost, `--world FILE`
+//! `--no-footprints` / `--no-bodies` to leave those out and see what they cost, `--no-cache`
+//! to draw the grid and static bodies every frame instead of reusing them, `--world FILE`
 //! for a worldfile instead, drawn with its `window` settings and data on, `--zoom F` to magnify
 //! the whole-world view F times about its centre).
 
@@ -61,6 +62,7 @@ fn main() {
     // parts can be switched off to see where the frame time goes
     let no_footprints = args.iter().any(|a| a == "--no-footprints");
     let no_bodies = args.iter().any(|a| a == "--no-bodies");
+    let no_cache = args.iter().any(|a| a == "--no-cache");
 
     let world_file = args
         .iter()
@@ -122,6 +124,7 @@ fn main() {
             return;
         }
     };
+    off.renderer_mut().set_layer_cache(!no_cache);
     let (min, max) = world_scene::world_extent(&world);
     let mut view = View {
         size: [1280.0, 720.0],
@@ -164,7 +167,7 @@ fn main() {
     let segments: usize = scene.layers.iter().map(|l| l.segments.len()).sum();
     let triangles: usize = scene.layers.iter().map(|l| l.triangles.len() / 3).sum();
     println!("  per frame: {segments} segments, {triangles} triangles");
-    let names = ["grid", "footprints", "bodies", "data", "overlay"];
+    let names = ["grid", "static", "footprints", "bodies", "data", "overlay"];
     let per_layer: Vec<String> = scene
         .layers
         .iter()

@@ -31,13 +31,14 @@ pub fn simplify_rim(rim: &[[f64; 2]], tol: f64, keep: &mut Vec<usize>) {
     let mut j = 1;
     while j < n {
         let v = [rim[j][0] - rim[anchor][0], rim[j][1] - rim[anchor][1]];
-        let d = v[0].hypot(v[1]);
+        // (hypot's overflow care is not needed for metres and costs several times a sqrt)
+        let d = (v[0] * v[0] + v[1] * v[1]).sqrt();
         let inside = match sleeve {
             None => true,
             Some((lo, hi)) => cross(lo, v) >= 0.0 && cross(v, hi) >= 0.0,
         };
         if j == anchor + 1 || (d.is_finite() && inside && d + tol >= reach) {
-            narrow(&mut sleeve, v, tol);
+            narrow(&mut sleeve, v, d, tol);
             reach = reach.max(d);
             j += 1;
         } else {
@@ -54,10 +55,9 @@ pub fn simplify_rim(rim: &[[f64; 2]], tol: f64, keep: &mut Vec<usize>) {
 }
 
 /// Narrows the sleeve to the directions whose lines from the anchor pass within `tol` of the
-/// point at offset `v`; points within `tol` of the anchor constrain nothing.
-fn narrow(sleeve: &mut Option<([f64; 2], [f64; 2])>, v: [f64; 2], tol: f64) {
-    let d = v[0].hypot(v[1]);
-    if d <= tol {
+/// point at offset `v` (at distance `d`); points within `tol` of the anchor constrain nothing.
+fn narrow(sleeve: &mut Option<([f64; 2], [f64; 2])>, v: [f64; 2], d: f64, tol: f64) {
+    if d.is_nan() || d <= tol {
         return;
     }
     let (s, c) = (tol / d, (1.0 - (tol / d) * (tol / d)).sqrt());

@@ -109,18 +109,23 @@ pub struct Label {
 pub enum Layer {
     /// Floor grid and map images.
     Grid = 0,
-    /// Translucent sensor footprints (ranger scans), under the bodies as in Stage.
-    Footprints = 1,
-    /// Model bodies.
-    Bodies = 2,
+    /// Bodies of models that never move (floorplans, walls, furniture). Kept apart from the
+    /// moving ones because this layer and the grid change only with the view: the renderer
+    /// draws both once into a texture and reuses it while they stay the same
+    /// ([`crate::render`]), which is most of the triangles of a large map.
+    Static = 1,
+    /// Translucent sensor footprints (ranger scans), under the moving bodies as in Stage.
+    Footprints = 2,
+    /// Bodies of models that move (or may be moved).
+    Bodies = 3,
     /// Sensor data: rays, links, beams, blob images.
-    Data = 3,
+    Data = 4,
     /// Selection, noses, bubbles, the playerv target: always on top.
-    Overlay = 4,
+    Overlay = 5,
 }
 
 /// Number of [`Layer`]s.
-pub const LAYERS: usize = 5;
+pub const LAYERS: usize = 6;
 
 /// The primitives of one layer.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -347,20 +347,28 @@ fn bodies(world: &World, gui: &WorldGui, px: f64, scene: &mut Scene) {
     for (_, m) in order {
         let body = world.body(m);
         let g = gui.get(m);
+        // what never moves is drawn under everything that does (the renderer caches it); only
+        // a moving model passing under a taller static one, which collisions rule out for
+        // everything solid, would be stacked differently from Stage
+        let layer = if world.space().is_static(m.0) {
+            Layer::Static
+        } else {
+            Layer::Bodies
+        };
         for k in 0..body.blocks.len() {
             let pts = body.block_pts(k);
             let color = Rgba8::from_color(&world.block_color(m, k));
             if pts.len() >= 3 {
-                scene.fill(Layer::Bodies, pts, color);
+                scene.fill(layer, pts, color);
             }
-            scene.stroke_outline(Layer::Bodies, pts, px, color.darker(0.5));
+            scene.stroke_outline(layer, pts, px, color.darker(0.5));
         }
         if g.grid {
-            model_grid(world, m, px, scene);
+            model_grid(world, m, layer, px, scene);
         }
         if g.outline {
             let r = size_rect(world, m);
-            scene.stroke_outline(Layer::Bodies, &r, px, Rgba8::BLACK);
+            scene.stroke_outline(layer, &r, px, Rgba8::BLACK);
         }
         if g.nose {
             let f = body_frame(world, m);
@@ -368,13 +376,13 @@ fn bodies(world: &World, gui: &WorldGui, px: f64, scene: &mut Scene) {
             let a = transform(&f, [0.0, 0.0]);
             let b = transform(&f, [sx / 2.0, 0.0]);
             let c = Rgba8::from_color(&world.color(m)).darker(0.4);
-            scene.stroke(Layer::Bodies, a, b, 2.0 * px, c);
+            scene.stroke(layer, a, b, 2.0 * px, c);
         }
     }
 }
 
 /// `gui_grid`: 1 m lines across the model's size rectangle, in its frame.
-fn model_grid(world: &World, m: ModelId, px: f64, scene: &mut Scene) {
+fn model_grid(world: &World, m: ModelId, layer: Layer, px: f64, scene: &mut Scene) {
     let f = body_frame(world, m);
     let [sx, sy, _] = world.node(m).size;
     let (hx, hy) = (sx / 2.0, sy / 2.0);
@@ -385,7 +393,7 @@ fn model_grid(world: &World, m: ModelId, px: f64, scene: &mut Scene) {
     let mut x = (-hx).ceil();
     while x <= hx {
         scene.stroke(
-            Layer::Bodies,
+            layer,
             transform(&f, [x, -hy]),
             transform(&f, [x, hy]),
             px,
@@ -396,7 +404,7 @@ fn model_grid(world: &World, m: ModelId, px: f64, scene: &mut Scene) {
     let mut y = (-hy).ceil();
     while y <= hy {
         scene.stroke(
-            Layer::Bodies,
+            layer,
             transform(&f, [-hx, y]),
             transform(&f, [hx, y]),
             px,
@@ -593,7 +601,7 @@ fn ranger(
             let c = color.with_alpha(150);
             let mut last: Option<[f64; 2]> = None;
             for e in &ends {
-                if last.is_some_and(|l| (e[0] - l[0]).hypot(e[1] - l[1]) < px) {
+                if last.is_some_and(|l| near(*e, l, px)) {
                     continue;
                 }
                 scene.line(Layer::Data, o, *e, 1.0, c);
@@ -604,9 +612,7 @@ fn ranger(
             let d = 1.5 * px;
             let mut last: Option<[f64; 2]> = None;
             for (i, e) in ends.iter().enumerate() {
-                if scan.ranges[i] < sensor.range[1]
-                    && !last.is_some_and(|l| (e[0] - l[0]).hypot(e[1] - l[1]) < px)
-                {
+                if scan.ranges[i] < sensor.range[1] && !last.is_some_and(|l| near(*e, l, px)) {
                     scene.fill_rect(
                         Layer::Data,
                         [e[0] - d, e[1] - d],
@@ -618,6 +624,12 @@ fn ranger(
             }
         }
     }
+}
+
+/// Whether `a` and `b` are less than `d` apart.
+fn near(a: [f64; 2], b: [f64; 2], d: f64) -> bool {
+    let (x, y) = (a[0] - b[0], a[1] - b[1]);
+    x * x + y * y < d * d
 }
 
 /// A field-of-view wedge outline from `frame` (centred on its heading).

@@ -61,9 +61,19 @@ impl GrowBuffer {
         }
     }
 
-    fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
+    /// Writes `bytes[from..]` at the same offset (all of it when the buffer has to grow, which
+    /// loses the old contents); `from` must be a multiple of 4.
+    fn upload_from(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        bytes: &[u8],
+        from: usize,
+    ) {
         let need = bytes.len() as u64;
+        let mut from = from.min(bytes.len());
         if need > self.cap {
+            from = 0;
             self.cap = need.next_power_of_two();
             self.buf = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(self.label),
@@ -72,8 +82,8 @@ impl GrowBuffer {
                 mapped_at_creation: false,
             });
         }
-        if !bytes.is_empty() {
-            queue.write_buffer(&self.buf, 0, bytes);
+        if from < bytes.len() {
+            queue.write_buffer(&self.buf, from as u64, &bytes[from..]);
         }
     }
 }
@@ -97,11 +107,22 @@ pub const CACHED_LAYERS: usize = Layer::Static as usize + 1;
 
 /// The drawing of the cached layers, texel for pixel.
 struct LayerCache {
-    /// Hash of everything the drawing depends on (0 when it holds nothing valid yet).
-    key: u64,
+    /// What the drawing was made from (`None` until one is made): compared exactly, byte for
+    /// byte, each frame; cheaper than hashing megabytes of floorplan vertices.
+    source: Option<CacheSource>,
     size: [u32; 2],
     view: wgpu::TextureView,
     bind: wgpu::BindGroup,
+}
+
+/// Everything a drawing of the cached layers depends on.
+struct CacheSource {
+    globals: [u8; std::mem::size_of::<Globals>()],
+    background: [u8; 4],
+    fills: Vec<FillVertex>,
+    segments: Vec<Segment>,
+    /// Hash of the cached layers' images (rare; hashed rather than copied).
+    images: u64,
 }
 
 /// Pipelines and per-frame buffers for drawing scenes into targets of one format and sample
@@ -385,52 +406,69 @@ impl SceneRenderer {
                 images: i0..self.images.len(),
             };
         }
+        let size = [g.viewport[0].round() as u32, g.viewport[1].round() as u32];
+        let cacheable =
+            self.cache_enabled && (1..=8192).contains(&size[0]) && (1..=8192).contains(&size[1]);
+        let hit = cacheable && self.cache_matches(scene, &g, size);
+        // on a hit the cached layers are not drawn, so their vertices need not be sent again
+        let (f0, s0) = if hit {
+            (
+                self.draws[CACHED_LAYERS].fills.start as usize * std::mem::size_of::<FillVertex>(),
+                self.draws[CACHED_LAYERS].segments.start as usize * std::mem::size_of::<Segment>(),
+            )
+        } else {
+            (0, 0)
+        };
         self.fills
-            .upload(device, queue, bytemuck::cast_slice(&self.fill_bytes));
+            .upload_from(device, queue, bytemuck::cast_slice(&self.fill_bytes), f0);
         self.segments
-            .upload(device, queue, bytemuck::cast_slice(&self.segment_bytes));
-        self.cache_in_use = self.cache_enabled && self.update_cache(device, encoder, scene, &g);
+            .upload_from(device, queue, bytemuck::cast_slice(&self.segment_bytes), s0);
+        if hit {
+            self.cache_hits += 1;
+        } else if cacheable {
+            self.redraw_cache(device, encoder, scene, &g, size);
+        }
+        self.cache_in_use = cacheable;
     }
 
-    /// Brings the cached layers' texture up to date; false when it cannot be used.
-    fn update_cache(
+    /// The cached layers' vertex ranges in the staging arrays.
+    fn cached_ranges(&self) -> (Range<usize>, Range<usize>) {
+        (
+            self.draws[0].fills.start as usize..self.draws[CACHED_LAYERS - 1].fills.end as usize,
+            self.draws[0].segments.start as usize
+                ..self.draws[CACHED_LAYERS - 1].segments.end as usize,
+        )
+    }
+
+    /// Whether the cache holds a drawing of exactly this frame's cached layers.
+    fn cache_matches(&self, scene: &Scene, g: &Globals, size: [u32; 2]) -> bool {
+        let Some(LayerCache {
+            source: Some(src),
+            size: csize,
+            ..
+        }) = &self.cache
+        else {
+            return false;
+        };
+        let (fills, segments) = self.cached_ranges();
+        *csize == size
+            && src.globals[..] == *bytemuck::bytes_of(g)
+            && src.background == scene.background.0
+            && bytes_eq(&src.fills, &self.fill_bytes[fills])
+            && bytes_eq(&src.segments, &self.segment_bytes[segments])
+            && src.images == images_hash(scene)
+    }
+
+    /// Draws the cached layers into the cache texture (made or resized as needed) and records
+    /// what they were drawn from.
+    fn redraw_cache(
         &mut self,
         device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
         scene: &Scene,
         g: &Globals,
-    ) -> bool {
-        let size = [g.viewport[0].round() as u32, g.viewport[1].round() as u32];
-        if !(1..=8192).contains(&size[0]) || !(1..=8192).contains(&size[1]) {
-            return false;
-        }
-        let mut h = DefaultHasher::new();
-        h.write(bytemuck::bytes_of(g));
-        h.write(&scene.background.0);
-        let (fills, segments) = (
-            self.draws[0].fills.start as usize..self.draws[CACHED_LAYERS - 1].fills.end as usize,
-            self.draws[0].segments.start as usize
-                ..self.draws[CACHED_LAYERS - 1].segments.end as usize,
-        );
-        h.write(bytemuck::cast_slice(&self.fill_bytes[fills]));
-        h.write(bytemuck::cast_slice(&self.segment_bytes[segments]));
-        for layer in &scene.layers[..CACHED_LAYERS] {
-            h.write_usize(layer.images.len());
-            for img in &layer.images {
-                h.write(bytemuck::cast_slice(&img.corners));
-                h.write_u32(img.width);
-                h.write_u32(img.height);
-                h.write(&img.rgba);
-            }
-        }
-        // never 0, which marks an empty cache
-        let key = h.finish() | 1;
-        if let Some(c) = &self.cache {
-            if c.key == key && c.size == size {
-                self.cache_hits += 1;
-                return true;
-            }
-        }
+        size: [u32; 2],
+    ) {
         if self.cache.as_ref().is_none_or(|c| c.size != size) {
             let texture = device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("scene layer cache"),
@@ -463,7 +501,7 @@ impl SceneRenderer {
                 ],
             });
             self.cache = Some(LayerCache {
-                key: 0,
+                source: None,
                 size,
                 view,
                 bind,
@@ -496,8 +534,23 @@ impl SceneRenderer {
             pass.set_bind_group(0, &self.globals_bind, &[]);
             self.draw_layers(&mut pass, 0..CACHED_LAYERS);
         }
-        self.cache.as_mut().expect("cache made above").key = key;
-        true
+        let (fills, segments) = self.cached_ranges();
+        let mut globals = [0u8; std::mem::size_of::<Globals>()];
+        globals.copy_from_slice(bytemuck::bytes_of(g));
+        // reuse the old snapshot's allocations
+        let old = self.cache.as_mut().and_then(|c| c.source.take());
+        let (mut f, mut sg) = old.map(|o| (o.fills, o.segments)).unwrap_or_default();
+        f.clear();
+        f.extend_from_slice(&self.fill_bytes[fills]);
+        sg.clear();
+        sg.extend_from_slice(&self.segment_bytes[segments]);
+        self.cache.as_mut().expect("cache made above").source = Some(CacheSource {
+            globals,
+            background: bg,
+            fills: f,
+            segments: sg,
+            images: images_hash(scene),
+        });
     }
 
     fn upload_image(
@@ -609,4 +662,24 @@ impl SceneRenderer {
             }
         }
     }
+}
+
+/// Byte equality (a `memcmp`; float `==` would treat NaN and ±0 specially and compare slower).
+fn bytes_eq<T: bytemuck::Pod>(a: &[T], b: &[T]) -> bool {
+    bytemuck::cast_slice::<T, u8>(a) == bytemuck::cast_slice::<T, u8>(b)
+}
+
+/// Hash of the cached layers' images (their placement, size and texels).
+fn images_hash(scene: &Scene) -> u64 {
+    let mut h = DefaultHasher::new();
+    for layer in &scene.layers[..CACHED_LAYERS] {
+        h.write_usize(layer.images.len());
+        for img in &layer.images {
+            h.write(bytemuck::cast_slice(&img.corners));
+            h.write_u32(img.width);
+            h.write_u32(img.height);
+            h.write(&img.rgba);
+        }
+    }
+    h.finish()
 }

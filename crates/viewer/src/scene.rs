@@ -147,6 +147,10 @@ pub struct Scene {
     pub layers: [LayerData; LAYERS],
     /// Text labels (drawn last, by egui).
     pub labels: Vec<Label>,
+    /// What built the [`Layer::Static`] primitives, when the builder can tell (`None`: unknown):
+    /// lets a builder keep that layer instead of rebuilding it (a floorplan is tens of
+    /// thousands of triangles).
+    pub static_key: Option<u64>,
 }
 
 impl Default for Scene {
@@ -162,15 +166,28 @@ impl Scene {
             background,
             layers: Default::default(),
             labels: Vec::new(),
+            static_key: None,
         }
     }
 
     /// Empties the scene, keeping its allocations (scenes are rebuilt every frame).
     pub fn clear(&mut self) {
-        for l in &mut self.layers {
+        self.clear_keeping_static(false);
+    }
+
+    /// Empties the scene but for the [`Layer::Static`] primitives and their
+    /// [`Scene::static_key`] when `keep_static` is set.
+    pub fn clear_keeping_static(&mut self, keep_static: bool) {
+        for (i, l) in self.layers.iter_mut().enumerate() {
+            if keep_static && i == Layer::Static as usize {
+                continue;
+            }
             l.triangles.clear();
             l.segments.clear();
             l.images.clear();
+        }
+        if !keep_static {
+            self.static_key = None;
         }
         self.labels.clear();
     }

@@ -251,7 +251,10 @@ pub fn build(
     selected: &[ModelId],
     scene: &mut Scene,
 ) {
-    scene.clear();
+    // the static models are drawn again only when they or the view changed
+    let static_key = vis.blocks.then(|| static_key(world, gui, view));
+    let keep_static = static_key.is_some() && scene.static_key == static_key;
+    scene.clear_keeping_static(keep_static);
     scene.background = BACKGROUND;
     let px = view.pixel();
     let (emin, emax) = world_extent(world);
@@ -260,7 +263,8 @@ pub fn build(
         grid(scene, view, emin, emax);
     }
     if vis.blocks {
-        bodies(world, gui, px, scene);
+        bodies(world, gui, px, view.visible_world(), !keep_static, scene);
+        scene.static_key = static_key;
     }
     if vis.bounding_boxes {
         for m in world.models() {
@@ -330,7 +334,20 @@ fn grid(scene: &mut Scene, view: &View, emin: [f64; 2], emax: [f64; 2]) {
 
 /// Model bodies, lowest first (Stage draws in 3D: what is higher covers what is lower), each
 /// block filled in its colour with a darker outline, plus noses, model grids and outlines.
-fn bodies(world: &World, gui: &WorldGui, px: f64, scene: &mut Scene) {
+/// Bodies narrower than this many pixels are drawn as one dot (their box, grown by the
+/// outline's half width, in the outline colour): at that size the ten triangles of fill,
+/// outline and nose cover the same one or two pixels, and a software rasteriser pays per
+/// triangle (1,000 swarmbots: 10,000 triangles → 2,000).
+const BODY_DOT_PX: f64 = 2.0;
+
+fn bodies(
+    world: &World,
+    gui: &WorldGui,
+    px: f64,
+    visible: ([f64; 2], [f64; 2]),
+    draw_static: bool,
+    scene: &mut Scene,
+) {
     let mut order: Vec<(f64, ModelId)> = world
         .models()
         .filter_map(|m| {
@@ -344,17 +361,42 @@ fn bodies(world: &World, gui: &WorldGui, px: f64, scene: &mut Scene) {
         })
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (vmin, vmax) = visible;
     for (_, m) in order {
         let body = world.body(m);
         let g = gui.get(m);
+        let (bmin, bmax) = (body.aabb.min, body.aabb.max);
+        // off screen (with a margin for outlines and noses): nothing to draw
+        let margin = 4.0 * px;
+        if bmax[0] < vmin[0] - margin
+            || bmax[1] < vmin[1] - margin
+            || bmin[0] > vmax[0] + margin
+            || bmin[1] > vmax[1] + margin
+        {
+            continue;
+        }
         // what never moves is drawn under everything that does (the renderer caches it); only
         // a moving model passing under a taller static one, which collisions rule out for
         // everything solid, would be stacked differently from Stage
         let layer = if world.space().is_static(m.0) {
+            if !draw_static {
+                continue;
+            }
             Layer::Static
         } else {
             Layer::Bodies
         };
+        if (bmax[0] - bmin[0]).max(bmax[1] - bmin[1]) < BODY_DOT_PX * px && !g.grid && !g.outline {
+            let h = 0.5 * px;
+            let color = Rgba8::from_color(&world.block_color(m, 0)).darker(0.5);
+            scene.fill_rect(
+                layer,
+                [bmin[0] - h, bmin[1] - h],
+                [bmax[0] + h, bmax[1] + h],
+                color,
+            );
+            continue;
+        }
         for k in 0..body.blocks.len() {
             let pts = body.block_pts(k);
             let color = Rgba8::from_color(&world.block_color(m, k));
@@ -378,6 +420,72 @@ fn bodies(world: &World, gui: &WorldGui, px: f64, scene: &mut Scene) {
             let c = Rgba8::from_color(&world.color(m)).darker(0.4);
             scene.stroke(layer, a, b, 2.0 * px, c);
         }
+    }
+}
+
+/// A fingerprint of everything the static models' drawing depends on: the view, and per
+/// static model its id, gui flags, colours, heights and outline. Cheap next to drawing them.
+fn static_key(world: &World, gui: &WorldGui, view: &View) -> u64 {
+    let mut h = WordHash::default();
+    for v in [
+        view.center[0],
+        view.center[1],
+        view.scale,
+        view.yaw,
+        view.size[0],
+        view.size[1],
+    ] {
+        h.f(v);
+    }
+    for m in world.models() {
+        if !world.space().is_static(m.0) {
+            continue;
+        }
+        let g = gui.get(m);
+        h.u(u64::from(m.0) << 3
+            | u64::from(g.nose) << 2
+            | u64::from(g.grid) << 1
+            | u64::from(g.outline));
+        let body = world.body(m);
+        h.u(body.blocks.len() as u64);
+        for (k, blk) in body.blocks.iter().enumerate() {
+            let c = world.block_color(m, k);
+            h.f(c.r);
+            h.f(c.g);
+            h.f(c.b);
+            h.f(c.a);
+            h.f(blk.zmax);
+            h.u(body.block_pts(k).len() as u64);
+        }
+        for p in &body.pts {
+            h.f(p[0]);
+            h.f(p[1]);
+        }
+        let f = body_frame(world, m);
+        h.f(f.x);
+        h.f(f.y);
+        h.f(f.a);
+        let n = world.node(m).size;
+        h.f(n[0]);
+        h.f(n[1]);
+        h.f(world.color(m).r);
+        h.f(world.color(m).g);
+        h.f(world.color(m).b);
+    }
+    h.0
+}
+
+/// A fast multiply–rotate word hash (a cache key, not a defence against crafted input).
+#[derive(Default)]
+struct WordHash(u64);
+
+impl WordHash {
+    fn u(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+
+    fn f(&mut self, v: f64) {
+        self.u(v.to_bits());
     }
 }
 

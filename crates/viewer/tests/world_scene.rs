@@ -225,3 +225,47 @@ fn every_stage_world_builds_a_scene() {
     eprintln!("{built} of {} Stage worlds drawn", worlds.len());
     assert!(built * 2 >= worlds.len());
 }
+
+/// The static layer is kept from the last frame while nothing it depends on changed, and the
+/// kept scene is exactly what a fresh build gives; a recoloured wall or a moved view rebuilds it.
+#[test]
+fn static_layer_is_reused_only_while_unchanged() {
+    let (mut world, gui) = common::known_world();
+    let vis = VisOptions::default();
+    let walls = world.model_by_name("walls").expect("walls");
+    let fresh = |world: &stage_sim::World, view: &View| {
+        let mut s = Scene::default();
+        world_scene::build(world, &gui, &vis, view, &[], &mut s);
+        s
+    };
+    let v = view();
+    let mut reused = Scene::default();
+    world_scene::build(&world, &gui, &vis, &v, &[], &mut reused);
+    let key = reused.static_key.expect("a key for the static layer");
+    assert!(
+        has_color(&reused, Layer::Static, Rgba8::BLACK),
+        "the walls are in the static layer"
+    );
+    for _ in 0..5 {
+        world.step();
+    }
+    // a robot moved: only the dynamic layers change
+    world_scene::build(&world, &gui, &vis, &v, &[], &mut reused);
+    assert_eq!(reused.static_key, Some(key));
+    assert_eq!(reused, fresh(&world, &v));
+
+    // a recoloured wall must show
+    world.set_color(walls, stage_sim::Color::rgb(0.0, 1.0, 0.0));
+    world_scene::build(&world, &gui, &vis, &v, &[], &mut reused);
+    assert_ne!(reused.static_key, Some(key));
+    assert!(has_color(&reused, Layer::Static, Rgba8::rgb(0, 255, 0)));
+    assert_eq!(reused, fresh(&world, &v));
+
+    // and so must a new view
+    let moved = View {
+        center: [v.center[0] + 1.0, v.center[1]],
+        ..v
+    };
+    world_scene::build(&world, &gui, &vis, &moved, &[], &mut reused);
+    assert_eq!(reused, fresh(&world, &moved));
+}

@@ -2,7 +2,11 @@
 //! robots, each carrying a 180-ray laser, with the lasers visualised, drawn offscreen at
 //! 1280x720 (wgpu on whatever adapter exists: Mesa's lavapipe on a machine without a GPU).
 //! Prints the scene-build time, render without and with read-back, and frames per second.
-//! Run: `cargo bench -p viewer --bench frame` (`-- --robots N` for another count).
+//! Run: `cargo bench -p viewer --bench frame` (`-- --robots N` for another count,
+//! `--no-footprints` / `--no-bodies` to leave those out and see what they cost, `--no-cache`
+//! to draw the grid and static bodies every frame instead of reusing them, `--world FILE`
+//! for a worldfile instead, drawn with its `window` settings and data on, `--zoom F` to magnify
+//! the whole-world view F times about its centre).
 
 use std::time::{Duration, Instant};
 
@@ -12,6 +16,30 @@ use viewer::View;
 use viewer::offscreen::Offscreen;
 use viewer::scene::Scene;
 use viewer::world_scene::{self, VisOptions, WorldGui};
+
+/// The generated swarm world with a laser on every robot (Stage's sicklaser: 180 rays over
+/// 180 degrees, 8 m).
+fn swarm_with_lasers(robots: usize) -> (World, WorldGui) {
+    let mut desc = swarm_world(robots, 1);
+    let bots: Vec<usize> = (0..desc.models.len())
+        .filter(|&i| matches!(desc.models[i].kind, KindDesc::Position(_)))
+        .collect();
+    for (n, &b) in bots.iter().enumerate() {
+        let laser = SensorDesc {
+            range: [0.0, 8.0],
+            fov: std::f64::consts::PI,
+            samples: 180,
+            color: Color::rgb(0.0, 0.0, 1.0),
+            ..SensorDesc::default()
+        };
+        let mut m = ModelDesc::new(&format!("laser{n}"), KindDesc::Ranger(vec![laser]));
+        m.size = [0.05, 0.05, 0.05];
+        desc.add(m, Some(b));
+    }
+    let gui = WorldGui::from_desc(&desc);
+    let world = World::from_desc(&desc, 1).expect("the generated world builds");
+    (world, gui)
+}
 
 /// Median of `samples` (sorted in place).
 fn median(samples: &mut [Duration]) -> Duration {
@@ -31,29 +59,56 @@ fn main() {
         .and_then(|i| args.get(i + 1)?.parse::<usize>().ok())
         .unwrap_or(1000);
     let frames = 30;
+    // parts can be switched off to see where the frame time goes
+    let no_footprints = args.iter().any(|a| a == "--no-footprints");
+    let no_bodies = args.iter().any(|a| a == "--no-bodies");
+    let no_cache = args.iter().any(|a| a == "--no-cache");
 
-    // the swarm world, with a laser on every robot (Stage's sicklaser: 180 rays over 180°)
-    let mut desc = swarm_world(robots, 1);
-    let bots: Vec<usize> = (0..desc.models.len())
-        .filter(|&i| matches!(desc.models[i].kind, KindDesc::Position(_)))
-        .collect();
-    for (n, &b) in bots.iter().enumerate() {
-        let laser = SensorDesc {
-            range: [0.0, 8.0],
-            fov: std::f64::consts::PI,
-            samples: 180,
-            color: Color::rgb(0.0, 0.0, 1.0),
-            ..SensorDesc::default()
-        };
-        let mut m = ModelDesc::new(&format!("laser{n}"), KindDesc::Ranger(vec![laser]));
-        m.size = [0.05, 0.05, 0.05];
-        desc.add(m, Some(b));
-    }
-    let gui = WorldGui::from_desc(&desc);
-    let mut world = World::from_desc(&desc, 1).expect("the generated world builds");
+    let world_file = args
+        .iter()
+        .position(|a| a == "--world")
+        .and_then(|i| args.get(i + 1).cloned());
+    let zoom = args
+        .iter()
+        .position(|a| a == "--zoom")
+        .and_then(|i| args.get(i + 1)?.parse::<f64>().ok())
+        .unwrap_or(1.0);
+    let (mut world, gui, window_vis, what) = match &world_file {
+        Some(f) => {
+            let spec = match worldfile::WorldSpec::load(
+                std::path::Path::new(f),
+                &worldfile::LoadOptions::from_env(),
+            ) {
+                Ok(s) => s,
+                Err(e) => {
+                    println!("skipping the frame benchmark: {e}");
+                    return;
+                }
+            };
+            let world = World::from_spec(&spec, 1).expect("the world builds");
+            let n = world.model_count();
+            (
+                world,
+                WorldGui::from_spec(&spec),
+                VisOptions::from_window(&spec.window.clone().unwrap_or_default()),
+                format!("{f} ({n} models)"),
+            )
+        }
+        None => {
+            let (world, gui) = swarm_with_lasers(robots);
+            (
+                world,
+                gui,
+                VisOptions::default(),
+                format!("{robots} robots with 180-ray lasers"),
+            )
+        }
+    };
     let vis = VisOptions {
         data: true,
-        ..VisOptions::default()
+        ranger_ranges: window_vis.ranger_ranges && !no_footprints,
+        blocks: !no_bodies,
+        ..window_vis
     };
     for m in world_scene::visualised_sensors(&world, &vis) {
         world.subscribe(m);
@@ -69,14 +124,16 @@ fn main() {
             return;
         }
     };
+    off.renderer_mut().set_layer_cache(!no_cache);
     let (min, max) = world_scene::world_extent(&world);
     let mut view = View {
         size: [1280.0, 720.0],
         ..View::default()
     };
     view.fit(min, max);
+    view.scale *= zoom;
     println!(
-        "frame benchmark: {robots} robots with 180-ray lasers, 1280x720, adapter {:?} ({:?})",
+        "frame benchmark: {what}, 1280x720, zoom {zoom}, adapter {:?} ({:?})",
         off.adapter_info().name,
         off.adapter_info().device_type
     );
@@ -110,6 +167,14 @@ fn main() {
     let segments: usize = scene.layers.iter().map(|l| l.segments.len()).sum();
     let triangles: usize = scene.layers.iter().map(|l| l.triangles.len() / 3).sum();
     println!("  per frame: {segments} segments, {triangles} triangles");
+    let names = ["grid", "static", "footprints", "bodies", "data", "overlay"];
+    let per_layer: Vec<String> = scene
+        .layers
+        .iter()
+        .zip(names)
+        .map(|(l, n)| format!("{n} {}+{}", l.triangles.len() / 3, l.segments.len()))
+        .collect();
+    println!("  triangles+segments by layer: {}", per_layer.join(", "));
     println!(
         "  scene build            {:8.2} ms (median of {frames})",
         ms(b)

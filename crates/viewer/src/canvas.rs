@@ -27,11 +27,11 @@ impl egui_wgpu::CallbackTrait for SceneCallback {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         _screen: &egui_wgpu::ScreenDescriptor,
-        _encoder: &mut wgpu::CommandEncoder,
+        encoder: &mut wgpu::CommandEncoder,
         resources: &mut egui_wgpu::CallbackResources,
     ) -> Vec<wgpu::CommandBuffer> {
         if let Some(r) = resources.get_mut::<SceneRenderer>() {
-            r.prepare(device, queue, &self.scene, &self.view);
+            r.prepare(device, queue, encoder, &self.scene, &self.view);
         }
         Vec::new()
     }

@@ -114,6 +114,11 @@ impl Offscreen {
         })
     }
 
+    /// The scene renderer (e.g. to turn its layer cache off for a comparison).
+    pub fn renderer_mut(&mut self) -> &mut SceneRenderer {
+        &mut self.renderer
+    }
+
     /// The adapter in use (name, backend, device type).
     pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
         &self.info
@@ -216,13 +221,14 @@ impl Offscreen {
         self.target(size);
         let mut v = *view;
         v.size = [size[0] as f64, size[1] as f64];
-        self.renderer.prepare(&self.device, &self.queue, scene, &v);
-        let t = self.target.as_ref().expect("target made above");
         let mut enc = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("offscreen frame"),
             });
+        self.renderer
+            .prepare(&self.device, &self.queue, &mut enc, scene, &v);
+        let t = self.target.as_ref().expect("target made above");
         {
             let bg = scene.background.0;
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {

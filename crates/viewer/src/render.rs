@@ -7,10 +7,18 @@
 //! rays are one draw call and no CPU tessellation), and textured quads for images. Every frame
 //! the scene's layers are uploaded into buffers that grow as needed and are reused; drawing is
 //! then a handful of calls per layer, back to front.
+//!
+//! The bottom layers (floor, grid and the bodies that never move: [`CACHED_LAYERS`]) are drawn
+//! into a texture of the target's size and copied in with one quad while their content, the
+//! view and the background stay the same (compared by a hash of the uploaded bytes, so any
+//! change — a static model moved, a colour, the zoom — redraws them). A large bitmap map is
+//! tens of thousands of triangles that a software rasteriser would otherwise pay every frame.
 
 use std::ops::Range;
 
-use crate::scene::{FillVertex, LAYERS, Scene, Segment};
+use std::hash::{DefaultHasher, Hasher};
+
+use crate::scene::{FillVertex, LAYERS, Layer, Scene, Segment};
 use crate::view::View;
 
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -53,9 +61,19 @@ impl GrowBuffer {
         }
     }
 
-    fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
+    /// Writes `bytes[from..]` at the same offset (all of it when the buffer has to grow, which
+    /// loses the old contents); `from` must be a multiple of 4.
+    fn upload_from(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        bytes: &[u8],
+        from: usize,
+    ) {
         let need = bytes.len() as u64;
+        let mut from = from.min(bytes.len());
         if need > self.cap {
+            from = 0;
             self.cap = need.next_power_of_two();
             self.buf = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(self.label),
@@ -64,8 +82,8 @@ impl GrowBuffer {
                 mapped_at_creation: false,
             });
         }
-        if !bytes.is_empty() {
-            queue.write_buffer(&self.buf, 0, bytes);
+        if from < bytes.len() {
+            queue.write_buffer(&self.buf, from as u64, &bytes[from..]);
         }
     }
 }
@@ -83,6 +101,30 @@ struct LayerDraw {
     images: Range<usize>,
 }
 
+/// Layers `0..CACHED_LAYERS` (grid and static bodies) are drawn once into a texture and reused
+/// while they are unchanged.
+pub const CACHED_LAYERS: usize = Layer::Static as usize + 1;
+
+/// The drawing of the cached layers, texel for pixel.
+struct LayerCache {
+    /// What the drawing was made from (`None` until one is made): compared exactly, byte for
+    /// byte, each frame; cheaper than hashing megabytes of floorplan vertices.
+    source: Option<CacheSource>,
+    size: [u32; 2],
+    view: wgpu::TextureView,
+    bind: wgpu::BindGroup,
+}
+
+/// Everything a drawing of the cached layers depends on.
+struct CacheSource {
+    globals: [u8; std::mem::size_of::<Globals>()],
+    background: [u8; 4],
+    fills: Vec<FillVertex>,
+    segments: Vec<Segment>,
+    /// Hash of the cached layers' images (rare; hashed rather than copied).
+    images: u64,
+}
+
 /// Pipelines and per-frame buffers for drawing scenes into targets of one format and sample
 /// count. Create one per target kind; call [`SceneRenderer::prepare`] then
 /// [`SceneRenderer::paint`] each frame.
@@ -90,6 +132,16 @@ pub struct SceneRenderer {
     fill_pipeline: wgpu::RenderPipeline,
     segment_pipeline: wgpu::RenderPipeline,
     image_pipeline: wgpu::RenderPipeline,
+    blit_pipeline: wgpu::RenderPipeline,
+    format: wgpu::TextureFormat,
+    cache: Option<LayerCache>,
+    // whether the layer cache may be used (single-sample, non-sRGB targets), and whether the
+    // last prepared frame paints from it
+    cache_allowed: bool,
+    cache_enabled: bool,
+    cache_in_use: bool,
+    cache_hits: u64,
+    blit_sampler: wgpu::Sampler,
     globals: wgpu::Buffer,
     globals_bind: wgpu::BindGroup,
     image_layout: wgpu::BindGroupLayout,
@@ -176,16 +228,23 @@ impl SceneRenderer {
                 bind_group_layouts: &[Some(&globals_layout), Some(&image_layout)],
                 immediate_size: 0,
             });
-        let targets = [Some(wgpu::ColorTargetState {
+        let blended = [Some(wgpu::ColorTargetState {
             format,
             blend: Some(wgpu::BlendState::ALPHA_BLENDING),
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+        // the cached layers are copied in as they are (colour and alpha)
+        let replaced = [Some(wgpu::ColorTargetState {
+            format,
+            blend: None,
             write_mask: wgpu::ColorWrites::ALL,
         })];
         let pipeline = |label: &str,
                         layout: &wgpu::PipelineLayout,
                         vs: &str,
                         fs: &str,
-                        buffers: &[Option<wgpu::VertexBufferLayout<'_>>]| {
+                        buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+                        targets: &[Option<wgpu::ColorTargetState>]| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(layout),
@@ -210,7 +269,7 @@ impl SceneRenderer {
                     module: &module,
                     entry_point: Some(fs),
                     compilation_options: Default::default(),
-                    targets: &targets,
+                    targets,
                 }),
                 multiview_mask: None,
                 cache: None,
@@ -226,6 +285,7 @@ impl SceneRenderer {
                 step_mode: wgpu::VertexStepMode::Vertex,
                 attributes: &wgpu::vertex_attr_array![0 => Float32x2, 1 => Unorm8x4],
             })],
+            &blended,
         );
         let segment_pipeline = pipeline(
             "scene segments",
@@ -239,6 +299,7 @@ impl SceneRenderer {
                     0 => Float32x2, 1 => Float32x2, 2 => Float32, 3 => Unorm8x4
                 ],
             })],
+            &blended,
         );
         let image_pipeline = pipeline(
             "scene images",
@@ -250,11 +311,35 @@ impl SceneRenderer {
                 step_mode: wgpu::VertexStepMode::Vertex,
                 attributes: &wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x2],
             })],
+            &blended,
         );
+        let blit_pipeline = pipeline(
+            "scene layer cache",
+            &image_pipeline_layout,
+            "vs_blit",
+            "fs_blit",
+            &[],
+            &replaced,
+        );
+        let blit_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("scene layer cache sampler"),
+            mag_filter: wgpu::FilterMode::Nearest,
+            min_filter: wgpu::FilterMode::Nearest,
+            ..Default::default()
+        });
+        let cache_allowed = samples <= 1 && !format.is_srgb();
         SceneRenderer {
             fill_pipeline,
             segment_pipeline,
             image_pipeline,
+            blit_pipeline,
+            format,
+            cache: None,
+            cache_allowed,
+            cache_enabled: cache_allowed,
+            cache_in_use: false,
+            cache_hits: 0,
+            blit_sampler,
             globals,
             globals_bind,
             image_layout,
@@ -269,11 +354,28 @@ impl SceneRenderer {
         }
     }
 
-    /// Uploads `scene` as seen through `view` (whose `size` is the target's size in pixels).
+    /// Turns the layer cache on or off (on by default where the target allows it: one sample
+    /// per pixel and a non-sRGB format, whose stored values are final). Off draws every layer
+    /// every frame; the pictures are the same.
+    pub fn set_layer_cache(&mut self, on: bool) {
+        self.cache_enabled = on && self.cache_allowed;
+        if !self.cache_enabled {
+            self.cache = None;
+        }
+    }
+
+    /// How many prepared frames reused the cached layers instead of drawing them.
+    pub fn layer_cache_hits(&self) -> u64 {
+        self.cache_hits
+    }
+
+    /// Uploads `scene` as seen through `view` (whose `size` is the target's size in pixels),
+    /// recording into `encoder` the redraw of the cached layers when they changed.
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
         scene: &Scene,
         view: &View,
     ) {
@@ -304,10 +406,151 @@ impl SceneRenderer {
                 images: i0..self.images.len(),
             };
         }
+        let size = [g.viewport[0].round() as u32, g.viewport[1].round() as u32];
+        let cacheable =
+            self.cache_enabled && (1..=8192).contains(&size[0]) && (1..=8192).contains(&size[1]);
+        let hit = cacheable && self.cache_matches(scene, &g, size);
+        // on a hit the cached layers are not drawn, so their vertices need not be sent again
+        let (f0, s0) = if hit {
+            (
+                self.draws[CACHED_LAYERS].fills.start as usize * std::mem::size_of::<FillVertex>(),
+                self.draws[CACHED_LAYERS].segments.start as usize * std::mem::size_of::<Segment>(),
+            )
+        } else {
+            (0, 0)
+        };
         self.fills
-            .upload(device, queue, bytemuck::cast_slice(&self.fill_bytes));
+            .upload_from(device, queue, bytemuck::cast_slice(&self.fill_bytes), f0);
         self.segments
-            .upload(device, queue, bytemuck::cast_slice(&self.segment_bytes));
+            .upload_from(device, queue, bytemuck::cast_slice(&self.segment_bytes), s0);
+        if hit {
+            self.cache_hits += 1;
+        } else if cacheable {
+            self.redraw_cache(device, encoder, scene, &g, size);
+        }
+        self.cache_in_use = cacheable;
+    }
+
+    /// The cached layers' vertex ranges in the staging arrays.
+    fn cached_ranges(&self) -> (Range<usize>, Range<usize>) {
+        (
+            self.draws[0].fills.start as usize..self.draws[CACHED_LAYERS - 1].fills.end as usize,
+            self.draws[0].segments.start as usize
+                ..self.draws[CACHED_LAYERS - 1].segments.end as usize,
+        )
+    }
+
+    /// Whether the cache holds a drawing of exactly this frame's cached layers.
+    fn cache_matches(&self, scene: &Scene, g: &Globals, size: [u32; 2]) -> bool {
+        let Some(LayerCache {
+            source: Some(src),
+            size: csize,
+            ..
+        }) = &self.cache
+        else {
+            return false;
+        };
+        let (fills, segments) = self.cached_ranges();
+        *csize == size
+            && src.globals[..] == *bytemuck::bytes_of(g)
+            && src.background == scene.background.0
+            && bytes_eq(&src.fills, &self.fill_bytes[fills])
+            && bytes_eq(&src.segments, &self.segment_bytes[segments])
+            && src.images == images_hash(scene)
+    }
+
+    /// Draws the cached layers into the cache texture (made or resized as needed) and records
+    /// what they were drawn from.
+    fn redraw_cache(
+        &mut self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &Scene,
+        g: &Globals,
+        size: [u32; 2],
+    ) {
+        if self.cache.as_ref().is_none_or(|c| c.size != size) {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("scene layer cache"),
+                size: wgpu::Extent3d {
+                    width: size[0],
+                    height: size[1],
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: self.format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("scene layer cache"),
+                layout: &self.image_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(&view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::Sampler(&self.blit_sampler),
+                    },
+                ],
+            });
+            self.cache = Some(LayerCache {
+                source: None,
+                size,
+                view,
+                bind,
+            });
+        }
+        let cache = self.cache.as_ref().expect("cache made above");
+        let bg = scene.background.0;
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("scene layer cache"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &cache.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: bg[0] as f64 / 255.0,
+                            g: bg[1] as f64 / 255.0,
+                            b: bg[2] as f64 / 255.0,
+                            a: bg[3] as f64 / 255.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.globals_bind, &[]);
+            self.draw_layers(&mut pass, 0..CACHED_LAYERS);
+        }
+        let (fills, segments) = self.cached_ranges();
+        let mut globals = [0u8; std::mem::size_of::<Globals>()];
+        globals.copy_from_slice(bytemuck::bytes_of(g));
+        // reuse the old snapshot's allocations
+        let old = self.cache.as_mut().and_then(|c| c.source.take());
+        let (mut f, mut sg) = old.map(|o| (o.fills, o.segments)).unwrap_or_default();
+        f.clear();
+        f.extend_from_slice(&self.fill_bytes[fills]);
+        sg.clear();
+        sg.extend_from_slice(&self.segment_bytes[segments]);
+        self.cache.as_mut().expect("cache made above").source = Some(CacheSource {
+            globals,
+            background: bg,
+            fills: f,
+            segments: sg,
+            images: images_hash(scene),
+        });
     }
 
     fn upload_image(
@@ -387,7 +630,20 @@ impl SceneRenderer {
     /// Records the draws of the last prepared scene into `pass` (whose viewport is the canvas).
     pub fn paint(&self, pass: &mut wgpu::RenderPass<'_>) {
         pass.set_bind_group(0, &self.globals_bind, &[]);
-        for d in &self.draws {
+        match (&self.cache, self.cache_in_use) {
+            (Some(cache), true) => {
+                pass.set_pipeline(&self.blit_pipeline);
+                pass.set_bind_group(1, &cache.bind, &[]);
+                pass.draw(0..6, 0..1);
+                self.draw_layers(pass, CACHED_LAYERS..LAYERS);
+            }
+            _ => self.draw_layers(pass, 0..LAYERS),
+        }
+    }
+
+    /// Records the draws of `layers` (the globals bind group must be set).
+    fn draw_layers(&self, pass: &mut wgpu::RenderPass<'_>, layers: Range<usize>) {
+        for d in &self.draws[layers] {
             if !d.fills.is_empty() {
                 pass.set_pipeline(&self.fill_pipeline);
                 pass.set_vertex_buffer(0, self.fills.buf.slice(..));
@@ -406,4 +662,24 @@ impl SceneRenderer {
             }
         }
     }
+}
+
+/// Byte equality (a `memcmp`; float `==` would treat NaN and ±0 specially and compare slower).
+fn bytes_eq<T: bytemuck::Pod>(a: &[T], b: &[T]) -> bool {
+    bytemuck::cast_slice::<T, u8>(a) == bytemuck::cast_slice::<T, u8>(b)
+}
+
+/// Hash of the cached layers' images (their placement, size and texels).
+fn images_hash(scene: &Scene) -> u64 {
+    let mut h = DefaultHasher::new();
+    for layer in &scene.layers[..CACHED_LAYERS] {
+        h.write_usize(layer.images.len());
+        for img in &layer.images {
+            h.write(bytemuck::cast_slice(&img.corners));
+            h.write_u32(img.width);
+            h.write_u32(img.height);
+            h.write(&img.rgba);
+        }
+    }
+    h.finish()
 }

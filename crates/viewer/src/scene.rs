@@ -109,18 +109,23 @@ pub struct Label {
 pub enum Layer {
     /// Floor grid and map images.
     Grid = 0,
-    /// Translucent sensor footprints (ranger scans), under the bodies as in Stage.
-    Footprints = 1,
-    /// Model bodies.
-    Bodies = 2,
+    /// Bodies of models that never move (floorplans, walls, furniture). Kept apart from the
+    /// moving ones because this layer and the grid change only with the view: the renderer
+    /// draws both once into a texture and reuses it while they stay the same
+    /// ([`crate::render`]), which is most of the triangles of a large map.
+    Static = 1,
+    /// Translucent sensor footprints (ranger scans), under the moving bodies as in Stage.
+    Footprints = 2,
+    /// Bodies of models that move (or may be moved).
+    Bodies = 3,
     /// Sensor data: rays, links, beams, blob images.
-    Data = 3,
+    Data = 4,
     /// Selection, noses, bubbles, the playerv target: always on top.
-    Overlay = 4,
+    Overlay = 5,
 }
 
 /// Number of [`Layer`]s.
-pub const LAYERS: usize = 5;
+pub const LAYERS: usize = 6;
 
 /// The primitives of one layer.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -142,6 +147,10 @@ pub struct Scene {
     pub layers: [LayerData; LAYERS],
     /// Text labels (drawn last, by egui).
     pub labels: Vec<Label>,
+    /// What built the [`Layer::Static`] primitives, when the builder can tell (`None`: unknown):
+    /// lets a builder keep that layer instead of rebuilding it (a floorplan is tens of
+    /// thousands of triangles).
+    pub static_key: Option<u64>,
 }
 
 impl Default for Scene {
@@ -157,15 +166,28 @@ impl Scene {
             background,
             layers: Default::default(),
             labels: Vec::new(),
+            static_key: None,
         }
     }
 
     /// Empties the scene, keeping its allocations (scenes are rebuilt every frame).
     pub fn clear(&mut self) {
-        for l in &mut self.layers {
+        self.clear_keeping_static(false);
+    }
+
+    /// Empties the scene but for the [`Layer::Static`] primitives and their
+    /// [`Scene::static_key`] when `keep_static` is set.
+    pub fn clear_keeping_static(&mut self, keep_static: bool) {
+        for (i, l) in self.layers.iter_mut().enumerate() {
+            if keep_static && i == Layer::Static as usize {
+                continue;
+            }
             l.triangles.clear();
             l.segments.clear();
             l.images.clear();
+        }
+        if !keep_static {
+            self.static_key = None;
         }
         self.labels.clear();
     }

@@ -102,3 +102,20 @@ fn vs_image(@location(0) pos: vec2<f32>, @location(1) uv: vec2<f32>) -> ImageOut
 fn fs_image(i: ImageOut) -> @location(0) vec4<f32> {
     return out_color(textureSample(image_tex, image_sampler, i.uv));
 }
+
+// The cached bottom layers: one quad over the whole viewport, texel for pixel, copied as stored
+// (the cache is only used on targets whose stored values are final, so no colour conversion).
+@vertex
+fn vs_blit(@builtin(vertex_index) vi: u32) -> ImageOut {
+    var xs = array<f32, 6>(-1.0, 1.0, 1.0, -1.0, 1.0, -1.0);
+    var ys = array<f32, 6>(1.0, 1.0, -1.0, 1.0, -1.0, -1.0);
+    var o: ImageOut;
+    o.pos = vec4<f32>(xs[vi], ys[vi], 0.0, 1.0);
+    o.uv = vec2<f32>((xs[vi] + 1.0) * 0.5, (1.0 - ys[vi]) * 0.5);
+    return o;
+}
+
+@fragment
+fn fs_blit(i: ImageOut) -> @location(0) vec4<f32> {
+    return textureSample(image_tex, image_sampler, i.uv);
+}

@@ -7,6 +7,7 @@
 use stage_sim::{KindDesc, ModelId, Pose, World, WorldDesc};
 use worldfile::{WindowSpec, WorldSpec};
 
+use crate::lod;
 use crate::scene::{Layer, Rgba8, Scene};
 use crate::view::View;
 
@@ -250,7 +251,10 @@ pub fn build(
     selected: &[ModelId],
     scene: &mut Scene,
 ) {
-    scene.clear();
+    // the static models are drawn again only when they or the view changed
+    let static_key = vis.blocks.then(|| static_key(world, gui, view));
+    let keep_static = static_key.is_some() && scene.static_key == static_key;
+    scene.clear_keeping_static(keep_static);
     scene.background = BACKGROUND;
     let px = view.pixel();
     let (emin, emax) = world_extent(world);
@@ -259,7 +263,8 @@ pub fn build(
         grid(scene, view, emin, emax);
     }
     if vis.blocks {
-        bodies(world, gui, px, scene);
+        bodies(world, gui, px, view.visible_world(), !keep_static, scene);
+        scene.static_key = static_key;
     }
     if vis.bounding_boxes {
         for m in world.models() {
@@ -272,8 +277,9 @@ pub fn build(
         }
     }
     if vis.data {
+        let visible = view.visible_world();
         for m in world.models() {
-            data(world, gui, vis, view, m, scene);
+            data(world, gui, vis, view, visible, m, scene);
         }
     }
     if vis.speech {
@@ -328,7 +334,20 @@ fn grid(scene: &mut Scene, view: &View, emin: [f64; 2], emax: [f64; 2]) {
 
 /// Model bodies, lowest first (Stage draws in 3D: what is higher covers what is lower), each
 /// block filled in its colour with a darker outline, plus noses, model grids and outlines.
-fn bodies(world: &World, gui: &WorldGui, px: f64, scene: &mut Scene) {
+/// Bodies narrower than this many pixels are drawn as one dot (their box, grown by the
+/// outline's half width, in the outline colour): at that size the ten triangles of fill,
+/// outline and nose cover the same one or two pixels, and a software rasteriser pays per
+/// triangle (1,000 swarmbots: 10,000 triangles → 2,000).
+const BODY_DOT_PX: f64 = 2.0;
+
+fn bodies(
+    world: &World,
+    gui: &WorldGui,
+    px: f64,
+    visible: ([f64; 2], [f64; 2]),
+    draw_static: bool,
+    scene: &mut Scene,
+) {
     let mut order: Vec<(f64, ModelId)> = world
         .models()
         .filter_map(|m| {
@@ -342,23 +361,56 @@ fn bodies(world: &World, gui: &WorldGui, px: f64, scene: &mut Scene) {
         })
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (vmin, vmax) = visible;
     for (_, m) in order {
         let body = world.body(m);
         let g = gui.get(m);
+        let (bmin, bmax) = (body.aabb.min, body.aabb.max);
+        // off screen (with a margin for outlines and noses): nothing to draw
+        let margin = 4.0 * px;
+        if bmax[0] < vmin[0] - margin
+            || bmax[1] < vmin[1] - margin
+            || bmin[0] > vmax[0] + margin
+            || bmin[1] > vmax[1] + margin
+        {
+            continue;
+        }
+        // what never moves is drawn under everything that does (the renderer caches it); only
+        // a moving model passing under a taller static one, which collisions rule out for
+        // everything solid, would be stacked differently from Stage
+        let layer = if world.space().is_static(m.0) {
+            if !draw_static {
+                continue;
+            }
+            Layer::Static
+        } else {
+            Layer::Bodies
+        };
+        if (bmax[0] - bmin[0]).max(bmax[1] - bmin[1]) < BODY_DOT_PX * px && !g.grid && !g.outline {
+            let h = 0.5 * px;
+            let color = Rgba8::from_color(&world.block_color(m, 0)).darker(0.5);
+            scene.fill_rect(
+                layer,
+                [bmin[0] - h, bmin[1] - h],
+                [bmax[0] + h, bmax[1] + h],
+                color,
+            );
+            continue;
+        }
         for k in 0..body.blocks.len() {
             let pts = body.block_pts(k);
             let color = Rgba8::from_color(&world.block_color(m, k));
             if pts.len() >= 3 {
-                scene.fill(Layer::Bodies, pts, color);
+                scene.fill(layer, pts, color);
             }
-            scene.stroke_outline(Layer::Bodies, pts, px, color.darker(0.5));
+            scene.stroke_outline(layer, pts, px, color.darker(0.5));
         }
         if g.grid {
-            model_grid(world, m, px, scene);
+            model_grid(world, m, layer, px, scene);
         }
         if g.outline {
             let r = size_rect(world, m);
-            scene.stroke_outline(Layer::Bodies, &r, px, Rgba8::BLACK);
+            scene.stroke_outline(layer, &r, px, Rgba8::BLACK);
         }
         if g.nose {
             let f = body_frame(world, m);
@@ -366,13 +418,79 @@ fn bodies(world: &World, gui: &WorldGui, px: f64, scene: &mut Scene) {
             let a = transform(&f, [0.0, 0.0]);
             let b = transform(&f, [sx / 2.0, 0.0]);
             let c = Rgba8::from_color(&world.color(m)).darker(0.4);
-            scene.stroke(Layer::Bodies, a, b, 2.0 * px, c);
+            scene.stroke(layer, a, b, 2.0 * px, c);
         }
     }
 }
 
+/// A fingerprint of everything the static models' drawing depends on: the view, and per
+/// static model its id, gui flags, colours, heights and outline. Cheap next to drawing them.
+fn static_key(world: &World, gui: &WorldGui, view: &View) -> u64 {
+    let mut h = WordHash::default();
+    for v in [
+        view.center[0],
+        view.center[1],
+        view.scale,
+        view.yaw,
+        view.size[0],
+        view.size[1],
+    ] {
+        h.f(v);
+    }
+    for m in world.models() {
+        if !world.space().is_static(m.0) {
+            continue;
+        }
+        let g = gui.get(m);
+        h.u(u64::from(m.0) << 3
+            | u64::from(g.nose) << 2
+            | u64::from(g.grid) << 1
+            | u64::from(g.outline));
+        let body = world.body(m);
+        h.u(body.blocks.len() as u64);
+        for (k, blk) in body.blocks.iter().enumerate() {
+            let c = world.block_color(m, k);
+            h.f(c.r);
+            h.f(c.g);
+            h.f(c.b);
+            h.f(c.a);
+            h.f(blk.zmax);
+            h.u(body.block_pts(k).len() as u64);
+        }
+        for p in &body.pts {
+            h.f(p[0]);
+            h.f(p[1]);
+        }
+        let f = body_frame(world, m);
+        h.f(f.x);
+        h.f(f.y);
+        h.f(f.a);
+        let n = world.node(m).size;
+        h.f(n[0]);
+        h.f(n[1]);
+        h.f(world.color(m).r);
+        h.f(world.color(m).g);
+        h.f(world.color(m).b);
+    }
+    h.0
+}
+
+/// A fast multiply–rotate word hash (a cache key, not a defence against crafted input).
+#[derive(Default)]
+struct WordHash(u64);
+
+impl WordHash {
+    fn u(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+
+    fn f(&mut self, v: f64) {
+        self.u(v.to_bits());
+    }
+}
+
 /// `gui_grid`: 1 m lines across the model's size rectangle, in its frame.
-fn model_grid(world: &World, m: ModelId, px: f64, scene: &mut Scene) {
+fn model_grid(world: &World, m: ModelId, layer: Layer, px: f64, scene: &mut Scene) {
     let f = body_frame(world, m);
     let [sx, sy, _] = world.node(m).size;
     let (hx, hy) = (sx / 2.0, sy / 2.0);
@@ -383,7 +501,7 @@ fn model_grid(world: &World, m: ModelId, px: f64, scene: &mut Scene) {
     let mut x = (-hx).ceil();
     while x <= hx {
         scene.stroke(
-            Layer::Bodies,
+            layer,
             transform(&f, [x, -hy]),
             transform(&f, [x, hy]),
             px,
@@ -394,7 +512,7 @@ fn model_grid(world: &World, m: ModelId, px: f64, scene: &mut Scene) {
     let mut y = (-hy).ceil();
     while y <= hy {
         scene.stroke(
-            Layer::Bodies,
+            layer,
             transform(&f, [-hx, y]),
             transform(&f, [hx, y]),
             px,
@@ -410,13 +528,14 @@ fn data(
     gui: &WorldGui,
     vis: &VisOptions,
     view: &View,
+    visible: ([f64; 2], [f64; 2]),
     m: ModelId,
     scene: &mut Scene,
 ) {
     let px = view.pixel();
     let frame = body_frame(world, m);
     if let Some(r) = world.ranger_scans(m) {
-        ranger(&frame, r, vis, px, scene);
+        ranger(&frame, r, vis, px, visible, scene);
     }
     if let Some(f) = world.fiducials(m) {
         if vis.fiducial {
@@ -515,10 +634,29 @@ fn data(
 }
 
 /// Ranger scans: footprint fans, rays, strikes, fields of view and transducers.
-fn ranger(frame: &Pose, r: &stage_sim::RangerData, vis: &VisOptions, px: f64, scene: &mut Scene) {
+///
+/// Level of detail keeps 1,000 lasers cheap without changing the picture by more than half a
+/// pixel: sensors whose reach is off screen are skipped, footprint rims are thinned to the
+/// points that matter at that tolerance ([`lod::simplify_rim`]), sonar cones get as many chords
+/// as their arc needs, and a ray or strike landing within a pixel of the previous one drawn is
+/// left out (rays share their origin, so the two lines are within a pixel all along).
+fn ranger(
+    frame: &Pose,
+    r: &stage_sim::RangerData,
+    vis: &VisOptions,
+    px: f64,
+    (vmin, vmax): ([f64; 2], [f64; 2]),
+    scene: &mut Scene,
+) {
+    let tol = 0.5 * px;
+    let mut keep = Vec::new();
     for (k, sensor) in r.sensors.iter().enumerate() {
         let origin = frame.compose(&sensor.pose);
         let o = [origin.x, origin.y];
+        let reach = sensor.range[1].max(sensor.size[0].hypot(sensor.size[1]));
+        if !lod::disc_touches_box(o, reach, vmin, vmax) {
+            continue;
+        }
         let color = Rgba8::from_color(&sensor.color);
         if vis.ranger_transducers {
             let (hx, hy) = (sensor.size[0] / 2.0, sensor.size[1] / 2.0);
@@ -552,37 +690,54 @@ fn ranger(frame: &Pose, r: &stage_sim::RangerData, vis: &VisOptions, px: f64, sc
                 // a single-sample transducer (sonar): its cone at the measured range
                 let half = sensor.fov / 2.0;
                 let rr = scan.ranges[0];
-                let rim: Vec<[f64; 2]> = (0..=8)
+                let chords = lod::arc_segments(rr, sensor.fov, tol, 32);
+                let rim: Vec<[f64; 2]> = (0..=chords)
                     .map(|i| {
-                        let a = origin.a + scan.bearings[0] - half + sensor.fov * i as f64 / 8.0;
+                        let a = origin.a + scan.bearings[0] - half
+                            + sensor.fov * i as f64 / chords as f64;
                         [o[0] + rr * a.cos(), o[1] + rr * a.sin()]
                     })
                     .collect();
                 scene.fan(Layer::Footprints, o, &rim, color.with_alpha(40));
             } else {
-                scene.fan(Layer::Footprints, o, &ends, color.with_alpha(40));
+                lod::simplify_rim(&ends, tol, &mut keep);
+                let rim: Vec<[f64; 2]> = keep.iter().map(|&i| ends[i]).collect();
+                scene.fan(Layer::Footprints, o, &rim, color.with_alpha(40));
             }
         }
         if vis.ranger_beams {
             let c = color.with_alpha(150);
+            let mut last: Option<[f64; 2]> = None;
             for e in &ends {
+                if last.is_some_and(|l| near(*e, l, px)) {
+                    continue;
+                }
                 scene.line(Layer::Data, o, *e, 1.0, c);
+                last = Some(*e);
             }
         }
         if vis.ranger_strikes {
             let d = 1.5 * px;
+            let mut last: Option<[f64; 2]> = None;
             for (i, e) in ends.iter().enumerate() {
-                if scan.ranges[i] < sensor.range[1] {
+                if scan.ranges[i] < sensor.range[1] && !last.is_some_and(|l| near(*e, l, px)) {
                     scene.fill_rect(
                         Layer::Data,
                         [e[0] - d, e[1] - d],
                         [e[0] + d, e[1] + d],
                         color,
                     );
+                    last = Some(*e);
                 }
             }
         }
     }
+}
+
+/// Whether `a` and `b` are less than `d` apart.
+fn near(a: [f64; 2], b: [f64; 2], d: f64) -> bool {
+    let (x, y) = (a[0] - b[0], a[1] - b[1]);
+    x * x + y * y < d * d
 }
 
 /// A field-of-view wedge outline from `frame` (centred on its heading).

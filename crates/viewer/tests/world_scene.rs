@@ -41,11 +41,17 @@ fn bodies_and_rays_follow_the_view_menu() {
         ranger_strikes: true,
         ..VisOptions::default()
     };
-    world_scene::build(&world, &gui, &on, &view(), &[], &mut scene);
-    let rays = &scene.layer(Layer::Data).segments;
+    // zoomed in (400 px/m) every ray lands more than a pixel from its neighbour: all are drawn
+    let close = View {
+        scale: 400.0,
+        center: [1.0, 0.0],
+        ..view()
+    };
+    world_scene::build(&world, &gui, &on, &close, &[], &mut scene);
+    let rays = scene.layer(Layer::Data).segments.clone();
     assert_eq!(rays.len(), 181, "one segment per ray");
     // every ray starts at the laser and the straight-ahead one ends on the top wall's face
-    for r in rays {
+    for r in &rays {
         assert!((r.a[0] - 1.0).abs() < 1e-4 && (r.a[1] + 1.0).abs() < 1e-4);
     }
     let ahead = rays[90];
@@ -53,10 +59,40 @@ fn bodies_and_rays_follow_the_view_menu() {
         (ahead.b[0] - 1.0).abs() < 1e-3 && (ahead.b[1] - 3.0).abs() < 1e-3,
         "{ahead:?}"
     );
-    // footprints: a fan of 180 triangles
-    assert_eq!(scene.layer(Layer::Footprints).triangles.len(), 180 * 3);
     // strikes: a dot for every ray that hit something (the ones to the right escape the world)
     assert!(!scene.layer(Layer::Data).triangles.is_empty());
+
+    // at 5 px/m rays ending within a pixel of the previous one drawn are left out, and the
+    // footprint fan keeps only the rim points that matter at half a pixel (straight walls need
+    // their ends only): fewer primitives, the same picture
+    let distant = View {
+        scale: 5.0,
+        ..view()
+    };
+    world_scene::build(&world, &gui, &on, &distant, &[], &mut scene);
+    let far = scene.layer(Layer::Data).segments.clone();
+    assert!(far.len() < 181 && far.len() > 30, "{} rays", far.len());
+    // the first ray is always drawn
+    assert!((far[0].b[0] - rays[0].b[0]).abs() < 1e-4 && (far[0].b[1] - rays[0].b[1]).abs() < 1e-4);
+    let px = 1.0 / 5.0;
+    for w in far.windows(2) {
+        let gap = (w[0].b[0] - w[1].b[0]).hypot(w[0].b[1] - w[1].b[1]) as f64;
+        assert!(gap >= px * 0.999, "rays drawn {gap} m apart");
+    }
+    let fan = &scene.layer(Layer::Footprints).triangles;
+    assert_eq!(fan.len() % 3, 0);
+    assert!(
+        fan.len() >= 2 * 3 && fan.len() < 180 * 3,
+        "{} fan vertices",
+        fan.len()
+    );
+    for t in fan.chunks(3) {
+        assert!((t[0].pos[0] - 1.0).abs() < 1e-4 && (t[0].pos[1] + 1.0).abs() < 1e-4);
+    }
+    // consecutive fan triangles share their rim edge, so the footprint has no gaps
+    for w in fan.chunks(3).collect::<Vec<_>>().windows(2) {
+        assert_eq!(w[0][2].pos, w[1][1].pos);
+    }
 
     let no_grid = VisOptions {
         grid: false,
@@ -188,4 +224,48 @@ fn every_stage_world_builds_a_scene() {
     }
     eprintln!("{built} of {} Stage worlds drawn", worlds.len());
     assert!(built * 2 >= worlds.len());
+}
+
+/// The static layer is kept from the last frame while nothing it depends on changed, and the
+/// kept scene is exactly what a fresh build gives; a recoloured wall or a moved view rebuilds it.
+#[test]
+fn static_layer_is_reused_only_while_unchanged() {
+    let (mut world, gui) = common::known_world();
+    let vis = VisOptions::default();
+    let walls = world.model_by_name("walls").expect("walls");
+    let fresh = |world: &stage_sim::World, view: &View| {
+        let mut s = Scene::default();
+        world_scene::build(world, &gui, &vis, view, &[], &mut s);
+        s
+    };
+    let v = view();
+    let mut reused = Scene::default();
+    world_scene::build(&world, &gui, &vis, &v, &[], &mut reused);
+    let key = reused.static_key.expect("a key for the static layer");
+    assert!(
+        has_color(&reused, Layer::Static, Rgba8::BLACK),
+        "the walls are in the static layer"
+    );
+    for _ in 0..5 {
+        world.step();
+    }
+    // a robot moved: only the dynamic layers change
+    world_scene::build(&world, &gui, &vis, &v, &[], &mut reused);
+    assert_eq!(reused.static_key, Some(key));
+    assert_eq!(reused, fresh(&world, &v));
+
+    // a recoloured wall must show
+    world.set_color(walls, stage_sim::Color::rgb(0.0, 1.0, 0.0));
+    world_scene::build(&world, &gui, &vis, &v, &[], &mut reused);
+    assert_ne!(reused.static_key, Some(key));
+    assert!(has_color(&reused, Layer::Static, Rgba8::rgb(0, 255, 0)));
+    assert_eq!(reused, fresh(&world, &v));
+
+    // and so must a new view
+    let moved = View {
+        center: [v.center[0] + 1.0, v.center[1]],
+        ..v
+    };
+    world_scene::build(&world, &gui, &vis, &moved, &[], &mut reused);
+    assert_eq!(reused, fresh(&world, &moved));
 }

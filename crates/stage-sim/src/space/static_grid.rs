@@ -59,9 +59,12 @@ impl StaticGrid {
         let origin = [bounds.min[0] - margin, bounds.min[1] - margin];
         let w = bounds.max[0] - bounds.min[0] + 2.0 * margin;
         let h = bounds.max[1] - bounds.min[1] + 2.0 * margin;
-        // cells about twice the mean edge length: few edges per cell, short walks
+        // cells half the mean edge length: bitmap floorplans are many rectangles whose edges
+        // crowd wall cells, and the empty-space jumps make the extra open cells nearly free
+        // (callgrind, instructions per step against 2× the mean: simple.world −17%,
+        // hospital −6%, cave −3%)
         let mean = len / edges.len() as f64;
-        let mut cell = (2.0 * mean).clamp(0.05, 4.0);
+        let mut cell = (0.5 * mean).clamp(0.05, 4.0);
         let min_cell = (w * h / MAX_CELLS).sqrt();
         if cell < min_cell {
             cell = min_cell;

@@ -6,7 +6,9 @@
 //! `--no-footprints` / `--no-bodies` to leave those out and see what they cost, `--no-cache`
 //! to draw the grid and static bodies every frame instead of reusing them, `--world FILE`
 //! for a worldfile instead, drawn with its `window` settings and data on, `--zoom F` to magnify
-//! the whole-world view F times about its centre).
+//! the whole-world view F times about its centre, `--window-view` to draw exactly the view the
+//! worldfile's `window` asks for: its size, scale, centre and rotation, `--steps N` to step the
+//! world N times (default 5) before measuring, e.g. until a swarm has spread out).
 
 use std::time::{Duration, Instant};
 
@@ -63,6 +65,12 @@ fn main() {
     let no_footprints = args.iter().any(|a| a == "--no-footprints");
     let no_bodies = args.iter().any(|a| a == "--no-bodies");
     let no_cache = args.iter().any(|a| a == "--no-cache");
+    let window_view = args.iter().any(|a| a == "--window-view");
+    let warm: u64 = args
+        .iter()
+        .position(|a| a == "--steps")
+        .and_then(|i| args.get(i + 1)?.parse().ok())
+        .unwrap_or(5);
 
     let world_file = args
         .iter()
@@ -73,6 +81,7 @@ fn main() {
         .position(|a| a == "--zoom")
         .and_then(|i| args.get(i + 1)?.parse::<f64>().ok())
         .unwrap_or(1.0);
+    let mut file_view = None;
     let (mut world, gui, window_vis, what) = match &world_file {
         Some(f) => {
             let spec = match worldfile::WorldSpec::load(
@@ -86,6 +95,7 @@ fn main() {
                 }
             };
             let world = World::from_spec(&spec, 1).expect("the world builds");
+            file_view = spec.window.as_ref().map(View::from_window);
             let n = world.model_count();
             (
                 world,
@@ -113,7 +123,7 @@ fn main() {
     for m in world_scene::visualised_sensors(&world, &vis) {
         world.subscribe(m);
     }
-    for _ in 0..5 {
+    for _ in 0..warm {
         world.step();
     }
 
@@ -132,8 +142,14 @@ fn main() {
     };
     view.fit(min, max);
     view.scale *= zoom;
+    if let (true, Some(v)) = (window_view, file_view) {
+        view = v;
+    }
+    let (w, h) = (view.size[0] as u32, view.size[1] as u32);
     println!(
-        "frame benchmark: {what}, 1280x720, zoom {zoom}, adapter {:?} ({:?})",
+        "frame benchmark: {what}, {w}x{h}, scale {:.2} px/m, yaw {:.2} rad, adapter {:?} ({:?})",
+        view.scale,
+        view.yaw,
         off.adapter_info().name,
         off.adapter_info().device_type
     );
@@ -151,7 +167,7 @@ fn main() {
         let t = Instant::now();
         let px = off.render(&scene, &view).expect("render and read back");
         let trb = t.elapsed();
-        assert_eq!((px.width, px.height), (1280, 720));
+        assert_eq!((px.width, px.height), (w, h));
         if i >= 2 {
             // the first frames compile pipelines and grow buffers
             build.push(tb);

@@ -328,6 +328,7 @@ impl SceneRenderer {
             ..Default::default()
         });
         let cache_allowed = samples <= 1 && !format.is_srgb();
+        tracing::debug!(?format, samples, cache_allowed, "scene renderer");
         SceneRenderer {
             fill_pipeline,
             segment_pipeline,

@@ -231,27 +231,7 @@ impl Offscreen {
         let t = self.target.as_ref().expect("target made above");
         {
             let bg = scene.background.0;
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("offscreen scene"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &t.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: bg[0] as f64 / 255.0,
-                            g: bg[1] as f64 / 255.0,
-                            b: bg[2] as f64 / 255.0,
-                            a: bg[3] as f64 / 255.0,
-                        }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = crate::render::cleared_pass(&mut enc, &t.view, bg, "offscreen scene");
             self.renderer.paint(&mut pass);
         }
         if copy {

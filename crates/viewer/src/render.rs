@@ -487,20 +487,13 @@ impl SceneRenderer {
                 view_formats: &[],
             });
             let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("scene layer cache"),
-                layout: &self.image_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(&view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::Sampler(&self.blit_sampler),
-                    },
-                ],
-            });
+            let bind = texture_bind(
+                device,
+                &self.image_layout,
+                &view,
+                &self.blit_sampler,
+                "scene layer cache",
+            );
             self.cache = Some(LayerCache {
                 source: None,
                 size,
@@ -511,27 +504,7 @@ impl SceneRenderer {
         let cache = self.cache.as_ref().expect("cache made above");
         let bg = scene.background.0;
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("scene layer cache"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &cache.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: bg[0] as f64 / 255.0,
-                            g: bg[1] as f64 / 255.0,
-                            b: bg[2] as f64 / 255.0,
-                            a: bg[3] as f64 / 255.0,
-                        }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = cleared_pass(encoder, &cache.view, bg, "scene layer cache");
             pass.set_bind_group(0, &self.globals_bind, &[]);
             self.draw_layers(&mut pass, 0..CACHED_LAYERS);
         }
@@ -595,20 +568,13 @@ impl SceneRenderer {
             size,
         );
         let view = tex.create_view(&wgpu::TextureViewDescriptor::default());
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("scene image"),
-            layout: &self.image_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::Sampler(&self.sampler),
-                },
-            ],
-        });
+        let bind = texture_bind(
+            device,
+            &self.image_layout,
+            &view,
+            &self.sampler,
+            "scene image",
+        );
         let c = img.corners;
         let uv = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
         let verts: Vec<ImageVertex> = [0, 1, 2, 0, 2, 3]
@@ -683,4 +649,58 @@ fn images_hash(scene: &Scene) -> u64 {
         }
     }
     h.finish()
+}
+
+/// A bind group of a texture and its sampler in the image layout.
+fn texture_bind(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    view: &wgpu::TextureView,
+    sampler: &wgpu::Sampler,
+    label: &str,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            },
+        ],
+    })
+}
+
+/// A render pass into `view`, cleared to `bg` (straight RGBA bytes) and stored.
+pub(crate) fn cleared_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    view: &wgpu::TextureView,
+    bg: [u8; 4],
+    label: &str,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color {
+                    r: bg[0] as f64 / 255.0,
+                    g: bg[1] as f64 / 255.0,
+                    b: bg[2] as f64 / 255.0,
+                    a: bg[3] as f64 / 255.0,
+                }),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }

@@ -49,6 +49,16 @@ fn bluish(c: [u8; 4]) -> bool {
     b >= 180 && b > r + 60 && b > g + 60
 }
 
+/// Data on, ranger rays and footprints shown.
+fn rays_shown() -> VisOptions {
+    VisOptions {
+        data: true,
+        ranger_beams: true,
+        ranger_ranges: true,
+        ..VisOptions::default()
+    }
+}
+
 fn world_view() -> View {
     View {
         center: [0.0, 0.0],
@@ -65,12 +75,7 @@ fn known_world_renders_walls_robot_and_rays_where_the_world_puts_them() {
     };
     eprintln!("adapter: {:?}", gpu.adapter_info());
     let (world, gui) = common::known_world();
-    let vis = VisOptions {
-        data: true,
-        ranger_beams: true,
-        ranger_ranges: true,
-        ..VisOptions::default()
-    };
+    let vis = rays_shown();
     let view = world_view();
     let mut scene = Scene::default();
     world_scene::build(&world, &gui, &vis, &view, &[], &mut scene);
@@ -266,12 +271,7 @@ fn layer_cache_reuses_static_layers_without_changing_the_picture() {
         return;
     };
     let (world, gui) = common::known_world();
-    let vis = VisOptions {
-        data: true,
-        ranger_beams: true,
-        ranger_ranges: true,
-        ..VisOptions::default()
-    };
+    let vis = rays_shown();
     let views = [
         world_view(),
         View {

@@ -29,18 +29,21 @@ fn measure(label: &str, mut w: World, run: &Run) {
         w.step();
     }
     let rays0 = w.rays_cast();
-    let t0 = Instant::now();
-    let mut steps = 0u64;
-    while match run.steps {
-        Some(n) => steps < n,
-        None => steps < 20 || t0.elapsed() < run.budget,
-    } {
-        if !w.step() {
-            break;
+    // steps on a pool thread, as `stage -g` runs them
+    let (steps, secs) = stage_sim::on_sim_threads(|| {
+        let t0 = Instant::now();
+        let mut steps = 0u64;
+        while match run.steps {
+            Some(n) => steps < n,
+            None => steps < 20 || t0.elapsed() < run.budget,
+        } {
+            if !w.step() {
+                break;
+            }
+            steps += 1;
         }
-        steps += 1;
-    }
-    let secs = t0.elapsed().as_secs_f64();
+        (steps, t0.elapsed().as_secs_f64())
+    });
     let sim = steps as f64 * w.config().interval_sim_us as f64 * 1e-6;
     let rays = (w.rays_cast() - rays0) as f64;
     println!(

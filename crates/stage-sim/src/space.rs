@@ -827,6 +827,7 @@ impl Space {
 mod tests {
     use super::*;
     use crate::rng::SimRng;
+    use std::f64::consts::PI;
 
     fn rect_body(x: f64, y: f64, w: f64, h: f64) -> Body {
         let pts = vec![[x, y], [x + w, y], [x + w, y + h], [x, y + h]];
@@ -872,10 +873,16 @@ mod tests {
                 } else {
                     rng.uniform(0.5, 30.0)
                 };
+                // some rays run exactly along an axis (a zero direction component)
+                let a = match k % 10 {
+                    0 => 0.0,
+                    1 => PI,
+                    _ => rng.uniform(-4.0, 4.0),
+                };
                 let q = RayQuery {
                     x: rng.uniform(-30.0, 30.0),
                     y: rng.uniform(-30.0, 30.0),
-                    a: rng.uniform(-4.0, 4.0),
+                    a,
                     range,
                     z: Some(0.5),
                 };

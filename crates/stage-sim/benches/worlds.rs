@@ -1,7 +1,10 @@
 //! World benchmarks: steps/s, simulated seconds per wall second (× real time), rays/s and
 //! threads, for Stage's own worlds (when `../shared/stage-worlds` or `PLAYERSTAGE_SHARED` is
 //! there) and generated swarm worlds of 1 … 10,000 robots. Run: `cargo bench -p stage-sim`.
-//! Stage 4.3 on the same 2-core machine: simple 809×, cave 15.9×, hospital 3.5× real time.
+//! Stage 4.3 on the same 2-core machine: simple 809×, cave 15.9×, hospital 3.5× real time (the
+//! issue's figures). Stage 4.3.0 built from source and run (`stage -g`, the same worlds, load
+//! time subtracted) on the 2-core VM of 2026-11-25: simple 642×, cave 40.5×, hospital 6.2×;
+//! this bench there: simple 6,000×, cave 195×, hospital 45×.
 //!
 //! Options: a word filters the worlds by label (`cave`, `swarm1000`); `--quick` shortens the
 //! runs; `--steps N` runs exactly N steps per world after the warm-up and skips the ray
@@ -29,18 +32,21 @@ fn measure(label: &str, mut w: World, run: &Run) {
         w.step();
     }
     let rays0 = w.rays_cast();
-    let t0 = Instant::now();
-    let mut steps = 0u64;
-    while match run.steps {
-        Some(n) => steps < n,
-        None => steps < 20 || t0.elapsed() < run.budget,
-    } {
-        if !w.step() {
-            break;
+    // steps on a pool thread, as `stage -g` runs them
+    let (steps, secs) = stage_sim::on_sim_threads(|| {
+        let t0 = Instant::now();
+        let mut steps = 0u64;
+        while match run.steps {
+            Some(n) => steps < n,
+            None => steps < 20 || t0.elapsed() < run.budget,
+        } {
+            if !w.step() {
+                break;
+            }
+            steps += 1;
         }
-        steps += 1;
-    }
-    let secs = t0.elapsed().as_secs_f64();
+        (steps, t0.elapsed().as_secs_f64())
+    });
     let sim = steps as f64 * w.config().interval_sim_us as f64 * 1e-6;
     let rays = (w.rays_cast() - rays0) as f64;
     println!(

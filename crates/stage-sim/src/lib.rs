@@ -11,7 +11,8 @@
 //! 1. every due model that is subscribed (Stage only updates subscribed models, spec §5.4 —
 //!    a large part of its speed) updates against an immutable snapshot of the previous step's
 //!    end state: sensors cast their rays, position models compute velocities and localization —
-//!    in parallel (rayon) when there is enough work;
+//!    in parallel (rayon) when there is enough work, long ray fans split into chunks; a loop of
+//!    steps run through [`on_sim_threads`] makes these splits cheap;
 //! 2. gripper grasps/releases are applied, then position models move one at a time in model
 //!    creation order, each tested for contact against the already-moved state;
 //! 3. controllers attached to models that updated run and their commands are applied in
@@ -87,6 +88,7 @@ pub mod error;
 pub mod generate;
 pub mod geom;
 pub mod models;
+pub mod pool;
 pub mod pose;
 pub mod rng;
 pub mod space;
@@ -105,6 +107,7 @@ pub use models::fiducial::{Fiducial, FiducialData};
 pub use models::gripper::{GripperCmd, GripperData, LiftState, PaddleState};
 pub use models::position::{ControlMode, PositionData};
 pub use models::ranger::{RangerData, SensorScan};
+pub use pool::on_sim_threads;
 pub use pose::Pose;
 pub use rng::SimRng;
 pub use space::{Body, RayHit, RayQuery};

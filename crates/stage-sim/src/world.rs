@@ -20,6 +20,8 @@ use crate::pose::Pose;
 use crate::rng::SimRng;
 use crate::space::{Body, RayHit, RayQuery, Space, WorldBlock};
 
+mod moves;
+
 /// Identifies a model: its index in creation (pre-)order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ModelId(pub u32);
@@ -189,6 +191,7 @@ pub struct World {
     updated: Vec<bool>,
     subtree: Vec<u32>,
     scratch: Vec<u32>,
+    move_plans: Vec<moves::MovePlan>,
 }
 
 /// Stack below this many rays per step is run on the calling thread (fork/join costs more).
@@ -268,15 +271,18 @@ fn body_of(node: &Node, global: &Pose, out: &mut Body) {
 fn global_of(nodes: &[Node], globals: &[Pose], m: usize, pose: &Pose) -> Pose {
     match nodes[m].parent {
         None => *pose,
-        Some(p) => {
-            let p = p as usize;
-            let mut g = globals[p].compose(pose);
-            if nodes[p].stack_children {
-                g.z += nodes[p].size[2];
-            }
-            g
-        }
+        Some(p) => global_of_parent(&nodes[p as usize], &globals[p as usize], pose),
     }
+}
+
+/// The global pose of a child at `pose` in `parent`'s frame (stacked on top of it if the
+/// parent stacks its children).
+fn global_of_parent(parent: &Node, parent_global: &Pose, pose: &Pose) -> Pose {
+    let mut g = parent_global.compose(pose);
+    if parent.stack_children {
+        g.z += parent.size[2];
+    }
+    g
 }
 
 impl World {
@@ -459,6 +465,7 @@ impl World {
             updated: vec![false; n],
             subtree: Vec::new(),
             scratch: Vec::new(),
+            move_plans: Vec::new(),
         };
         // gripper bodies were replaced above: refresh their world outlines
         for i in 0..n {
@@ -662,10 +669,7 @@ impl World {
                 }
             }
         }
-        for k in 0..self.positions.len() {
-            let m = self.positions[k];
-            self.move_model(m, dt);
-        }
+        self.move_all(dt);
 
         // ---- phase 3: controllers ----
         if any && !self.controllers.is_empty() {

@@ -293,51 +293,54 @@ pub fn spawn_simulation(
     std::thread::Builder::new()
         .name("simulation".into())
         .spawn(move || {
-            let Some(first) = handles.first() else {
-                return;
-            };
-            let interval = first.read().config().interval_sim_us;
-            let step_wall = (pacing.speedup > 0.0 && pacing.speedup.is_finite())
-                .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / pacing.speedup));
-            let mut next = Instant::now();
-            while !handles.iter().any(WorldHandle::quit_requested) {
-                let mut stepped_any = false;
-                for (i, h) in handles.iter().enumerate() {
-                    if h.paused() {
-                        // still apply the window's edits while paused
-                        h.update(|_| ());
+            // the steps run on a thread of the simulation's pool: cheap splits (stage_sim::pool)
+            stage_sim::on_sim_threads(move || {
+                let Some(first) = handles.first() else {
+                    return;
+                };
+                let interval = first.read().config().interval_sim_us;
+                let step_wall = (pacing.speedup > 0.0 && pacing.speedup.is_finite())
+                    .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / pacing.speedup));
+                let mut next = Instant::now();
+                while !handles.iter().any(WorldHandle::quit_requested) {
+                    let mut stepped_any = false;
+                    for (i, h) in handles.iter().enumerate() {
+                        if h.paused() {
+                            // still apply the window's edits while paused
+                            h.update(|_| ());
+                            continue;
+                        }
+                        let stepped = h.update(|w| {
+                            let s = w.step();
+                            if s {
+                                on_step(i, w);
+                            }
+                            s
+                        });
+                        if stepped {
+                            stepped_any = true;
+                        } else {
+                            // quit_time reached: the GUI world pauses (it can be resumed)
+                            h.set_paused(true);
+                        }
+                    }
+                    if !stepped_any {
+                        std::thread::sleep(Duration::from_millis(10));
+                        next = Instant::now();
                         continue;
                     }
-                    let stepped = h.update(|w| {
-                        let s = w.step();
-                        if s {
-                            on_step(i, w);
+                    if let Some(d) = step_wall {
+                        next += d;
+                        let now = Instant::now();
+                        if next > now {
+                            std::thread::sleep(next - now);
+                        } else if now - next > Duration::from_millis(250) {
+                            // too far behind (a slow world): do not try to catch up in a burst
+                            next = now;
                         }
-                        s
-                    });
-                    if stepped {
-                        stepped_any = true;
-                    } else {
-                        // quit_time reached: the GUI world pauses (it can be resumed)
-                        h.set_paused(true);
                     }
                 }
-                if !stepped_any {
-                    std::thread::sleep(Duration::from_millis(10));
-                    next = Instant::now();
-                    continue;
-                }
-                if let Some(d) = step_wall {
-                    next += d;
-                    let now = Instant::now();
-                    if next > now {
-                        std::thread::sleep(next - now);
-                    } else if now - next > Duration::from_millis(250) {
-                        // too far behind (a slow world): do not try to catch up in a burst
-                        next = now;
-                    }
-                }
-            }
+            })
         })
 }
 

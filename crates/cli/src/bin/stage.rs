@@ -184,8 +184,14 @@ fn windowed(args: &Args, worlds: &[WorldHandle], speedup: f64) -> anyhow::Result
     shown.map_err(Into::into)
 }
 
-/// Steps the worlds on this thread until all reach their `quit_time` (Stage's `-g`).
+/// Steps the worlds until all reach their `quit_time` (Stage's `-g`), on a thread of the
+/// simulation's pool so that each step's parallel work is cheap to split (`stage_sim::pool`).
 fn headless(args: &Args, worlds: &[WorldHandle], speedup: f64) -> anyhow::Result<()> {
+    stage_sim::on_sim_threads(|| step_headless(args, worlds, speedup))
+}
+
+/// The headless loop: steps, pacing by `speedup`, clock and progress lines.
+fn step_headless(args: &Args, worlds: &[WorldHandle], speedup: f64) -> anyhow::Result<()> {
     let interval = worlds[0].read().config().interval_sim_us;
     let step_wall = (speedup > 0.0 && speedup.is_finite())
         .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / speedup));

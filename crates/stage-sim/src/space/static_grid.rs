@@ -183,21 +183,20 @@ impl StaticGrid {
         // the x (y) of cell index i's boundary in the walk direction is origin + (i + fx)·cell
         let fx = (sx > 0) as i32;
         let fy = (sy > 0) as i32;
-        let (flat_x, flat_y) = (d[0] == 0.0, d[1] == 0.0);
-        let tx_of = |i: i32| -> f64 {
-            if flat_x {
-                f64::INFINITY
+        // the boundary of index i is crossed at t = base + i·step (never, for an axis the ray
+        // runs parallel to)
+        let axis = |k: usize| -> (f64, f64) {
+            if d[k] == 0.0 {
+                (f64::INFINITY, 0.0)
             } else {
-                (self.origin[0] + i as f64 * self.cell - o[0]) * inv[0]
+                ((self.origin[k] - o[k]) * inv[k], self.cell * inv[k])
             }
         };
-        let ty_of = |i: i32| -> f64 {
-            if flat_y {
-                f64::INFINITY
-            } else {
-                (self.origin[1] + i as f64 * self.cell - o[1]) * inv[1]
-            }
-        };
+        let (base_x, step_x) = axis(0);
+        let (base_y, step_y) = axis(1);
+        let tx_of = |i: i32| -> f64 { base_x + i as f64 * step_x };
+        let ty_of = |i: i32| -> f64 { base_y + i as f64 * step_y };
+        let (nx, ny) = (self.nx as u32, self.ny as u32);
         loop {
             let c = (cy * self.nx + cx) as usize;
             let k = self.clear[c] as i32;
@@ -243,7 +242,8 @@ impl StaticGrid {
                 }
             }
             // a small slack keeps hits exactly at a cell boundary (ties) in reach
-            if cx < 0 || cy < 0 || cx >= self.nx || cy >= self.ny || t_next > limit + 1e-9 {
+            // one unsigned compare per axis: a negative index wraps to a huge one
+            if cx as u32 >= nx || cy as u32 >= ny || t_next > limit + 1e-9 {
                 return;
             }
         }

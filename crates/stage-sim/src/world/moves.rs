@@ -1,0 +1,196 @@
+//! Phase 2 of a step: position models move one at a time in creation order, each tested for
+//! contact against the already-moved state (the crate docs' step semantics).
+//!
+//! Most of a move does not depend on the moves before it: the new pose, the new outlines of
+//! the robot's tree and the contact test against static blocks (which never change while
+//! robots move). That part is planned for every robot at once, in parallel; the ordered pass
+//! then only installs the outlines and tests them against moving bodies. Robots whose outlines
+//! do depend on earlier moves (a robot carried by another, or carrying one) take the plain
+//! one-at-a-time path. Either way the outcome is bit-identical to moving them one by one.
+
+use rayon::prelude::*;
+
+use super::{KindState, World, body_of, global_of_parent};
+use crate::pose::Pose;
+use crate::space::Body;
+
+/// Below this many position models the plans are made on the calling thread.
+const PARALLEL_MIN_MOVERS: usize = 16;
+
+/// What the ordered pass does with one position model.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+enum PlanKind {
+    /// Not moving this step (unsubscribed or no velocity).
+    #[default]
+    Still,
+    /// Moves in the ordered pass from scratch ([`World::move_model`]).
+    OneByOne,
+    /// Moves with the plan below.
+    Planned,
+}
+
+/// One position model's tentative move (buffers kept between steps).
+#[derive(Debug, Default)]
+pub(super) struct MovePlan {
+    kind: PlanKind,
+    /// The pose after the move (parent frame).
+    pose: Pose,
+    /// The model's tree, parents first.
+    models: Vec<u32>,
+    /// Each tree model's global pose after the move.
+    globals: Vec<Pose>,
+    /// Each tree model's outline after the move (swapped into the space when installed).
+    bodies: Vec<Body>,
+    /// Whether the model's outline is refreshed at all (bodiless models are skipped).
+    refresh: Vec<bool>,
+    /// The moved tree touches a static block or the ground: the move is refused.
+    static_hit: bool,
+}
+
+impl World {
+    /// Moves every position model (phase 2 of [`World::step`]).
+    pub(super) fn move_all(&mut self, dt: f64) {
+        let mut plans = std::mem::take(&mut self.move_plans);
+        plans.resize_with(self.positions.len(), MovePlan::default);
+        {
+            let w = &*self;
+            let plan = |(k, p): (usize, &mut MovePlan)| w.plan_move(w.positions[k], dt, p);
+            if plans.len() >= PARALLEL_MIN_MOVERS {
+                plans
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(8)
+                    .for_each(plan);
+            } else {
+                plans.iter_mut().enumerate().for_each(plan);
+            }
+        }
+        for (k, plan) in plans.iter_mut().enumerate() {
+            let m = self.positions[k];
+            match plan.kind {
+                PlanKind::Still => {}
+                PlanKind::OneByOne => self.move_model(m, dt),
+                PlanKind::Planned => self.apply_move(m, plan),
+            }
+        }
+        self.move_plans = plans;
+    }
+
+    /// Plans model `m`'s move from the state before any move of this step.
+    fn plan_move(&self, m: u32, dt: f64, plan: &mut MovePlan) {
+        plan.kind = PlanKind::Still;
+        let i = m as usize;
+        if self.states[i].subs == 0 {
+            return;
+        }
+        let KindState::Position(p) = &self.states[i].kind else {
+            return;
+        };
+        let Some(delta) = p.step_delta(dt) else {
+            return;
+        };
+        plan.models.clear();
+        plan.models.push(m);
+        let mut j = 0;
+        while j < plan.models.len() {
+            let x = plan.models[j] as usize;
+            plan.models.extend_from_slice(&self.nodes[x].children);
+            j += 1;
+        }
+        let carries_robot = plan.models[1..]
+            .iter()
+            .any(|&x| matches!(self.states[x as usize].kind, KindState::Position(_)));
+        if self.nodes[i].parent.is_some() || carries_robot {
+            plan.kind = PlanKind::OneByOne;
+            return;
+        }
+        plan.pose = self.poses[i].compose(&delta);
+        let n = plan.models.len();
+        plan.globals.clear();
+        plan.refresh.clear();
+        if plan.bodies.len() < n {
+            plan.bodies.resize_with(n, Body::default);
+        }
+        for j in 0..n {
+            let x = plan.models[j] as usize;
+            let node = &self.nodes[x];
+            let global = match node.parent {
+                None => plan.pose,
+                Some(par) => {
+                    // parents come first in the list
+                    let pj = plan.models[..j].iter().position(|&y| y == par).unwrap_or(0);
+                    global_of_parent(&self.nodes[par as usize], &plan.globals[pj], &self.poses[x])
+                }
+            };
+            plan.globals.push(global);
+            // as World::refresh_subtree: bodiless models without blocks are left alone
+            let refresh = !(self.space.body(x as u32).is_empty() && node.blocks.is_empty());
+            plan.refresh.push(refresh);
+            if refresh {
+                body_of(node, &global, &mut plan.bodies[j]);
+            }
+        }
+        // the contact test's order-independent half (World::contact)
+        let root = self.nodes[i].root;
+        let nodes = &self.nodes;
+        let accept = |o: u32| {
+            let n = &nodes[o as usize];
+            n.root != root && n.obstacle_return
+        };
+        let body_after = |j: usize| -> &Body {
+            if plan.refresh[j] {
+                &plan.bodies[j]
+            } else {
+                self.space.body(plan.models[j])
+            }
+        };
+        let movers = (0..n).filter(|&j| self.nodes[plan.models[j] as usize].obstacle_return);
+        let ground = movers
+            .clone()
+            .any(|j| body_after(j).blocks.iter().any(|b| b.zmin < 0.0));
+        plan.static_hit = ground
+            || movers
+                .into_iter()
+                .any(|j| self.space.touches_static(body_after(j), accept));
+        plan.kind = PlanKind::Planned;
+    }
+
+    /// Installs a planned move unless it touches something, then records the stall.
+    fn apply_move(&mut self, m: u32, plan: &mut MovePlan) {
+        let i = m as usize;
+        let hit = plan.static_hit || {
+            let old = self.poses[i];
+            self.poses[i] = plan.pose;
+            for (j, &x) in plan.models.iter().enumerate() {
+                self.globals[x as usize] = plan.globals[j];
+                if plan.refresh[j] {
+                    std::mem::swap(self.space.body_mut(x), &mut plan.bodies[j]);
+                    self.space.commit_body(x);
+                }
+            }
+            let root = self.nodes[i].root;
+            let nodes = &self.nodes;
+            self.subtree.clear();
+            self.subtree.extend(
+                plan.models
+                    .iter()
+                    .copied()
+                    .filter(|&x| nodes[x as usize].obstacle_return),
+            );
+            let hit = self
+                .space
+                .touches_dynamic(&self.subtree, &mut self.scratch, |o| {
+                    let n = &nodes[o as usize];
+                    n.root != root && n.obstacle_return
+                });
+            if hit {
+                self.poses[i] = old;
+                self.refresh_subtree(m);
+            }
+            hit
+        };
+        if let KindState::Position(p) = &mut self.states[i].kind {
+            p.set_stall(hit);
+        }
+    }
+}

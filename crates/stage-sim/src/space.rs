@@ -600,7 +600,8 @@ impl Space {
                 cy += step_y;
                 t_max_y += t_dy;
             }
-            if cx < 0 || cy < 0 || cx >= g.nx || cy >= g.ny || t_cell > best_t.get() {
+            // one unsigned compare per axis: a negative index wraps to a huge one
+            if cx as u32 >= g.nx as u32 || cy as u32 >= g.ny as u32 || t_cell > best_t.get() {
                 return;
             }
         }

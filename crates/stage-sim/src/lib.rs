@@ -14,7 +14,9 @@
 //!    in parallel (rayon) when there is enough work, long ray fans split into chunks; a loop of
 //!    steps run through [`on_sim_threads`] makes these splits cheap;
 //! 2. gripper grasps/releases are applied, then position models move one at a time in model
-//!    creation order, each tested for contact against the already-moved state;
+//!    creation order, each tested for contact against the already-moved state (what does not
+//!    depend on the order — new outlines, contacts with static blocks — is worked out for all
+//!    robots in parallel first);
 //! 3. controllers attached to models that updated run and their commands are applied in
 //!    controller order; they take effect at the next step, as Stage's update callbacks do.
 //!

@@ -452,7 +452,7 @@ impl Space {
         // dynamic bodies first: in crowds their hits are near and bound the static walk
         let best_t = Cell::new(best_t);
         let best = Cell::new(best);
-        let mut consider = |m: u32| {
+        let consider = |m: u32| {
             let tmax = best_t.get();
             if self.roots[m as usize] == skip_root
                 || self.aabbs[m as usize].ray_entry(o, inv, tmax).is_none()
@@ -488,15 +488,16 @@ impl Space {
                 }
             }
         };
+        let mut consider_all = |list: &[u32]| {
+            for &m in list {
+                consider(m);
+            }
+        };
         if self.members.len() <= SMALL_DYNAMIC_SET {
-            for &m in &self.members {
-                consider(m);
-            }
+            consider_all(&self.members);
         } else {
-            for &m in &self.grid.overflow {
-                consider(m);
-            }
-            self.walk_grid(o, d, &best_t, &mut consider);
+            consider_all(&self.grid.overflow);
+            self.walk_grid(o, d, &best_t, &mut consider_all);
         }
         let mut best_t = best_t.get();
         let mut best = best.get();
@@ -539,8 +540,15 @@ impl Space {
     }
 
     /// Visits the grid cells along the ray (DDA) in order, until the cell entry distance passes
-    /// the best hit so far.
-    fn walk_grid(&self, o: [f64; 2], d: [f64; 2], best_t: &Cell<f64>, visit: &mut impl FnMut(u32)) {
+    /// the best hit so far; `visit` gets each cell's models (one call per cell, not per model:
+    /// the cheap per-model rejections then run inline in the caller's loop).
+    fn walk_grid(
+        &self,
+        o: [f64; 2],
+        d: [f64; 2],
+        best_t: &Cell<f64>,
+        visit: &mut impl FnMut(&[u32]),
+    ) {
         let g = &self.grid;
         let gmin = g.origin;
         let gmax = [
@@ -579,8 +587,9 @@ impl Space {
         let t_dy = (g.cell * inv[1]).abs();
         let mut t_cell;
         loop {
-            for &m in &g.cells[(cy * g.nx + cx) as usize] {
-                visit(m);
+            let list = &g.cells[(cy * g.nx + cx) as usize];
+            if !list.is_empty() {
+                visit(list);
             }
             if t_max_x < t_max_y {
                 t_cell = t_max_x;
@@ -591,7 +600,8 @@ impl Space {
                 cy += step_y;
                 t_max_y += t_dy;
             }
-            if cx < 0 || cy < 0 || cx >= g.nx || cy >= g.ny || t_cell > best_t.get() {
+            // one unsigned compare per axis: a negative index wraps to a huge one
+            if cx as u32 >= g.nx as u32 || cy as u32 >= g.ny as u32 || t_cell > best_t.get() {
                 return;
             }
         }
@@ -650,10 +660,13 @@ impl Space {
                 }
             }
         };
-        for &m in &self.grid.overflow {
-            visit(m);
-        }
-        self.walk_grid(o, d, &far, &mut visit);
+        let mut visit_all = |list: &[u32]| {
+            for &m in list {
+                visit(m);
+            }
+        };
+        visit_all(&self.grid.overflow);
+        self.walk_grid(o, d, &far, &mut visit_all);
         out.sort_by(|a, b| {
             a.range
                 .total_cmp(&b.range)

@@ -275,6 +275,27 @@ fn global_of(nodes: &[Node], globals: &[Pose], m: usize, pose: &Pose) -> Pose {
     }
 }
 
+/// `m` and its descendants into `out`, parents before children.
+fn tree_of(nodes: &[Node], m: u32, out: &mut Vec<u32>) {
+    out.clear();
+    out.push(m);
+    let mut i = 0;
+    while i < out.len() {
+        let x = out[i] as usize;
+        out.extend_from_slice(&nodes[x].children);
+        i += 1;
+    }
+}
+
+/// Which models stop a move of the tree rooted at `root`: unrelated ones with
+/// `obstacle_return`.
+fn obstacle_to(nodes: &[Node], root: u32) -> impl Fn(u32) -> bool + Copy + '_ {
+    move |o| {
+        let n = &nodes[o as usize];
+        n.root != root && n.obstacle_return
+    }
+}
+
 /// The global pose of a child at `pose` in `parent`'s frame (stacked on top of it if the
 /// parent stacks its children).
 fn global_of_parent(parent: &Node, parent_global: &Pose, pose: &Pose) -> Pose {
@@ -720,15 +741,19 @@ impl World {
         }
     }
 
+    /// How far position model `m` moves this step (in its own frame); `None` when it does not
+    /// move (unsubscribed, or no velocity).
+    fn move_delta(&self, m: u32, dt: f64) -> Option<Pose> {
+        let st = &self.states[m as usize];
+        match &st.kind {
+            KindState::Position(p) if st.subs > 0 => p.step_delta(dt),
+            _ => None,
+        }
+    }
+
     fn move_model(&mut self, m: u32, dt: f64) {
         let i = m as usize;
-        if self.states[i].subs == 0 {
-            return;
-        }
-        let KindState::Position(p) = &self.states[i].kind else {
-            return;
-        };
-        let Some(delta) = p.step_delta(dt) else {
+        let Some(delta) = self.move_delta(m, dt) else {
             return;
         };
         let old = self.poses[i];
@@ -753,14 +778,10 @@ impl World {
         let ground = movers
             .iter()
             .any(|&s| self.space.body(s).blocks.iter().any(|b| b.zmin < 0.0));
-        let nodes = &self.nodes;
         let hit = ground
             || self
                 .space
-                .first_contact(&movers, &mut self.scratch, |o| {
-                    let n = &nodes[o as usize];
-                    n.root != root && n.obstacle_return
-                })
+                .first_contact(&movers, &mut self.scratch, obstacle_to(&self.nodes, root))
                 .is_some();
         self.subtree = movers;
         hit
@@ -768,14 +789,7 @@ impl World {
 
     /// Collects `m` and its descendants into `self.subtree`, parents before children.
     fn collect_subtree(&mut self, m: u32) {
-        self.subtree.clear();
-        self.subtree.push(m);
-        let mut i = 0;
-        while i < self.subtree.len() {
-            let x = self.subtree[i] as usize;
-            self.subtree.extend_from_slice(&self.nodes[x].children);
-            i += 1;
-        }
+        tree_of(&self.nodes, m, &mut self.subtree);
     }
 
     /// Recomputes global poses and world outlines of `m` and its descendants.

@@ -10,7 +10,7 @@
 
 use rayon::prelude::*;
 
-use super::{KindState, World, body_of, global_of_parent};
+use super::{KindState, World, body_of, global_of_parent, obstacle_to, tree_of};
 use crate::pose::Pose;
 use crate::space::Body;
 
@@ -80,23 +80,10 @@ impl World {
     fn plan_move(&self, m: u32, dt: f64, plan: &mut MovePlan) {
         plan.kind = PlanKind::Still;
         let i = m as usize;
-        if self.states[i].subs == 0 {
-            return;
-        }
-        let KindState::Position(p) = &self.states[i].kind else {
+        let Some(delta) = self.move_delta(m, dt) else {
             return;
         };
-        let Some(delta) = p.step_delta(dt) else {
-            return;
-        };
-        plan.models.clear();
-        plan.models.push(m);
-        let mut j = 0;
-        while j < plan.models.len() {
-            let x = plan.models[j] as usize;
-            plan.models.extend_from_slice(&self.nodes[x].children);
-            j += 1;
-        }
+        tree_of(&self.nodes, m, &mut plan.models);
         let carries_robot = plan.models[1..]
             .iter()
             .any(|&x| matches!(self.states[x as usize].kind, KindState::Position(_)));
@@ -131,12 +118,7 @@ impl World {
             }
         }
         // the contact test's order-independent half (World::contact)
-        let root = self.nodes[i].root;
-        let nodes = &self.nodes;
-        let accept = |o: u32| {
-            let n = &nodes[o as usize];
-            n.root != root && n.obstacle_return
-        };
+        let accept = obstacle_to(&self.nodes, self.nodes[i].root);
         let body_after = |j: usize| -> &Body {
             if plan.refresh[j] {
                 &plan.bodies[j]
@@ -177,12 +159,11 @@ impl World {
                     .copied()
                     .filter(|&x| nodes[x as usize].obstacle_return),
             );
-            let hit = self
-                .space
-                .touches_dynamic(&self.subtree, &mut self.scratch, |o| {
-                    let n = &nodes[o as usize];
-                    n.root != root && n.obstacle_return
-                });
+            let hit = self.space.touches_dynamic(
+                &self.subtree,
+                &mut self.scratch,
+                obstacle_to(nodes, root),
+            );
             if hit {
                 self.poses[i] = old;
                 self.refresh_subtree(m);

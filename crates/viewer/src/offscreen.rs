@@ -39,8 +39,10 @@ impl Pixels {
     }
 }
 
-/// A headless wgpu device with a scene renderer for [`FORMAT`] targets.
+/// A headless wgpu device with a scene renderer for targets of one format ([`FORMAT`] unless
+/// opened with [`Offscreen::with_format`]).
 pub struct Offscreen {
+    format: wgpu::TextureFormat,
     device: wgpu::Device,
     queue: wgpu::Queue,
     renderer: SceneRenderer,
@@ -60,10 +62,16 @@ impl Offscreen {
     /// Opens the first adapter wgpu finds (Vulkan or GL; a software one such as llvmpipe when
     /// there is no GPU). [`ViewerError::NoAdapter`] when there is none at all.
     pub fn new() -> Result<Offscreen, ViewerError> {
-        pollster::block_on(Self::open())
+        Self::with_format(FORMAT)
     }
 
-    async fn open() -> Result<Offscreen, ViewerError> {
+    /// [`Offscreen::new`] drawing into targets of `format`, an 8-bit RGBA one (e.g. the `Srgb`
+    /// variant a window surface may have, to check that colours come out the same there).
+    pub fn with_format(format: wgpu::TextureFormat) -> Result<Offscreen, ViewerError> {
+        pollster::block_on(Self::open(format))
+    }
+
+    async fn open(format: wgpu::TextureFormat) -> Result<Offscreen, ViewerError> {
         // Vulkan first (GPU drivers, or Mesa's lavapipe); GL only when there is no Vulkan
         // adapter, which spares the EGL probing noise where Vulkan works
         let from_env = std::env::var_os("WGPU_BACKEND").is_some();
@@ -104,8 +112,9 @@ impl Offscreen {
             })
             .await
             .map_err(|e| ViewerError::Gpu(format!("requesting a device: {e}")))?;
-        let renderer = SceneRenderer::new(&device, FORMAT, 1);
+        let renderer = SceneRenderer::new(&device, format, 1);
         Ok(Offscreen {
+            format,
             device,
             queue,
             renderer,
@@ -137,7 +146,7 @@ impl Offscreen {
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
-                format: FORMAT,
+                format: self.format,
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
                 view_formats: &[],
             });
@@ -231,7 +240,9 @@ impl Offscreen {
         let t = self.target.as_ref().expect("target made above");
         {
             let bg = scene.background.0;
-            let mut pass = crate::render::cleared_pass(&mut enc, &t.view, bg, "offscreen scene");
+            let linear = self.format.is_srgb();
+            let mut pass =
+                crate::render::cleared_pass(&mut enc, &t.view, bg, linear, "offscreen scene");
             self.renderer.paint(&mut pass);
         }
         if copy {
@@ -273,7 +284,12 @@ impl Offscreen {
 /// adapter, unless `PLAYERSTAGE_REQUIRE_GPU=1`, which makes a missing adapter a failure (CI
 /// installs Mesa's software Vulkan and sets it).
 pub fn for_tests() -> Option<Offscreen> {
-    match Offscreen::new() {
+    for_tests_with_format(FORMAT)
+}
+
+/// [`for_tests`] with targets of `format`.
+pub fn for_tests_with_format(format: wgpu::TextureFormat) -> Option<Offscreen> {
+    match Offscreen::with_format(format) {
         Ok(o) => Some(o),
         Err(e) => {
             if std::env::var("PLAYERSTAGE_REQUIRE_GPU").as_deref() == Ok("1") {

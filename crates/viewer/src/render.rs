@@ -504,7 +504,13 @@ impl SceneRenderer {
         let cache = self.cache.as_ref().expect("cache made above");
         let bg = scene.background.0;
         {
-            let mut pass = cleared_pass(encoder, &cache.view, bg, "scene layer cache");
+            let mut pass = cleared_pass(
+                encoder,
+                &cache.view,
+                bg,
+                self.linear_target,
+                "scene layer cache",
+            );
             pass.set_bind_group(0, &self.globals_bind, &[]);
             self.draw_layers(&mut pass, 0..CACHED_LAYERS);
         }
@@ -680,8 +686,21 @@ pub(crate) fn cleared_pass<'e>(
     encoder: &'e mut wgpu::CommandEncoder,
     view: &wgpu::TextureView,
     bg: [u8; 4],
+    linear_target: bool,
     label: &str,
 ) -> wgpu::RenderPass<'e> {
+    // the clear colour is stored as given: a target that stores linear colour needs it decoded,
+    // as the shaders decode the scene's colours
+    let channel = |v: u8| {
+        let c = v as f64 / 255.0;
+        if !linear_target {
+            c
+        } else if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -690,9 +709,9 @@ pub(crate) fn cleared_pass<'e>(
             resolve_target: None,
             ops: wgpu::Operations {
                 load: wgpu::LoadOp::Clear(wgpu::Color {
-                    r: bg[0] as f64 / 255.0,
-                    g: bg[1] as f64 / 255.0,
-                    b: bg[2] as f64 / 255.0,
+                    r: channel(bg[0]),
+                    g: channel(bg[1]),
+                    b: channel(bg[2]),
                     a: bg[3] as f64 / 255.0,
                 }),
                 store: wgpu::StoreOp::Store,

@@ -38,7 +38,7 @@ struct ColorOut {
 fn vs_fill(@location(0) pos: vec2<f32>, @location(1) color: vec4<f32>) -> ColorOut {
     var o: ColorOut;
     o.pos = vec4<f32>(to_clip(pos), 0.0, 1.0);
-    o.color = color;
+    o.color = out_color(color);
     return o;
 }
 
@@ -73,13 +73,16 @@ fn vs_segment(
     let off_px = n * (s * width * 0.5) + d * along;
     var o: ColorOut;
     o.pos = vec4<f32>(base + off_px / half_vp, 0.0, 1.0);
-    o.color = color;
+    o.color = out_color(color);
     return o;
 }
 
+// Fills and segments take their colour already converted per vertex (the conversion is the
+// same at every pixel of a single-coloured shape, and a software rasteriser pays for it per
+// pixel).
 @fragment
 fn fs_color(i: ColorOut) -> @location(0) vec4<f32> {
-    return out_color(i.color);
+    return i.color;
 }
 
 struct ImageOut {

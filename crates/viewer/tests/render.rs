@@ -323,3 +323,58 @@ fn layer_cache_reuses_static_layers_without_changing_the_picture() {
         assert_eq!(rgb(pixel_at(&first, view, [0.0, 3.1])), [0, 0, 0]);
     }
 }
+
+/// Scene colours are sRGB-encoded and a target that stores linear colour (an `Srgb` format, as
+/// a window surface may be) gets them decoded, so the stored bytes are the same on both kinds of
+/// target (opaque shapes; translucent blends are computed in the target's space).
+#[test]
+fn colours_come_out_the_same_on_srgb_targets() {
+    let Some(mut plain) = offscreen::for_tests() else {
+        return;
+    };
+    let Some(mut srgb) = offscreen::for_tests_with_format(wgpu::TextureFormat::Rgba8UnormSrgb)
+    else {
+        return;
+    };
+    let mut scene = Scene::new(Rgba8([200, 180, 160, 255]));
+    use viewer::scene::Layer;
+    scene.fill_rect(
+        Layer::Static,
+        [-1.0, -1.0],
+        [0.0, 0.0],
+        Rgba8([40, 120, 220, 255]),
+    );
+    scene.fan(
+        Layer::Footprints,
+        [0.5, 0.5],
+        &[[1.5, 0.5], [1.2, 1.2], [0.5, 1.5]],
+        Rgba8([90, 10, 60, 255]),
+    );
+    scene.line(
+        Layer::Data,
+        [-1.5, 1.0],
+        [1.5, 1.0],
+        3.0,
+        Rgba8([10, 200, 70, 255]),
+    );
+    let view = View {
+        center: [0.0, 0.0],
+        scale: 60.0,
+        yaw: 0.0,
+        size: [240.0, 200.0],
+    };
+    let a = plain.render(&scene, &view).expect("render");
+    let b = srgb.render(&scene, &view).expect("render");
+    dump(&b, "srgb");
+    // the shapes are there (not just the background) ...
+    assert_eq!(pixel_at(&a, &view, [-0.5, -0.5]), [40, 120, 220, 255]);
+    assert_eq!(pixel_at(&a, &view, [0.9, 0.8]), [90, 10, 60, 255]);
+    // ... and shapes, line and background agree to within rounding
+    for p in [[-0.5, -0.5], [0.9, 0.8], [0.0, 1.0], [1.8, -1.2]] {
+        let (x, y) = (pixel_at(&a, &view, p), pixel_at(&b, &view, p));
+        assert!(
+            x.iter().zip(&y).all(|(u, v)| u.abs_diff(*v) <= 1),
+            "at {p:?}: {x:?} on a plain target, {y:?} on an sRGB one"
+        );
+    }
+}

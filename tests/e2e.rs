@@ -17,9 +17,6 @@ use player_proto::InterfaceCode;
 use player_proto::constants::PLAYER_GRIPPER_STATE_CLOSED;
 use player_server::Pace;
 
-/// Reads data rounds until `done` holds; fails after 10 s of wall time. The world runs as fast
-/// as it computes, so PULL rounds can find the server's queue overflowed (the data is still
-/// there) or empty: both are fine here.
 /// One read; a queue overflow (a PUSH client that was not read for a while, the server running
 /// as fast as it can) and a read with no data are not failures.
 fn read_once(client: &PlayerClient, what: &str) {
@@ -29,6 +26,9 @@ fn read_once(client: &PlayerClient, what: &str) {
     }
 }
 
+/// Reads data rounds until `done` holds; fails after 10 s of wall time. The world runs as fast
+/// as it computes, so PULL rounds can find the server's queue overflowed (the data is still
+/// there) or empty: both are fine here.
 fn read_until(client: &PlayerClient, what: &str, mut done: impl FnMut() -> bool) {
     let start = Instant::now();
     loop {

@@ -886,7 +886,8 @@ mod tests {
                 } else {
                     rng.uniform(0.5, 30.0)
                 };
-                // some rays run exactly along an axis (a zero direction component)
+                // some rays run along an axis: exactly (a = 0: no y component) or to within
+                // rounding (a = π)
                 let a = match k % 10 {
                     0 => 0.0,
                     1 => PI,

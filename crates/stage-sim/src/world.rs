@@ -287,6 +287,11 @@ fn tree_of(nodes: &[Node], m: u32, out: &mut Vec<u32>) {
     }
 }
 
+/// Whether a body reaches below the ground (z < 0): a move that puts it there is refused.
+fn below_ground(body: &Body) -> bool {
+    body.blocks.iter().any(|b| b.zmin < 0.0)
+}
+
 /// Which models stop a move of the tree rooted at `root`: unrelated ones with
 /// `obstacle_return`.
 fn obstacle_to(nodes: &[Node], root: u32) -> impl Fn(u32) -> bool + Copy + '_ {
@@ -741,6 +746,12 @@ impl World {
         }
     }
 
+    /// Whether model `m`'s world outline is recomputed when it moves: not for models that have
+    /// no blocks and no outline (their empty body stays as it is).
+    fn outline_kept_fresh(&self, m: u32) -> bool {
+        !(self.space.body(m).is_empty() && self.nodes[m as usize].blocks.is_empty())
+    }
+
     /// How far position model `m` moves this step (in its own frame); `None` when it does not
     /// move (unsubscribed, or no velocity).
     fn move_delta(&self, m: u32, dt: f64) -> Option<Pose> {
@@ -775,9 +786,7 @@ impl World {
         let root = self.nodes[m as usize].root;
         let mut movers = std::mem::take(&mut self.subtree);
         movers.retain(|&s| self.nodes[s as usize].obstacle_return);
-        let ground = movers
-            .iter()
-            .any(|&s| self.space.body(s).blocks.iter().any(|b| b.zmin < 0.0));
+        let ground = movers.iter().any(|&s| below_ground(self.space.body(s)));
         let hit = ground
             || self
                 .space
@@ -799,8 +808,7 @@ impl World {
         for &x in &list {
             let xi = x as usize;
             self.globals[xi] = global_of(&self.nodes, &self.globals, xi, &self.poses[xi]);
-            let was_empty = self.space.body(x).is_empty();
-            if was_empty && self.nodes[xi].blocks.is_empty() {
+            if !self.outline_kept_fresh(x) {
                 continue;
             }
             let node = &self.nodes[xi];

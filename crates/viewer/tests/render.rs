@@ -8,7 +8,7 @@ mod common;
 use viewer::View;
 use viewer::offscreen::{self, Pixels};
 use viewer::playerv::state::{DeviceData, DeviceKey, PlayervState, Pose2, Scan, Subscribed};
-use viewer::scene::{Rgba8, Scene};
+use viewer::scene::{Layer, Rgba8, Scene};
 use viewer::world_scene::{self, VisOptions};
 
 fn pixel_at(px: &Pixels, view: &View, p: [f64; 2]) -> [u8; 4] {
@@ -337,7 +337,6 @@ fn colours_come_out_the_same_on_srgb_targets() {
         return;
     };
     let mut scene = Scene::new(Rgba8([200, 180, 160, 255]));
-    use viewer::scene::Layer;
     scene.fill_rect(
         Layer::Static,
         [-1.0, -1.0],

@@ -10,7 +10,7 @@
 
 use rayon::prelude::*;
 
-use super::{KindState, World, body_of, global_of_parent, obstacle_to, tree_of};
+use super::{KindState, World, below_ground, body_of, global_of_parent, obstacle_to, tree_of};
 use crate::pose::Pose;
 use crate::space::Body;
 
@@ -105,13 +105,15 @@ impl World {
                 None => plan.pose,
                 Some(par) => {
                     // parents come first in the list
-                    let pj = plan.models[..j].iter().position(|&y| y == par).unwrap_or(0);
+                    let pj = plan.models[..j]
+                        .iter()
+                        .position(|&y| y == par)
+                        .expect("tree_of lists parents before their children");
                     global_of_parent(&self.nodes[par as usize], &plan.globals[pj], &self.poses[x])
                 }
             };
             plan.globals.push(global);
-            // as World::refresh_subtree: bodiless models without blocks are left alone
-            let refresh = !(self.space.body(x as u32).is_empty() && node.blocks.is_empty());
+            let refresh = self.outline_kept_fresh(x as u32);
             plan.refresh.push(refresh);
             if refresh {
                 body_of(node, &global, &mut plan.bodies[j]);
@@ -127,9 +129,7 @@ impl World {
             }
         };
         let movers = (0..n).filter(|&j| self.nodes[plan.models[j] as usize].obstacle_return);
-        let ground = movers
-            .clone()
-            .any(|j| body_after(j).blocks.iter().any(|b| b.zmin < 0.0));
+        let ground = movers.clone().any(|j| below_ground(body_after(j)));
         plan.static_hit = ground
             || movers
                 .into_iter()

@@ -97,6 +97,27 @@ fn cast_ray(v: &View, o: [f64; 3], dir: [f64; 2], max: f64, root: u32) -> (f64, 
     }
 }
 
+/// [`cast_ray`] along each of `dirs`, into `ranges` and `intensities`.
+#[inline(always)]
+fn cast_fan(
+    v: &View,
+    o: [f64; 3],
+    dirs: &[[f64; 2]],
+    max: f64,
+    root: u32,
+    ranges: &mut [f64],
+    intensities: &mut [f64],
+) {
+    let pred = |h: u32| v.nodes[h as usize].ranger_return >= 0.0;
+    v.space
+        .raycast_fan([o[0], o[1]], dirs, max, Some(o[2]), root, pred, |i, hit| {
+            (ranges[i], intensities[i]) = match hit {
+                Some(h) => (h.range, v.nodes[h.model as usize].ranger_return),
+                None => (max, 0.0),
+            };
+        });
+}
+
 /// `r` with the transducer's additive (clamped to its range) and multiplicative noise.
 #[inline(always)]
 fn with_noise(sensor: &SensorDesc, mut r: f64, rng: &mut SimRng) -> f64 {
@@ -164,9 +185,7 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
                 .zip(scan.ranges.par_chunks_mut(FAN_CHUNK))
                 .zip(scan.intensities.par_chunks_mut(FAN_CHUNK))
                 .for_each(|((dirs, ranges), intensities)| {
-                    for ((dir, r), i) in dirs.iter().zip(ranges).zip(intensities) {
-                        (*r, *i) = cast(*dir);
-                    }
+                    cast_fan(v, [ox, oy, oz], dirs, max, root, ranges, intensities);
                 });
             for t in 0..n {
                 scan.ranges[t] = with_noise(sensor, scan.ranges[t], rng);

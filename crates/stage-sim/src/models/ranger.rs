@@ -1,15 +1,17 @@
 //! `ranger` and its `sensor` transducers (spec §8).
 
-use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::desc::SensorDesc;
+use crate::pool::share_out;
 use crate::rng::SimRng;
 use crate::world::View;
 
-/// Fans of at least two chunks of this many rays are cast in parallel, chunk by chunk: a
-/// 180-ray laser is a whole step's work in a one-robot world, and ~32 rays (5–10 µs) amply
-/// pay for a work-stealing split inside the pool (see [`crate::on_sim_threads`]).
-const FAN_CHUNK: usize = 32;
+/// Fans of at least two chunks of this many rays are cast in parallel, chunk by chunk (see
+/// [`share_out`]): a 180-ray laser is a whole step's work in a one-robot world. Chunks of
+/// ~2 µs balance the threads within a few per cent and cost one atomic claim each (chunks of
+/// 8 rays were slower, of 32 left one thread waiting longer: simple.world, 2 cores).
+const FAN_CHUNK: usize = 20;
 
 /// One transducer's latest scan.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -105,16 +107,16 @@ fn cast_fan(
     dirs: &[[f64; 2]],
     max: f64,
     root: u32,
-    ranges: &mut [f64],
-    intensities: &mut [f64],
+    mut out: impl FnMut(usize, f64, f64),
 ) {
     let pred = |h: u32| v.nodes[h as usize].ranger_return >= 0.0;
     v.space
         .raycast_fan([o[0], o[1]], dirs, max, Some(o[2]), root, pred, |i, hit| {
-            (ranges[i], intensities[i]) = match hit {
+            let (r, s) = match hit {
                 Some(h) => (h.range, v.nodes[h.model as usize].ranger_return),
                 None => (max, 0.0),
             };
+            out(i, r, s)
         });
 }
 
@@ -175,21 +177,37 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
             // long fan: the directions first (the same sequence as below), then the casts in
             // parallel chunks, then the noise in ray order so that the random stream does not
             // depend on how the casts were split
-            d.ray_dirs.clear();
-            for _ in 0..n {
-                d.ray_dirs.push([dc, ds]);
+            d.ray_dirs.resize(n, [0.0; 2]);
+            for slot in d.ray_dirs.iter_mut() {
+                *slot = [dc, ds];
                 (dc, ds) = (dc * ic - ds * is, dc * is + ds * ic);
             }
-            d.ray_dirs
-                .par_chunks(FAN_CHUNK)
-                .zip(scan.ranges.par_chunks_mut(FAN_CHUNK))
-                .zip(scan.intensities.par_chunks_mut(FAN_CHUNK))
-                .for_each(|((dirs, ranges), intensities)| {
-                    cast_fan(v, [ox, oy, oz], dirs, max, root, ranges, intensities);
+            // which thread casts which chunk is decided as they go, so each ray's range and
+            // intensity go through a slot of its own (relaxed atomics: plain stores on x86)
+            let hits: Vec<[AtomicU64; 2]> = (0..n).map(|_| Default::default()).collect();
+            let dirs = &d.ray_dirs;
+            share_out(n, FAN_CHUNK, |rays| {
+                let from = rays.start;
+                cast_fan(v, [ox, oy, oz], &dirs[rays], max, root, |i, r, s| {
+                    hits[from + i][0].store(r.to_bits(), Ordering::Relaxed);
+                    hits[from + i][1].store(s.to_bits(), Ordering::Relaxed);
                 });
-            for t in 0..n {
-                scan.ranges[t] = with_noise(sensor, scan.ranges[t], rng);
-                scan.bearings[t] = start + t as f64 * incr;
+            });
+            for (t, [r, i]) in hits.iter().enumerate() {
+                scan.ranges[t] = f64::from_bits(r.load(Ordering::Relaxed));
+                scan.intensities[t] = f64::from_bits(i.load(Ordering::Relaxed));
+            }
+            // this path runs on one thread between parallel parts: skip what cannot change
+            if sensor.noise > 0.0 || sensor.noise_relative > 0.0 {
+                for r in scan.ranges.iter_mut() {
+                    *r = with_noise(sensor, *r, rng);
+                }
+            }
+            let bearing = |t: usize| start + t as f64 * incr;
+            if scan.bearings[0] != bearing(0) || scan.bearings[n - 1] != bearing(n - 1) {
+                for (t, b) in scan.bearings.iter_mut().enumerate() {
+                    *b = bearing(t);
+                }
             }
         } else {
             for t in 0..n {

@@ -1,6 +1,6 @@
 //! `ranger` and its `sensor` transducers (spec §8).
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 
 use crate::desc::SensorDesc;
 use crate::pool::share_out;
@@ -182,21 +182,26 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
                 *slot = [dc, ds];
                 (dc, ds) = (dc * ic - ds * is, dc * is + ds * ic);
             }
-            // which thread casts which chunk is decided as they go, so each ray's range and
-            // intensity go through a slot of its own (relaxed atomics: plain stores on x86)
-            let hits: Vec<[AtomicU64; 2]> = (0..n).map(|_| Default::default()).collect();
+            // which thread casts which chunk is decided as they go: each chunk's part of the
+            // scan waits behind a lock of its own, taken once, by whoever claims the chunk
+            let parts: Vec<Mutex<(&mut [f64], &mut [f64])>> = scan
+                .ranges
+                .chunks_mut(FAN_CHUNK)
+                .zip(scan.intensities.chunks_mut(FAN_CHUNK))
+                .map(Mutex::new)
+                .collect();
             let dirs = &d.ray_dirs;
             share_out(n, FAN_CHUNK, |rays| {
-                let from = rays.start;
+                let mut part = parts[rays.start / FAN_CHUNK]
+                    .lock()
+                    .unwrap_or_else(|poisoned| poisoned.into_inner());
+                let (ranges, intensities) = &mut *part;
                 cast_fan(v, [ox, oy, oz], &dirs[rays], max, root, |i, r, s| {
-                    hits[from + i][0].store(r.to_bits(), Ordering::Relaxed);
-                    hits[from + i][1].store(s.to_bits(), Ordering::Relaxed);
+                    ranges[i] = r;
+                    intensities[i] = s;
                 });
             });
-            for (t, [r, i]) in hits.iter().enumerate() {
-                scan.ranges[t] = f64::from_bits(r.load(Ordering::Relaxed));
-                scan.intensities[t] = f64::from_bits(i.load(Ordering::Relaxed));
-            }
+            drop(parts);
             // this path runs on one thread between parallel parts: skip what cannot change
             if sensor.noise > 0.0 || sensor.noise_relative > 0.0 {
                 for r in scan.ranges.iter_mut() {

@@ -25,20 +25,27 @@ const SPINS_BEFORE_YIELDING: u32 = 1 << 14;
 /// they come free, so a late helper costs nothing and no thread waits for a fixed share that
 /// happens to hold the slower items. The caller then spins until every claimed block is done,
 /// at most one block's time: a work-stealing join would instead yield the core while waiting
-/// and be woken microseconds late (a whole 180-ray fan takes ~10 µs). `work` must not wait for
+/// and be woken microseconds late (a whole 180-ray fan takes ~10 µs). Each thread's `work` gets
+/// that thread's own `state()` (its blocks come in increasing order); `work` must not wait for
 /// the caller.
-pub(crate) fn share_out(n: usize, grain: usize, work: impl Fn(Range<usize>) + Sync) {
+pub(crate) fn share_out<S>(
+    n: usize,
+    grain: usize,
+    state: impl Fn() -> S + Sync,
+    work: impl Fn(&mut S, Range<usize>) + Sync,
+) {
     let grain = grain.max(1);
     let blocks = n.div_ceil(grain);
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
     let claim = || {
+        let mut mine = state();
         loop {
             let b = next.fetch_add(1, Ordering::Relaxed);
             if b >= blocks {
                 break;
             }
-            work(b * grain..((b + 1) * grain).min(n));
+            work(&mut mine, b * grain..((b + 1) * grain).min(n));
             done.fetch_add(1, Ordering::Release);
         }
     };
@@ -95,12 +102,20 @@ mod tests {
         for (n, grain) in [(0, 4), (1, 4), (180, 8), (181, 8), (7, 1), (5, 0)] {
             let seen: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(0)).collect();
             on_sim_threads(|| {
-                share_out(n, grain, |r| {
-                    assert!(r.len() <= grain.max(1) && !r.is_empty());
-                    r.for_each(|i| {
-                        seen[i].fetch_add(1, Ordering::Relaxed);
-                    })
-                })
+                share_out(
+                    n,
+                    grain,
+                    || 0,
+                    |last, r| {
+                        assert!(r.len() <= grain.max(1) && !r.is_empty());
+                        // each thread's blocks come in increasing order
+                        assert!(r.start >= *last);
+                        *last = r.end;
+                        r.for_each(|i| {
+                            seen[i].fetch_add(1, Ordering::Relaxed);
+                        })
+                    },
+                )
             });
             assert!(seen.iter().all(|c| c.load(Ordering::Relaxed) == 1), "n {n}");
         }

@@ -35,8 +35,6 @@ pub struct RangerData {
     pub scans: Vec<SensorScan>,
     /// Per transducer: cos/sin of the first ray's heading and of the angular step.
     dirs: Vec<[f64; 4]>,
-    /// Scratch: each ray's world direction in the current update.
-    ray_dirs: Vec<[f64; 2]>,
 }
 
 impl RangerData {
@@ -47,7 +45,6 @@ impl RangerData {
             sensors,
             scans: Vec::new(),
             dirs: Vec::new(),
-            ray_dirs: Vec::new(),
         }
     }
 
@@ -174,32 +171,47 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
         let (mut dc, mut ds) = (fc * sc - fs * ss, fs * sc + fc * ss);
         let cast = |dir: [f64; 2]| cast_ray(v, [ox, oy, oz], dir, max, root);
         if n >= 2 * FAN_CHUNK {
-            // long fan: the directions first (the same sequence as below), then the casts in
-            // parallel chunks, then the noise in ray order so that the random stream does not
-            // depend on how the casts were split
-            d.ray_dirs.resize(n, [0.0; 2]);
-            for slot in d.ray_dirs.iter_mut() {
-                *slot = [dc, ds];
-                (dc, ds) = (dc * ic - ds * is, dc * is + ds * ic);
-            }
-            // which thread casts which chunk is decided as they go: each chunk's part of the
-            // scan waits behind a lock of its own, taken once, by whoever claims the chunk
+            // long fan: the casts in parallel chunks, each thread sweeping the directions up
+            // to its chunks (the same sequence of rotations as below, so the same directions),
+            // then the noise in ray order so that the random stream does not depend on how the
+            // casts were split. Each chunk's part of the scan waits behind a lock of its own,
+            // taken once, by whichever thread claims the chunk.
             let parts: Vec<Mutex<(&mut [f64], &mut [f64])>> = scan
                 .ranges
                 .chunks_mut(FAN_CHUNK)
                 .zip(scan.intensities.chunks_mut(FAN_CHUNK))
                 .map(Mutex::new)
                 .collect();
-            let dirs = &d.ray_dirs;
-            share_out(n, FAN_CHUNK, |rays| {
+            let first = [dc, ds];
+            // per thread: the index of the next direction and that direction
+            let sweep = || (0usize, first);
+            share_out(n, FAN_CHUNK, sweep, |(at, dir), rays| {
+                let rotate = |[c, s]: [f64; 2]| [c * ic - s * is, c * is + s * ic];
+                while *at < rays.start {
+                    *dir = rotate(*dir);
+                    *at += 1;
+                }
+                let mut dirs = [[0.0; 2]; FAN_CHUNK];
+                for slot in &mut dirs[..rays.len()] {
+                    *slot = *dir;
+                    *dir = rotate(*dir);
+                    *at += 1;
+                }
                 let mut part = parts[rays.start / FAN_CHUNK]
                     .lock()
                     .unwrap_or_else(|poisoned| poisoned.into_inner());
                 let (ranges, intensities) = &mut *part;
-                cast_fan(v, [ox, oy, oz], &dirs[rays], max, root, |i, r, s| {
-                    ranges[i] = r;
-                    intensities[i] = s;
-                });
+                cast_fan(
+                    v,
+                    [ox, oy, oz],
+                    &dirs[..rays.len()],
+                    max,
+                    root,
+                    |i, r, s| {
+                        ranges[i] = r;
+                        intensities[i] = s;
+                    },
+                );
             });
             drop(parts);
             // this path runs on one thread between parallel parts: skip what cannot change

@@ -8,10 +8,10 @@ use crate::rng::SimRng;
 use crate::world::View;
 
 /// Fans of at least two chunks of this many rays are cast in parallel, chunk by chunk (see
-/// [`share_out`]): a 180-ray laser is a whole step's work in a one-robot world. Chunks of
-/// ~2 µs balance the threads within a few per cent and cost one atomic claim each (chunks of
-/// 8 rays were slower, of 32 left one thread waiting longer: simple.world, 2 cores).
-const FAN_CHUNK: usize = 20;
+/// [`share_out`]): a 180-ray laser is a whole step's work in a one-robot world. Each chunk costs
+/// a claim, a lock and its own setup; 24-32 rays was the best trade against balance
+/// (simple.world, 2 cores: chunks of 10 were 8% slower, of 20 3%, of 45-60 5-10%).
+const FAN_CHUNK: usize = 28;
 
 /// One transducer's latest scan.
 #[derive(Clone, Debug, Default, PartialEq)]

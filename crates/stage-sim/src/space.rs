@@ -8,6 +8,9 @@
 //!   instructions per step on simple.world (callgrind) than the flattened BVH walk, same answers.
 //!   Sides that touching blocks of one model share (most of a bitmap's) are left out of that
 //!   grid: a ray from open space always meets the wall's outline first (`exposed`).
+//! * A ranger's fan of rays from one origin ([`Space::raycast_fan`]) works out once what its
+//!   rays share: which of a few moving bodies any of them can stop at, and the static grid cell
+//!   they start in (simple.world: 143k instructions per step, from 197k ray by ray).
 //! * Dynamic bodies (robots and everything in their trees) live in a uniform grid; a moving model
 //!   re-registers only when the set of cells its box covers changes, so moves cost O(1) and the
 //!   index is never rebuilt. Rays walk it cell by cell (DDA) and stop at the first hit.
@@ -1085,7 +1088,8 @@ mod tests {
         let mut fans = 0;
         while fans < 60 {
             let o = [rng.uniform(-9.0, 9.0), rng.uniform(-9.0, 9.0)];
-            // from open space only: inside a wall a ray may now see the wall's far side
+            // from open space only: inside a wall a ray leaves the whole wall, where the brute
+            // force stops at the first side of its own block
             let cell = [(o[0] - at[0]) / size, (o[1] - at[1]) / size];
             let in_plan = (0..2).all(|k| cell[k] >= 0.0 && cell[k] < 24.0);
             if in_plan && occupied[cell[1] as usize * 24 + cell[0] as usize] {

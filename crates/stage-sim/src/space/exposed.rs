@@ -11,8 +11,8 @@
 //! candidate hit lies inside a wall are no longer tested. Covering is only decided between
 //! axis-aligned rectangles of the same model and the same z interval, so a ray that sees one of
 //! them (its height band, its model's `ranger_return`, the model still static) sees the other.
-//! A ray that *starts* inside a wall may now read the wall's far side instead of an inner edge;
-//! Stage reads such a ray as blocked at once, which neither version matched.
+//! A ray that *starts* inside a wall now reads where it leaves the whole wall instead of the
+//! side of its own block; Stage reads such a ray as blocked at once, which neither matched.
 
 /// An axis-aligned rectangle `[x0, x1] × [y0, y1]` with positive area, from a block's vertices.
 #[derive(Clone, Copy, Debug, PartialEq)]

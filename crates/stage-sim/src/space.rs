@@ -1088,8 +1088,8 @@ mod tests {
         let mut fans = 0;
         while fans < 60 {
             let o = [rng.uniform(-9.0, 9.0), rng.uniform(-9.0, 9.0)];
-            // from open space only: inside a wall a ray leaves the whole wall, where the brute
-            // force stops at the first side of its own block
+            // from open space only: inside a wall a ray may pass the sides its block shares,
+            // where the brute force stops at the first side of its own block
             let cell = [(o[0] - at[0]) / size, (o[1] - at[1]) / size];
             let in_plan = (0..2).all(|k| cell[k] >= 0.0 && cell[k] < 24.0);
             if in_plan && occupied[cell[1] as usize * 24 + cell[0] as usize] {

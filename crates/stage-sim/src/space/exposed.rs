@@ -11,8 +11,9 @@
 //! candidate hit lies inside a wall are no longer tested. Covering is only decided between
 //! axis-aligned rectangles of the same model and the same z interval, so a ray that sees one of
 //! them (its height band, its model's `ranger_return`, the model still static) sees the other.
-//! A ray that *starts* inside a wall now reads where it leaves the whole wall instead of the
-//! side of its own block; Stage reads such a ray as blocked at once, which neither matched.
+//! A ray that *starts* inside a wall may now pass the shared sides and read a side further on
+//! (at the latest, where it leaves the wall) instead of the side of its own block; Stage reads
+//! such a ray as blocked at once, which neither matched.
 
 /// An axis-aligned rectangle `[x0, x1] × [y0, y1]` with positive area, from a block's vertices.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -297,23 +297,14 @@ impl Controller for Wander {
         if n < 1 {
             return;
         }
-        let mut obstruction = false;
-        let mut stop = false;
-        let mut minleft = 1e6f64;
-        let mut minright = 1e6f64;
-        for (i, &v) in r.iter().enumerate() {
-            if i > n / 3 && i < n - n / 3 && v < MIN_FRONT {
-                obstruction = true;
-            }
-            if v < STOP_DIST {
-                stop = true;
-            }
-            if i > n / 2 {
-                minleft = minleft.min(v);
-            } else {
-                minright = minright.min(v);
-            }
-        }
+        // Stage's per-sample loop, as whole-slice passes (the front third, every sample, the
+        // two halves): the same answers without a branch per sample
+        let front = &r[(n / 3 + 1).min(n - n / 3)..n - n / 3];
+        let obstruction = front.iter().any(|&v| v < MIN_FRONT);
+        let stop = r.iter().any(|&v| v < STOP_DIST);
+        let (right, left) = r.split_at((n / 2 + 1).min(n));
+        let minleft = left.iter().fold(1e6f64, |m, &v| m.min(v));
+        let minright = right.iter().fold(1e6f64, |m, &v| m.min(v));
         if obstruction || stop || self.avoidcount > 0 {
             self.speed = if stop { 0.0 } else { AVOID_SPEED };
             if self.avoidcount < 1 {

@@ -31,8 +31,10 @@
 //! both built once, moving ones in a uniform grid
 //! updated incrementally on every move. Rays stop at the first edge crossed whose block spans the
 //! ray's height (inclusive, as Stage's `ztest`); contacts are edge–edge intersections with
-//! overlapping z ranges; a ray starting inside a body passes out of it and containment is not
-//! contact — all as in Stage's occupancy grid (spec §6.2), but exact. Stage's grid quantises:
+//! overlapping z ranges; a ray starting inside a body passes out of it (inside a wall built of
+//! touching blocks of one model it may also pass their shared sides, which rays from open
+//! space can never reach first) and containment is not contact — all as in Stage's occupancy
+//! grid (spec §6.2), but exact. Stage's grid quantises:
 //! its ranges are up to one cell (`resolution`, 2 cm by default; more at oblique angles) short,
 //! its contacts fire up to one cell early, and bodies smaller than a cell may vanish there.
 //! Ours are the true distances and contacts, so readings differ from Stage's by at most about

@@ -1,9 +1,10 @@
 //! The static edges in a uniform grid, walked cell by cell by rays (Stage's own approach, but
 //! exact: cells only narrow down which edges a ray is tested against).
 //!
-//! * Every edge of every static block is stored, as its two end points, in each cell it comes
-//!   within [`EDGE_PAD`] of (cell lists in one flat array), so a ray touching an edge anywhere
-//!   — a corner included, floating-point error included — visits a cell that lists it.
+//! * Every edge of every static block is stored, as its two end points, in each cell that a
+//!   part of it a ray can meet first (its exposed parts, see `exposed`) comes within
+//!   [`EDGE_PAD`] of (cell lists in one flat array), so a ray touching such a part anywhere — a
+//!   corner included, floating-point error included — visits a cell that lists the edge.
 //! * Each cell also stores its *clearance* `k`: the `(2k−1)²` block of cells centred on it holds
 //!   no edge. A ray in such a cell jumps straight to where it leaves that block, so rays cross
 //!   open space in a few steps whatever the cell size.
@@ -27,6 +28,12 @@ pub(super) struct GridEdge {
     pub block: u32,
 }
 
+/// An edge and the parts of it (sub-segments) that decide which cells list it.
+pub(super) struct ListedEdge {
+    pub edge: GridEdge,
+    pub parts: Vec<[[f64; 2]; 2]>,
+}
+
 /// See the module docs.
 pub(super) struct StaticGrid {
     origin: [f64; 2],
@@ -42,14 +49,16 @@ pub(super) struct StaticGrid {
 }
 
 impl StaticGrid {
-    /// Builds the grid over `edges` (`(a, b, block)`); `None` when there are none.
-    pub fn build(edges: &[GridEdge]) -> Option<StaticGrid> {
-        if edges.is_empty() {
+    /// Builds the grid over `edges`, each listed in the cells its parts come near; `None` when
+    /// there are none.
+    pub fn build(listed: &[ListedEdge]) -> Option<StaticGrid> {
+        if listed.is_empty() {
             return None;
         }
+        let edges = || listed.iter().map(|l| &l.edge);
         let mut bounds = Aabb::EMPTY;
         let mut len = 0.0;
-        for e in edges {
+        for e in edges() {
             bounds.add(e.a);
             bounds.add(e.b);
             len += ((e.b[0] - e.a[0]).powi(2) + (e.b[1] - e.a[1]).powi(2)).sqrt();
@@ -63,7 +72,7 @@ impl StaticGrid {
         // crowd wall cells, and the empty-space jumps make the extra open cells nearly free
         // (callgrind, instructions per step against 2× the mean: simple.world −17%,
         // hospital −6%, cave −3%)
-        let mean = len / edges.len() as f64;
+        let mean = len / listed.len() as f64;
         let mut cell = (0.5 * mean).clamp(0.05, 4.0);
         let min_cell = (w * h / MAX_CELLS).sqrt();
         if cell < min_cell {
@@ -86,8 +95,10 @@ impl StaticGrid {
         };
         // two passes: count per cell, then fill
         let mut count = vec![0u32; (nx * ny) as usize];
-        for e in edges {
-            g.for_cells_of(e, |c| count[c] += 1);
+        let mut cells = Vec::new();
+        for l in listed {
+            g.cells_of_parts(&l.parts, &mut cells);
+            cells.iter().for_each(|&c| count[c] += 1);
         }
         let mut acc = 0u32;
         for (c, n) in count.iter().enumerate() {
@@ -102,26 +113,40 @@ impl StaticGrid {
             block: 0,
         };
         let mut out = vec![placeholder; acc as usize];
-        for e in edges {
-            g.for_cells_of(e, |c| {
-                out[fill[c] as usize] = *e;
+        for l in listed {
+            g.cells_of_parts(&l.parts, &mut cells);
+            for &c in &cells {
+                out[fill[c] as usize] = l.edge;
                 fill[c] += 1;
-            });
+            }
         }
         g.edges = out;
         g.clear = chebyshev_clearance(&count, nx as usize, ny as usize);
         Some(g)
     }
 
-    /// Calls `f` with every cell the edge comes within [`EDGE_PAD`] of.
-    fn for_cells_of(&self, e: &GridEdge, mut f: impl FnMut(usize)) {
-        let lo = [e.a[0].min(e.b[0]) - EDGE_PAD, e.a[1].min(e.b[1]) - EDGE_PAD];
-        let hi = [e.a[0].max(e.b[0]) + EDGE_PAD, e.a[1].max(e.b[1]) + EDGE_PAD];
+    /// Sets `out` to the cells (each once, in index order) that any of `parts` comes within
+    /// [`EDGE_PAD`] of.
+    fn cells_of_parts(&self, parts: &[[[f64; 2]; 2]], out: &mut Vec<usize>) {
+        out.clear();
+        for &[a, b] in parts {
+            self.for_cells_of(a, b, |c| out.push(c));
+        }
+        if parts.len() > 1 {
+            out.sort_unstable();
+            out.dedup();
+        }
+    }
+
+    /// Calls `f` with every cell the segment `a–b` comes within [`EDGE_PAD`] of.
+    fn for_cells_of(&self, a: [f64; 2], b: [f64; 2], mut f: impl FnMut(usize)) {
+        let lo = [a[0].min(b[0]) - EDGE_PAD, a[1].min(b[1]) - EDGE_PAD];
+        let hi = [a[0].max(b[0]) + EDGE_PAD, a[1].max(b[1]) + EDGE_PAD];
         let c0 = self.cell_of(lo);
         let c1 = self.cell_of(hi);
         let (x0, y0) = (c0[0].max(0), c0[1].max(0));
         let (x1, y1) = (c1[0].min(self.nx - 1), c1[1].min(self.ny - 1));
-        let axis_aligned = e.a[0] == e.b[0] || e.a[1] == e.b[1];
+        let axis_aligned = a[0] == b[0] || a[1] == b[1];
         for y in y0..=y1 {
             for x in x0..=x1 {
                 if !axis_aligned {
@@ -134,7 +159,7 @@ impl StaticGrid {
                         mn[0] + self.cell + 2.0 * EDGE_PAD,
                         mn[1] + self.cell + 2.0 * EDGE_PAD,
                     ];
-                    if !segment_meets_box(e.a, e.b, mn, mx) {
+                    if !segment_meets_box(a, b, mn, mx) {
                         continue;
                     }
                 }
@@ -154,6 +179,9 @@ impl StaticGrid {
     /// Walks the cells along the ray `o + t·d` (`inv` = 1/d) from its entry into the grid, in
     /// order, calling `visit` with each non-empty cell's edges; stops when the next cell begins
     /// beyond `limit()` (re-read after each visit) or the ray leaves the grid.
+    ///
+    /// `start`: the cell of `o` when `o` lies inside the grid ([`StaticGrid::cell_inside`]),
+    /// worked out once for a fan of rays from one origin; `None` finds where the ray enters.
     #[inline]
     pub fn walk(
         &self,
@@ -161,23 +189,20 @@ impl StaticGrid {
         d: [f64; 2],
         inv: [f64; 2],
         limit: f64,
+        start: Option<[i32; 2]>,
         mut visit: impl FnMut(&[GridEdge]) -> f64,
     ) {
-        let gmax = [
-            self.origin[0] + self.nx as f64 * self.cell,
-            self.origin[1] + self.ny as f64 * self.cell,
-        ];
-        let bounds = Aabb {
-            min: self.origin,
-            max: gmax,
-        };
-        let Some(t0) = bounds.ray_entry(o, inv, limit) else {
-            return;
+        let [mut cx, mut cy] = match start {
+            Some(c) => c,
+            None => {
+                let Some(t0) = self.bounds().ray_entry(o, inv, limit) else {
+                    return;
+                };
+                let c0 = self.cell_of([o[0] + d[0] * t0, o[1] + d[1] * t0]);
+                [c0[0].clamp(0, self.nx - 1), c0[1].clamp(0, self.ny - 1)]
+            }
         };
         let mut limit = limit;
-        let c0 = self.cell_of([o[0] + d[0] * t0, o[1] + d[1] * t0]);
-        let mut cx = c0[0].clamp(0, self.nx - 1);
-        let mut cy = c0[1].clamp(0, self.ny - 1);
         let sx: i32 = if d[0] >= 0.0 { 1 } else { -1 };
         let sy: i32 = if d[1] >= 0.0 { 1 } else { -1 };
         // the x (y) of cell index i's boundary in the walk direction is origin + (i + fx)·cell
@@ -247,6 +272,34 @@ impl StaticGrid {
                 return;
             }
         }
+    }
+
+    /// The box the cells cover.
+    fn bounds(&self) -> Aabb {
+        Aabb {
+            min: self.origin,
+            max: [
+                self.origin[0] + self.nx as f64 * self.cell,
+                self.origin[1] + self.ny as f64 * self.cell,
+            ],
+        }
+    }
+
+    /// The cell holding `p` when `p` lies strictly inside the grid: where every ray from `p`
+    /// starts its walk (the same cell [`StaticGrid::walk`] finds for each ray).
+    pub fn cell_inside(&self, p: [f64; 2]) -> Option<[i32; 2]> {
+        let b = self.bounds();
+        let inside = (0..2).all(|k| p[k] > b.min[k] && p[k] < b.max[k]);
+        let c = self.cell_of(p);
+        (inside && c[0] >= 0 && c[0] < self.nx && c[1] >= 0 && c[1] < self.ny).then_some(c)
+    }
+
+    /// How many different edges the cells list.
+    #[cfg(test)]
+    pub fn listed_edges(&self) -> usize {
+        let key = |e: &GridEdge| (e.block, e.a.map(f64::to_bits), e.b.map(f64::to_bits));
+        let set: std::collections::HashSet<_> = self.edges.iter().map(key).collect();
+        set.len()
     }
 
     /// Number of cells.
@@ -387,9 +440,16 @@ mod tests {
             })
             .collect();
         edges.push(e);
-        let g = StaticGrid::build(&edges).unwrap();
+        let listed: Vec<ListedEdge> = edges
+            .iter()
+            .map(|&edge| ListedEdge {
+                edge,
+                parts: vec![[edge.a, edge.b]],
+            })
+            .collect();
+        let g = StaticGrid::build(&listed).unwrap();
         let mut n = 0;
-        g.for_cells_of(&e, |_| n += 1);
+        g.for_cells_of(e.a, e.b, |_| n += 1);
         assert!(n < g.cell_count() / 4, "{n} of {} cells", g.cell_count());
         assert!(n >= g.nx as usize, "{n} cells");
     }

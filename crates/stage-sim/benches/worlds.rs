@@ -4,8 +4,8 @@
 //! Stage 4.3 on the same 2-core machine: simple 809×, cave 15.9×, hospital 3.5× real time (the
 //! issue's figures). Stage 4.3.0 built from source and run (`stage -g`, the same worlds, load
 //! time subtracted, several runs) on the 2-core VM of 2026-11-25: simple 635–668×, cave
-//! 33.5–40.5×, hospital 5.3–8.6×; this bench there: simple 7,730–8,400× (5,530–5,990× before
-//! ray fans shared their setup), cave 185–200×, hospital 42–45×. That VM's speed drifted by
+//! 33.5–40.5×, hospital 5.3–8.6×; this bench there: simple 7,700–8,800× (5,530–6,100× before
+//! ray fans shared their setup), cave 185–214×, hospital 42–47×. That VM's speed drifted by
 //! up to 8% within minutes: compare builds in alternating runs.
 //!
 //! Options: a word filters the worlds by label (`cave`, `swarm1000`); `--quick` shortens the

@@ -107,6 +107,71 @@ pub fn ray_segment(o: [f64; 2], d: [f64; 2], a: [f64; 2], b: [f64; 2], tmax: f64
     (t <= tmax).then_some(t)
 }
 
+/// The nearest distance `t ∈ [0, tmax]` at which the ray `o + t·d` (`d` a unit vector) crosses
+/// an edge of the polygon `pts` (closed; a 2-point polygon is one segment).
+///
+/// Which side of the ray's line each vertex lies on is worked out once per vertex, and only the
+/// edges whose ends lie on different sides (or on the line) get a distance, by the same formula
+/// as [`ray_segment`]: a convex block's outline costs one cross product per vertex and two
+/// distances instead of a full segment test per edge. The distances are [`ray_segment`]'s own;
+/// where a vertex lies on the line to within rounding, both edges at it count as crossed (so a
+/// ray cannot slip between them), and a ray only grazing a corner may miss it where
+/// [`ray_segment`] would by rounding have touched it.
+#[inline]
+pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Option<f64> {
+    let n = pts.len();
+    if n < 2 {
+        return None;
+    }
+    // the same expression as `ns` in `ray_segment`, for the edge's first end
+    let side = |p: [f64; 2]| (p[0] - o[0]) * d[1] - (p[1] - o[1]) * d[0];
+    let mut best: Option<f64> = None;
+    let mut edge = |a: [f64; 2], b: [f64; 2], sa: f64, sb: f64| {
+        let crosses = (sa <= 0.0 && sb >= 0.0) || (sa >= 0.0 && sb <= 0.0);
+        if crosses && !(sa == 0.0 && sb == 0.0) {
+            let limit = best.unwrap_or(tmax);
+            if let Some(t) = ray_line(o, d, a, b, limit) {
+                best = Some(t);
+            }
+        }
+    };
+    let first = side(pts[0]);
+    let mut sa = first;
+    for w in pts.windows(2) {
+        let sb = side(w[1]);
+        edge(w[0], w[1], sa, sb);
+        sa = sb;
+    }
+    if n > 2 {
+        edge(pts[n - 1], pts[0], sa, first);
+    }
+    best
+}
+
+/// [`ray_segment`]'s distance to the line through `a–b`, without its test of where along the
+/// segment the ray crosses: `t ∈ [0, tmax]`, `None` for a parallel line.
+#[inline(always)]
+fn ray_line(o: [f64; 2], d: [f64; 2], a: [f64; 2], b: [f64; 2], tmax: f64) -> Option<f64> {
+    let ex = b[0] - a[0];
+    let ey = b[1] - a[1];
+    let denom = d[0] * ey - d[1] * ex;
+    let wx = a[0] - o[0];
+    let wy = a[1] - o[1];
+    let nt = wx * ey - wy * ex;
+    let (nt, den) = if denom > 0.0 {
+        (nt, denom)
+    } else if denom < 0.0 {
+        (-nt, -denom)
+    } else {
+        return None;
+    };
+    if nt < 0.0 || nt > tmax * den {
+        return None;
+    }
+    let t = nt / den;
+    (t <= tmax).then_some(t)
+}
+
 #[inline]
 fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
@@ -178,6 +243,61 @@ mod tests {
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let t = ray_segment([0.0, 0.0], [s, s], [1.0, -5.0], [1.0, 5.0], 10.0).unwrap();
         assert!((t - 2f64.sqrt()).abs() < 1e-12);
+    }
+
+    /// Away from vertices on the ray's line, a polygon's crossing is the nearest of its edges'
+    /// own, to the bit.
+    #[test]
+    fn polygon_crossing_is_the_nearest_edge_crossing() {
+        use crate::rng::SimRng;
+        let mut rng = SimRng::new(9, 2);
+        let mut hits = 0;
+        for k in 0..4000 {
+            // random polygons of 2 (a segment) to 9 vertices, convex or not
+            let n = 2 + k % 8;
+            let c = [rng.uniform(-3.0, 3.0), rng.uniform(-3.0, 3.0)];
+            let pts: Vec<[f64; 2]> = (0..n)
+                .map(|i| {
+                    let a = i as f64 / n as f64 * std::f64::consts::TAU;
+                    let r = rng.uniform(0.2, 1.5);
+                    [c[0] + r * a.cos(), c[1] + r * a.sin()]
+                })
+                .collect();
+            let o = [rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0)];
+            // half the rays aimed near the polygon
+            let aim = (c[1] - o[1]).atan2(c[0] - o[0]) + rng.uniform(-0.4, 0.4);
+            let a = if k % 2 == 0 {
+                aim
+            } else {
+                rng.uniform(-4.0, 4.0)
+            };
+            let d = [a.cos(), a.sin()];
+            let tmax = rng.uniform(0.5, 10.0);
+            let closing = (n > 2).then(|| (pts[n - 1], pts[0]));
+            let want = pts
+                .windows(2)
+                .map(|w| (w[0], w[1]))
+                .chain(closing)
+                .filter_map(|(a, b)| ray_segment(o, d, a, b, tmax))
+                .fold(None, |m: Option<f64>, t| Some(m.map_or(t, |m| m.min(t))));
+            assert_eq!(
+                ray_polygon(o, d, &pts, tmax),
+                want,
+                "{pts:?} from {o:?} along {d:?}"
+            );
+            hits += want.is_some() as usize;
+        }
+        assert!(hits > 600, "{hits} hits");
+        // a ray through a vertex meets the polygon there
+        let square = [[1.0, -1.0], [3.0, -1.0], [3.0, 1.0], [1.0, 1.0]];
+        let diag = std::f64::consts::FRAC_1_SQRT_2;
+        let t = ray_polygon([0.0, -2.0], [diag, diag], &square, 10.0).unwrap();
+        assert!((t - 2f64.sqrt()).abs() < 1e-12, "{t}");
+        assert_eq!(ray_polygon([0.0, 0.0], [1.0, 0.0], &square, 0.5), None);
+        assert_eq!(
+            ray_polygon([0.0, 0.0], [1.0, 0.0], &square[..1], 10.0),
+            None
+        );
     }
 
     #[test]

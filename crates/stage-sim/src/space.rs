@@ -28,7 +28,7 @@ use parry2d::math::Point;
 use parry2d::partitioning::{Bvh, BvhBuildStrategy};
 use std::cell::Cell;
 
-use crate::geom::{Aabb, ray_segment, segments_intersect};
+use crate::geom::{Aabb, ray_polygon, ray_segment, segments_intersect};
 
 mod exposed;
 mod static_grid;
@@ -593,6 +593,9 @@ impl Space {
         };
         let best_t = Cell::new(range);
         let best: Cell<Option<RayHit>> = Cell::new(None);
+        // models already tested by this ray (a body spanning several grid cells is listed in
+        // each): testing one again cannot change the answer, as the best hit only gets nearer
+        let tested: Cell<([u32; 8], usize)> = Cell::new(([0; 8], 0));
         let consider = |m: u32| {
             let tmax = best_t.get();
             if self.roots[m as usize] == skip_root
@@ -601,6 +604,14 @@ impl Space {
             {
                 return;
             }
+            let (mut ids, count) = tested.get();
+            if ids[..count].contains(&m) {
+                return;
+            }
+            if count < ids.len() {
+                ids[count] = m;
+                tested.set((ids, count + 1));
+            }
             let body = &self.bodies[m as usize];
             let mut bt = tmax;
             let mut bb = None;
@@ -608,12 +619,10 @@ impl Space {
                 if !zok(blk.zmin, blk.zmax) || blk.aabb.ray_entry(o, inv, bt).is_none() {
                     continue;
                 }
-                for (a, b) in body.edges(bi) {
-                    if let Some(t) = ray_segment(o, d, a, b, bt) {
-                        if bb.is_none() || t < bt {
-                            bt = t;
-                            bb = Some(bi as u32);
-                        }
+                if let Some(t) = ray_polygon(o, d, body.block_pts(bi), bt) {
+                    if bb.is_none() || t < bt {
+                        bt = t;
+                        bb = Some(bi as u32);
                     }
                 }
             }

@@ -113,10 +113,11 @@ pub fn ray_segment(o: [f64; 2], d: [f64; 2], a: [f64; 2], b: [f64; 2], tmax: f64
 /// Which side of the ray's line each vertex lies on is worked out once per vertex, and only the
 /// edges whose ends lie on different sides (or on the line) get a distance, by the same formula
 /// as [`ray_segment`]: a convex block's outline costs one cross product per vertex and two
-/// distances instead of a full segment test per edge. The distances are [`ray_segment`]'s own;
-/// where a vertex lies on the line to within rounding, both edges at it count as crossed (so a
-/// ray cannot slip between them), and a ray only grazing a corner may miss it where
-/// [`ray_segment`] would by rounding have touched it.
+/// distances instead of a full segment test per edge. The distances are [`ray_segment`]'s own.
+/// Only near a vertex on the ray's line can the two disagree, by rounding: a vertex whose side
+/// comes out as exactly 0 counts both its edges as crossed (so a ray through a vertex cannot
+/// slip between them), and a ray grazing a corner may touch it here and not there, or the
+/// other way round.
 #[inline]
 pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Option<f64> {
     let n = pts.len();

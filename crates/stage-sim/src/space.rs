@@ -1142,7 +1142,8 @@ mod tests {
                 );
             }
         }
-        // the floorplan's wholly shared sides were left out of the grid (here 550 of 664)
+        // the floorplan's wholly shared sides were left out of the grid (here 550 of 664 edges
+        // are listed)
         let grid = space.statics.grid.as_ref().unwrap();
         let listed = grid.listed_edges();
         let all: usize = bodies[0].blocks.len() * 4;

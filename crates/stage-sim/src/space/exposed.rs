@@ -8,7 +8,9 @@
 //!
 //! The edge itself stays whole (its intersection is computed from the same end points as
 //! before), so every hit is the same number as without the pruning; only edges whose every
-//! candidate hit lies inside a wall are no longer tested. Covering is only decided between
+//! candidate hit lies inside a wall are no longer tested. (Up to ties: a ray exactly through
+//! a wall corner where hidden sides meet may now report the neighbouring block, at a distance
+//! that rounds differently by an ulp.) Covering is only decided between
 //! axis-aligned rectangles of the same model and the same z interval, so a ray that sees one of
 //! them (its height band, its model's `ranger_return`, the model still static) sees the other.
 //! A ray that *starts* inside a wall may now pass the shared sides and read a side further on
@@ -23,8 +25,9 @@ pub(super) struct Rect {
 }
 
 impl Rect {
-    /// The rectangle a 4-vertex polygon is, if it is one: every vertex at a corner and every
-    /// edge along one axis.
+    /// The rectangle a 4-vertex polygon is, if it is one: every vertex at a corner and the edges
+    /// along the two axes in turn (so the outline visits all four corners: a spike that doubles
+    /// back along one side is not a rectangle, whatever its bounding box).
     pub fn of(pts: &[[f64; 2]]) -> Option<Rect> {
         if pts.len() != 4 {
             return None;
@@ -42,11 +45,16 @@ impl Rect {
         }
         let at_corner =
             |p: &[f64; 2]| (p[0] == min[0] || p[0] == max[0]) && (p[1] == min[1] || p[1] == max[1]);
-        let along_axis = |i: usize| {
+        // Some(true): the edge from vertex i runs along x; None: not along one axis
+        let along_x = |i: usize| {
             let (a, b) = (pts[i], pts[(i + 1) % 4]);
-            (a[0] == b[0]) != (a[1] == b[1])
+            ((a[0] == b[0]) != (a[1] == b[1])).then_some(a[1] == b[1])
         };
-        (pts.iter().all(at_corner) && (0..4).all(along_axis)).then_some(Rect { min, max })
+        let alternating = (0..4).all(|i| match (along_x(i), along_x((i + 1) % 4)) {
+            (Some(x), Some(next)) => x != next,
+            _ => false,
+        });
+        (pts.iter().all(at_corner) && alternating).then_some(Rect { min, max })
     }
 }
 
@@ -134,6 +142,15 @@ mod tests {
             None
         );
         assert_eq!(Rect::of(&[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0]]), None);
+        // spikes whose vertices all sit at corners of their bounding box
+        assert_eq!(
+            Rect::of(&[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [2.0, 0.0]]),
+            None
+        );
+        assert_eq!(
+            Rect::of(&[[0.0, 0.0], [2.0, 0.0], [0.0, 0.0], [0.0, 1.0]]),
+            None
+        );
     }
 
     #[test]

@@ -85,6 +85,19 @@ impl Aabb {
 /// Parallel (and collinear) segments are not hit: a ray grazing along a wall passes.
 #[inline]
 pub fn ray_segment(o: [f64; 2], d: [f64; 2], a: [f64; 2], b: [f64; 2], tmax: f64) -> Option<f64> {
+    ray_crossing::<true>(o, d, a, b, tmax)
+}
+
+/// [`ray_segment`] (`SEGMENT`), or without its test of where along `a–b` the ray crosses: the
+/// distance to the line through `a` and `b`.
+#[inline(always)]
+fn ray_crossing<const SEGMENT: bool>(
+    o: [f64; 2],
+    d: [f64; 2],
+    a: [f64; 2],
+    b: [f64; 2],
+    tmax: f64,
+) -> Option<f64> {
     let ex = b[0] - a[0];
     let ey = b[1] - a[1];
     let denom = d[0] * ey - d[1] * ex;
@@ -100,7 +113,7 @@ pub fn ray_segment(o: [f64; 2], d: [f64; 2], a: [f64; 2], b: [f64; 2], tmax: f64
     } else {
         return None;
     };
-    if nt < 0.0 || ns < 0.0 || ns > den || nt > tmax * den {
+    if nt < 0.0 || (SEGMENT && (ns < 0.0 || ns > den)) || nt > tmax * den {
         return None;
     }
     let t = nt / den;
@@ -131,7 +144,7 @@ pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Opt
         let crosses = (sa <= 0.0 && sb >= 0.0) || (sa >= 0.0 && sb <= 0.0);
         if crosses && !(sa == 0.0 && sb == 0.0) {
             let limit = best.unwrap_or(tmax);
-            if let Some(t) = ray_line(o, d, a, b, limit) {
+            if let Some(t) = ray_crossing::<false>(o, d, a, b, limit) {
                 best = Some(t);
             }
         }
@@ -147,30 +160,6 @@ pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Opt
         edge(pts[n - 1], pts[0], sa, first);
     }
     best
-}
-
-/// [`ray_segment`]'s distance to the line through `a–b`, without its test of where along the
-/// segment the ray crosses: `t ∈ [0, tmax]`, `None` for a parallel line.
-#[inline(always)]
-fn ray_line(o: [f64; 2], d: [f64; 2], a: [f64; 2], b: [f64; 2], tmax: f64) -> Option<f64> {
-    let ex = b[0] - a[0];
-    let ey = b[1] - a[1];
-    let denom = d[0] * ey - d[1] * ex;
-    let wx = a[0] - o[0];
-    let wy = a[1] - o[1];
-    let nt = wx * ey - wy * ex;
-    let (nt, den) = if denom > 0.0 {
-        (nt, denom)
-    } else if denom < 0.0 {
-        (-nt, -denom)
-    } else {
-        return None;
-    };
-    if nt < 0.0 || nt > tmax * den {
-        return None;
-    }
-    let t = nt / den;
-    (t <= tmax).then_some(t)
 }
 
 #[inline]

@@ -336,6 +336,28 @@ pub struct Space {
 /// `skip_root` value that skips no tree.
 pub const NO_ROOT: u32 = u32::MAX;
 
+/// One ray as the casting steps hand it on: origin, unit direction and its inverse, reach,
+/// the height for the z test and the tree whose models it passes through.
+#[derive(Clone, Copy)]
+struct Ray {
+    o: [f64; 2],
+    d: [f64; 2],
+    inv: [f64; 2],
+    range: f64,
+    z: Option<f64>,
+    skip_root: u32,
+}
+
+/// Stage's `ztest`: whether a block spanning `zmin..=zmax` can stop a ray at height `z`
+/// (`None`: any height).
+#[inline(always)]
+fn z_sees(z: Option<f64>, zmin: f64, zmax: f64) -> bool {
+    match z {
+        Some(z) => !(z < zmin || z > zmax),
+        None => true,
+    }
+}
+
 /// Dynamic sets up to this size are scanned directly instead of walking the grid.
 const SMALL_DYNAMIC_SET: usize = 24;
 
@@ -525,15 +547,21 @@ impl Space {
         few: Option<&[u32]>,
         start: Option<[i32; 2]>,
     ) -> Option<RayHit> {
-        let zok = |zmin: f64, zmax: f64| match z {
-            Some(z) => !(z < zmin || z > zmax),
-            None => true,
-        };
         let inv = [1.0 / d[0], 1.0 / d[1]];
         // dynamic bodies first: in crowds their hits are near and bound the static walk
         let (mut best_t, mut best) = match few {
             Some([]) => (range, None),
-            _ => self.dynamic_hit(o, d, inv, range, z, skip_root, accept, few),
+            _ => {
+                let ray = Ray {
+                    o,
+                    d,
+                    inv,
+                    range,
+                    z,
+                    skip_root,
+                };
+                self.dynamic_hit(&ray, accept, few)
+            }
         };
 
         // static edges: walk the static grid; the answer is the least (distance, model, block)
@@ -553,7 +581,7 @@ impl Space {
                         }
                     };
                     if better
-                        && zok(sb.zmin, sb.zmax)
+                        && z_sees(z, sb.zmin, sb.zmax)
                         && self.static_live[sb.model as usize]
                         && self.roots[sb.model as usize] != skip_root
                         && accept(sb.model)
@@ -575,22 +603,20 @@ impl Space {
 
     /// The nearest dynamic body the ray meets within `range` (see [`Space::cast`]): `range` and
     /// `None` when there is none.
-    #[allow(clippy::too_many_arguments)]
     fn dynamic_hit(
         &self,
-        o: [f64; 2],
-        d: [f64; 2],
-        inv: [f64; 2],
-        range: f64,
-        z: Option<f64>,
-        skip_root: u32,
+        ray: &Ray,
         accept: &impl Fn(u32) -> bool,
         few: Option<&[u32]>,
     ) -> (f64, Option<RayHit>) {
-        let zok = |zmin: f64, zmax: f64| match z {
-            Some(z) => !(z < zmin || z > zmax),
-            None => true,
-        };
+        let Ray {
+            o,
+            d,
+            inv,
+            range,
+            z,
+            skip_root,
+        } = *ray;
         let best_t = Cell::new(range);
         let best: Cell<Option<RayHit>> = Cell::new(None);
         // models already tested by this ray (a body spanning several grid cells is listed in
@@ -616,7 +642,7 @@ impl Space {
             let mut bt = tmax;
             let mut bb = None;
             for (bi, blk) in body.blocks.iter().enumerate() {
-                if !zok(blk.zmin, blk.zmax) || blk.aabb.ray_entry(o, inv, bt).is_none() {
+                if !z_sees(z, blk.zmin, blk.zmax) || blk.aabb.ray_entry(o, inv, bt).is_none() {
                     continue;
                 }
                 if let Some(t) = ray_polygon(o, d, body.block_pts(bi), bt) {

@@ -128,29 +128,19 @@ mod tests {
         let cw = [[0.0, 0.0], [0.0, 1.0], [2.0, 1.0], [2.0, 0.0]];
         assert_eq!(Rect::of(&ccw), Some(rect(0.0, 0.0, 2.0, 1.0)));
         assert_eq!(Rect::of(&cw), Some(rect(0.0, 0.0, 2.0, 1.0)));
-        // a bow tie has its vertices at the corners but crosses itself
-        assert_eq!(
-            Rect::of(&[[0.0, 0.0], [2.0, 1.0], [2.0, 0.0], [0.0, 1.0]]),
-            None
-        );
-        assert_eq!(
-            Rect::of(&[[0.0, 0.0], [2.0, 0.0], [2.5, 1.0], [0.0, 1.0]]),
-            None
-        );
-        assert_eq!(
-            Rect::of(&[[0.0, 0.0], [2.0, 0.0], [2.0, 0.0], [0.0, 0.0]]),
-            None
-        );
-        assert_eq!(Rect::of(&[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0]]), None);
-        // spikes whose vertices all sit at corners of their bounding box
-        assert_eq!(
-            Rect::of(&[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [2.0, 0.0]]),
-            None
-        );
-        assert_eq!(
-            Rect::of(&[[0.0, 0.0], [2.0, 0.0], [0.0, 0.0], [0.0, 1.0]]),
-            None
-        );
+        let not_rectangles: [&[[f64; 2]]; 6] = [
+            // a bow tie has its vertices at the corners but crosses itself
+            &[[0.0, 0.0], [2.0, 1.0], [2.0, 0.0], [0.0, 1.0]],
+            &[[0.0, 0.0], [2.0, 0.0], [2.5, 1.0], [0.0, 1.0]],
+            &[[0.0, 0.0], [2.0, 0.0], [2.0, 0.0], [0.0, 0.0]],
+            // spikes whose vertices all sit at corners of their bounding box
+            &[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [2.0, 0.0]],
+            &[[0.0, 0.0], [2.0, 0.0], [0.0, 0.0], [0.0, 1.0]],
+            &[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0]],
+        ];
+        for pts in not_rectangles {
+            assert_eq!(Rect::of(pts), None, "{pts:?}");
+        }
     }
 
     #[test]

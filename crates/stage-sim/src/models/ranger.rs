@@ -5,6 +5,7 @@ use std::sync::Mutex;
 use crate::desc::SensorDesc;
 use crate::pool::share_out;
 use crate::rng::SimRng;
+use crate::space::RayHit;
 use crate::world::View;
 
 /// Fans of at least two chunks of this many rays are cast in parallel, chunk by chunk (see
@@ -82,21 +83,34 @@ impl RangerData {
     }
 }
 
-/// One ray from `o` (x, y and the height for the z test): the range and the intensity (the
-/// model's `ranger_return`), or `max` and 0 on a miss.
+/// Whether model `h` stops ranger rays (a negative `ranger_return` lets them through).
 #[inline(always)]
-fn cast_ray(v: &View, o: [f64; 3], dir: [f64; 2], max: f64, root: u32) -> (f64, f64) {
-    let pred = |h: u32| v.nodes[h as usize].ranger_return >= 0.0;
-    match v
-        .space
-        .raycast_dir([o[0], o[1]], dir, max, Some(o[2]), root, pred)
-    {
+fn stops_rays(v: &View, h: u32) -> bool {
+    v.nodes[h as usize].ranger_return >= 0.0
+}
+
+/// What a transducer reads for a ray's `hit`: the range and the intensity (the model's
+/// `ranger_return`), or `max` and 0 on a miss.
+#[inline(always)]
+fn reading(v: &View, hit: Option<RayHit>, max: f64) -> (f64, f64) {
+    match hit {
         Some(h) => (h.range, v.nodes[h.model as usize].ranger_return),
         None => (max, 0.0),
     }
 }
 
-/// [`cast_ray`] along each of `dirs`, into `ranges` and `intensities`.
+/// One ray from `o` (x, y and the height for the z test): its [`reading`].
+#[inline(always)]
+fn cast_ray(v: &View, o: [f64; 3], dir: [f64; 2], max: f64, root: u32) -> (f64, f64) {
+    let hit = v
+        .space
+        .raycast_dir([o[0], o[1]], dir, max, Some(o[2]), root, |h| {
+            stops_rays(v, h)
+        });
+    reading(v, hit, max)
+}
+
+/// [`cast_ray`] along each of `dirs`, handing `out` each ray's index and reading.
 #[inline(always)]
 fn cast_fan(
     v: &View,
@@ -106,15 +120,22 @@ fn cast_fan(
     root: u32,
     mut out: impl FnMut(usize, f64, f64),
 ) {
-    let pred = |h: u32| v.nodes[h as usize].ranger_return >= 0.0;
+    let pred = |h: u32| stops_rays(v, h);
     v.space
         .raycast_fan([o[0], o[1]], dirs, max, Some(o[2]), root, pred, |i, hit| {
-            let (r, s) = match hit {
-                Some(h) => (h.range, v.nodes[h.model as usize].ranger_return),
-                None => (max, 0.0),
-            };
+            let (r, s) = reading(v, hit, max);
             out(i, r, s)
         });
+}
+
+/// A transducer's first bearing and the step between bearings (rad; both 0 for one sample).
+fn fan_angles(s: &SensorDesc) -> (f64, f64) {
+    let n = s.samples.max(1);
+    if n > 1 {
+        (-s.fov / 2.0, s.fov / (n - 1) as f64)
+    } else {
+        (0.0, 0.0)
+    }
 }
 
 /// `r` with the transducer's additive (clamped to its range) and multiplicative noise.
@@ -140,9 +161,7 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
             .sensors
             .iter()
             .map(|s| {
-                let n = s.samples.max(1);
-                let start = if n > 1 { -s.fov / 2.0 } else { 0.0 };
-                let incr = if n > 1 { s.fov / (n - 1) as f64 } else { 0.0 };
+                let (start, incr) = fan_angles(s);
                 let (ss, sc) = (s.pose.a + start).sin_cos();
                 let (is, ic) = incr.sin_cos();
                 [sc, ss, ic, is]
@@ -151,12 +170,7 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
     }
     for ((sensor, scan), dir) in d.sensors.iter().zip(d.scans.iter_mut()).zip(&d.dirs) {
         let n = sensor.samples.max(1) as usize;
-        let incr = if n > 1 {
-            sensor.fov / (n - 1) as f64
-        } else {
-            0.0
-        };
-        let start = if n > 1 { -sensor.fov / 2.0 } else { 0.0 };
+        let (start, incr) = fan_angles(sensor);
         let sx = sensor.pose.x;
         let sy = sensor.pose.y;
         let ox = frame.x + sx * fc - sy * fs;
@@ -168,8 +182,9 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
         let max = sensor.range[1];
         // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
         let [sc, ss, ic, is] = *dir;
-        let (mut dc, mut ds) = (fc * sc - fs * ss, fs * sc + fc * ss);
-        let cast = |dir: [f64; 2]| cast_ray(v, [ox, oy, oz], dir, max, root);
+        let first = [fc * sc - fs * ss, fs * sc + fc * ss];
+        let rotate = |[c, s]: [f64; 2]| [c * ic - s * is, c * is + s * ic];
+        let bearing = |t: usize| start + t as f64 * incr;
         if n >= 2 * FAN_CHUNK {
             // long fan: the casts in parallel chunks, each thread sweeping the directions up
             // to its chunks (the same sequence of rotations as below, so the same directions),
@@ -182,11 +197,9 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
                 .zip(scan.intensities.chunks_mut(FAN_CHUNK))
                 .map(Mutex::new)
                 .collect();
-            let first = [dc, ds];
             // per thread: the index of the next direction and that direction
             let sweep = || (0usize, first);
             share_out(n, FAN_CHUNK, sweep, |(at, dir), rays| {
-                let rotate = |[c, s]: [f64; 2]| [c * ic - s * is, c * is + s * ic];
                 while *at < rays.start {
                     *dir = rotate(*dir);
                     *at += 1;
@@ -220,19 +233,19 @@ pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
                     *r = with_noise(sensor, *r, rng);
                 }
             }
-            let bearing = |t: usize| start + t as f64 * incr;
             if scan.bearings[0] != bearing(0) || scan.bearings[n - 1] != bearing(n - 1) {
                 for (t, b) in scan.bearings.iter_mut().enumerate() {
                     *b = bearing(t);
                 }
             }
         } else {
+            let mut dir = first;
             for t in 0..n {
-                let (r, i) = cast([dc, ds]);
+                let (r, i) = cast_ray(v, [ox, oy, oz], dir, max, root);
                 scan.ranges[t] = with_noise(sensor, r, rng);
                 scan.intensities[t] = i;
-                scan.bearings[t] = start + t as f64 * incr;
-                (dc, ds) = (dc * ic - ds * is, dc * is + ds * ic);
+                scan.bearings[t] = bearing(t);
+                dir = rotate(dir);
             }
         }
     }

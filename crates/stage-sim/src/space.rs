@@ -549,8 +549,8 @@ impl Space {
     ) -> Option<RayHit> {
         let inv = [1.0 / d[0], 1.0 / d[1]];
         // dynamic bodies first: in crowds their hits are near and bound the static walk
-        let (mut best_t, mut best) = match few {
-            Some([]) => (range, None),
+        let mut best = match few {
+            Some([]) => None,
             _ => {
                 let ray = Ray {
                     o,
@@ -563,6 +563,7 @@ impl Space {
                 self.dynamic_hit(&ray, accept, few)
             }
         };
+        let mut best_t = best.map_or(range, |h| h.range);
 
         // static edges: walk the static grid; the answer is the least (distance, model, block)
         if let Some(grid) = &self.statics.grid {
@@ -601,14 +602,13 @@ impl Space {
         best
     }
 
-    /// The nearest dynamic body the ray meets within `range` (see [`Space::cast`]): `range` and
-    /// `None` when there is none.
+    /// The nearest dynamic body the ray meets within its range (see [`Space::cast`]).
     fn dynamic_hit(
         &self,
         ray: &Ray,
         accept: &impl Fn(u32) -> bool,
         few: Option<&[u32]>,
-    ) -> (f64, Option<RayHit>) {
+    ) -> Option<RayHit> {
         let Ray {
             o,
             d,
@@ -675,7 +675,7 @@ impl Space {
             consider_all(&self.grid.overflow);
             self.walk_grid(o, d, &best_t, &mut consider_all);
         }
-        (best_t.get(), best.get())
+        best.get()
     }
 
     /// Visits the grid cells along the ray (DDA) in order, until the cell entry distance passes

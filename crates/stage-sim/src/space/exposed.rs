@@ -10,9 +10,9 @@
 //! before), so every hit is the same number as without the pruning; only edges whose every
 //! candidate hit lies inside a wall are no longer tested. (Up to ties: a ray exactly through
 //! a wall corner where hidden sides meet may now report the neighbouring block, at a distance
-//! that rounds differently by an ulp.) Covering is only decided between
-//! axis-aligned rectangles of the same model and the same z interval, so a ray that sees one of
-//! them (its height band, its model's `ranger_return`, the model still static) sees the other.
+//! that rounds differently by an ulp.) Covering is only decided between axis-aligned
+//! rectangles of the same model and the same z interval, so a ray that sees one of them (its
+//! height band, its model's `ranger_return`, the model still static) sees the other.
 //! A ray that *starts* inside a wall may now pass the shared sides and read a side further on
 //! (at the latest, where it leaves the wall) instead of the side of its own block; Stage reads
 //! such a ray as blocked at once, which neither matched.

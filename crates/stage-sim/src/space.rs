@@ -348,6 +348,20 @@ struct Ray {
     skip_root: u32,
 }
 
+/// What the rays of one cast share: origin, reach, height for the z test and the tree they pass
+/// through, plus what a fan works out once: `few`, the dynamic bodies to test when the world has
+/// so few that walking the dynamic grid would cost more (`None`: walk it), and `start`, the
+/// static grid cell holding `o`, if known.
+#[derive(Clone, Copy)]
+struct Shared<'a> {
+    o: [f64; 2],
+    range: f64,
+    z: Option<f64>,
+    skip_root: u32,
+    few: Option<&'a [u32]>,
+    start: Option<[i32; 2]>,
+}
+
 /// Stage's `ztest`: whether a block spanning `zmin..=zmax` can stop a ray at height `z`
 /// (`None`: any height).
 #[inline(always)]
@@ -493,8 +507,15 @@ impl Space {
         skip_root: u32,
         accept: impl Fn(u32) -> bool,
     ) -> Option<RayHit> {
-        let few = (self.members.len() <= SMALL_DYNAMIC_SET).then_some(&self.members[..]);
-        self.cast(o, d, range, z, skip_root, &accept, few, None)
+        let shared = Shared {
+            o,
+            range,
+            z,
+            skip_root,
+            few: (self.members.len() <= SMALL_DYNAMIC_SET).then_some(&self.members[..]),
+            start: None,
+        };
+        self.cast(shared, d, &accept)
     }
 
     /// [`Space::raycast_dir`] for every direction of `dirs` from the one origin `o` (a ranger
@@ -524,29 +545,30 @@ impl Space {
                 }
             }
         }
-        let few = small.then_some(&few[..n]);
-        let start = self.statics.grid.as_ref().and_then(|g| g.cell_inside(o));
+        let shared = Shared {
+            o,
+            range,
+            z,
+            skip_root,
+            few: small.then_some(&few[..n]),
+            start: self.statics.grid.as_ref().and_then(|g| g.cell_inside(o)),
+        };
         for (i, &d) in dirs.iter().enumerate() {
-            out(i, self.cast(o, d, range, z, skip_root, &accept, few, start));
+            out(i, self.cast(shared, d, &accept));
         }
     }
 
-    /// One ray (see [`Space::raycast_dir`]); `few`: the dynamic bodies to test when the world
-    /// has so few that walking the dynamic grid would cost more (`None`: walk it); `start`:
-    /// the static grid cell holding `o`, if known.
+    /// One ray along `d` (see [`Space::raycast_dir`]).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn cast(
-        &self,
-        o: [f64; 2],
-        d: [f64; 2],
-        range: f64,
-        z: Option<f64>,
-        skip_root: u32,
-        accept: &impl Fn(u32) -> bool,
-        few: Option<&[u32]>,
-        start: Option<[i32; 2]>,
-    ) -> Option<RayHit> {
+    fn cast(&self, shared: Shared, d: [f64; 2], accept: &impl Fn(u32) -> bool) -> Option<RayHit> {
+        let Shared {
+            o,
+            range,
+            z,
+            skip_root,
+            few,
+            start,
+        } = shared;
         let inv = [1.0 / d[0], 1.0 / d[1]];
         // dynamic bodies first: in crowds their hits are near and bound the static walk
         let mut best = match few {

@@ -8,7 +8,9 @@
 //! for a worldfile instead, drawn with its `window` settings and data on, `--zoom F` to magnify
 //! the whole-world view F times about its centre, `--window-view` to draw exactly the view the
 //! worldfile's `window` asks for: its size, scale, centre and rotation, `--steps N` to step the
-//! world N times (default 5) before measuring, e.g. until a swarm has spread out).
+//! world N times (default 5) before measuring, e.g. until a swarm has spread out),
+//! `--fan-triangles` to draw ranger footprints as triangle fans even on a software rasteriser
+//! instead of counting their coverage per pixel.
 
 use std::time::{Duration, Instant};
 
@@ -135,6 +137,10 @@ fn main() {
         }
     };
     off.renderer_mut().set_layer_cache(!no_cache);
+    let fan_triangles = args.iter().any(|a| a == "--fan-triangles");
+    let counted =
+        !fan_triangles && viewer::render::fan_coverage_for(off.adapter_info().device_type);
+    off.renderer_mut().set_fan_coverage(counted);
     let (min, max) = world_scene::world_extent(&world);
     let mut view = View {
         size: [1280.0, 720.0],
@@ -156,6 +162,7 @@ fn main() {
 
     let mut scene = Scene::default();
     let (mut build, mut render, mut readback) = (Vec::new(), Vec::new(), Vec::new());
+    let mut counting = Vec::new();
     for i in 0..frames + 2 {
         world.step();
         let t = Instant::now();
@@ -164,6 +171,7 @@ fn main() {
         let t = Instant::now();
         off.render_only(&scene, &view).expect("render");
         let tr = t.elapsed();
+        let tc = off.renderer_mut().coverage_time();
         let t = Instant::now();
         let px = off.render(&scene, &view).expect("render and read back");
         let trb = t.elapsed();
@@ -172,6 +180,7 @@ fn main() {
             // the first frames compile pipelines and grow buffers
             build.push(tb);
             render.push(tr);
+            counting.push(tc);
             readback.push(trb);
         }
     }
@@ -181,21 +190,36 @@ fn main() {
         median(&mut readback),
     );
     let segments: usize = scene.layers.iter().map(|l| l.segments.len()).sum();
-    let triangles: usize = scene.layers.iter().map(|l| l.triangles.len() / 3).sum();
+    let triangles = scene.triangle_count();
     println!("  per frame: {segments} segments, {triangles} triangles");
     let names = ["grid", "static", "footprints", "bodies", "data", "overlay"];
     let per_layer: Vec<String> = scene
         .layers
         .iter()
         .zip(names)
-        .map(|(l, n)| format!("{n} {}+{}", l.triangles.len() / 3, l.segments.len()))
+        .map(|(l, n)| format!("{n} {}+{}", l.triangle_count(), l.segments.len()))
         .collect();
     println!("  triangles+segments by layer: {}", per_layer.join(", "));
+    let fans: usize = scene.layers.iter().map(|l| l.fans.len()).sum();
+    println!(
+        "  {fans} fans drawn {}",
+        if counted {
+            "by counting their coverage per pixel on the CPU"
+        } else {
+            "as triangle fans"
+        }
+    );
     println!(
         "  scene build            {:8.2} ms (median of {frames})",
         ms(b)
     );
     println!("  render (no read-back)  {:8.2} ms", ms(r));
+    if counted {
+        println!(
+            "    of which counting fan coverage {:8.2} ms",
+            ms(median(&mut counting))
+        );
+    }
     println!("  render + read-back     {:8.2} ms", ms(rb));
     println!(
         "  window frame (build + render) {:8.2} ms = {:.1} frames/s",

@@ -12,7 +12,10 @@ use crate::view::View;
 
 /// Adds the scene renderer to eframe's wgpu state (once, at start-up).
 pub fn install(rs: &egui_wgpu::RenderState) {
-    let renderer = SceneRenderer::new(&rs.device, rs.target_format, 1);
+    let mut renderer = SceneRenderer::new(&rs.device, rs.target_format, 1);
+    renderer.set_fan_coverage(crate::render::fan_coverage_for(
+        rs.adapter.get_info().device_type,
+    ));
     rs.renderer.write().callback_resources.insert(renderer);
 }
 

@@ -27,6 +27,7 @@
 #![warn(missing_docs)]
 
 pub mod canvas;
+pub mod coverage;
 pub mod error;
 pub mod handle;
 pub mod lod;

@@ -54,6 +54,41 @@ pub fn simplify_rim(rim: &[[f64; 2]], tol: f64, keep: &mut Vec<usize>) {
     }
 }
 
+/// The unit directions of rays with `bearings` from a sensor heading `heading` (rad), into
+/// `out` (cleared first). Evenly spaced bearings (every Stage ranger's, within a nanoradian)
+/// are turned one step at a time instead of each taking a sine and cosine: 1,000 lasers of
+/// 180 rays are 180,000 of those a frame, some 3 ms. Over a few thousand steps the turned
+/// directions stay within 1e-12 of the exact ones.
+pub fn ray_directions(heading: f64, bearings: &[f64], out: &mut Vec<[f64; 2]>) {
+    out.clear();
+    let n = bearings.len();
+    let step = if n >= 2 {
+        (bearings[n - 1] - bearings[0]) / (n - 1) as f64
+    } else {
+        0.0
+    };
+    let even = n >= 3
+        && step.is_finite()
+        && bearings
+            .iter()
+            .enumerate()
+            .all(|(i, b)| (b - (bearings[0] + step * i as f64)).abs() <= 1e-9);
+    if !even {
+        out.extend(bearings.iter().map(|b| {
+            let (s, c) = (heading + b).sin_cos();
+            [c, s]
+        }));
+        return;
+    }
+    let (s, c) = step.sin_cos();
+    let (s0, c0) = (heading + bearings[0]).sin_cos();
+    let mut d = [c0, s0];
+    for _ in 0..n {
+        out.push(d);
+        d = [d[0] * c - d[1] * s, d[0] * s + d[1] * c];
+    }
+}
+
 /// Narrows the sleeve to the directions whose lines from the anchor pass within `tol` of the
 /// point at offset `v` (at distance `d`); points within `tol` of the anchor constrain nothing.
 fn narrow(sleeve: &mut Option<([f64; 2], [f64; 2])>, v: [f64; 2], d: f64, tol: f64) {
@@ -231,6 +266,30 @@ mod tests {
         let rim = [[1.0, 0.0], [f64::NAN, 0.0], [1.0, 1.0], [0.0, 1.0]];
         simplify_rim(&rim, 0.1, &mut keep);
         assert!(keep.contains(&0) && keep.contains(&3));
+    }
+
+    #[test]
+    fn ray_directions_turned_step_by_step_match_each_ray_computed() {
+        let mut out = Vec::new();
+        for (heading, bearings) in [
+            (
+                0.3,
+                (0..361)
+                    .map(|i| -3.0 + 6.0 * i as f64 / 360.0)
+                    .collect::<Vec<_>>(),
+            ),
+            // uneven: each computed
+            (-1.0, vec![0.1, 0.2, 0.5, 0.55]),
+            (2.0, vec![0.7]),
+            (2.0, vec![]),
+        ] {
+            ray_directions(heading, &bearings, &mut out);
+            assert_eq!(out.len(), bearings.len());
+            for (d, b) in out.iter().zip(&bearings) {
+                let want = [(heading + b).cos(), (heading + b).sin()];
+                assert!((d[0] - want[0]).abs() < 1e-12 && (d[1] - want[1]).abs() < 1e-12);
+            }
+        }
     }
 
     #[test]

@@ -112,7 +112,8 @@ impl Offscreen {
             })
             .await
             .map_err(|e| ViewerError::Gpu(format!("requesting a device: {e}")))?;
-        let renderer = SceneRenderer::new(&device, format, 1);
+        let mut renderer = SceneRenderer::new(&device, format, 1);
+        renderer.set_fan_coverage(crate::render::fan_coverage_for(info.device_type));
         Ok(Offscreen {
             format,
             device,

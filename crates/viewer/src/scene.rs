@@ -10,7 +10,7 @@
 use crate::triangulate;
 
 /// An sRGB colour with alpha, 8 bits per channel (what the render targets store).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct Rgba8(pub [u8; 4]);
 
@@ -77,6 +77,28 @@ pub struct Segment {
     pub color: Rgba8,
 }
 
+/// A filled fan (a ranger footprint): the polygon through its centre and its rim points, kept
+/// whole rather than as triangles so the renderer can choose how to draw it: as a triangle fan,
+/// or, for many translucent fans on a software rasteriser, by counting how many cover each
+/// pixel ([`crate::coverage`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FanPrim {
+    /// Index of the centre in the layer's [`LayerData::fan_points`]; the rim follows it.
+    pub first: u32,
+    /// Number of points, the centre included (at least 3).
+    pub len: u32,
+    /// Colour.
+    pub color: Rgba8,
+}
+
+impl FanPrim {
+    /// The fan's points (centre, then rim) in `layer`.
+    pub fn points<'a>(&self, layer: &'a LayerData) -> &'a [[f32; 2]] {
+        let (a, n) = (self.first as usize, self.len as usize);
+        layer.fan_points.get(a..a + n).unwrap_or(&[])
+    }
+}
+
 /// An RGBA image drawn on a world-space quad (camera frames).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImagePrim {
@@ -104,7 +126,8 @@ pub struct Label {
     pub bubble: Option<Rgba8>,
 }
 
-/// Drawing order, back to front. Within a layer fills are drawn before segments.
+/// Drawing order, back to front. Within a layer triangles are drawn first, then fans, segments
+/// and images.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Layer {
     /// Floor grid and map images.
@@ -132,10 +155,72 @@ pub const LAYERS: usize = 6;
 pub struct LayerData {
     /// Filled triangles, three vertices each.
     pub triangles: Vec<FillVertex>,
+    /// Filled fans.
+    pub fans: Vec<FanPrim>,
+    /// The fans' points (m).
+    pub fan_points: Vec<[f32; 2]>,
     /// Segments.
     pub segments: Vec<Segment>,
     /// Images.
     pub images: Vec<ImagePrim>,
+}
+
+impl LayerData {
+    /// Number of triangles, a fan counting as the triangles it spans.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len() / 3 + self.fans.iter().map(|f| f.len as usize - 2).sum::<usize>()
+    }
+
+    /// Appends the layer's fans to `out` as triangles (centre, rim point, next rim point), in
+    /// drawing order: colour by colour, each colour's fans in the order they were added, the
+    /// colours in the order each first appeared.
+    ///
+    /// Why by colour: a software rasteriser draws dense fans fastest by counting, per pixel,
+    /// how many of each colour cover it ([`crate::coverage`]), which composites colour after
+    /// colour; drawing them in that order everywhere gives every renderer the same picture.
+    /// One robot's footprints (a laser's, then its sonars') keep Stage's order; only where
+    /// different robots' footprints of different colours overlap does the tint differ from
+    /// drawing robot after robot.
+    pub fn fan_triangles(&self, out: &mut Vec<FillVertex>) {
+        for k in self.fan_order() {
+            let f = &self.fans[k];
+            let pts = f.points(self);
+            let Some((&c, rim)) = pts.split_first() else {
+                continue;
+            };
+            let v = |pos| FillVertex {
+                pos,
+                color: f.color,
+            };
+            for w in rim.windows(2) {
+                out.extend([v(c), v(w[0]), v(w[1])]);
+            }
+        }
+    }
+
+    /// The distinct colours of the layer's fans, in the order each first appears.
+    pub fn fan_colours(&self) -> Vec<Rgba8> {
+        let mut seen = std::collections::HashSet::new();
+        self.fans
+            .iter()
+            .filter(|f| seen.insert(f.color))
+            .map(|f| f.color)
+            .collect()
+    }
+
+    /// The fans' indices in drawing order (see [`LayerData::fan_triangles`]).
+    fn fan_order(&self) -> Vec<usize> {
+        let rank: std::collections::HashMap<Rgba8, usize> = self
+            .fan_colours()
+            .into_iter()
+            .enumerate()
+            .map(|(i, c)| (c, i))
+            .collect();
+        let mut order: Vec<usize> = (0..self.fans.len()).collect();
+        // stable: each colour's fans keep the order they were added in
+        order.sort_by_key(|&k| rank[&self.fans[k].color]);
+        order
+    }
 }
 
 /// Everything to draw, in world coordinates.
@@ -183,6 +268,8 @@ impl Scene {
                 continue;
             }
             l.triangles.clear();
+            l.fans.clear();
+            l.fan_points.clear();
             l.segments.clear();
             l.images.clear();
         }
@@ -207,9 +294,9 @@ impl Scene {
         self.layers.iter().map(|l| l.segments.len()).sum()
     }
 
-    /// Number of triangles over all layers.
+    /// Number of triangles over all layers, a fan counting as the triangles it spans.
     pub fn triangle_count(&self) -> usize {
-        self.layers.iter().map(|l| l.triangles.len() / 3).sum()
+        self.layers.iter().map(LayerData::triangle_count).sum()
     }
 
     /// A segment.
@@ -249,25 +336,21 @@ impl Scene {
         });
     }
 
-    /// A filled triangle fan around `center` through `rim` (a ranger footprint); `rim` need not
-    /// be convex, as seen from `center` it never folds back.
+    /// A filled fan around `center` through `rim` (a ranger footprint); `rim` need not be
+    /// convex, as seen from `center` it never folds back. Fewer than two rim points draw nothing.
     pub fn fan(&mut self, layer: Layer, center: [f64; 2], rim: &[[f64; 2]], color: Rgba8) {
-        let tris = &mut self.layers[layer as usize].triangles;
-        let c = FillVertex {
-            pos: f32x2(center),
-            color,
-        };
-        for w in rim.windows(2) {
-            tris.push(c);
-            tris.push(FillVertex {
-                pos: f32x2(w[0]),
-                color,
-            });
-            tris.push(FillVertex {
-                pos: f32x2(w[1]),
-                color,
-            });
+        if rim.len() < 2 {
+            return;
         }
+        let l = &mut self.layers[layer as usize];
+        let first = l.fan_points.len() as u32;
+        l.fan_points.push(f32x2(center));
+        l.fan_points.extend(rim.iter().map(|&p| f32x2(p)));
+        l.fans.push(FanPrim {
+            first,
+            len: rim.len() as u32 + 1,
+            color,
+        });
     }
 
     /// A segment `width` metres wide drawn as two triangles, so it stays in the fill order of
@@ -361,6 +444,9 @@ impl Scene {
             for i in &l.images {
                 i.corners.iter().for_each(|&c| add(c));
             }
+            for f in &l.fans {
+                f.points(l).iter().for_each(|&p| add(p));
+            }
         }
         (min[0] <= max[0]).then_some((min, max))
     }
@@ -415,7 +501,22 @@ mod tests {
         );
         assert_eq!(s.layer(Layer::Bodies).triangles.len(), 6);
         assert_eq!(s.layer(Layer::Overlay).segments.len(), 3);
-        assert_eq!(s.layer(Layer::Footprints).triangles.len(), 6);
+        let fp = s.layer(Layer::Footprints);
+        assert_eq!((fp.fans.len(), fp.fan_points.len()), (1, 4));
+        let mut tris = Vec::new();
+        fp.fan_triangles(&mut tris);
+        let pos: Vec<[f32; 2]> = tris.iter().map(|v| v.pos).collect();
+        assert_eq!(
+            pos,
+            [
+                [0.0, 0.0],
+                [1.0, 0.0],
+                [0.0, 1.0],
+                [0.0, 0.0],
+                [0.0, 1.0],
+                [-1.0, 0.0]
+            ]
+        );
         assert_eq!(s.triangle_count(), 4);
         assert_eq!(s.segment_count(), 3);
         let (min, max) = s.bounds().unwrap();

@@ -122,3 +122,35 @@ fn vs_blit(@builtin(vertex_index) vi: u32) -> ImageOut {
 fn fs_blit(i: ImageOut) -> @location(0) vec4<f32> {
     return textureSample(image_tex, image_sampler, i.uv);
 }
+
+// Fans counted per pixel on the CPU (coverage.rs), each count already turned into the alpha
+// that many blends of its colour reach (1 - (1 - a)^n): one channel per colour, composited in
+// order and output premultiplied.
+
+struct CoverageParams {
+    // the colours as the target stores them (decoded to linear for an sRGB target)
+    colors: array<vec4<f32>, 4>,
+    // 1 for each channel in use, 0 for the others
+    mask: vec4<f32>,
+    // the alphas' size in texels (the viewport's in pixels)
+    size: vec2<f32>,
+    _pad: vec2<f32>,
+};
+
+@group(1) @binding(0) var coverage_alphas: texture_2d<f32>;
+@group(1) @binding(1) var<uniform> coverage: CoverageParams;
+
+@fragment
+fn fs_coverage(i: ImageOut) -> @location(0) vec4<f32> {
+    let texel = vec2<i32>(min(i.uv * coverage.size, coverage.size - vec2<f32>(1.0)));
+    // unused channels read 0 (R8 and RG8 textures give 0 for g and b, and the CPU writes 0 to
+    // an RGBA texture's unused ones) except an R8 or RG8 texture's alpha, which reads 1: the
+    // group count masks it
+    let alphas = textureLoad(coverage_alphas, texel, 0) * coverage.mask;
+    // colours come premultiplied-ready: linear where the target is, and composited in order
+    var o = vec4<f32>(coverage.colors[0].rgb * alphas.r, alphas.r);
+    o = vec4<f32>(coverage.colors[1].rgb * alphas.g, alphas.g) + o * (1.0 - alphas.g);
+    o = vec4<f32>(coverage.colors[2].rgb * alphas.b, alphas.b) + o * (1.0 - alphas.b);
+    o = vec4<f32>(coverage.colors[3].rgb * alphas.a, alphas.a) + o * (1.0 - alphas.a);
+    return o;
+}

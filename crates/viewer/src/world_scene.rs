@@ -649,7 +649,8 @@ fn ranger(
     scene: &mut Scene,
 ) {
     let tol = 0.5 * px;
-    let mut keep = Vec::new();
+    // reused from sensor to sensor
+    let (mut keep, mut dirs, mut ends, mut rim) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (k, sensor) in r.sensors.iter().enumerate() {
         let origin = frame.compose(&sensor.pose);
         let o = [origin.x, origin.y];
@@ -677,31 +678,31 @@ fn ranger(
         if n == 0 {
             continue;
         }
-        let (s0, c0) = origin.a.sin_cos();
-        let end = |i: usize| {
-            let (bs, bc) = scan.bearings[i].sin_cos();
-            let (dx, dy) = (c0 * bc - s0 * bs, s0 * bc + c0 * bs);
-            let rr = scan.ranges[i];
-            [o[0] + rr * dx, o[1] + rr * dy]
-        };
-        let ends: Vec<[f64; 2]> = (0..n).map(end).collect();
+        lod::ray_directions(origin.a, &scan.bearings[..n], &mut dirs);
+        ends.clear();
+        ends.extend(
+            (dirs.iter().zip(&scan.ranges)).map(|(d, rr)| [o[0] + rr * d[0], o[1] + rr * d[1]]),
+        );
         if vis.ranger_ranges {
             if n == 1 {
                 // a single-sample transducer (sonar): its cone at the measured range
                 let half = sensor.fov / 2.0;
                 let rr = scan.ranges[0];
                 let chords = lod::arc_segments(rr, sensor.fov, tol, 32);
-                let rim: Vec<[f64; 2]> = (0..=chords)
-                    .map(|i| {
-                        let a = origin.a + scan.bearings[0] - half
-                            + sensor.fov * i as f64 / chords as f64;
-                        [o[0] + rr * a.cos(), o[1] + rr * a.sin()]
-                    })
-                    .collect();
+                // the chord ends turned one chord at a time (one sine and cosine a cone)
+                let (s, c) = (sensor.fov / chords as f64).sin_cos();
+                let (s0, c0) = (origin.a + scan.bearings[0] - half).sin_cos();
+                let mut d = [c0, s0];
+                rim.clear();
+                for _ in 0..=chords {
+                    rim.push([o[0] + rr * d[0], o[1] + rr * d[1]]);
+                    d = [d[0] * c - d[1] * s, d[0] * s + d[1] * c];
+                }
                 scene.fan(Layer::Footprints, o, &rim, color.with_alpha(40));
             } else {
                 lod::simplify_rim(&ends, tol, &mut keep);
-                let rim: Vec<[f64; 2]> = keep.iter().map(|&i| ends[i]).collect();
+                rim.clear();
+                rim.extend(keep.iter().map(|&i| ends[i]));
                 scene.fan(Layer::Footprints, o, &rim, color.with_alpha(40));
             }
         }

@@ -31,7 +31,7 @@ fn bodies_and_rays_follow_the_view_menu() {
     assert!(has_color(&scene, Layer::Bodies, Rgba8::rgb(255, 0, 0)));
     assert!(has_color(&scene, Layer::Bodies, Rgba8::rgb(0, 0, 0)));
     assert!(scene.layer(Layer::Data).segments.is_empty());
-    assert!(scene.layer(Layer::Footprints).triangles.is_empty());
+    assert!(scene.layer(Layer::Footprints).fans.is_empty());
     // grid lines every metre over the visible floor
     assert!(!scene.layer(Layer::Grid).segments.is_empty());
 
@@ -79,18 +79,21 @@ fn bodies_and_rays_follow_the_view_menu() {
         let gap = (w[0].b[0] - w[1].b[0]).hypot(w[0].b[1] - w[1].b[1]) as f64;
         assert!(gap >= px * 0.999, "rays drawn {gap} m apart");
     }
-    let fan = &scene.layer(Layer::Footprints).triangles;
-    assert_eq!(fan.len() % 3, 0);
+    let fp = scene.layer(Layer::Footprints);
+    assert_eq!(fp.fans.len(), 1);
+    let fan = fp.fans[0].points(fp);
+    // the centre, then a rim thinned from 180 ray ends (but at least two)
     assert!(
-        fan.len() >= 2 * 3 && fan.len() < 180 * 3,
-        "{} fan vertices",
+        fan.len() >= 3 && fan.len() < 181,
+        "{} fan points",
         fan.len()
     );
-    for t in fan.chunks(3) {
-        assert!((t[0].pos[0] - 1.0).abs() < 1e-4 && (t[0].pos[1] + 1.0).abs() < 1e-4);
-    }
-    // consecutive fan triangles share their rim edge, so the footprint has no gaps
-    for w in fan.chunks(3).collect::<Vec<_>>().windows(2) {
+    assert!((fan[0][0] - 1.0).abs() < 1e-4 && (fan[0][1] + 1.0).abs() < 1e-4);
+    // drawn as triangles, consecutive ones share their rim edge, so the footprint has no gaps
+    let mut tris = Vec::new();
+    fp.fan_triangles(&mut tris);
+    assert_eq!(tris.len(), 3 * (fan.len() - 2));
+    for w in tris.chunks(3).collect::<Vec<_>>().windows(2) {
         assert_eq!(w[0][2].pos, w[1][1].pos);
     }
 

@@ -9,7 +9,7 @@
 //! the whole-world view F times about its centre, `--window-view` to draw exactly the view the
 //! worldfile's `window` asks for: its size, scale, centre and rotation, `--steps N` to step the
 //! world N times (default 5) before measuring, e.g. until a swarm has spread out),
-//! `--fan-triangles` to draw ranger footprints as triangle fans even on a software rasteriser
+//! `--lasers-only` to leave the swarm robots' sonar rings out, `--fan-triangles` to draw ranger footprints as triangle fans even on a software rasteriser
 //! instead of counting their coverage per pixel.
 
 use std::time::{Duration, Instant};
@@ -21,10 +21,17 @@ use viewer::offscreen::Offscreen;
 use viewer::scene::Scene;
 use viewer::world_scene::{self, VisOptions, WorldGui};
 
-/// The generated swarm world with a laser on every robot (Stage's sicklaser: 180 rays over
-/// 180 degrees, 8 m).
-fn swarm_with_lasers(robots: usize) -> (World, WorldGui) {
+/// The generated swarm world (each robot with a ring of 12 sonars) with a laser on every robot
+/// (Stage's sicklaser: 180 rays over 180 degrees, 8 m); without the sonars if `lasers_only`.
+fn swarm_with_lasers(robots: usize, lasers_only: bool) -> (World, WorldGui) {
     let mut desc = swarm_world(robots, 1);
+    if lasers_only {
+        for m in &mut desc.models {
+            if let KindDesc::Ranger(sensors) = &mut m.kind {
+                sensors.clear();
+            }
+        }
+    }
     let bots: Vec<usize> = (0..desc.models.len())
         .filter(|&i| matches!(desc.models[i].kind, KindDesc::Position(_)))
         .collect();
@@ -68,6 +75,7 @@ fn main() {
     let no_bodies = args.iter().any(|a| a == "--no-bodies");
     let no_cache = args.iter().any(|a| a == "--no-cache");
     let window_view = args.iter().any(|a| a == "--window-view");
+    let lasers_only = args.iter().any(|a| a == "--lasers-only");
     let warm: u64 = args
         .iter()
         .position(|a| a == "--steps")
@@ -107,12 +115,19 @@ fn main() {
             )
         }
         None => {
-            let (world, gui) = swarm_with_lasers(robots);
+            let (world, gui) = swarm_with_lasers(robots, lasers_only);
             (
                 world,
                 gui,
                 VisOptions::default(),
-                format!("{robots} robots with 180-ray lasers"),
+                format!(
+                    "{robots} robots with 180-ray lasers{}",
+                    if lasers_only {
+                        ""
+                    } else {
+                        " and 12 sonars each"
+                    }
+                ),
             )
         }
     };

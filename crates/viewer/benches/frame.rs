@@ -216,8 +216,10 @@ fn main() {
         .collect();
     println!("  triangles+segments by layer: {}", per_layer.join(", "));
     let fans: usize = scene.layers.iter().map(|l| l.fans.len()).sum();
+    let fill = viewer::render::fan_fill(scene.layer(viewer::scene::Layer::Footprints), &view);
+    let counted = counted && fill >= viewer::render::COVERAGE_MIN_FILL;
     println!(
-        "  {fans} fans drawn {}",
+        "  {fans} fans covering {fill:.1} views drawn {}",
         if counted {
             "by counting their coverage per pixel on the CPU"
         } else {

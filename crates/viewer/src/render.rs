@@ -15,8 +15,9 @@
 //! change — a static model moved, a colour, the zoom — redraws them). A large bitmap map is
 //! tens of thousands of triangles that a software rasteriser would otherwise pay every frame.
 //!
-//! Fans (ranger footprints) are drawn as triangle fans, except on a software rasteriser: there
-//! the fans of a layer above the cached ones are counted per pixel on the CPU, colour by colour
+//! Fans (ranger footprints) are drawn as triangle fans, except on a software rasteriser when a
+//! layer's fans cover the view [`COVERAGE_MIN_FILL`] times or more: there the fans of a layer
+//! above the cached ones are counted per pixel on the CPU, colour by colour
 //! ([`crate::coverage`]), each count is turned into the alpha that many blends of that colour
 //! reach, and one full-view pass composites them: the colour that blending the fans one by
 //! one gives (up to the 8-bit rounding of each blend) at a fraction of the cost. 1,000 lasers
@@ -110,6 +111,12 @@ struct GpuImage {
 pub fn fan_coverage_for(kind: wgpu::DeviceType) -> bool {
     kind == wgpu::DeviceType::Cpu
 }
+
+/// Fans covering less than this many views' worth of pixels are blended as triangles even
+/// where coverage counting is on: the count's full-view composite costs a software rasteriser
+/// about as much as blending two views of triangles (Stage's 1,000-robot hospital, whose sonar
+/// cones cover under one view, draws in 8 ms as triangles and 11 ms counted).
+pub const COVERAGE_MIN_FILL: f64 = 2.0;
 
 /// The parameters of one coverage composite, as the shader reads them.
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -524,7 +531,8 @@ impl SceneRenderer {
             let counted = self.fan_coverage
                 && drawable
                 && i >= CACHED_LAYERS
-                && colours.as_ref().is_some_and(|c| !c.is_empty());
+                && colours.as_ref().is_some_and(|c| !c.is_empty())
+                && fan_fill(layer, view) >= COVERAGE_MIN_FILL;
             let mut slot = None;
             match colours {
                 Some(colours) if counted => {
@@ -908,6 +916,27 @@ impl SceneRenderer {
     }
 }
 
+/// How many views' worth of pixels `layer`'s fans cover as `view` shows them, counting
+/// overlaps: their area over the view's.
+pub fn fan_fill(layer: &LayerData, view: &View) -> f64 {
+    let twice: f64 = layer
+        .fans
+        .iter()
+        .map(|f| {
+            let pts = f.points(layer);
+            let Some(&last) = pts.last() else { return 0.0 };
+            let mut a = last;
+            let mut sum = 0.0f64;
+            for &b in pts {
+                sum += f64::from(a[0]) * f64::from(b[1]) - f64::from(b[0]) * f64::from(a[1]);
+                a = b;
+            }
+            sum.abs()
+        })
+        .sum();
+    0.5 * twice * view.scale * view.scale / (view.size[0] * view.size[1]).max(1.0)
+}
+
 /// The distinct colours of `layer`'s fans in order of first appearance, `None` when there are
 /// more than [`coverage::MAX_GROUPS`] (those fans are drawn as triangles: each colour is a
 /// channel of the composite).
@@ -1014,4 +1043,46 @@ pub(crate) fn cleared_pass<'e>(
         occlusion_query_set: None,
         multiview_mask: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fan_fill_is_the_fans_area_in_views() {
+        let mut layer = Scene::default();
+        // a 2 x 1 m rectangle as a fan from a corner (either way round), and a triangle
+        let rim = [[2.0, 0.0], [2.0, 1.0], [0.0, 1.0]];
+        layer.fan(Layer::Footprints, [0.0, 0.0], &rim, Rgba8::BLACK);
+        let back: Vec<[f64; 2]> = rim.iter().rev().copied().collect();
+        layer.fan(Layer::Footprints, [0.0, 0.0], &back, Rgba8::BLACK);
+        layer.fan(
+            Layer::Footprints,
+            [5.0, 5.0],
+            &[[6.0, 5.0], [5.0, 6.0]],
+            Rgba8::WHITE,
+        );
+        let view = View {
+            center: [0.0, 0.0],
+            scale: 10.0,
+            yaw: 0.4,
+            size: [100.0, 50.0],
+        };
+        // (2 + 2 + 0.5) m2 at 100 px per m2 over 5,000 px
+        let fill = fan_fill(layer.layer(Layer::Footprints), &view);
+        assert!((fill - 0.09).abs() < 1e-9, "{fill}");
+    }
+
+    #[test]
+    fn blended_alphas_compound_like_repeated_blending() {
+        let t = blended_alphas(40);
+        assert_eq!((t[0], t[1]), (0, 40));
+        // blending alpha 40 over itself: 40 + 40 * (1 - 40/255) = 73.7
+        assert_eq!(t[2], 74);
+        assert!(t.windows(2).all(|w| w[0] <= w[1]));
+        assert_eq!(t[255], 255);
+        assert!(blended_alphas(0).iter().all(|&a| a == 0));
+        assert!(blended_alphas(255)[1..].iter().all(|&a| a == 255));
+    }
 }

@@ -9,7 +9,7 @@
 //! needs no per-triangle work at all: each polygon edge adds +1 or -1 where it crosses each
 //! pixel row (a winding-number delta), interior edges of a fan never enter (the fan is one
 //! polygon, its rim and two sides), and one running sum per row turns the deltas into counts.
-//! The renderer composites the counts with one full-screen pass ([`crate::render`]).
+//! The renderer composites the counts with one full-view pass ([`crate::render`]).
 //!
 //! The sampling rule is the GPU's: a pixel is covered when its centre is inside, with ties on
 //! an edge going to the right and bottom neighbours (a centre exactly on a shared edge is
@@ -18,9 +18,9 @@
 /// Pixel transform: world metres to pixel coordinates (x right, y down), an affine map.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PixelMap {
-    /// `px = m[0] * x + m[1] * y + m[2]`.
+    /// Pixel column of world `(wx, wy)`: `x[0] * wx + x[1] * wy + x[2]`.
     pub x: [f64; 3],
-    /// `py = m[0] * x + m[1] * y + m[2]`.
+    /// Pixel row: `y[0] * wx + y[1] * wy + y[2]`.
     pub y: [f64; 3],
 }
 

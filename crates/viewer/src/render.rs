@@ -123,7 +123,6 @@ pub const COVERAGE_MIN_FILL: f64 = 2.0;
 #[repr(C)]
 struct CoverageParams {
     colors: [[f32; 4]; coverage::MAX_GROUPS],
-    mask: [f32; 4],
     size: [f32; 2],
     _pad: [f32; 2],
 }
@@ -135,6 +134,63 @@ struct CoverageTarget {
     texture: wgpu::Texture,
     params: wgpu::Buffer,
     bind: wgpu::BindGroup,
+}
+
+impl CoverageTarget {
+    /// A target for `size` pixels of `channels` alphas (1, 2 or 4) and its colours.
+    fn new(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        size: [u32; 2],
+        channels: usize,
+    ) -> CoverageTarget {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("scene fan coverage"),
+            size: wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: match channels {
+                1 => wgpu::TextureFormat::R8Unorm,
+                2 => wgpu::TextureFormat::Rg8Unorm,
+                _ => wgpu::TextureFormat::Rgba8Unorm,
+            },
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("scene fan coverage colours"),
+            size: std::mem::size_of::<CoverageParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("scene fan coverage"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: params.as_entire_binding(),
+                },
+            ],
+        });
+        CoverageTarget {
+            size,
+            channels,
+            texture,
+            params,
+            bind,
+        }
+    }
 }
 
 /// The draw ranges of one layer.
@@ -176,7 +232,8 @@ struct CacheSource {
 /// [`SceneRenderer::paint`] each frame.
 pub struct SceneRenderer {
     fill_pipeline: wgpu::RenderPipeline,
-    coverage_pipeline: wgpu::RenderPipeline,
+    /// The coverage composites for 1, 2 and 4 channels.
+    coverage_pipelines: [wgpu::RenderPipeline; 3],
     coverage_layout: wgpu::BindGroupLayout,
     coverage_targets: Vec<CoverageTarget>,
     fan_coverage: bool,
@@ -411,14 +468,16 @@ impl SceneRenderer {
             blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
             write_mask: wgpu::ColorWrites::ALL,
         })];
-        let coverage_pipeline = pipeline(
-            "scene fan coverage",
-            &coverage_pipeline_layout,
-            "vs_blit",
-            "fs_coverage",
-            &[],
-            &premultiplied,
-        );
+        let coverage_pipelines = ["fs_coverage1", "fs_coverage2", "fs_coverage4"].map(|fs| {
+            pipeline(
+                "scene fan coverage",
+                &coverage_pipeline_layout,
+                "vs_blit",
+                fs,
+                &[],
+                &premultiplied,
+            )
+        });
         let blit_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("scene layer cache sampler"),
             mag_filter: wgpu::FilterMode::Nearest,
@@ -429,7 +488,7 @@ impl SceneRenderer {
         tracing::debug!(?format, samples, cache_allowed, "scene renderer");
         SceneRenderer {
             fill_pipeline,
-            coverage_pipeline,
+            coverage_pipelines,
             coverage_layout,
             coverage_targets: Vec::new(),
             fan_coverage: false,
@@ -475,19 +534,6 @@ impl SceneRenderer {
     /// the same up to blending's rounding.
     pub fn set_fan_coverage(&mut self, on: bool) {
         self.fan_coverage = on;
-    }
-
-    /// A colour channel (sRGB-encoded byte) as this renderer's target stores it: decoded to
-    /// linear for an sRGB target, as the shaders' `out_color` does.
-    fn stored(&self, v: u8) -> f32 {
-        let c = f32::from(v) / 255.0;
-        if !self.linear_target {
-            c
-        } else if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
     }
 
     /// How long the last prepared frame spent counting fan coverage on the CPU.
@@ -615,52 +661,7 @@ impl SceneRenderer {
             .get(slot)
             .is_none_or(|t| t.size != size || t.channels != channels);
         if stale {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("scene fan coverage"),
-                size: wgpu::Extent3d {
-                    width: size[0],
-                    height: size[1],
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: match channels {
-                    1 => wgpu::TextureFormat::R8Unorm,
-                    2 => wgpu::TextureFormat::Rg8Unorm,
-                    _ => wgpu::TextureFormat::Rgba8Unorm,
-                },
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            });
-            let params = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("scene fan coverage colours"),
-                size: std::mem::size_of::<CoverageParams>() as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("scene fan coverage"),
-                layout: &self.coverage_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(&view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: params.as_entire_binding(),
-                    },
-                ],
-            });
-            let target = CoverageTarget {
-                size,
-                channels,
-                texture,
-                params,
-                bind,
-            };
+            let target = CoverageTarget::new(device, &self.coverage_layout, size, channels);
             if slot < self.coverage_targets.len() {
                 self.coverage_targets[slot] = target;
             } else {
@@ -670,19 +671,13 @@ impl SceneRenderer {
         let t = &self.coverage_targets[slot];
         let mut params = CoverageParams {
             colors: [[0.0; 4]; coverage::MAX_GROUPS],
-            mask: [0.0; 4],
             size: [size[0] as f32, size[1] as f32],
             _pad: [0.0; 2],
         };
         for (k, c) in colours.iter().enumerate() {
             let [r, g, b, a] = c.0;
-            params.colors[k] = [
-                self.stored(r),
-                self.stored(g),
-                self.stored(b),
-                f32::from(a) / 255.0,
-            ];
-            params.mask[k] = 1.0;
+            let stored = |v| stored_channel(v, self.linear_target) as f32;
+            params.colors[k] = [stored(r), stored(g), stored(b), f32::from(a) / 255.0];
         }
         queue.write_buffer(&t.params, 0, bytemuck::bytes_of(&params));
         queue.write_texture(
@@ -897,7 +892,8 @@ impl SceneRenderer {
                 pass.draw(d.fills.clone(), 0..1);
             }
             if let Some(t) = d.coverage.map(|k| &self.coverage_targets[k]) {
-                pass.set_pipeline(&self.coverage_pipeline);
+                let which = t.channels.trailing_zeros().min(2) as usize;
+                pass.set_pipeline(&self.coverage_pipelines[which]);
                 pass.set_bind_group(1, &t.bind, &[]);
                 pass.draw(0..6, 0..1);
             }
@@ -1002,6 +998,19 @@ fn texture_bind(
     })
 }
 
+/// A colour channel (an sRGB-encoded byte, as scene colours are) as a target stores it: decoded
+/// to linear for a `linear_target` (an sRGB format), as the shaders' `out_color` does.
+fn stored_channel(v: u8, linear_target: bool) -> f64 {
+    let c = f64::from(v) / 255.0;
+    if !linear_target {
+        c
+    } else if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// A render pass into `view`, cleared to `bg` (straight RGBA bytes) and stored.
 pub(crate) fn cleared_pass<'e>(
     encoder: &'e mut wgpu::CommandEncoder,
@@ -1012,16 +1021,7 @@ pub(crate) fn cleared_pass<'e>(
 ) -> wgpu::RenderPass<'e> {
     // the clear colour is stored as given: a target that stores linear colour needs it decoded,
     // as the shaders decode the scene's colours
-    let channel = |v: u8| {
-        let c = v as f64 / 255.0;
-        if !linear_target {
-            c
-        } else if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
+    let channel = |v: u8| stored_channel(v, linear_target);
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {

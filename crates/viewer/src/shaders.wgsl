@@ -130,8 +130,6 @@ fn fs_blit(i: ImageOut) -> @location(0) vec4<f32> {
 struct CoverageParams {
     // the colours as the target stores them (decoded to linear for an sRGB target)
     colors: array<vec4<f32>, 4>,
-    // 1 for each channel in use, 0 for the others
-    mask: vec4<f32>,
     // the alphas' size in texels (the viewport's in pixels)
     size: vec2<f32>,
     _pad: vec2<f32>,
@@ -140,14 +138,30 @@ struct CoverageParams {
 @group(1) @binding(0) var coverage_alphas: texture_2d<f32>;
 @group(1) @binding(1) var<uniform> coverage: CoverageParams;
 
+fn coverage_texel(uv: vec2<f32>) -> vec2<i32> {
+    return vec2<i32>(min(uv * coverage.size, coverage.size - vec2<f32>(1.0)));
+}
+
+// One colour (an R8 texture): the common case of one kind of ranger on show, kept to the
+// least work per pixel, which a software rasteriser pays 900,000 times a frame.
 @fragment
-fn fs_coverage(i: ImageOut) -> @location(0) vec4<f32> {
-    let texel = vec2<i32>(min(i.uv * coverage.size, coverage.size - vec2<f32>(1.0)));
-    // unused channels read 0 (R8 and RG8 textures give 0 for g and b, and the CPU writes 0 to
-    // an RGBA texture's unused ones) except an R8 or RG8 texture's alpha, which reads 1: the
-    // group count masks it
-    let alphas = textureLoad(coverage_alphas, texel, 0) * coverage.mask;
-    // colours come premultiplied-ready: linear where the target is, and composited in order
+fn fs_coverage1(i: ImageOut) -> @location(0) vec4<f32> {
+    let a = textureLoad(coverage_alphas, coverage_texel(i.uv), 0).r;
+    return vec4<f32>(coverage.colors[0].rgb * a, a);
+}
+
+// Two colours (an RG8 texture), composited in order.
+@fragment
+fn fs_coverage2(i: ImageOut) -> @location(0) vec4<f32> {
+    let alphas = textureLoad(coverage_alphas, coverage_texel(i.uv), 0);
+    let o = vec4<f32>(coverage.colors[0].rgb * alphas.r, alphas.r);
+    return vec4<f32>(coverage.colors[1].rgb * alphas.g, alphas.g) + o * (1.0 - alphas.g);
+}
+
+// Up to four colours (an RGBA8 texture; a channel not in use holds 0 and changes nothing).
+@fragment
+fn fs_coverage4(i: ImageOut) -> @location(0) vec4<f32> {
+    let alphas = textureLoad(coverage_alphas, coverage_texel(i.uv), 0);
     var o = vec4<f32>(coverage.colors[0].rgb * alphas.r, alphas.r);
     o = vec4<f32>(coverage.colors[1].rgb * alphas.g, alphas.g) + o * (1.0 - alphas.g);
     o = vec4<f32>(coverage.colors[2].rgb * alphas.b, alphas.b) + o * (1.0 - alphas.b);

@@ -95,11 +95,12 @@ fn narrow(sleeve: &mut Option<([f64; 2], [f64; 2])>, v: [f64; 2], d: f64, tol: f
     if d.is_nan() || d <= tol {
         return;
     }
-    let (s, c) = (tol / d, (1.0 - (tol / d) * (tol / d)).sqrt());
-    let u = [v[0] / d, v[1] / d];
-    // u turned clockwise and counter-clockwise by asin(tol / d)
-    let lo_v = [c * u[0] + s * u[1], -s * u[0] + c * u[1]];
-    let hi_v = [c * u[0] - s * u[1], s * u[0] + c * u[1]];
+    // v turned clockwise and counter-clockwise by asin(tol / d), scaled by d (only the
+    // directions matter: they are compared by the sign of cross products), which spares the
+    // divisions of normalising: cos = e / d and sin = tol / d
+    let e = ((d - tol) * (d + tol)).sqrt();
+    let lo_v = [e * v[0] + tol * v[1], -tol * v[0] + e * v[1]];
+    let hi_v = [e * v[0] - tol * v[1], tol * v[0] + e * v[1]];
     *sleeve = Some(match *sleeve {
         None => (lo_v, hi_v),
         Some((lo, hi)) => (

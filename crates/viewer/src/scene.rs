@@ -200,25 +200,46 @@ impl LayerData {
 
     /// The distinct colours of the layer's fans, in the order each first appears.
     pub fn fan_colours(&self) -> Vec<Rgba8> {
-        let mut seen = std::collections::HashSet::new();
-        self.fans
-            .iter()
-            .filter(|f| seen.insert(f.color))
-            .map(|f| f.color)
-            .collect()
+        let mut colours = Vec::new();
+        // a linear search over the few colours a layer has; a set once there are many
+        let mut many: Option<std::collections::HashSet<Rgba8>> = None;
+        for f in &self.fans {
+            let new = match &mut many {
+                Some(set) => set.insert(f.color),
+                None => !colours.contains(&f.color),
+            };
+            if new {
+                colours.push(f.color);
+                if many.is_none() && colours.len() > 16 {
+                    many = Some(colours.iter().copied().collect());
+                }
+            }
+        }
+        colours
     }
 
     /// The fans' indices in drawing order (see [`LayerData::fan_triangles`]).
     fn fan_order(&self) -> Vec<usize> {
-        let rank: std::collections::HashMap<Rgba8, usize> = self
-            .fan_colours()
-            .into_iter()
-            .enumerate()
-            .map(|(i, c)| (c, i))
-            .collect();
-        let mut order: Vec<usize> = (0..self.fans.len()).collect();
-        // stable: each colour's fans keep the order they were added in
-        order.sort_by_key(|&k| rank[&self.fans[k].color]);
+        let colours = self.fan_colours();
+        if colours.len() <= 1 {
+            return (0..self.fans.len()).collect();
+        }
+        let index: std::collections::HashMap<Rgba8, usize> =
+            colours.iter().enumerate().map(|(i, &c)| (c, i)).collect();
+        let rank: Vec<usize> = self.fans.iter().map(|f| index[&f.color]).collect();
+        // a counting sort, stable: each colour's fans keep the order they were added in
+        let mut start = vec![0usize; colours.len() + 1];
+        for &r in &rank {
+            start[r + 1] += 1;
+        }
+        for k in 0..colours.len() {
+            start[k + 1] += start[k];
+        }
+        let mut order = vec![0usize; self.fans.len()];
+        for (i, &r) in rank.iter().enumerate() {
+            order[start[r]] = i;
+            start[r] += 1;
+        }
         order
     }
 }
@@ -481,6 +502,36 @@ mod tests {
         assert_eq!(Rgba8::rgb(200, 100, 0).darker(0.5), Rgba8::rgb(100, 50, 0));
         let c = stage_sim::Color::rgb(0.0, 0.0, 1.0);
         assert_eq!(Rgba8::from_color(&c), Rgba8::rgb(0, 0, 255));
+    }
+
+    #[test]
+    fn fans_are_drawn_colour_by_colour_in_order_of_first_appearance() {
+        let mut s = Scene::new(Rgba8::WHITE);
+        let (a, b) = (Rgba8::rgb(1, 0, 0), Rgba8::rgb(0, 2, 0));
+        for (k, c) in [a, b, a, b, a].into_iter().enumerate() {
+            let x = k as f64;
+            s.fan(Layer::Footprints, [x, 0.0], &[[x + 1.0, 0.0], [x, 1.0]], c);
+        }
+        let fp = s.layer(Layer::Footprints);
+        assert_eq!(fp.fan_colours(), [a, b]);
+        let mut tris = Vec::new();
+        fp.fan_triangles(&mut tris);
+        let centres: Vec<(f32, Rgba8)> =
+            tris.chunks(3).map(|t| (t[0].pos[0], t[0].color)).collect();
+        assert_eq!(centres, [(0.0, a), (2.0, a), (4.0, a), (1.0, b), (3.0, b)]);
+        // many colours: still each in turn
+        let mut many = Scene::new(Rgba8::WHITE);
+        for k in 0..40u8 {
+            let c = Rgba8::rgb(k % 20, 0, 0);
+            many.fan(Layer::Footprints, [0.0, 0.0], &[[1.0, 0.0], [0.0, 1.0]], c);
+        }
+        let fp = many.layer(Layer::Footprints);
+        assert_eq!(fp.fan_colours().len(), 20);
+        tris.clear();
+        fp.fan_triangles(&mut tris);
+        let reds: Vec<u8> = tris.chunks(3).map(|t| t[0].color.0[0]).collect();
+        let want: Vec<u8> = (0..20).flat_map(|r| [r, r]).collect();
+        assert_eq!(reds, want);
     }
 
     #[test]

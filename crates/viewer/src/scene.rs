@@ -398,6 +398,47 @@ impl Scene {
         }
     }
 
+    /// A filled polygon with an outline `width` metres wide centred on its edges, drawn over it
+    /// (a model block as Stage draws it). An opaque convex polygon with an opaque outline is
+    /// drawn as two polygons, the outline's outer edge in its colour and the fill inset by half
+    /// the width over it: the same picture as the fill and one [`Scene::stroke`] per edge
+    /// (with full rather than notched corners) in `2n - 4` triangles instead of `3n - 2`, which
+    /// a software rasteriser drawing 1,000 robots pays per triangle. Anything else is drawn as
+    /// the fill and the strokes.
+    pub fn outlined_fill(
+        &mut self,
+        layer: Layer,
+        pts: &[[f64; 2]],
+        color: Rgba8,
+        width: f64,
+        outline: Rgba8,
+    ) {
+        let opaque = color.0[3] == 255 && outline.0[3] == 255;
+        let rings = if opaque {
+            offset_convex(pts, width / 2.0).zip(offset_convex(pts, -width / 2.0))
+        } else {
+            None
+        };
+        let Some((outer, inner)) = rings else {
+            if pts.len() >= 3 {
+                self.fill(layer, pts, color);
+            }
+            self.stroke_outline(layer, pts, width, outline);
+            return;
+        };
+        let tris = &mut self.layers[layer as usize].triangles;
+        for (ring, c) in [(&outer, outline), (&inner, color)] {
+            for i in 1..ring.len() - 1 {
+                for p in [ring[0], ring[i], ring[i + 1]] {
+                    tris.push(FillVertex {
+                        pos: f32x2(p),
+                        color: c,
+                    });
+                }
+            }
+        }
+    }
+
     /// A closed polygon outline of [`Scene::stroke`]s.
     pub fn stroke_outline(&mut self, layer: Layer, pts: &[[f64; 2]], width: f64, color: Rgba8) {
         let n = pts.len();
@@ -473,6 +514,59 @@ impl Scene {
     }
 }
 
+/// The strictly convex polygon `pts` with every edge moved `d` metres outwards (inwards for a
+/// negative `d`), corners mitred: `None` when `pts` is not strictly convex (or has repeated
+/// points), when a corner is too sharp to mitre within four times `d`, or when moving inwards
+/// would turn an edge over (a polygon thinner than `2 |d|`).
+fn offset_convex(pts: &[[f64; 2]], d: f64) -> Option<Vec<[f64; 2]>> {
+    let n = pts.len();
+    if n < 3 || !d.is_finite() {
+        return None;
+    }
+    let edge = |i: usize| {
+        let (a, b) = (pts[i], pts[(i + 1) % n]);
+        [b[0] - a[0], b[1] - a[1]]
+    };
+    let cross = |u: [f64; 2], v: [f64; 2]| u[0] * v[1] - u[1] * v[0];
+    // every turn the same way, none straight
+    let turn = cross(edge(n - 1), edge(0));
+    let sign = turn.signum();
+    if turn == 0.0 || !turn.is_finite() {
+        return None;
+    }
+    if (0..n - 1).any(|i| cross(edge(i), edge(i + 1)) * sign <= 0.0) {
+        return None;
+    }
+    // unit normals pointing out of the polygon
+    let normals: Vec<[f64; 2]> = (0..n)
+        .map(|i| {
+            let e = edge(i);
+            let len = e[0].hypot(e[1]);
+            [e[1] / len * sign, -e[0] / len * sign]
+        })
+        .collect();
+    let out: Vec<[f64; 2]> = (0..n)
+        .map(|i| {
+            let (a, b) = (normals[(i + n - 1) % n], normals[i]);
+            // the corner moves along the bisector, 1 / cos(half the turn) as far as the edges
+            let k = 1.0 + a[0] * b[0] + a[1] * b[1];
+            // (the corner moves d * sqrt(2 / k))
+            if k < 0.125 {
+                return None;
+            }
+            let m = d / k;
+            Some([pts[i][0] + m * (a[0] + b[0]), pts[i][1] + m * (a[1] + b[1])])
+        })
+        .collect::<Option<_>>()?;
+    // an inset edge must still run the way its edge did
+    let turned_over = (0..n).any(|i| {
+        let (a, b) = (out[i], out[(i + 1) % n]);
+        let e = edge(i);
+        (b[0] - a[0]) * e[0] + (b[1] - a[1]) * e[1] <= 0.0
+    });
+    (!turned_over).then_some(out)
+}
+
 /// `n` points on a circle, counter-clockwise from angle 0.
 pub fn circle_points(c: [f64; 2], r: f64, n: usize) -> Vec<[f64; 2]> {
     (0..n)
@@ -502,6 +596,77 @@ mod tests {
         assert_eq!(Rgba8::rgb(200, 100, 0).darker(0.5), Rgba8::rgb(100, 50, 0));
         let c = stage_sim::Color::rgb(0.0, 0.0, 1.0);
         assert_eq!(Rgba8::from_color(&c), Rgba8::rgb(0, 0, 255));
+    }
+
+    /// The colour the last of `tris` covering `p` gives it (opaque colours), if any.
+    fn top_colour(tris: &[FillVertex], p: [f64; 2]) -> Option<Rgba8> {
+        let mut c = None;
+        for t in tris.chunks(3) {
+            let v = |k: usize| [f64::from(t[k].pos[0]), f64::from(t[k].pos[1])];
+            let side = |a: [f64; 2], b: [f64; 2]| {
+                (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+            };
+            let s = [side(v(0), v(1)), side(v(1), v(2)), side(v(2), v(0))];
+            if s.iter().all(|&x| x >= 0.0) || s.iter().all(|&x| x <= 0.0) {
+                c = Some(t[0].color);
+            }
+        }
+        c
+    }
+
+    #[test]
+    fn outlined_convex_blocks_look_like_fill_and_strokes_in_fewer_triangles() {
+        let (body, line) = (Rgba8::rgb(200, 0, 0), Rgba8::rgb(100, 0, 0));
+        let shapes: [&[[f64; 2]]; 3] = [
+            &[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]],
+            // clockwise, and a pentagon
+            &[[0.0, 0.0], [0.0, 1.0], [1.5, 1.2], [2.0, 0.5], [1.0, -0.4]],
+            &[[0.0, 0.0], [1.0, 0.2], [0.3, 1.0]],
+        ];
+        for pts in shapes {
+            let mut fast = Scene::default();
+            fast.outlined_fill(Layer::Bodies, pts, body, 0.1, line);
+            let mut slow = Scene::default();
+            slow.fill(Layer::Bodies, pts, body);
+            slow.stroke_outline(Layer::Bodies, pts, 0.1, line);
+            let (f, s) = (
+                &fast.layer(Layer::Bodies).triangles,
+                &slow.layer(Layer::Bodies).triangles,
+            );
+            assert_eq!(f.len() / 3, 2 * pts.len() - 4);
+            assert!(f.len() < s.len());
+            // the same colour everywhere but at the strokes' notched corners
+            let mut checked = 0;
+            for i in 0..60 {
+                for j in 0..60 {
+                    let p = [-0.3 + 2.6 * i as f64 / 59.0, -0.7 + 2.2 * j as f64 / 59.0];
+                    let near_corner = pts.iter().any(|c| (p[0] - c[0]).hypot(p[1] - c[1]) < 0.2);
+                    if !near_corner {
+                        assert_eq!(top_colour(f, p), top_colour(s, p), "at {p:?} of {pts:?}");
+                        checked += 1;
+                    }
+                }
+            }
+            assert!(checked > 3000);
+        }
+        // translucent, concave or too thin: fill and strokes as before
+        let thin = [[0.0, 0.0], [2.0, 0.0], [2.0, 0.05], [0.0, 0.05]];
+        let concave = [[0.0, 0.0], [2.0, 0.0], [1.0, 0.5], [2.0, 1.0], [0.0, 1.0]];
+        for (pts, c) in [
+            (&thin[..], body),
+            (&concave[..], body),
+            (&thin[..2], body),
+            (&shapes[0][..], body.with_alpha(100)),
+        ] {
+            let mut a = Scene::default();
+            a.outlined_fill(Layer::Bodies, pts, c, 0.1, line);
+            let mut b = Scene::default();
+            if pts.len() >= 3 {
+                b.fill(Layer::Bodies, pts, c);
+            }
+            b.stroke_outline(Layer::Bodies, pts, 0.1, line);
+            assert_eq!(a, b);
+        }
     }
 
     #[test]

@@ -400,10 +400,7 @@ fn bodies(
         for k in 0..body.blocks.len() {
             let pts = body.block_pts(k);
             let color = Rgba8::from_color(&world.block_color(m, k));
-            if pts.len() >= 3 {
-                scene.fill(layer, pts, color);
-            }
-            scene.stroke_outline(layer, pts, px, color.darker(0.5));
+            scene.outlined_fill(layer, pts, color, px, color.darker(0.5));
         }
         if g.grid {
             model_grid(world, m, layer, px, scene);

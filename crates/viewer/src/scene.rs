@@ -656,7 +656,7 @@ mod tests {
             (&thin[..], body),
             (&concave[..], body),
             (&thin[..2], body),
-            (&shapes[0][..], body.with_alpha(100)),
+            (shapes[0], body.with_alpha(100)),
         ] {
             let mut a = Scene::default();
             a.outlined_fill(Layer::Bodies, pts, c, 0.1, line);

@@ -5,29 +5,19 @@
 //! with one thread and with all of them.
 //! Run: `cargo bench -p viewer --bench coverage` (`-- --robots N` for another count).
 
+mod common;
+
 use std::time::{Duration, Instant};
 
+use stage_sim::SimRng;
 use viewer::View;
 use viewer::coverage::{Coverage, PixelMap};
-
-/// A small deterministic generator, so every run counts the same rings.
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// A fan ring: centre, then `rays` ends over `fov` from `heading`, each at `reach` but where
 /// something closer blocks a run of rays (runs of 10 rays on average, as robots and walls in a
 /// crowd do).
 fn fan(
-    rng: &mut Lcg,
+    rng: &mut SimRng,
     c: [f64; 2],
     heading: f64,
     fov: f64,
@@ -37,11 +27,11 @@ fn fan(
     let mut ring = vec![[c[0] as f32, c[1] as f32]];
     let mut r = reach;
     for i in 0..rays {
-        if rng.next() < 0.1 {
-            r = if rng.next() < 0.5 {
+        if rng.next_f64() < 0.1 {
+            r = if rng.next_f64() < 0.5 {
                 reach
             } else {
-                reach * rng.next()
+                reach * rng.next_f64()
             };
         }
         let a = heading - fov / 2.0 + fov * i as f64 / (rays - 1).max(1) as f64;
@@ -52,23 +42,19 @@ fn fan(
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let robots = args
-        .iter()
-        .position(|a| a == "--robots")
-        .and_then(|i| args.get(i + 1)?.parse::<usize>().ok())
-        .unwrap_or(1000);
-    let mut rng = Lcg(1);
+    let robots = common::value(&args, "--robots").unwrap_or(1000);
+    let mut rng = SimRng::new(1, 0);
     let (w, h) = (60.0, 34.0);
     let mut lasers = Vec::new();
     let mut sonars = Vec::new();
     for _ in 0..robots {
-        let c = [rng.next() * w - w / 2.0, rng.next() * h - h / 2.0];
-        let heading = rng.next() * std::f64::consts::TAU;
+        let c = [rng.next_f64() * w - w / 2.0, rng.next_f64() * h - h / 2.0];
+        let heading = rng.next_f64() * std::f64::consts::TAU;
         lasers.push(fan(&mut rng, c, heading, std::f64::consts::PI, 180, 8.0));
         for k in 0..12 {
             let a = heading + k as f64 * std::f64::consts::TAU / 12.0;
             // a cone as Stage's sonar is drawn: its arc in 8 chords
-            let r = 5.0 * rng.next();
+            let r = 5.0 * rng.next_f64();
             let ring: Vec<[f32; 2]> = std::iter::once([c[0] as f32, c[1] as f32])
                 .chain((0..=8).map(|i| {
                     let b = a - 0.13 + 0.26 * i as f64 / 8.0;

@@ -12,6 +12,8 @@
 //! `--lasers-only` to leave the swarm robots' sonar rings out, `--fan-triangles` to draw ranger footprints as triangle fans even on a software rasteriser
 //! instead of counting their coverage per pixel.
 
+mod common;
+
 use std::time::{Duration, Instant};
 
 use stage_sim::generate::swarm_world;
@@ -64,11 +66,7 @@ fn ms(d: Duration) -> f64 {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let robots = args
-        .iter()
-        .position(|a| a == "--robots")
-        .and_then(|i| args.get(i + 1)?.parse::<usize>().ok())
-        .unwrap_or(1000);
+    let robots = common::value::<usize>(&args, "--robots").unwrap_or(1000);
     let frames = 30;
     // parts can be switched off to see where the frame time goes
     let no_footprints = args.iter().any(|a| a == "--no-footprints");
@@ -76,21 +74,10 @@ fn main() {
     let no_cache = args.iter().any(|a| a == "--no-cache");
     let window_view = args.iter().any(|a| a == "--window-view");
     let lasers_only = args.iter().any(|a| a == "--lasers-only");
-    let warm: u64 = args
-        .iter()
-        .position(|a| a == "--steps")
-        .and_then(|i| args.get(i + 1)?.parse().ok())
-        .unwrap_or(5);
+    let warm: u64 = common::value(&args, "--steps").unwrap_or(5);
 
-    let world_file = args
-        .iter()
-        .position(|a| a == "--world")
-        .and_then(|i| args.get(i + 1).cloned());
-    let zoom = args
-        .iter()
-        .position(|a| a == "--zoom")
-        .and_then(|i| args.get(i + 1)?.parse::<f64>().ok())
-        .unwrap_or(1.0);
+    let world_file = common::value::<String>(&args, "--world");
+    let zoom = common::value::<f64>(&args, "--zoom").unwrap_or(1.0);
     let mut file_view = None;
     let (mut world, gui, window_vis, what) = match &world_file {
         Some(f) => {

@@ -325,6 +325,7 @@ fn resolve(deltas: &[i32], shape: Shape, tables: &[[u8; 256]], out: &mut [u8]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use stage_sim::SimRng;
 
     /// The identity map: world metres are pixels, y down.
     fn pixels() -> PixelMap {
@@ -362,27 +363,15 @@ mod tests {
         c
     }
 
-    /// A simple random generator (tests only).
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
-
     /// A random star-shaped ring around `c` (a laser footprint: centre, then rim points at
     /// increasing angles), turning anticlockwise or clockwise.
-    fn star(rng: &mut Lcg, c: [f64; 2], reach: f64, clockwise: bool) -> Vec<[f32; 2]> {
-        let n = 3 + (rng.next() * 40.0) as usize;
-        let span = 0.5 + rng.next() * 5.5;
+    fn star(rng: &mut SimRng, c: [f64; 2], reach: f64, clockwise: bool) -> Vec<[f32; 2]> {
+        let n = 3 + (rng.next_f64() * 40.0) as usize;
+        let span = 0.5 + rng.next_f64() * 5.5;
         let mut ring = vec![[c[0] as f32, c[1] as f32]];
         for i in 0..n {
             let a = span * i as f64 / (n - 1) as f64 * if clockwise { -1.0 } else { 1.0 };
-            let r = reach * (0.1 + 0.9 * rng.next());
+            let r = reach * (0.1 + 0.9 * rng.next_f64());
             ring.push([(c[0] + r * a.cos()) as f32, (c[1] + r * a.sin()) as f32]);
         }
         ring
@@ -390,12 +379,12 @@ mod tests {
 
     #[test]
     fn counts_match_a_per_pixel_point_in_polygon_test() {
-        let mut rng = Lcg(7);
+        let mut rng = SimRng::new(7, 0);
         let (w, h) = (97, 61);
         let rings: Vec<Vec<[f32; 2]>> = (0..60)
             .map(|k| {
-                let c = [rng.next() * 110.0 - 6.0, rng.next() * 75.0 - 7.0];
-                let reach = 5.0 + rng.next() * 30.0;
+                let c = [rng.next_f64() * 110.0 - 6.0, rng.next_f64() * 75.0 - 7.0];
+                let reach = 5.0 + rng.next_f64() * 30.0;
                 star(&mut rng, c, reach, k % 3 == 0)
             })
             .collect();
@@ -470,13 +459,13 @@ mod tests {
 
     #[test]
     fn groups_are_counted_apart_and_mapped_through_their_tables() {
-        let mut rng = Lcg(11);
+        let mut rng = SimRng::new(11, 0);
         let (w, h) = (40, 30);
         let rings: Vec<(usize, Vec<[f32; 2]>)> = (0..30)
             .map(|k| {
-                let c = [rng.next() * 40.0, rng.next() * 30.0];
+                let c = [rng.next_f64() * 40.0, rng.next_f64() * 30.0];
                 (k % 3, {
-                    let reach = 4.0 + rng.next() * 15.0;
+                    let reach = 4.0 + rng.next_f64() * 15.0;
                     star(&mut rng, c, reach, k % 2 == 0)
                 })
             })

@@ -144,24 +144,13 @@ impl CoverageTarget {
         size: [u32; 2],
         channels: usize,
     ) -> CoverageTarget {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("scene fan coverage"),
-            size: wgpu::Extent3d {
-                width: size[0],
-                height: size[1],
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: match channels {
-                1 => wgpu::TextureFormat::R8Unorm,
-                2 => wgpu::TextureFormat::Rg8Unorm,
-                _ => wgpu::TextureFormat::Rgba8Unorm,
-            },
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let format = match channels {
+            1 => wgpu::TextureFormat::R8Unorm,
+            2 => wgpu::TextureFormat::Rg8Unorm,
+            _ => wgpu::TextureFormat::Rgba8Unorm,
+        };
+        let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
+        let texture = texture_2d(device, "scene fan coverage", size, format, usage);
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("scene fan coverage colours"),
             size: std::mem::size_of::<CoverageParams>() as u64,
@@ -303,16 +292,7 @@ impl SceneRenderer {
         let image_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("scene image layout"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        multisampled: false,
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                    count: None,
-                },
+                fragment_texture(0, true),
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
                     visibility: wgpu::ShaderStages::FRAGMENT,
@@ -330,16 +310,7 @@ impl SceneRenderer {
         let coverage_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("scene coverage layout"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        multisampled: false,
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                    count: None,
-                },
+                fragment_texture(0, false),
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
                     visibility: wgpu::ShaderStages::FRAGMENT,
@@ -740,21 +711,9 @@ impl SceneRenderer {
         size: [u32; 2],
     ) {
         if self.cache.as_ref().is_none_or(|c| c.size != size) {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("scene layer cache"),
-                size: wgpu::Extent3d {
-                    width: size[0],
-                    height: size[1],
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: self.format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            });
+            let usage =
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+            let texture = texture_2d(device, "scene layer cache", size, self.format, usage);
             let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
             let bind = texture_bind(
                 device,
@@ -817,16 +776,14 @@ impl SceneRenderer {
             height: h,
             depth_or_array_layers: 1,
         };
-        let tex = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("scene image"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
+        let tex = texture_2d(
+            device,
+            "scene image",
+            [w, h],
+            wgpu::TextureFormat::Rgba8Unorm,
+            usage,
+        );
         queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &tex,
@@ -972,6 +929,45 @@ fn images_hash(scene: &Scene) -> u64 {
         }
     }
     h.finish()
+}
+
+/// A single-sample 2D texture of `size` pixels without mipmaps.
+fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    size: [u32; 2],
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: size[0],
+            height: size[1],
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+/// A bind group layout entry for a 2D float texture the fragment shader reads (`filterable`:
+/// through a filtering sampler; else only loaded).
+fn fragment_texture(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            multisampled: false,
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
+    }
 }
 
 /// A bind group of a texture and its sampler in the image layout.

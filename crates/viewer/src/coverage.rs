@@ -123,18 +123,12 @@ impl Coverage {
             rings.into_iter().filter(|(g, _)| *g < groups).collect();
         self.parts.resize_with(threads, Part::default);
         let per = shared.len().div_ceil(threads).max(1);
-        std::thread::scope(|s| {
-            let mut jobs = self
-                .parts
-                .iter_mut()
-                .zip(shared.chunks(per).chain(std::iter::repeat(&[][..])));
-            let mine = jobs.next();
-            for (part, rings) in jobs {
-                s.spawn(move || part.collect(rings, map, height));
-            }
-            if let Some((part, rings)) = mine {
-                part.collect(rings, map, height);
-            }
+        let jobs = self
+            .parts
+            .iter_mut()
+            .zip(shared.chunks(per).chain(std::iter::repeat(&[][..])));
+        share(jobs.collect(), threads, |_: &mut (), (part, rings)| {
+            part.collect(rings, map, height)
         });
         let shape = Shape {
             width,
@@ -142,12 +136,14 @@ impl Coverage {
             channels,
         };
         let parts = &self.parts;
-        let work = |mine: Vec<(usize, &mut [u8])>| {
-            let mut deltas = vec![0i32; (width + 1) * groups * BAND_ROWS];
-            for (b, out) in mine {
+        let bands = out.chunks_mut(width * channels * BAND_ROWS).enumerate();
+        share(
+            bands.collect(),
+            threads,
+            |deltas: &mut Vec<i32>, (b, out)| {
                 let rows = out.len() / (width * channels);
-                let deltas = &mut deltas[..(width + 1) * groups * rows];
-                deltas.fill(0);
+                deltas.clear();
+                deltas.resize((width + 1) * groups * rows, 0);
                 for p in parts {
                     let edges = p.by_band[p.band_start[b]..p.band_start[b + 1]].iter();
                     band(
@@ -158,25 +154,33 @@ impl Coverage {
                     );
                 }
                 resolve(deltas, shape, tables, out);
-            }
-        };
-        // bands dealt out in turn, so each thread gets rows all down the target
-        let mut dealt: Vec<Vec<(usize, &mut [u8])>> = (0..threads).map(|_| Vec::new()).collect();
-        for (b, rows) in out.chunks_mut(width * channels * BAND_ROWS).enumerate() {
-            dealt[b % threads].push((b, rows));
-        }
-        std::thread::scope(|s| {
-            let mut dealt = dealt.into_iter();
-            let mine = dealt.next();
-            for bands in dealt {
-                let work = &work;
-                s.spawn(move || work(bands));
-            }
-            if let Some(bands) = mine {
-                work(bands);
-            }
-        });
+            },
+        );
     }
+}
+
+/// Does every job, on the calling thread and up to `threads - 1` helpers, each taking the next
+/// job as it comes free (bands differ in how many edges cross them) and keeping its own scratch
+/// `S` from job to job. A helper that cannot be started leaves its share to the others: the work
+/// gets done either way.
+fn share<J: Send, S: Default>(jobs: Vec<J>, threads: usize, work: impl Fn(&mut S, J) + Sync) {
+    let helpers = threads.min(jobs.len()).saturating_sub(1);
+    let queue = std::sync::Mutex::new(jobs.into_iter());
+    let next = || queue.lock().unwrap_or_else(|e| e.into_inner()).next();
+    let drain = || {
+        let mut scratch = S::default();
+        while let Some(job) = next() {
+            work(&mut scratch, job);
+        }
+    };
+    std::thread::scope(|s| {
+        for _ in 0..helpers {
+            if std::thread::Builder::new().spawn_scoped(s, drain).is_err() {
+                break;
+            }
+        }
+        drain();
+    });
 }
 
 impl Part {
@@ -491,6 +495,28 @@ mod tests {
                 let want = [n(0) as u8, 2 * n(1) as u8, n(2) as u8, 0];
                 assert_eq!(out[(y * w + x) * 4..][..4], want, "pixel {x},{y}");
             }
+        }
+    }
+
+    #[test]
+    fn shared_jobs_are_each_done_once_whatever_the_thread_count() {
+        for (jobs, threads) in [(0, 2), (1, 4), (7, 1), (50, 3), (5, 16)] {
+            let done = std::sync::Mutex::new(Vec::new());
+            share(
+                (0..jobs).collect(),
+                threads,
+                |count: &mut usize, j: usize| {
+                    *count += 1;
+                    done.lock().unwrap().push(j);
+                },
+            );
+            let mut done = done.into_inner().unwrap();
+            done.sort();
+            assert_eq!(
+                done,
+                (0..jobs).collect::<Vec<_>>(),
+                "{jobs} jobs, {threads} threads"
+            );
         }
     }
 

@@ -140,9 +140,9 @@ fn main() {
     };
     off.renderer_mut().set_layer_cache(!no_cache);
     let fan_triangles = args.iter().any(|a| a == "--fan-triangles");
-    let counted =
+    let coverage =
         !fan_triangles && viewer::render::fan_coverage_for(off.adapter_info().device_type);
-    off.renderer_mut().set_fan_coverage(counted);
+    off.renderer_mut().set_fan_coverage(coverage);
     let (min, max) = world_scene::world_extent(&world);
     let mut view = View {
         size: [1280.0, 720.0],
@@ -204,7 +204,7 @@ fn main() {
     println!("  triangles+segments by layer: {}", per_layer.join(", "));
     let fans: usize = scene.layers.iter().map(|l| l.fans.len()).sum();
     let fill = viewer::render::fan_fill(scene.layer(viewer::scene::Layer::Footprints), &view);
-    let counted = counted && fill >= viewer::render::COVERAGE_MIN_FILL;
+    let counted = off.renderer_mut().counted_fans();
     println!(
         "  {fans} fans covering {fill:.1} views drawn {}",
         if counted {

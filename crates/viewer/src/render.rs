@@ -229,6 +229,8 @@ pub struct SceneRenderer {
     counter: Coverage,
     alphas: Vec<u8>,
     count_time: std::time::Duration,
+    // threads to count on, found once: asking the system reads cgroup files on Linux
+    count_threads: usize,
     segment_pipeline: wgpu::RenderPipeline,
     image_pipeline: wgpu::RenderPipeline,
     blit_pipeline: wgpu::RenderPipeline,
@@ -466,6 +468,7 @@ impl SceneRenderer {
             counter: Coverage::default(),
             alphas: Vec::new(),
             count_time: std::time::Duration::ZERO,
+            count_threads: std::thread::available_parallelism().map_or(1, |n| n.get().min(8)),
             segment_pipeline,
             image_pipeline,
             blit_pipeline,
@@ -507,6 +510,12 @@ impl SceneRenderer {
         self.fan_coverage = on;
     }
 
+    /// Whether the last prepared frame counted any layer's fans per pixel (rather than drawing
+    /// them all as triangles).
+    pub fn counted_fans(&self) -> bool {
+        self.draws.iter().any(|d| d.coverage.is_some())
+    }
+
     /// How long the last prepared frame spent counting fan coverage on the CPU.
     pub fn coverage_time(&self) -> std::time::Duration {
         self.count_time
@@ -544,20 +553,19 @@ impl SceneRenderer {
         for (i, layer) in scene.layers.iter().enumerate() {
             let f0 = self.fill_bytes.len() as u32;
             self.fill_bytes.extend_from_slice(&layer.triangles);
-            let colours = fan_colours(layer);
-            let counted = self.fan_coverage
-                && drawable
-                && i >= CACHED_LAYERS
-                && colours.as_ref().is_some_and(|c| !c.is_empty())
-                && fan_fill(layer, view) >= COVERAGE_MIN_FILL;
+            // the colours and fill are looked at only where counting is possible at all
+            let counted = (self.fan_coverage && drawable && i >= CACHED_LAYERS)
+                .then(|| fan_colours(layer))
+                .flatten()
+                .filter(|c| !c.is_empty() && fan_fill(layer, view) >= COVERAGE_MIN_FILL);
             let mut slot = None;
-            match colours {
-                Some(colours) if counted => {
+            match counted {
+                Some(colours) => {
                     self.count_fans(device, queue, layer, &colours, view, size, composites);
                     slot = Some(composites);
                     composites += 1;
                 }
-                _ => layer.fan_triangles(&mut self.fill_bytes),
+                None => layer.fan_triangles(&mut self.fill_bytes),
             }
             let s0 = self.segment_bytes.len() as u32;
             self.segment_bytes.extend_from_slice(&layer.segments);
@@ -620,8 +628,8 @@ impl SceneRenderer {
             let group = colours.iter().position(|&c| c == f.color)?;
             Some((group, f.points(layer)))
         });
-        let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
         let (w, h) = (size[0] as usize, size[1] as usize);
+        let threads = self.count_threads;
         let started = std::time::Instant::now();
         self.counter
             .count(w, h, &map, rings, &tables, threads, &mut self.alphas);

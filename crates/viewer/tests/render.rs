@@ -471,6 +471,7 @@ fn counted_fans_look_like_blended_triangle_fans() {
         let blended = off.render(&scene, &view).expect("render");
         off.renderer_mut().set_fan_coverage(true);
         let counted = off.render(&scene, &view).expect("render");
+        assert!(off.renderer_mut().counted_fans(), "the fans were counted");
         dump(&blended, "fans-blended");
         dump(&counted, "fans-counted");
         let (mut worst, mut differing, mut tinted) = (0u8, 0usize, 0usize);

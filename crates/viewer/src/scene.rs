@@ -415,7 +415,7 @@ impl Scene {
     ) {
         let opaque = color.0[3] == 255 && outline.0[3] == 255;
         let rings = if opaque {
-            offset_convex(pts, width / 2.0).zip(offset_convex(pts, -width / 2.0))
+            mitred_offsets(pts, width / 2.0)
         } else {
             None
         };
@@ -514,11 +514,14 @@ impl Scene {
     }
 }
 
-/// The strictly convex polygon `pts` with every edge moved `d` metres outwards (inwards for a
-/// negative `d`), corners mitred: `None` when `pts` is not strictly convex (or has repeated
-/// points), when a corner is too sharp to mitre within four times `d`, or when moving inwards
-/// would turn an edge over (a polygon thinner than `2 |d|`).
-fn offset_convex(pts: &[[f64; 2]], d: f64) -> Option<Vec<[f64; 2]>> {
+/// A polygon's corners (m).
+type Polygon = Vec<[f64; 2]>;
+
+/// The strictly convex polygon `pts` with every edge moved `d` metres outwards and, second,
+/// inwards, corners mitred: `None` when `pts` is not strictly convex (or has repeated points),
+/// when a corner is too sharp to mitre within four times `d`, or when moving inwards would turn
+/// an edge over (a polygon thinner than `2 d`).
+fn mitred_offsets(pts: &[[f64; 2]], d: f64) -> Option<(Polygon, Polygon)> {
     let n = pts.len();
     if n < 3 || !d.is_finite() {
         return None;
@@ -545,26 +548,31 @@ fn offset_convex(pts: &[[f64; 2]], d: f64) -> Option<Vec<[f64; 2]>> {
             [e[1] / len * sign, -e[0] / len * sign]
         })
         .collect();
-    let out: Vec<[f64; 2]> = (0..n)
+    // how far each corner moves, per unit of `d`, along the sum of its edges' normals
+    let mitres: Vec<([f64; 2], f64)> = (0..n)
         .map(|i| {
             let (a, b) = (normals[(i + n - 1) % n], normals[i]);
-            // the corner moves along the bisector, 1 / cos(half the turn) as far as the edges
+            // 1 / cos(half the turn) as far as the edges: the corner moves d * sqrt(2 / k)
             let k = 1.0 + a[0] * b[0] + a[1] * b[1];
-            // (the corner moves d * sqrt(2 / k))
-            if k < 0.125 {
-                return None;
-            }
-            let m = d / k;
-            Some([pts[i][0] + m * (a[0] + b[0]), pts[i][1] + m * (a[1] + b[1])])
+            (k >= 0.125).then_some(([a[0] + b[0], a[1] + b[1]], 1.0 / k))
         })
         .collect::<Option<_>>()?;
+    let moved = |d: f64| -> Polygon {
+        (0..n)
+            .map(|i| {
+                let (dir, m) = mitres[i];
+                [pts[i][0] + d * m * dir[0], pts[i][1] + d * m * dir[1]]
+            })
+            .collect()
+    };
+    let (outer, inner) = (moved(d), moved(-d));
     // an inset edge must still run the way its edge did
     let turned_over = (0..n).any(|i| {
-        let (a, b) = (out[i], out[(i + 1) % n]);
+        let (a, b) = (inner[i], inner[(i + 1) % n]);
         let e = edge(i);
         (b[0] - a[0]) * e[0] + (b[1] - a[1]) * e[1] <= 0.0
     });
-    (!turned_over).then_some(out)
+    (!turned_over).then_some((outer, inner))
 }
 
 /// `n` points on a circle, counter-clockwise from angle 0.

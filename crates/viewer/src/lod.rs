@@ -80,8 +80,15 @@ pub fn ray_directions(heading: f64, bearings: &[f64], out: &mut Vec<[f64; 2]>) {
         }));
         return;
     }
+    turned_directions(heading + bearings[0], step, n, out);
+}
+
+/// Appends `n` unit directions to `out`, the first at angle `start` and each next turned by
+/// `step` (rad), with one sine and cosine for all of them: rays of an evenly spaced scan, or
+/// the chord ends of an arc.
+pub fn turned_directions(start: f64, step: f64, n: usize, out: &mut Vec<[f64; 2]>) {
     let (s, c) = step.sin_cos();
-    let (s0, c0) = (heading + bearings[0]).sin_cos();
+    let (s0, c0) = start.sin_cos();
     let mut d = [c0, s0];
     for _ in 0..n {
         out.push(d);

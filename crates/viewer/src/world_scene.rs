@@ -686,15 +686,11 @@ fn ranger(
                 let half = sensor.fov / 2.0;
                 let rr = scan.ranges[0];
                 let chords = lod::arc_segments(rr, sensor.fov, tol, 32);
-                // the chord ends turned one chord at a time (one sine and cosine a cone)
-                let (s, c) = (sensor.fov / chords as f64).sin_cos();
-                let (s0, c0) = (origin.a + scan.bearings[0] - half).sin_cos();
-                let mut d = [c0, s0];
+                let start = origin.a + scan.bearings[0] - half;
+                dirs.clear();
+                lod::turned_directions(start, sensor.fov / chords as f64, chords + 1, &mut dirs);
                 rim.clear();
-                for _ in 0..=chords {
-                    rim.push([o[0] + rr * d[0], o[1] + rr * d[1]]);
-                    d = [d[0] * c - d[1] * s, d[0] * s + d[1] * c];
-                }
+                rim.extend(dirs.iter().map(|d| [o[0] + rr * d[0], o[1] + rr * d[1]]));
                 scene.fan(Layer::Footprints, o, &rim, color.with_alpha(40));
             } else {
                 lod::simplify_rim(&ends, tol, &mut keep);

@@ -219,15 +219,15 @@ impl Part {
             };
             a = b;
             // rows whose centre y + 0.5 lies in [top, bottom) (none for a level edge)
-            let r0 = ceil_within(top[1] - 0.5, 0.0, last_row);
-            let r1 = ceil_within(bottom[1] - 0.5, 0.0, last_row);
+            let r0 = ceil_within(top[1] - 0.5, last_row);
+            let r1 = ceil_within(bottom[1] - 0.5, last_row);
             if r0 >= r1 {
                 continue;
             }
             let slope = (bottom[0] - top[0]) / (bottom[1] - top[1]);
             self.edges.push(Edge {
                 rows: [r0 as u32, r1 as u32],
-                x: top[0] + (r0 + 0.5 - top[1]) * slope - 0.5,
+                x: top[0] + (r0 as f64 + 0.5 - top[1]) * slope - 0.5,
                 slope,
                 dir,
                 group: group as u32,
@@ -287,11 +287,8 @@ fn band<'a>(
         let mut x = e.x + (r0 - e.rows[0] as usize) as f64 * e.slope;
         let mut at = (r0 - first_row) * stride + e.group as usize;
         for _ in r0..r1 {
-            // the first pixel whose centre is at or right of the crossing: ceil(x) in
-            // 0..=width, by truncation (x is clamped, so the conversion cannot saturate)
-            let t = x.clamp(0.0, last);
-            let i = t as u32;
-            let c = (i + u32::from(f64::from(i) < t)) as usize;
+            // the first pixel whose centre is at or right of the crossing
+            let c = ceil_within(x, last);
             deltas[at + c * g] += e.dir;
             x += e.slope;
             at += stride;
@@ -299,13 +296,14 @@ fn band<'a>(
     }
 }
 
-/// `ceil(x)` of `x` clamped to `[lo, hi]` (whole numbers within `i64`), without a libm call:
-/// the baseline x86-64 target has no rounding instruction, and this runs per edge and row.
+/// `ceil(x)` of `x` clamped to `[0, hi]` (`hi` a whole number below 2^32: a pixel count), by
+/// truncation and without a libm call: the baseline x86-64 target has no rounding instruction,
+/// and this runs per edge and row.
 #[inline]
-fn ceil_within(x: f64, lo: f64, hi: f64) -> f64 {
-    let t = x.clamp(lo, hi);
-    let i = t as i64 as f64;
-    if i < t { i + 1.0 } else { i }
+fn ceil_within(x: f64, hi: f64) -> usize {
+    let t = x.clamp(0.0, hi);
+    let i = t as u32;
+    (i + u32::from(f64::from(i) < t)) as usize
 }
 
 /// Turns a band's deltas into table-mapped counts, row by row (a malformed ring's negative

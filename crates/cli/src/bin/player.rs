@@ -164,6 +164,7 @@ fn run_check(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
 fn registry(args: &Args) -> (DriverRegistry, StageHandle) {
     let mut registry = DriverRegistry::new();
     TestDriver::register(&mut registry, TEST_DRIVER_NAME);
+    player_drivers::register_all(&mut registry);
     let stage = stage::register(
         &mut registry,
         StageOptions {

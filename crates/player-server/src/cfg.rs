@@ -7,7 +7,7 @@ use player_proto::DeviceAddr;
 use player_proto::constants::LOCALHOST_ADDR;
 use worldfile::{CfgFile, DriverSpec, Host};
 
-use crate::driver::{DriverBlock, ProvidedDevice};
+use crate::driver::{DriverBlock, ProvidedDevice, RequiredDevice};
 use crate::error::ServerError;
 
 /// The driver blocks of `cfg` in file order; `default_port` is the `-p` port for addresses
@@ -37,8 +37,7 @@ pub fn driver_block(
             message: e.to_string(),
         });
     }
-    let mut provides = Vec::new();
-    for a in &spec.provides {
+    let resolve = |a: &worldfile::DeviceAddr| -> Result<(DeviceAddr, String), ServerError> {
         let where_ = a
             .location
             .as_ref()
@@ -48,15 +47,30 @@ pub fn driver_block(
             origin: where_.clone(),
             message: format!("cannot resolve the host of \"{}\"", a.text),
         })?;
+        let addr = DeviceAddr::new(
+            host,
+            u32::from(a.port_or(default_port)),
+            a.interface,
+            a.index,
+        );
+        Ok((addr, where_))
+    };
+    let mut provides = Vec::new();
+    for a in &spec.provides {
+        let (addr, origin) = resolve(a)?;
         provides.push(ProvidedDevice {
-            addr: DeviceAddr::new(
-                host,
-                u32::from(a.port_or(default_port)),
-                a.interface,
-                a.index,
-            ),
+            addr,
             key: a.key.clone(),
-            origin: where_,
+            origin,
+        });
+    }
+    let mut requires = Vec::new();
+    for a in &spec.requires {
+        let (addr, origin) = resolve(a)?;
+        requires.push(RequiredDevice {
+            addr,
+            key: a.key.clone(),
+            origin,
         });
     }
     let mut options = spec.options.clone();
@@ -69,17 +83,12 @@ pub fn driver_block(
             options.insert(key.to_string(), vec![v.clone()]);
         }
     }
-    if !spec.requires.is_empty() {
-        options.insert(
-            "requires".to_string(),
-            spec.requires.iter().map(|a| a.text.clone()).collect(),
-        );
-    }
     Ok(DriverBlock {
         name: spec.name.clone(),
         origin,
         cfg_path: Some(cfg.path.clone()),
         provides,
+        requires,
         alwayson: spec.alwayson,
         options,
     })

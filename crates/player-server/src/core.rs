@@ -3,7 +3,12 @@
 //! Connection tasks send it `(client, message)` events; it answers DEV requests (and any
 //! player-interface request queued behind a device message), hands device messages to drivers,
 //! steps drivers on the [`Schedule`], and pushes replies and published DATA into the
-//! connections' queues, waking each touched writer once per batch. Owning every driver in one
+//! connections' queues, waking each touched writer once per batch.
+//!
+//! Drivers use each other's devices through the [`Bus`]: a driver subscribed to a device
+//! receives its DATA, and its commands, requests and deferred answers are carried out by the
+//! core after its callback returns, as queued [`Work`]. No driver ever runs inside another, so
+//! a chain needs no locks, and a local hop costs a queue push, not a TCP round trip. Owning every driver in one
 //! task keeps drivers free of locks and makes a run's order of events the order of the
 //! messages, as upstream's single-threaded loop does.
 //!
@@ -14,17 +19,20 @@
 //! steal this worker's queued connection tasks; `block_in_place` around every step would hand
 //! them over explicitly but costs a thread hand-off per step (fan-out fell 20-fold).
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 
-use player_proto::{Body, Frame, Message, MsgHeader, MsgType};
+use player_proto::{Body, DecodeLimits, DeviceAddr, Frame, Message, MsgHeader, MsgType};
 use tokio::sync::{mpsc, watch};
 
 use crate::clock::{Due, Schedule, ServerClock};
 use crate::connection::{ConnShared, CoreEvent, Incoming};
 use crate::device::{DeviceIndex, DeviceTable, DriverId};
-use crate::driver::{ClientId, Context, Driver, DriverError, Publication, Reply};
+use crate::driver::{
+    Action, ClientId, Context, Driver, DriverError, DriverWaker, PendingReply, Publication, Reply,
+    RequestError, RequestTicket,
+};
 use crate::player_iface::{self, PlayerInput, Session, Subscriptions, UnsubscribeError};
 use crate::queue::{Outgoing, PushOutcome};
 
@@ -32,12 +40,565 @@ use crate::queue::{Outgoing, PushOutcome};
 /// on its worker run.
 const FAST_YIELD: std::time::Duration = std::time::Duration::from_millis(2);
 
+/// How many queued driver-to-driver deliveries one pass handles before the core looks at its
+/// clients again (a chain that feeds itself must not starve them).
+const WORK_PER_PASS: usize = 4096;
+
 /// A driver as the core holds it.
 pub(crate) struct DriverSlot {
     pub driver: Box<dyn Driver>,
     pub name: String,
     /// Current subscriptions to any of its devices (alwayson ones included).
     pub subscriptions: usize,
+}
+
+/// Who holds a subscription to a device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Subscriber {
+    /// A TCP client.
+    Client(ClientId),
+    /// Another driver (a `requires`).
+    Driver(DriverId),
+    /// The server itself, for alwayson drivers: never released.
+    AlwaysOn,
+}
+
+/// Who waits for the answer to a deferred request.
+#[derive(Clone, Copy, Debug)]
+enum Requester {
+    Client {
+        id: ClientId,
+        header: MsgHeader,
+        addr: DeviceAddr,
+        driver: DriverId,
+    },
+    Driver {
+        from: DriverId,
+        ticket: RequestTicket,
+        header: MsgHeader,
+        addr: DeviceAddr,
+        driver: DriverId,
+    },
+}
+
+/// A delivery between drivers, done by the core after the callback that caused it.
+#[derive(Debug)]
+enum Work {
+    Data {
+        to: DriverId,
+        device: DeviceIndex,
+        msg: Message,
+    },
+    Command {
+        to: DriverId,
+        msg: Message,
+    },
+    Request {
+        from: DriverId,
+        ticket: RequestTicket,
+        to: DriverId,
+        msg: Message,
+    },
+    Reply {
+        to: DriverId,
+        ticket: RequestTicket,
+        result: Result<Message, RequestError>,
+    },
+    Wake(DriverId),
+}
+
+/// Per-driver bookkeeping beside its slot.
+struct DriverState {
+    /// Devices this driver subscribed to, once per subscription.
+    holds: Vec<DeviceIndex>,
+    /// Set while its setup runs, so a subscription cycle is refused instead of recursing.
+    setting_up: bool,
+    waker: DriverWaker,
+    woken: Arc<AtomicBool>,
+}
+
+/// The drivers, their devices' subscribers and everything that passes between them.
+pub(crate) struct Bus {
+    pub table: Arc<DeviceTable>,
+    pub drivers: Vec<DriverSlot>,
+    state: Vec<DriverState>,
+    /// Per device: its subscribers, once per subscription (duplicates duplicate DATA).
+    subscribers: Vec<Vec<Subscriber>>,
+    pub clock: ServerClock,
+    pub clock_driver: Option<usize>,
+    pub schedule: Schedule,
+    published: Vec<Publication>,
+    work: VecDeque<Work>,
+    pending: HashMap<u64, Requester>,
+    next_id: u64,
+    /// Messages for clients, moved into their queues by the core.
+    to_clients: Vec<(ClientId, Outgoing)>,
+}
+
+impl Bus {
+    /// A bus over built drivers, none subscribed yet; `wake` is where their wakers send.
+    pub fn new(
+        table: Arc<DeviceTable>,
+        drivers: Vec<DriverSlot>,
+        clock: ServerClock,
+        clock_driver: Option<usize>,
+        schedule: Schedule,
+        wake: mpsc::UnboundedSender<DriverId>,
+    ) -> Bus {
+        let state = (0..drivers.len())
+            .map(|i| {
+                let woken = Arc::new(AtomicBool::new(false));
+                DriverState {
+                    holds: Vec::new(),
+                    setting_up: false,
+                    waker: DriverWaker::new(DriverId(i), wake.clone(), woken.clone()),
+                    woken,
+                }
+            })
+            .collect();
+        Bus {
+            subscribers: vec![Vec::new(); table.len()],
+            table,
+            drivers,
+            state,
+            clock,
+            clock_driver,
+            schedule,
+            published: Vec::new(),
+            work: VecDeque::new(),
+            pending: HashMap::new(),
+            next_id: 1,
+            to_clients: Vec::new(),
+        }
+    }
+
+    /// Runs one driver callback with a full context; returns its result, what it asked for,
+    /// and whether it took the request it was handling ([`Context::defer`]).
+    fn call<R>(
+        &mut self,
+        d: DriverId,
+        client: Option<ClientId>,
+        request: Option<PendingReply>,
+        f: impl FnOnce(&mut dyn Driver, &mut Context<'_>) -> R,
+    ) -> (R, Vec<Action>, bool) {
+        let now = self.clock.now();
+        let waker = self.state[d.0].waker.clone();
+        let mut ctx =
+            Context::new(now, client, &mut self.published).with_core(self.next_id, request, waker);
+        let r = f(self.drivers[d.0].driver.as_mut(), &mut ctx);
+        let deferred = request.is_some() && ctx.defer().is_none();
+        let (actions, next) = ctx.finish();
+        self.next_id = next;
+        (r, actions, deferred)
+    }
+
+    /// Runs a callback and carries out what it asked for, then delivers what it published.
+    fn run(&mut self, d: DriverId, f: impl FnOnce(&mut dyn Driver, &mut Context<'_>)) {
+        let ((), actions, _) = self.call(d, None, None, f);
+        self.act(d, actions);
+        self.fan_out(d);
+    }
+
+    fn fresh_id(&mut self) -> u64 {
+        let id = self.next_id;
+        self.next_id += 1;
+        id
+    }
+
+    /// Subscribes `sub` to `device`, setting its driver up (and, through its `requires`, the
+    /// chain below it) on the first subscription.
+    pub fn subscribe(&mut self, sub: Subscriber, device: DeviceIndex) -> Result<(), DriverError> {
+        let dev = self.table.get(device);
+        let (addr, d) = (dev.addr, dev.driver);
+        if self.state[d.0].setting_up {
+            return Err(DriverError::new(format!(
+                "subscription cycle: driver \"{}\" is still being set up",
+                self.drivers[d.0].name
+            )));
+        }
+        self.drivers[d.0].driver.subscribe(addr)?;
+        if self.drivers[d.0].subscriptions == 0 {
+            if let Err(e) = self.setup(d) {
+                let _ = self.drivers[d.0].driver.unsubscribe(addr);
+                return Err(e);
+            }
+        }
+        let slot = &mut self.drivers[d.0];
+        slot.subscriptions += 1;
+        if slot.subscriptions == 1 {
+            self.schedule.set_active(d.0, true);
+        }
+        self.subscribers[device.0].push(sub);
+        Ok(())
+    }
+
+    /// The driver's setup, with the subscriptions it asks for carried out at once: one that
+    /// fails undoes the others and fails the setup.
+    fn setup(&mut self, d: DriverId) -> Result<(), DriverError> {
+        self.state[d.0].setting_up = true;
+        let (result, actions, _) = self.call(d, None, None, |drv, ctx| drv.setup(ctx));
+        let mut result = result;
+        let mut rest = Vec::new();
+        for action in actions {
+            match action {
+                Action::Subscribe(addr) if result.is_ok() => {
+                    if let Err(e) = self.hold(d, addr) {
+                        result = Err(DriverError::new(format!("cannot subscribe to {addr}: {e}")));
+                    }
+                }
+                Action::Subscribe(_) => {}
+                other => rest.push(other),
+            }
+        }
+        self.state[d.0].setting_up = false;
+        if result.is_err() {
+            self.release_all(d);
+            // What it queued before failing (requests to its inputs) has no one to answer.
+            self.fan_out(d);
+            return result;
+        }
+        self.act(d, rest);
+        self.fan_out(d);
+        Ok(())
+    }
+
+    /// Subscribes driver `d` to the device at `addr`.
+    fn hold(&mut self, d: DriverId, addr: DeviceAddr) -> Result<(), DriverError> {
+        let device = self
+            .table
+            .find(&addr)
+            .ok_or_else(|| DriverError::new(format!("no device {addr}")))?;
+        self.subscribe(Subscriber::Driver(d), device)?;
+        self.state[d.0].holds.push(device);
+        Ok(())
+    }
+
+    /// Ends every subscription driver `d` holds, last first.
+    fn release_all(&mut self, d: DriverId) {
+        while let Some(device) = self.state[d.0].holds.pop() {
+            if let Err(e) = self.unsubscribe(Subscriber::Driver(d), device) {
+                tracing::warn!(
+                    "driver \"{}\" releasing {}: {e}",
+                    self.drivers[d.0].name,
+                    self.table.get(device).addr
+                );
+            }
+        }
+    }
+
+    /// Ends one subscription of `sub` to `device`; the driver's last one tears it (and what it
+    /// holds) down.
+    pub fn unsubscribe(&mut self, sub: Subscriber, device: DeviceIndex) -> Result<(), DriverError> {
+        let dev = self.table.get(device);
+        let (addr, d) = (dev.addr, dev.driver);
+        let list = &mut self.subscribers[device.0];
+        if let Some(p) = list.iter().rposition(|&s| s == sub) {
+            list.remove(p);
+        }
+        if let Subscriber::Client(c) = sub {
+            self.drivers[d.0].driver.client_unsubscribed(addr, c);
+        }
+        let result = self.drivers[d.0].driver.unsubscribe(addr);
+        let slot = &mut self.drivers[d.0];
+        slot.subscriptions = slot.subscriptions.saturating_sub(1);
+        if slot.subscriptions == 0 {
+            self.schedule.set_active(d.0, false);
+            self.run(d, |drv, ctx| drv.teardown(ctx));
+            self.release_all(d);
+        }
+        result
+    }
+
+    /// Carries out a driver's actions: subscriptions now, deliveries queued.
+    fn act(&mut self, d: DriverId, actions: Vec<Action>) {
+        let now = self.clock.now();
+        for action in actions {
+            match action {
+                Action::Subscribe(addr) => {
+                    if let Err(e) = self.hold(d, addr) {
+                        tracing::warn!(
+                            "driver \"{}\" could not subscribe to {addr}: {e}",
+                            self.drivers[d.0].name
+                        );
+                    }
+                }
+                Action::Unsubscribe(addr) => {
+                    let found = self.table.find(&addr).and_then(|device| {
+                        let holds = &mut self.state[d.0].holds;
+                        let p = holds.iter().rposition(|&h| h == device)?;
+                        holds.remove(p);
+                        Some(device)
+                    });
+                    match found {
+                        Some(device) => {
+                            if let Err(e) = self.unsubscribe(Subscriber::Driver(d), device) {
+                                tracing::warn!("driver \"{}\": {e}", self.drivers[d.0].name);
+                            }
+                        }
+                        None => tracing::warn!(
+                            "driver \"{}\" unsubscribed from {addr}, which it does not hold",
+                            self.drivers[d.0].name
+                        ),
+                    }
+                }
+                Action::Command(addr, body) => match self.table.find(&addr) {
+                    Some(device) => {
+                        let dev = self.table.get(device);
+                        let msg = Message::new(dev.addr, now, body);
+                        self.work.push_back(Work::Command {
+                            to: dev.driver,
+                            msg,
+                        });
+                    }
+                    None => tracing::warn!(
+                        "driver \"{}\" commanded {addr}, which no driver provides",
+                        self.drivers[d.0].name
+                    ),
+                },
+                Action::Request(ticket, addr, body) => match self.table.find(&addr) {
+                    Some(device) => {
+                        let dev = self.table.get(device);
+                        let msg = Message::new(dev.addr, now, body);
+                        self.work.push_back(Work::Request {
+                            from: d,
+                            ticket,
+                            to: dev.driver,
+                            msg,
+                        });
+                    }
+                    None => self.work.push_back(Work::Reply {
+                        to: d,
+                        ticket,
+                        result: Err(RequestError::NoDevice(addr)),
+                    }),
+                },
+                Action::Answer(pending, reply) => match self.pending.remove(&pending.0) {
+                    Some(requester) => self.deliver_reply(requester, reply),
+                    None => tracing::debug!(
+                        "driver \"{}\" answered request {} that nobody waits for",
+                        self.drivers[d.0].name,
+                        pending.0
+                    ),
+                },
+            }
+        }
+    }
+
+    /// A client's request to a device of driver `d`.
+    fn client_request(&mut self, id: ClientId, d: DriverId, addr: DeviceAddr, msg: &Message) {
+        let token = self.fresh_id();
+        let (reply, actions, deferred) =
+            self.call(d, Some(id), Some(PendingReply(token)), |drv, ctx| {
+                drv.handle_request(ctx, msg)
+            });
+        let requester = Requester::Client {
+            id,
+            header: msg.header,
+            addr,
+            driver: d,
+        };
+        self.settle(token, requester, reply, deferred);
+        self.act(d, actions);
+        self.fan_out(d);
+    }
+
+    /// Records a deferred request, or delivers an immediate reply.
+    fn settle(&mut self, token: u64, requester: Requester, reply: Reply, deferred: bool) {
+        match (reply, deferred) {
+            (Reply::Deferred, true) => {
+                self.pending.insert(token, requester);
+            }
+            (Reply::Deferred, false) => {
+                let d = match requester {
+                    Requester::Client { driver, .. } | Requester::Driver { driver, .. } => driver,
+                };
+                tracing::error!(
+                    "driver \"{}\" deferred a request without taking it (Context::defer); NACK",
+                    self.drivers[d.0].name
+                );
+                self.deliver_reply(requester, Reply::Nack);
+            }
+            (reply, _) => self.deliver_reply(requester, reply),
+        }
+    }
+
+    fn deliver_reply(&mut self, requester: Requester, reply: Reply) {
+        let now = self.clock.now();
+        match requester {
+            Requester::Client {
+                id,
+                header,
+                addr,
+                driver,
+            } => {
+                let out = device_reply(&header, addr, reply, now, &self.drivers[driver.0].name);
+                self.to_clients.push((id, out));
+            }
+            Requester::Driver {
+                from,
+                ticket,
+                header,
+                addr,
+                driver,
+            } => {
+                let result = reply_message(&header, addr, reply, now, &self.drivers[driver.0].name);
+                self.work.push_back(Work::Reply {
+                    to: from,
+                    ticket,
+                    result,
+                });
+            }
+        }
+    }
+
+    /// Steps the drivers that are due.
+    pub fn tick(&mut self) {
+        for d in self.schedule.take_due() {
+            let id = DriverId(d);
+            self.run(id, |drv, ctx| drv.update(ctx));
+            if self.clock_driver == Some(d) {
+                if let Some(t) = self.drivers[d].driver.clock() {
+                    self.clock.set_simulated(t);
+                }
+            }
+        }
+    }
+
+    /// Handles queued deliveries between drivers, at most [`WORK_PER_PASS`] of them.
+    pub fn pump(&mut self) {
+        for _ in 0..WORK_PER_PASS {
+            let Some(work) = self.work.pop_front() else {
+                return;
+            };
+            match work {
+                Work::Data { to, device, msg } => {
+                    // Data queued before the driver let go of the device is not its any more.
+                    if self.state[to.0].holds.contains(&device) {
+                        self.run(to, |drv, ctx| drv.handle_data(ctx, &msg));
+                    }
+                }
+                Work::Command { to, msg } => self.run(to, |drv, ctx| drv.handle_command(ctx, &msg)),
+                Work::Reply { to, ticket, result } => {
+                    self.run(to, |drv, ctx| drv.handle_reply(ctx, ticket, result))
+                }
+                Work::Wake(d) => {
+                    self.state[d.0].woken.store(false, Ordering::Release);
+                    self.run(d, |drv, ctx| drv.wake(ctx));
+                }
+                Work::Request {
+                    from,
+                    ticket,
+                    to,
+                    msg,
+                } => {
+                    let token = self.fresh_id();
+                    let (reply, actions, deferred) =
+                        self.call(to, None, Some(PendingReply(token)), |drv, ctx| {
+                            drv.handle_request(ctx, &msg)
+                        });
+                    let requester = Requester::Driver {
+                        from,
+                        ticket,
+                        header: msg.header,
+                        addr: msg.header.addr,
+                        driver: to,
+                    };
+                    self.settle(token, requester, reply, deferred);
+                    self.act(to, actions);
+                    self.fan_out(to);
+                }
+            }
+        }
+        if !self.work.is_empty() {
+            tracing::debug!(
+                "{} driver deliveries wait for the next pass",
+                self.work.len()
+            );
+        }
+    }
+
+    /// Whether deliveries are waiting.
+    pub fn busy(&self) -> bool {
+        !self.work.is_empty()
+    }
+
+    /// Queues a wake-up of driver `d` (from its [`DriverWaker`]).
+    pub fn wake(&mut self, d: DriverId) {
+        if d.0 < self.drivers.len() {
+            self.work.push_back(Work::Wake(d));
+        }
+    }
+
+    /// Delivers every pending publication of `driver` to the subscribers of its device: encoded
+    /// once for every client queue, typed for subscribed drivers.
+    fn fan_out(&mut self, driver: DriverId) {
+        if self.published.is_empty() {
+            return;
+        }
+        let now = self.clock.now();
+        let mut pubs = std::mem::take(&mut self.published);
+        for p in pubs.drain(..) {
+            let Some(device) = self.table.find(&p.addr) else {
+                tracing::warn!(
+                    "driver \"{}\" published for unknown device {}",
+                    self.drivers[driver.0].name,
+                    p.addr
+                );
+                continue;
+            };
+            let dev = self.table.get(device);
+            if dev.driver != driver || p.body.msg_type() != MsgType::Data {
+                tracing::warn!(
+                    "driver \"{}\" published {} for {}, which it cannot",
+                    self.drivers[driver.0].name,
+                    p.body.constant(),
+                    p.addr
+                );
+                continue;
+            }
+            if self.subscribers[device.0].is_empty() {
+                continue;
+            }
+            let msg = Message::new(dev.addr, p.timestamp.unwrap_or(now), p.body);
+            let mut encoded: Option<Outgoing> = None;
+            for i in 0..self.subscribers[device.0].len() {
+                match self.subscribers[device.0][i] {
+                    Subscriber::Client(id) => {
+                        if encoded.is_none() {
+                            match Outgoing::from_message(&msg) {
+                                Ok(out) => encoded = Some(out),
+                                Err(e) => {
+                                    tracing::error!(
+                                        "driver \"{}\" published an unencodable {}: {e}",
+                                        self.drivers[driver.0].name,
+                                        msg.body.constant()
+                                    );
+                                    break;
+                                }
+                            }
+                        }
+                        if let Some(out) = &encoded {
+                            self.to_clients.push((id, out.clone()));
+                        }
+                    }
+                    Subscriber::Driver(to) => self.work.push_back(Work::Data {
+                        to,
+                        device,
+                        msg: msg.clone(),
+                    }),
+                    Subscriber::AlwaysOn => {}
+                }
+            }
+        }
+        self.published = pubs;
+    }
+
+    /// The server is stopping: every driver hears it.
+    fn shutdown(&mut self) {
+        for slot in &mut self.drivers {
+            slot.driver.shutdown();
+        }
+    }
 }
 
 struct Conn {
@@ -49,48 +610,31 @@ struct Conn {
 
 /// The core's state.
 pub(crate) struct Core {
-    pub table: Arc<DeviceTable>,
-    pub drivers: Vec<DriverSlot>,
-    /// Per device: subscribed clients, once per subscription (duplicates duplicate DATA).
-    pub subscribers: Vec<Vec<ClientId>>,
-    pub clock: ServerClock,
-    pub clock_driver: Option<usize>,
-    pub schedule: Schedule,
-    pub events: mpsc::Receiver<CoreEvent>,
-    pub stop: watch::Receiver<bool>,
+    bus: Bus,
+    events: mpsc::Receiver<CoreEvent>,
+    wakes: mpsc::UnboundedReceiver<DriverId>,
+    stop: watch::Receiver<bool>,
     conns: HashMap<ClientId, Conn>,
     dirty: Vec<ClientId>,
     to_close: Vec<(ClientId, String)>,
-    published: Vec<Publication>,
 }
 
 impl Core {
-    /// A core over already started drivers (alwayson subscriptions done).
+    /// A core over a bus whose alwayson drivers are already subscribed.
     pub fn new(
-        table: Arc<DeviceTable>,
-        drivers: Vec<DriverSlot>,
-        clock: ServerClock,
-        clock_driver: Option<usize>,
-        mut schedule: Schedule,
+        bus: Bus,
         events: mpsc::Receiver<CoreEvent>,
+        wakes: mpsc::UnboundedReceiver<DriverId>,
         stop: watch::Receiver<bool>,
     ) -> Core {
-        for (i, d) in drivers.iter().enumerate() {
-            schedule.set_active(i, d.subscriptions > 0);
-        }
         Core {
-            subscribers: vec![Vec::new(); table.len()],
-            table,
-            drivers,
-            clock,
-            clock_driver,
-            schedule,
+            bus,
             events,
+            wakes,
             stop,
             conns: HashMap::new(),
             dirty: Vec::new(),
             to_close: Vec::new(),
-            published: Vec::new(),
         }
     }
 
@@ -105,11 +649,21 @@ impl Core {
             while let Ok(ev) = self.events.try_recv() {
                 self.event(ev);
             }
-            self.flush();
-            match self.schedule.due() {
+            while let Ok(d) = self.wakes.try_recv() {
+                self.bus.wake(d);
+            }
+            self.settle();
+            let due = if self.bus.busy() {
+                Due::Now
+            } else {
+                self.bus.schedule.due()
+            };
+            match due {
                 Due::Now => {
-                    self.tick();
-                    self.flush();
+                    if !self.bus.busy() {
+                        self.bus.tick();
+                    }
+                    self.settle();
                     // As fast as possible, steps follow each other at once. Yield now and then
                     // so this worker's writers run too, but not after every step: writers
                     // that find many messages queued send them in one write.
@@ -127,6 +681,7 @@ impl Core {
                             Some(ev) => self.event(ev),
                             None => break,
                         },
+                        Some(d) = self.wakes.recv() => self.bus.wake(d),
                         _ = tokio::time::sleep_until(at.into()) => {}
                     }
                 }
@@ -138,12 +693,21 @@ impl Core {
                             Some(ev) => self.event(ev),
                             None => break,
                         },
+                        Some(d) = self.wakes.recv() => self.bus.wake(d),
                     }
                 }
             }
-            self.flush();
+            self.settle();
         }
         self.shutdown();
+    }
+
+    /// Runs queued driver deliveries, moves what the bus produced for clients into their
+    /// queues, and wakes the writers.
+    fn settle(&mut self) {
+        self.bus.pump();
+        self.deliver();
+        self.flush();
     }
 
     fn shutdown(&mut self) {
@@ -151,9 +715,8 @@ impl Core {
         for id in ids {
             self.close(id, "server shutting down");
         }
-        for slot in &mut self.drivers {
-            slot.driver.shutdown();
-        }
+        self.deliver();
+        self.bus.shutdown();
     }
 
     fn event(&mut self, ev: CoreEvent) {
@@ -177,6 +740,7 @@ impl Core {
                 }
             }
         }
+        self.deliver();
         for (id, reason) in std::mem::take(&mut self.to_close) {
             self.close(id, &reason);
         }
@@ -193,17 +757,8 @@ impl Core {
         } else {
             tracing::info!("closing client {} ({}): {reason}", id.0, conn.shared.peer);
         }
-        let mut subs = SubscriptionBook {
-            table: &self.table,
-            drivers: &mut self.drivers,
-            subscribers: &mut self.subscribers,
-            schedule: &mut self.schedule,
-            held: &mut Vec::new(),
-            id,
-        };
         for device in conn.subs.iter().rev() {
-            subs.held.push(*device);
-            if let Err(e) = subs.unsubscribe(*device) {
+            if let Err(e) = self.bus.unsubscribe(Subscriber::Client(id), *device) {
                 tracing::warn!("unsubscribing closed client {}: {e}", id.0);
             }
         }
@@ -225,9 +780,9 @@ impl Core {
                     );
                     let nack = device_reply_header(
                         &header,
-                        self.table.get(device).addr,
+                        self.bus.table.get(device).addr,
                         MsgType::RespNack,
-                        self.clock.now(),
+                        self.bus.clock.now(),
                     );
                     self.push(id, Outgoing::header_only(nack));
                 } else {
@@ -245,33 +800,23 @@ impl Core {
     }
 
     fn player(&mut self, id: ClientId, input: PlayerInput<'_>) {
-        let now = self.clock.now();
-        let Core {
-            table,
-            drivers,
-            subscribers,
-            schedule,
-            conns,
-            ..
-        } = self;
-        let Some(conn) = conns.get_mut(&id) else {
+        let now = self.bus.clock.now();
+        let table = self.bus.table.clone();
+        let Some(conn) = self.conns.get_mut(&id) else {
             return;
         };
         let shared = conn.shared.clone();
         let outcome = {
             let mut queue = shared.queue.lock().unwrap_or_else(|p| p.into_inner());
             let mut session = Session {
-                table,
+                table: &table,
                 port: shared.port,
                 now,
                 queue: &mut queue,
                 peer: &shared.peer,
             };
             let mut book = SubscriptionBook {
-                table,
-                drivers,
-                subscribers,
-                schedule,
+                bus: &mut self.bus,
                 held: &mut conn.subs,
                 id,
             };
@@ -281,94 +826,32 @@ impl Core {
     }
 
     fn device_message(&mut self, id: ClientId, device: DeviceIndex, msg: &Message) {
-        let dev = self.table.get(device);
-        let addr = dev.addr;
-        let driver = dev.driver;
-        let now = self.clock.now();
-        let kind = msg.header.kind().ok();
-        {
-            let slot = &mut self.drivers[driver.0];
-            let mut ctx = Context::new(now, Some(id), &mut self.published);
-            match kind {
-                Some(MsgType::Req) => {
-                    let reply = slot.driver.handle_request(&mut ctx, msg);
-                    let out = device_reply(&msg.header, addr, reply, now, &slot.name);
-                    self.push(id, out);
-                }
-                Some(MsgType::Cmd) => slot.driver.handle_command(&mut ctx, msg),
-                _ => tracing::warn!(
-                    "client {}: ignoring {} message sent to {}:{}",
-                    id.0,
-                    msg.body.msg_type(),
-                    addr.interf,
-                    addr.index
-                ),
-            }
-        }
-        self.fan_out(driver, now);
-    }
-
-    /// Steps the drivers that are due, then delivers what they published.
-    fn tick(&mut self) {
-        for d in self.schedule.take_due() {
-            let now = self.clock.now();
-            let slot = &mut self.drivers[d];
-            let mut ctx = Context::new(now, None, &mut self.published);
-            slot.driver.update(&mut ctx);
-            if self.clock_driver == Some(d) {
-                if let Some(t) = slot.driver.clock() {
-                    self.clock.set_simulated(t);
-                }
-            }
-            self.fan_out(DriverId(d), now);
+        let dev = self.bus.table.get(device);
+        let (addr, driver) = (dev.addr, dev.driver);
+        match msg.header.kind().ok() {
+            Some(MsgType::Req) => self.bus.client_request(id, driver, addr, msg),
+            Some(MsgType::Cmd) => self
+                .bus
+                .run(driver, |drv, ctx| drv.handle_command(ctx, msg)),
+            _ => tracing::warn!(
+                "client {}: ignoring {} message sent to {}:{}",
+                id.0,
+                msg.body.msg_type(),
+                addr.interf,
+                addr.index
+            ),
         }
     }
 
-    /// Sends every pending publication of `driver` to the subscribers of its device: encoded
-    /// once, shared by every queue.
-    fn fan_out(&mut self, driver: DriverId, now: f64) {
-        let pubs = std::mem::take(&mut self.published);
-        for p in &pubs {
-            let Some(device) = self.table.find(&p.addr) else {
-                tracing::warn!(
-                    "driver \"{}\" published for unknown device {}",
-                    self.drivers[driver.0].name,
-                    p.addr
-                );
-                continue;
-            };
-            let dev = self.table.get(device);
-            if dev.driver != driver || p.body.msg_type() != MsgType::Data {
-                tracing::warn!(
-                    "driver \"{}\" published {} for {}, which it cannot",
-                    self.drivers[driver.0].name,
-                    p.body.constant(),
-                    p.addr
-                );
-                continue;
-            }
-            if self.subscribers[device.0].is_empty() {
-                continue;
-            }
-            let msg = Message::new(dev.addr, p.timestamp.unwrap_or(now), p.body.clone());
-            let out = match Outgoing::from_message(&msg) {
-                Ok(out) => out,
-                Err(e) => {
-                    tracing::error!(
-                        "driver \"{}\" published an unencodable {}: {e}",
-                        self.drivers[driver.0].name,
-                        p.body.constant()
-                    );
-                    continue;
-                }
-            };
-            for i in 0..self.subscribers[device.0].len() {
-                let id = self.subscribers[device.0][i];
-                self.push(id, out.clone());
-            }
+    /// Moves what the bus produced for clients into their queues.
+    fn deliver(&mut self) {
+        let mut out = std::mem::take(&mut self.bus.to_clients);
+        for (id, msg) in out.drain(..) {
+            self.push(id, msg);
         }
-        self.published = pubs;
-        self.published.clear();
+        if self.bus.to_clients.is_empty() {
+            self.bus.to_clients = out;
+        }
     }
 
     fn push(&mut self, id: ClientId, out: Outgoing) {
@@ -404,6 +887,7 @@ impl Core {
         for (id, reason) in std::mem::take(&mut self.to_close) {
             self.close(id, &reason);
         }
+        self.deliver();
         for id in self.dirty.drain(..) {
             if let Some(conn) = self.conns.get_mut(&id) {
                 conn.dirty = false;
@@ -413,27 +897,17 @@ impl Core {
     }
 }
 
-/// The subscription bookkeeping of one connection, over the core's tables.
+/// The subscription bookkeeping of one connection, over the core's bus.
 struct SubscriptionBook<'a> {
-    table: &'a DeviceTable,
-    drivers: &'a mut [DriverSlot],
-    subscribers: &'a mut [Vec<ClientId>],
-    schedule: &'a mut Schedule,
+    bus: &'a mut Bus,
     held: &'a mut Vec<DeviceIndex>,
     id: ClientId,
 }
 
 impl Subscriptions for SubscriptionBook<'_> {
     fn subscribe(&mut self, device: DeviceIndex) -> Result<(), DriverError> {
-        let dev = self.table.get(device);
-        let slot = &mut self.drivers[dev.driver.0];
-        slot.driver.subscribe(dev.addr)?;
-        slot.subscriptions += 1;
-        if slot.subscriptions == 1 {
-            self.schedule.set_active(dev.driver.0, true);
-        }
+        self.bus.subscribe(Subscriber::Client(self.id), device)?;
         self.held.push(device);
-        self.subscribers[device.0].push(self.id);
         Ok(())
     }
 
@@ -444,20 +918,47 @@ impl Subscriptions for SubscriptionBook<'_> {
             .rposition(|&d| d == device)
             .ok_or(UnsubscribeError::NotSubscribed)?;
         self.held.remove(pos);
-        let list = &mut self.subscribers[device.0];
-        if let Some(p) = list.iter().rposition(|&c| c == self.id) {
-            list.remove(p);
-        }
-        let dev = self.table.get(device);
-        let slot = &mut self.drivers[dev.driver.0];
-        slot.subscriptions = slot.subscriptions.saturating_sub(1);
-        if slot.subscriptions == 0 {
-            self.schedule.set_active(dev.driver.0, false);
-        }
-        slot.driver.client_unsubscribed(dev.addr, self.id);
-        slot.driver
-            .unsubscribe(dev.addr)
+        self.bus
+            .unsubscribe(Subscriber::Client(self.id), device)
             .map_err(UnsubscribeError::Driver)
+    }
+}
+
+/// A driver's [`Reply`] as the requesting driver sees it: the ACK as a message (header
+/// RESP_ACK from the device), or why there is none.
+fn reply_message(
+    req: &MsgHeader,
+    addr: DeviceAddr,
+    reply: Reply,
+    now: f64,
+    driver: &str,
+) -> Result<Message, RequestError> {
+    let header = device_reply_header(req, addr, MsgType::RespAck, now);
+    match reply {
+        Reply::Nack | Reply::NotHandled => Err(RequestError::Nack),
+        Reply::Deferred => Err(RequestError::Failed(format!(
+            "driver \"{driver}\" deferred a request twice"
+        ))),
+        Reply::Ack(Some(body)) => match ack_body(req, addr, &body) {
+            Ok(_) => Ok(Message { header, body }),
+            Err(e) => {
+                tracing::error!("driver \"{driver}\" answered with an unusable body: {e}");
+                Err(RequestError::Nack)
+            }
+        },
+        Reply::Ack(None) => {
+            let mut empty = header;
+            empty.size = 0;
+            match player_proto::decode_body(&empty, &[], &DecodeLimits::default()) {
+                Ok(body) => Ok(Message {
+                    header: empty,
+                    body,
+                }),
+                Err(e) => Err(RequestError::Failed(format!(
+                    "driver \"{driver}\" sent an empty ACK where a body is due: {e}"
+                ))),
+            }
+        }
     }
 }
 
@@ -484,6 +985,10 @@ fn device_reply(
     let nack = || Outgoing::header_only(device_reply_header(req, addr, MsgType::RespNack, now));
     match reply {
         Reply::Nack => nack(),
+        Reply::Deferred => {
+            tracing::error!("driver \"{driver}\" deferred a request twice; NACK");
+            nack()
+        }
         Reply::NotHandled => {
             tracing::debug!(
                 "driver \"{driver}\" does not handle request subtype {} on {}:{}; NACK",

@@ -11,8 +11,9 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use player_proto::{Body, DeviceAddr, Message};
+use player_proto::{Body, DeviceAddr, InterfaceCode, Message};
 
+use crate::device::DriverId;
 use crate::error::ServerError;
 
 /// A connected client, as the server numbers them (for drivers that keep per-client state).
@@ -48,6 +49,19 @@ pub struct ProvidedDevice {
     pub origin: String,
 }
 
+/// One device in a block's `requires`, resolved to its wire address: a device this driver
+/// subscribes to, commands or queries. It may be provided by any block of the cfg (earlier or
+/// later) or live on another Player server (a host or port this server does not serve).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RequiredDevice {
+    /// The address: host, port (the cfg's or the server default), interface, index.
+    pub addr: DeviceAddr,
+    /// The optional key (role, e.g. `odometry`, `input`, `output`, `laser`) of the entry.
+    pub key: Option<String>,
+    /// Where the entry is written (`file:line`).
+    pub origin: String,
+}
+
 /// A cfg `driver ( ... )` block, as the server hands it to a driver factory.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DriverBlock {
@@ -59,6 +73,8 @@ pub struct DriverBlock {
     pub cfg_path: Option<PathBuf>,
     /// The devices it provides, in `provides` order.
     pub provides: Vec<ProvidedDevice>,
+    /// The devices it requires, in `requires` order.
+    pub requires: Vec<RequiredDevice>,
     /// The `alwayson` field, when written.
     pub alwayson: Option<bool>,
     /// Every other field, as its list of values (e.g. `model`, `worldfile`).
@@ -79,6 +95,54 @@ impl DriverBlock {
                 DriverError::new(format!("option `{key}` has an invalid value \"{text}\""))
             }),
         }
+    }
+
+    /// The required device of `interface` with `key` (Player's `ReadDeviceAddr(.., "requires",
+    /// code, -1, key)`): the first entry of that interface whose key matches (`None` matches
+    /// only unkeyed entries). An entry with the key but another interface is an error saying
+    /// what the driver needs there, as is a missing one.
+    pub fn required(
+        &self,
+        interface: InterfaceCode,
+        key: Option<&str>,
+    ) -> Result<&RequiredDevice, DriverError> {
+        self.find_required(interface, key)?.ok_or_else(|| {
+            DriverError::new(match key {
+                Some(k) => format!(
+                    "requires a {interface} device with key \"{k}\" (e.g. \"{k}:::{interface}:0\")"
+                ),
+                None => format!("requires a {interface} device (e.g. \"{interface}:0\")"),
+            })
+        })
+    }
+
+    /// Like [`DriverBlock::required`], but an absent entry is `None` (optional inputs, such as
+    /// a laser that a driver uses when given).
+    pub fn optional_required(
+        &self,
+        interface: InterfaceCode,
+        key: Option<&str>,
+    ) -> Result<Option<&RequiredDevice>, DriverError> {
+        self.find_required(interface, key)
+    }
+
+    fn find_required(
+        &self,
+        interface: InterfaceCode,
+        key: Option<&str>,
+    ) -> Result<Option<&RequiredDevice>, DriverError> {
+        let keyed = || self.requires.iter().filter(|r| r.key.as_deref() == key);
+        if let Some(found) = keyed().find(|r| r.addr.interf == interface) {
+            return Ok(Some(found));
+        }
+        // Only a keyed entry can be "the wrong interface": unkeyed ones are matched by type.
+        if let (Some(k), Some(other)) = (key, keyed().next()) {
+            return Err(DriverError::new(format!(
+                "{}: required device \"{k}\" is a {} device, but this driver needs a {interface} there",
+                other.origin, other.addr.interf
+            )));
+        }
+        Ok(None)
     }
 
     /// A path written in the block: absolute as written, else relative to the cfg file's
@@ -108,6 +172,10 @@ pub enum Reply {
     /// The driver does not handle this request: the client gets an empty NACK, as upstream's
     /// `Driver::ProcessMessages` sends for unhandled requests.
     NotHandled,
+    /// The driver answers later with [`Context::answer`], using the token [`Context::defer`]
+    /// gave it (a relay waiting on the device it forwards to, a remote device, a planner
+    /// thread). The requester waits; nothing else does.
+    Deferred,
 }
 
 impl Reply {
@@ -133,15 +201,99 @@ pub struct Publication {
     pub timestamp: Option<f64>,
 }
 
+/// Names one request a driver sent to a device; its reply comes back to
+/// [`Driver::handle_reply`] with the same ticket.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct RequestTicket(pub u64);
+
+/// A request a driver chose to answer later ([`Reply::Deferred`]): pass it to
+/// [`Context::answer`] once the answer is known. Answering twice, or a token the server no
+/// longer knows (its client left), is ignored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PendingReply(pub u64);
+
+/// Why a driver's request to a device got no ACK.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum RequestError {
+    /// The device answered RESP_NACK (or does not handle the request).
+    #[error("the device refused the request (NACK)")]
+    Nack,
+    /// No device has that address, or the driver is not allowed to use it.
+    #[error("no such device {0}")]
+    NoDevice(DeviceAddr),
+    /// The device (or the link to it) failed before answering.
+    #[error("{0}")]
+    Failed(String),
+}
+
+/// Something a driver asked the server to do with another device; carried out by the core
+/// once the driver's callback returns (so drivers never run inside each other).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// Subscribe this driver to a device: its DATA then reaches [`Driver::handle_data`].
+    Subscribe(DeviceAddr),
+    /// End one subscription of this driver to a device.
+    Unsubscribe(DeviceAddr),
+    /// Send a CMD to a device.
+    Command(DeviceAddr, Body),
+    /// Send a REQ to a device; the reply comes to [`Driver::handle_reply`].
+    Request(RequestTicket, DeviceAddr, Body),
+    /// Answer a request deferred earlier.
+    Answer(PendingReply, Reply),
+}
+
+/// Lets code outside the core (a driver's worker thread, a network task) ask the core to call
+/// the driver's [`Driver::wake`] soon. Cheap to clone; waking a driver already due is a no-op.
+#[derive(Clone)]
+pub struct DriverWaker {
+    driver: DriverId,
+    tx: tokio::sync::mpsc::UnboundedSender<DriverId>,
+    flag: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl fmt::Debug for DriverWaker {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("DriverWaker")
+            .field("driver", &self.driver)
+            .finish()
+    }
+}
+
+impl DriverWaker {
+    /// A waker for `driver` that sends on `tx`; `flag` is set while a wake is pending, so
+    /// many wakes before the core runs cost one event.
+    pub(crate) fn new(
+        driver: DriverId,
+        tx: tokio::sync::mpsc::UnboundedSender<DriverId>,
+        flag: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    ) -> DriverWaker {
+        DriverWaker { driver, tx, flag }
+    }
+
+    /// Asks the core to call [`Driver::wake`]. Callable from any thread; never blocks.
+    pub fn wake(&self) {
+        use std::sync::atomic::Ordering;
+        if !self.flag.swap(true, Ordering::AcqRel) {
+            // A closed channel means the server stopped: nothing left to wake.
+            let _ = self.tx.send(self.driver);
+        }
+    }
+}
+
 /// What a driver can see and do while the core runs it.
 pub struct Context<'a> {
     now: f64,
     client: Option<ClientId>,
     published: &'a mut Vec<Publication>,
+    actions: Vec<Action>,
+    next_ticket: u64,
+    request: Option<PendingReply>,
+    waker: Option<DriverWaker>,
 }
 
 impl<'a> Context<'a> {
-    /// A context at server time `now`, collecting publications into `published`.
+    /// A context at server time `now`, collecting publications into `published`. Tickets
+    /// start at 1; there is no waker and no deferrable request (the core sets those).
     pub fn new(
         now: f64,
         client: Option<ClientId>,
@@ -151,7 +303,30 @@ impl<'a> Context<'a> {
             now,
             client,
             published,
+            actions: Vec::new(),
+            next_ticket: 1,
+            request: None,
+            waker: None,
         }
+    }
+
+    /// Sets what the core knows of the call: the next free ticket, the token of the request
+    /// being handled (for [`Context::defer`]) and the driver's waker.
+    pub(crate) fn with_core(
+        mut self,
+        next_ticket: u64,
+        request: Option<PendingReply>,
+        waker: DriverWaker,
+    ) -> Context<'a> {
+        self.next_ticket = next_ticket;
+        self.request = request;
+        self.waker = Some(waker);
+        self
+    }
+
+    /// What the driver asked for during the call, and the next free ticket.
+    pub(crate) fn finish(self) -> (Vec<Action>, u64) {
+        (self.actions, self.next_ticket)
     }
 
     /// The server clock: wall-clock seconds, or simulated seconds when a driver supplies the
@@ -160,7 +335,8 @@ impl<'a> Context<'a> {
         self.now
     }
 
-    /// The client whose message is being handled (`None` in `update`).
+    /// The client whose message is being handled (`None` in `update`, and when the message
+    /// comes from another driver).
     pub fn client(&self) -> Option<ClientId> {
         self.client
     }
@@ -182,13 +358,64 @@ impl<'a> Context<'a> {
             timestamp: Some(timestamp),
         });
     }
+
+    /// Subscribes this driver to `device` (one of its `requires`, usually from
+    /// [`Driver::setup`]). Done when the callback returns; from `setup`, a refused
+    /// subscription makes the setup (and the client's subscription that caused it) fail.
+    pub fn subscribe(&mut self, device: DeviceAddr) {
+        self.actions.push(Action::Subscribe(device));
+    }
+
+    /// Ends one subscription of this driver to `device`. Subscriptions still held when the
+    /// driver's last subscriber leaves are ended by the server after [`Driver::teardown`].
+    pub fn unsubscribe(&mut self, device: DeviceAddr) {
+        self.actions.push(Action::Unsubscribe(device));
+    }
+
+    /// Sends a command to `device`, as a client would.
+    pub fn command(&mut self, device: DeviceAddr, body: impl Into<Body>) {
+        self.actions.push(Action::Command(device, body.into()));
+    }
+
+    /// Sends a request to `device`; its ACK (or the reason there is none) comes to
+    /// [`Driver::handle_reply`] with the returned ticket, after this callback returns.
+    pub fn request(&mut self, device: DeviceAddr, body: impl Into<Body>) -> RequestTicket {
+        let ticket = RequestTicket(self.next_ticket);
+        self.next_ticket += 1;
+        self.actions
+            .push(Action::Request(ticket, device, body.into()));
+        ticket
+    }
+
+    /// Takes the request being handled to answer it later: return [`Reply::Deferred`] and
+    /// call [`Context::answer`] with the token. `None` outside [`Driver::handle_request`].
+    pub fn defer(&mut self) -> Option<PendingReply> {
+        self.request.take()
+    }
+
+    /// Answers a request deferred earlier (from any later callback).
+    pub fn answer(&mut self, pending: PendingReply, reply: Reply) {
+        self.actions.push(Action::Answer(pending, reply));
+    }
+
+    /// A handle that other threads or tasks of this driver use to have [`Driver::wake`]
+    /// called (`None` in contexts built outside a server, e.g. unit tests).
+    pub fn waker(&self) -> Option<DriverWaker> {
+        self.waker.clone()
+    }
 }
 
 /// A driver: serves the devices of one cfg `driver` block.
 ///
 /// The core calls these methods one at a time, never concurrently (possibly from different
-/// runtime threads over time, hence `Send`). Every call should return
-/// promptly: requests are answered between ticks, and clients time out after 5 s.
+/// runtime threads over time, hence `Send`). Every call should return promptly: requests are
+/// answered between ticks, and clients time out after 5 s. Work that takes longer (planning,
+/// a remote link) runs on a thread or task of the driver's own, which reports back through
+/// a [`DriverWaker`].
+///
+/// Lifecycle, as Player's `Setup`/`Shutdown`: [`Driver::setup`] runs when the first
+/// subscription to any of the driver's devices arrives (a client's, another driver's, or the
+/// server's for alwayson drivers), [`Driver::teardown`] when the last one ends.
 pub trait Driver: Send {
     /// A client (or, for alwayson drivers, the server at start-up) subscribes to `addr`.
     /// Called once per subscription, duplicates included. An error makes the DEV reply grant
@@ -211,9 +438,23 @@ pub trait Driver: Send {
         let _ = (addr, client);
     }
 
+    /// The first subscription to any of this driver's devices: subscribe to the devices it
+    /// requires ([`Context::subscribe`]), ask for their geometry, start workers. An error, or
+    /// a required device refusing the subscription, refuses the subscription that caused it.
+    fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
+        let _ = ctx;
+        Ok(())
+    }
+
+    /// The last subscription ended: stop. The server then ends this driver's own
+    /// subscriptions to other devices.
+    fn teardown(&mut self, ctx: &mut Context<'_>) {
+        let _ = ctx;
+    }
+
     /// A REQ to one of this driver's devices (universal capability/property requests
     /// included). `request.header.addr` is the device's address; the body is typed.
-    /// The server turns the [`Reply`] into exactly one ACK or NACK to the requesting client.
+    /// The server turns the [`Reply`] into exactly one ACK or NACK to the requester.
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
         let _ = (ctx, request);
         Reply::NotHandled
@@ -227,6 +468,33 @@ pub trait Driver: Send {
             command.body.constant(),
             command.header.addr
         );
+    }
+
+    /// DATA from a device this driver subscribed to (`data.header.addr` is that device).
+    fn handle_data(&mut self, ctx: &mut Context<'_>, data: &Message) {
+        let _ = ctx;
+        tracing::debug!(
+            "ignoring {} from {}",
+            data.body.constant(),
+            data.header.addr
+        );
+    }
+
+    /// The answer to a request this driver sent with [`Context::request`]: the ACK message,
+    /// or why there is none.
+    fn handle_reply(
+        &mut self,
+        ctx: &mut Context<'_>,
+        ticket: RequestTicket,
+        reply: Result<Message, RequestError>,
+    ) {
+        let _ = (ctx, ticket, reply);
+    }
+
+    /// Something woke the driver through its [`DriverWaker`]: collect what its workers
+    /// produced, publish, answer deferred requests.
+    fn wake(&mut self, ctx: &mut Context<'_>) {
+        let _ = ctx;
     }
 
     /// Steps the driver (and, for a simulator, the world) to `ctx.now()` and publishes data.

@@ -55,6 +55,24 @@ pub enum ServerError {
         /// Where the first one is.
         first: String,
     },
+    /// A `requires` entry names a device of this server that no block provides.
+    #[error("{origin}: driver \"{driver}\" requires {addr}, which no driver provides")]
+    RequiresMissing {
+        /// Where the entry is written.
+        origin: String,
+        /// The address.
+        addr: DeviceAddr,
+        /// The requiring driver.
+        driver: String,
+    },
+    /// Blocks require each other in a circle.
+    #[error("{origin}: cycle of requires: {chain}")]
+    RequiresCycle {
+        /// Where the first block of the cycle is.
+        origin: String,
+        /// The blocks, in order.
+        chain: String,
+    },
     /// The configuration yields no device: there is nothing to serve.
     #[error("no devices read in the configuration")]
     NoDevices,

@@ -34,8 +34,8 @@ pub use clock::{Pace, ServerClock};
 pub use connection::ConnectionLimits;
 pub use device::{Device, DeviceIndex, DeviceTable, DriverId};
 pub use driver::{
-    ClientId, Context, Driver, DriverBlock, DriverError, DriverRegistry, ProvidedDevice,
-    Publication, Reply,
+    Action, ClientId, Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker,
+    PendingReply, ProvidedDevice, Publication, Reply, RequestError, RequestTicket, RequiredDevice,
 };
 pub use error::ServerError;
-pub use server::{Server, ServerConfig, ServerHandle};
+pub use server::{REMOTE_DRIVER_NAME, RemoteFactory, Server, ServerConfig, ServerHandle};

@@ -15,11 +15,15 @@ use tokio::net::{TcpListener, TcpSocket};
 use tokio::runtime::Runtime;
 use tokio::sync::{mpsc, watch};
 
+use player_proto::constants::LOCALHOST_ADDR;
+
 use crate::clock::{DEFAULT_STEP, Pace, Schedule, ServerClock};
 use crate::connection::{self, ConnContext, ConnectionLimits};
-use crate::core::{Core, DriverSlot};
+use crate::core::{Bus, Core, DriverSlot, Subscriber};
 use crate::device::{Device, DeviceTable, DriverId};
-use crate::driver::{ClientId, Driver, DriverBlock, DriverRegistry, ProvidedDevice};
+use crate::driver::{
+    ClientId, Driver, DriverBlock, DriverRegistry, ProvidedDevice, RequiredDevice,
+};
 use crate::error::ServerError;
 
 /// Listen backlog, as upstream's `create_and_bind_socket`.
@@ -52,8 +56,20 @@ impl Default for ServerConfig {
 struct PendingDriver {
     driver: Box<dyn Driver>,
     name: String,
+    origin: String,
     alwayson: bool,
+    requires: Vec<RequiredDevice>,
 }
+
+/// Builds the driver that reaches a device on another Player server (one per remote
+/// address); the server's `requires` resolution calls it for every address it does not
+/// serve itself.
+pub type RemoteFactory =
+    Box<dyn FnMut(&RequiredDevice) -> Result<Box<dyn Driver>, crate::driver::DriverError> + Send>;
+
+/// The driver name remote devices are listed under (as upstream's `TCPRemoteDriver`); their
+/// ports are never opened locally.
+pub const REMOTE_DRIVER_NAME: &str = "remote";
 
 /// A server being assembled: drivers and their devices, in cfg order.
 pub struct Server {
@@ -63,6 +79,7 @@ pub struct Server {
     listeners: HashMap<u32, std::net::TcpListener>,
     /// The port the OS chose for devices configured on port 0, once one was.
     port_zero: Option<u32>,
+    remote: Option<RemoteFactory>,
 }
 
 impl std::fmt::Debug for Server {
@@ -84,14 +101,23 @@ impl Server {
             drivers: Vec::new(),
             listeners: HashMap::new(),
             port_zero: None,
+            remote: None,
         }
+    }
+
+    /// Sets how devices on other Player servers are reached (see [`RemoteFactory`]); without
+    /// one, a `requires` naming a device this server does not serve is a start-up error.
+    pub fn set_remote_factory(&mut self, factory: RemoteFactory) {
+        self.remote = Some(factory);
     }
 
     /// Gives devices configured on port 0 the port the OS picks (bound now, once, and served
     /// later), so drivers only ever see final addresses.
     fn resolve_port_zero(&mut self, block: &DriverBlock) -> Result<DriverBlock, ServerError> {
         let mut block = block.clone();
-        if !block.provides.iter().any(|p| p.addr.robot == 0) {
+        if !block.provides.iter().any(|p| p.addr.robot == 0)
+            && !block.requires.iter().any(|r| r.addr.robot == 0)
+        {
             return Ok(block);
         }
         let port = match self.port_zero {
@@ -106,9 +132,10 @@ impl Server {
                 port
             }
         };
-        for p in &mut block.provides {
-            if p.addr.robot == 0 {
-                p.addr.robot = port;
+        let addrs = block.provides.iter_mut().map(|p| &mut p.addr);
+        for addr in addrs.chain(block.requires.iter_mut().map(|r| &mut r.addr)) {
+            if addr.robot == 0 {
+                addr.robot = port;
             }
         }
         Ok(block)
@@ -159,9 +186,130 @@ impl Server {
         self.drivers.push(PendingDriver {
             driver,
             name: block.name.clone(),
+            origin: block.origin.clone(),
             alwayson,
+            requires: block.requires.clone(),
         });
         Ok(id)
+    }
+
+    /// Resolves every block's `requires`, now that every block is built (a block may require a
+    /// device a later block provides): each names a device of this server, or, when its host
+    /// or port is not served here, a device of another server, reached through a remote
+    /// driver added once per address. A local address nothing provides, and a cycle of
+    /// `requires`, are errors naming the cfg line. Idempotent; [`Server::start`] calls it.
+    pub fn resolve_requires(&mut self) -> Result<(), ServerError> {
+        let local_ports = self.table.ports();
+        let mut wanted: Vec<RequiredDevice> = Vec::new();
+        for d in &self.drivers {
+            for r in &d.requires {
+                if self.table.find(&r.addr).is_some() {
+                    continue;
+                }
+                let is_local_host = r.addr.host == LOCALHOST_ADDR || r.addr.host == 0;
+                if is_local_host && local_ports.contains(&r.addr.robot) {
+                    return Err(ServerError::RequiresMissing {
+                        origin: r.origin.clone(),
+                        addr: r.addr,
+                        driver: d.name.clone(),
+                    });
+                }
+                if !wanted.iter().any(|w| w.addr.same_device(&r.addr)) {
+                    wanted.push(r.clone());
+                }
+            }
+        }
+        for r in wanted {
+            let driver = match self.remote.as_mut() {
+                Some(make) => make(&r).map_err(|source| ServerError::DriverFailed {
+                    name: REMOTE_DRIVER_NAME.into(),
+                    origin: r.origin.clone(),
+                    source,
+                })?,
+                None => {
+                    return Err(ServerError::RequiresMissing {
+                        origin: r.origin.clone(),
+                        addr: r.addr,
+                        driver: REMOTE_DRIVER_NAME.into(),
+                    });
+                }
+            };
+            let block = DriverBlock {
+                name: REMOTE_DRIVER_NAME.into(),
+                origin: r.origin.clone(),
+                provides: vec![ProvidedDevice {
+                    addr: r.addr,
+                    key: None,
+                    origin: r.origin.clone(),
+                }],
+                alwayson: Some(false),
+                ..DriverBlock::default()
+            };
+            self.add_driver(&block, driver)?;
+        }
+        self.check_cycles()
+    }
+
+    /// Refuses a cycle of `requires` (it could never be set up), naming each block on it.
+    fn check_cycles(&self) -> Result<(), ServerError> {
+        // Driver -> drivers it requires, through the device table.
+        let edges: Vec<Vec<usize>> = self
+            .drivers
+            .iter()
+            .map(|d| {
+                d.requires
+                    .iter()
+                    .filter_map(|r| self.table.find(&r.addr))
+                    .map(|i| self.table.get(i).driver.0)
+                    .collect()
+            })
+            .collect();
+        // 0 = unseen, 1 = on the current path, 2 = done.
+        let mut mark = vec![0u8; edges.len()];
+        let mut path = Vec::new();
+        fn visit(
+            n: usize,
+            edges: &[Vec<usize>],
+            mark: &mut [u8],
+            path: &mut Vec<usize>,
+        ) -> Option<Vec<usize>> {
+            mark[n] = 1;
+            path.push(n);
+            for &m in &edges[n] {
+                if mark[m] == 1 {
+                    let start = path.iter().position(|&p| p == m).unwrap_or(0);
+                    let mut cycle = path[start..].to_vec();
+                    cycle.push(m);
+                    return Some(cycle);
+                }
+                if mark[m] == 0 {
+                    if let Some(c) = visit(m, edges, mark, path) {
+                        return Some(c);
+                    }
+                }
+            }
+            path.pop();
+            mark[n] = 2;
+            None
+        }
+        for n in 0..edges.len() {
+            if mark[n] == 0 {
+                if let Some(cycle) = visit(n, &edges, &mut mark, &mut path) {
+                    let chain = cycle
+                        .iter()
+                        .map(|&i| {
+                            format!("\"{}\" ({})", self.drivers[i].name, self.drivers[i].origin)
+                        })
+                        .collect::<Vec<_>>()
+                        .join(" requires ");
+                    return Err(ServerError::RequiresCycle {
+                        origin: self.drivers[cycle[0]].origin.clone(),
+                        chain,
+                    });
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Serves `port` on an already bound listener instead of binding it (tests bind port 0
@@ -177,13 +325,15 @@ impl Server {
 
     /// Subscribes alwayson drivers, opens one listener per port, starts the runtime with the
     /// core task and the acceptors. Port 0 is given a free port by the OS; its devices are relabelled.
-    pub fn start(self) -> Result<ServerHandle, ServerError> {
+    pub fn start(mut self) -> Result<ServerHandle, ServerError> {
+        self.resolve_requires()?;
         let Server {
             config,
             mut table,
             drivers,
             mut listeners,
             port_zero: _,
+            remote: _,
         } = self;
         if table.is_empty() {
             return Err(ServerError::NoDevices);
@@ -217,9 +367,8 @@ impl Server {
             table.relabel_port(*asked, *actual);
         }
 
-        // Alwayson drivers are subscribed to every device they serve, before any client.
         let alwayson: Vec<bool> = drivers.iter().map(|d| d.alwayson).collect();
-        let mut slots: Vec<DriverSlot> = drivers
+        let slots: Vec<DriverSlot> = drivers
             .into_iter()
             .map(|d| DriverSlot {
                 driver: d.driver,
@@ -227,19 +376,7 @@ impl Server {
                 subscriptions: 0,
             })
             .collect();
-        for dev in table.devices() {
-            if alwayson[dev.driver.0] {
-                let slot = &mut slots[dev.driver.0];
-                slot.driver
-                    .subscribe(dev.addr)
-                    .map_err(|source| ServerError::AlwaysOnFailed {
-                        addr: dev.addr,
-                        source,
-                    })?;
-                slot.subscriptions += 1;
-            }
-        }
-        ServerHandle::launch(config, table, slots, bound, runtime)
+        ServerHandle::launch(config, table, slots, &alwayson, bound, runtime)
     }
 }
 
@@ -280,6 +417,7 @@ impl ServerHandle {
         config: ServerConfig,
         table: DeviceTable,
         slots: Vec<DriverSlot>,
+        alwayson: &[bool],
         bound: Vec<(u32, u32, TcpListener)>,
         runtime: Runtime,
     ) -> Result<ServerHandle, ServerError> {
@@ -297,15 +435,30 @@ impl ServerHandle {
         );
         let (stop, stop_rx) = watch::channel(false);
         let (events_tx, events_rx) = mpsc::channel(4096);
-        let core = Core::new(
+        let (wake_tx, wake_rx) = mpsc::unbounded_channel();
+        let mut bus = Bus::new(
             table.clone(),
             slots,
             clock.clone(),
             clock_driver,
             schedule,
-            events_rx,
-            stop_rx.clone(),
+            wake_tx,
         );
+        // Alwayson drivers are subscribed to every device they serve, before any client; their
+        // setup may start tasks, hence the runtime context.
+        {
+            let _guard = runtime.enter();
+            for (i, dev) in table.devices().iter().enumerate() {
+                if alwayson[dev.driver.0] {
+                    bus.subscribe(Subscriber::AlwaysOn, crate::device::DeviceIndex(i))
+                        .map_err(|source| ServerError::AlwaysOnFailed {
+                            addr: dev.addr,
+                            source,
+                        })?;
+                }
+            }
+        }
+        let core = Core::new(bus, events_rx, wake_rx, stop_rx.clone());
 
         let ctx = ConnContext {
             table: table.clone(),

@@ -446,6 +446,15 @@ impl LaserProxy {
         self.scan().map(|s| s.ranges).unwrap_or_default()
     }
 
+    /// The latest pose-stamped scan (SCANPOSE, e.g. from `laserposeinterpolator`): libplayerc
+    /// keeps its pose as the laser's `robot_pose`.
+    pub fn scan_pose(&self) -> Option<LaserDataScanpose> {
+        match self.latest(LaserData::SCANPOSE)? {
+            Body::Laser(LaserMsg::Data(LaserData::ScanPose(s))) => Some(s),
+            _ => None,
+        }
+    }
+
     /// The scanner geometry (`RequestGeom`).
     pub fn request_geom(&self) -> Result<LaserGeom, ClientError> {
         let reply = self.request(LaserReq::GetGeom(None))?;

@@ -6,7 +6,10 @@
 
 use player_server::DriverRegistry;
 
+pub mod forward;
+pub mod laserposeinterpolator;
+
 /// Registers every driver of this crate under its Player 3.0.2 name.
 pub fn register_all(registry: &mut DriverRegistry) {
-    let _ = registry;
+    laserposeinterpolator::register(registry);
 }

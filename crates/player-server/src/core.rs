@@ -939,8 +939,14 @@ fn reply_message(
         Reply::Deferred => Err(RequestError::Failed(format!(
             "driver \"{driver}\" deferred a request twice"
         ))),
-        Reply::Ack(Some(body)) => match ack_body(req, addr, &body) {
-            Ok(_) => Ok(Message { header, body }),
+        // Through its bytes, so the requesting driver sees the ACK exactly as a TCP client (or a
+        // remote server's reply) would: the same typed variant, the same checks.
+        Reply::Ack(Some(body)) => match ack_body(req, addr, &body).and_then(|bytes| {
+            let mut h = header;
+            h.size = bytes.len() as u32;
+            Message::decode(h, &bytes, &DecodeLimits::default()).map_err(|e| e.to_string())
+        }) {
+            Ok(msg) => Ok(msg),
             Err(e) => {
                 tracing::error!("driver \"{driver}\" answered with an unusable body: {e}");
                 Err(RequestError::Nack)
@@ -949,11 +955,8 @@ fn reply_message(
         Reply::Ack(None) => {
             let mut empty = header;
             empty.size = 0;
-            match player_proto::decode_body(&empty, &[], &DecodeLimits::default()) {
-                Ok(body) => Ok(Message {
-                    header: empty,
-                    body,
-                }),
+            match Message::decode(empty, &[], &DecodeLimits::default()) {
+                Ok(msg) => Ok(msg),
                 Err(e) => Err(RequestError::Failed(format!(
                     "driver \"{driver}\" sent an empty ACK where a body is due: {e}"
                 ))),

@@ -135,7 +135,7 @@ impl Driver for Scaler {
         assert_eq!(Some(ticket), self.asked);
         let answer = match reply {
             Ok(Message {
-                body: Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(Some(g)))),
+                body: Body::Ranger(RangerMsg::Ack(RangerReq::GetGeom(Some(g)))),
                 ..
             }) => {
                 self.geom = Some(g.clone());

@@ -1,0 +1,419 @@
+//! `laserposeinterpolator`: laser scans stamped with the pose they were taken from.
+//!
+//! Requires a `laser` (SCAN data) and a `position2d` (STATE data); provides a `laser` that
+//! publishes SCANPOSE. Scans are buffered until the pose after them arrives, and each one's
+//! pose is interpolated linearly in time between the poses around it (the heading along the
+//! shorter way round); with `interpolate 0` a scan takes the latest pose at once. Requests
+//! to the provided laser are forwarded to the required one, as upstream does.
+//!
+//! Options (Player 3.0.2's, with its defaults): `interpolate` (1), `max_scans` (100: scans
+//! buffered while waiting for the next pose; more are dropped with a warning),
+//! `update_thresh [length angle]` (`[-1 -1]`: publish a scan only after the robot moved that
+//! far or turned that much; -1 disables a dimension; the angle is in degrees, as Player reads
+//! cfg angles), `update_interval` (-1: publish at least this often, in seconds) and
+//! `send_all_scans` (1: publish every scan, overriding the thresholds).
+
+use player_proto::{
+    Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScan, LaserDataScanpose, LaserMsg,
+    Message, Pose2d, Position2dData, Position2dMsg,
+};
+use player_server::{
+    Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply, RequestError, RequestTicket,
+};
+
+use crate::forward::Forwarder;
+
+/// The Player name of this driver.
+pub const NAME: &str = "laserposeinterpolator";
+
+/// The driver's settings, from its cfg block.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Interpolate between poses (true) or take the latest pose (false).
+    pub interpolate: bool,
+    /// Scans buffered while waiting for the next pose.
+    pub max_scans: usize,
+    /// Minimum move (m) before a scan is published; negative = no threshold.
+    pub update_dist: f64,
+    /// Minimum turn (rad) before a scan is published; negative = no threshold.
+    pub update_angle: f64,
+    /// Longest time (s) between published scans; negative = no limit.
+    pub update_interval: f64,
+    /// Publish every scan, whatever the thresholds say.
+    pub send_all_scans: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Settings {
+        Settings {
+            interpolate: true,
+            max_scans: 100,
+            update_dist: -1.0,
+            update_angle: -1.0,
+            update_interval: -1.0,
+            send_all_scans: true,
+        }
+    }
+}
+
+impl Settings {
+    /// Reads the options of a cfg block (absent ones keep Player's defaults).
+    pub fn from_block(block: &DriverBlock) -> Result<Settings, DriverError> {
+        let d = Settings::default();
+        let flag = |key: &str, default: bool| -> Result<bool, DriverError> {
+            Ok(block.option_parse::<i64>(key)?.map_or(default, |v| v != 0))
+        };
+        let thresh = block.options.get("update_thresh");
+        let tuple = |i: usize| -> Result<Option<f64>, DriverError> {
+            match thresh.and_then(|v| v.get(i)) {
+                None => Ok(None),
+                Some(t) => t.parse().map(Some).map_err(|_| {
+                    DriverError::new(format!(
+                        "option `update_thresh` has an invalid value \"{t}\""
+                    ))
+                }),
+            }
+        };
+        let max_scans = block.option_parse::<i64>("max_scans")?.unwrap_or(100);
+        if max_scans < 1 {
+            return Err(DriverError::new(format!(
+                "option `max_scans` must be at least 1, not {max_scans}"
+            )));
+        }
+        Ok(Settings {
+            interpolate: flag("interpolate", d.interpolate)?,
+            max_scans: max_scans as usize,
+            update_dist: tuple(0)?.unwrap_or(d.update_dist),
+            // Player reads cfg angles in degrees; a negative value only switches it off.
+            update_angle: tuple(1)?
+                .map_or(d.update_angle, |a| if a < 0.0 { a } else { a.to_radians() }),
+            update_interval: block
+                .option_parse("update_interval")?
+                .unwrap_or(d.update_interval),
+            send_all_scans: flag("send_all_scans", d.send_all_scans)?,
+        })
+    }
+}
+
+/// `a` in (-pi, pi].
+fn normalize(a: f64) -> f64 {
+    a.sin().atan2(a.cos())
+}
+
+/// The signed smallest difference `a - b` between two headings.
+fn angle_diff(a: f64, b: f64) -> f64 {
+    let (a, b) = (normalize(a), normalize(b));
+    let d1 = a - b;
+    let mut d2 = 2.0 * std::f64::consts::PI - d1.abs();
+    if d1 > 0.0 {
+        d2 = -d2;
+    }
+    if d1.abs() < d2.abs() { d1 } else { d2 }
+}
+
+/// The pose at time `t` on the straight line from `p0` (at `t0`) to `p1` (at `t1`).
+pub fn interpolate_pose(p0: Pose2d, t0: f64, p1: Pose2d, t1: f64, t: f64) -> Pose2d {
+    let span = t1 - t0;
+    let f = (t - t0) / span;
+    Pose2d {
+        px: p0.px + f * (p1.px - p0.px),
+        py: p0.py + f * (p1.py - p0.py),
+        pa: normalize(p0.pa + f * angle_diff(p1.pa, p0.pa)),
+    }
+}
+
+/// The pure part of the driver: scans and poses in, stamped scans out.
+#[derive(Debug)]
+pub struct Interpolator {
+    settings: Settings,
+    scans: Vec<(LaserDataScan, f64)>,
+    last_pose: Option<(Pose2d, f64)>,
+    last_published: Option<(Pose2d, f64)>,
+}
+
+impl Interpolator {
+    /// An interpolator that has seen nothing.
+    pub fn new(settings: Settings) -> Interpolator {
+        Interpolator {
+            settings,
+            scans: Vec::new(),
+            last_pose: None,
+            last_published: None,
+        }
+    }
+
+    /// Forgets every scan and pose (the driver stopped).
+    pub fn reset(&mut self) {
+        self.scans.clear();
+        self.last_pose = None;
+        self.last_published = None;
+    }
+
+    /// A scan taken at `time`: stamped at once without interpolation (after a first pose),
+    /// else buffered for the next pose.
+    pub fn scan(&mut self, scan: LaserDataScan, time: f64) -> Option<(LaserDataScanpose, f64)> {
+        if !self.settings.interpolate {
+            let (pose, _) = self.last_pose?;
+            return Some((LaserDataScanpose { scan, pose }, time));
+        }
+        if self.scans.len() >= self.settings.max_scans {
+            tracing::warn!(
+                "exceeded maximum number of scans to buffer ({})",
+                self.settings.max_scans
+            );
+            return None;
+        }
+        self.scans.push((scan, time));
+        None
+    }
+
+    /// A pose at `time`: the buffered scans, stamped and filtered by the thresholds.
+    pub fn pose(&mut self, pose: Pose2d, time: f64) -> Vec<(LaserDataScanpose, f64)> {
+        let mut out = Vec::new();
+        if let Some((p0, t0)) = self.last_pose {
+            if self.settings.interpolate {
+                for (scan, t) in std::mem::take(&mut self.scans) {
+                    let stamped = interpolate_pose(p0, t0, pose, time, t);
+                    if self.due(stamped, t) {
+                        self.last_published = Some((stamped, t));
+                        out.push((
+                            LaserDataScanpose {
+                                scan,
+                                pose: stamped,
+                            },
+                            t,
+                        ));
+                    }
+                }
+            }
+        }
+        self.last_pose = Some((pose, time));
+        out
+    }
+
+    fn due(&self, pose: Pose2d, t: f64) -> bool {
+        let s = &self.settings;
+        let Some((last, last_t)) = self.last_published else {
+            return true;
+        };
+        s.send_all_scans
+            || (s.update_dist >= 0.0
+                && (pose.px - last.px).hypot(pose.py - last.py) >= s.update_dist)
+            || (s.update_angle >= 0.0 && angle_diff(pose.pa, last.pa).abs() >= s.update_angle)
+            || (s.update_interval >= 0.0 && t - last_t >= s.update_interval)
+    }
+}
+
+/// The driver.
+#[derive(Debug)]
+pub struct LaserPoseInterpolator {
+    addr: DeviceAddr,
+    laser: DeviceAddr,
+    position: DeviceAddr,
+    interp: Interpolator,
+    forwarder: Forwarder,
+}
+
+impl LaserPoseInterpolator {
+    /// Builds the driver from its cfg block.
+    pub fn from_block(block: &DriverBlock) -> Result<LaserPoseInterpolator, DriverError> {
+        let addr = block
+            .provides
+            .iter()
+            .find(|p| p.addr.interf == InterfaceCode::LASER)
+            .ok_or_else(|| DriverError::new("must provide a laser device"))?
+            .addr;
+        let laser = block.required(InterfaceCode::LASER, None)?.addr;
+        if laser.same_device(&addr) {
+            return Err(DriverError::new("attempt to subscribe to self"));
+        }
+        let position = block.required(InterfaceCode::POSITION2D, None)?.addr;
+        Ok(LaserPoseInterpolator {
+            addr,
+            laser,
+            position,
+            interp: Interpolator::new(Settings::from_block(block)?),
+            forwarder: Forwarder::new(),
+        })
+    }
+}
+
+impl Driver for LaserPoseInterpolator {
+    fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
+        self.interp.reset();
+        ctx.subscribe(self.laser);
+        ctx.subscribe(self.position);
+        Ok(())
+    }
+
+    fn teardown(&mut self, _ctx: &mut Context<'_>) {
+        self.forwarder.clear();
+    }
+
+    fn handle_data(&mut self, ctx: &mut Context<'_>, data: &Message) {
+        let time = data.header.timestamp;
+        match &data.body {
+            Body::Laser(LaserMsg::Data(LaserData::Scan(scan)))
+                if data.header.addr.same_device(&self.laser) =>
+            {
+                if let Some((stamped, t)) = self.interp.scan(scan.clone(), time) {
+                    ctx.publish_at(self.addr, LaserData::ScanPose(stamped), t);
+                }
+            }
+            Body::Position2d(Position2dMsg::Data(Position2dData::State(state)))
+                if data.header.addr.same_device(&self.position) =>
+            {
+                for (stamped, t) in self.interp.pose(state.pos, time) {
+                    ctx.publish_at(self.addr, LaserData::ScanPose(stamped), t);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
+        self.forwarder.forward(ctx, request, self.laser)
+    }
+
+    fn handle_reply(
+        &mut self,
+        ctx: &mut Context<'_>,
+        ticket: RequestTicket,
+        reply: Result<Message, RequestError>,
+    ) {
+        self.forwarder.answer(ctx, ticket, &reply);
+    }
+}
+
+/// Registers the driver under its Player name.
+pub fn register(registry: &mut DriverRegistry) {
+    registry.register(NAME, |block: &DriverBlock| {
+        Ok(Box::new(LaserPoseInterpolator::from_block(block)?) as Box<dyn Driver>)
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scan(n: usize) -> LaserDataScan {
+        LaserDataScan {
+            ranges: vec![n as f32; 3],
+            ..LaserDataScan::default()
+        }
+    }
+
+    fn pose(px: f64, py: f64, pa: f64) -> Pose2d {
+        Pose2d { px, py, pa }
+    }
+
+    #[test]
+    fn scans_wait_for_the_next_pose_and_are_interpolated() {
+        let mut i = Interpolator::new(Settings::default());
+        assert!(i.scan(scan(0), 0.5).is_none(), "no pose yet: buffered");
+        assert!(
+            i.pose(pose(0.0, 0.0, 0.0), 1.0).is_empty(),
+            "first pose only stored"
+        );
+        assert!(i.scan(scan(1), 1.25).is_none());
+        assert!(i.scan(scan(2), 1.5).is_none());
+        let out = i.pose(pose(2.0, -4.0, 1.0), 2.0);
+        assert_eq!(
+            out.len(),
+            3,
+            "the scan before the first pose is stamped too"
+        );
+        // The early scan extrapolates backwards along the same line, as upstream's formula does.
+        assert_eq!(out[0].1, 0.5);
+        assert!((out[0].0.pose.px + 1.0).abs() < 1e-12);
+        assert!((out[1].0.pose.px - 0.5).abs() < 1e-12);
+        assert!((out[1].0.pose.py + 1.0).abs() < 1e-12);
+        assert!((out[1].0.pose.pa - 0.25).abs() < 1e-12);
+        assert_eq!(out[2].0.scan.ranges, [2.0; 3]);
+        assert!((out[2].0.pose.px - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn headings_interpolate_the_short_way_round() {
+        let pi = std::f64::consts::PI;
+        let p = interpolate_pose(
+            pose(0.0, 0.0, pi - 0.1),
+            0.0,
+            pose(0.0, 0.0, -pi + 0.1),
+            1.0,
+            0.5,
+        );
+        assert!((p.pa.abs() - pi).abs() < 1e-9, "{}", p.pa);
+        assert!((angle_diff(0.1, -0.1) - 0.2).abs() < 1e-12);
+        assert!((angle_diff(-pi + 0.1, pi - 0.1) - 0.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn without_interpolation_the_latest_pose_is_attached_at_once() {
+        let mut i = Interpolator::new(Settings {
+            interpolate: false,
+            ..Settings::default()
+        });
+        assert!(i.scan(scan(0), 0.1).is_none(), "dropped before any pose");
+        i.pose(pose(1.0, 2.0, 0.5), 0.2);
+        let (s, t) = i.scan(scan(1), 0.3).unwrap();
+        assert_eq!((s.pose, t), (pose(1.0, 2.0, 0.5), 0.3));
+    }
+
+    #[test]
+    fn thresholds_choke_the_rate_unless_every_scan_is_wanted() {
+        let mut i = Interpolator::new(Settings {
+            send_all_scans: false,
+            update_dist: 1.0,
+            ..Settings::default()
+        });
+        i.pose(pose(0.0, 0.0, 0.0), 0.0);
+        for k in 1..=10 {
+            i.scan(scan(k), k as f64 * 0.1 - 0.05);
+        }
+        // 10 scans over a 1 m move: the first is published, then one per metre.
+        let out = i.pose(pose(1.0, 0.0, 0.0), 1.0);
+        assert_eq!(out.len(), 1);
+        i.scan(scan(11), 1.5);
+        i.scan(scan(12), 1.75);
+        i.scan(scan(13), 2.0);
+        let out = i.pose(pose(3.0, 0.0, 0.0), 2.0);
+        // At 2.0 m (1.95 m on), 2.5 m (0.5 m on: held back) and 3.0 m (1.0 m on).
+        let xs: Vec<f64> = out.iter().map(|(s, _)| s.pose.px).collect();
+        assert_eq!(xs, [2.0, 3.0]);
+    }
+
+    #[test]
+    fn the_buffer_is_bounded() {
+        let mut i = Interpolator::new(Settings {
+            max_scans: 2,
+            ..Settings::default()
+        });
+        i.pose(pose(0.0, 0.0, 0.0), 0.0);
+        for k in 0..5 {
+            i.scan(scan(k), 0.1 * k as f64);
+        }
+        assert_eq!(i.pose(pose(1.0, 0.0, 0.0), 1.0).len(), 2);
+    }
+
+    #[test]
+    fn options_and_their_errors() {
+        let mut block = DriverBlock::default();
+        assert_eq!(Settings::from_block(&block).unwrap(), Settings::default());
+        block
+            .options
+            .insert("update_thresh".into(), vec!["0.5".into(), "90".into()]);
+        block.options.insert("interpolate".into(), vec!["0".into()]);
+        let s = Settings::from_block(&block).unwrap();
+        assert!(!s.interpolate);
+        assert_eq!(s.update_dist, 0.5);
+        assert!((s.update_angle - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        block.options.insert("max_scans".into(), vec!["0".into()]);
+        assert!(Settings::from_block(&block).is_err());
+        block
+            .options
+            .insert("max_scans".into(), vec!["many".into()]);
+        let e = Settings::from_block(&block).unwrap_err().to_string();
+        assert!(e.contains("max_scans"), "{e}");
+    }
+}

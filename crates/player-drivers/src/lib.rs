@@ -8,8 +8,10 @@ use player_server::DriverRegistry;
 
 pub mod forward;
 pub mod laserposeinterpolator;
+pub mod passthrough;
 
 /// Registers every driver of this crate under its Player 3.0.2 name.
 pub fn register_all(registry: &mut DriverRegistry) {
     laserposeinterpolator::register(registry);
+    passthrough::register(registry);
 }

@@ -2,13 +2,12 @@
 //! `laser:0` on its one-beam ranger) and odometry in, pose-stamped scans out; requests to the
 //! stamped laser are answered by the laser below it.
 
-use std::path::Path;
+mod common;
+
 use std::time::{Duration, Instant};
 
 use player_client::{LaserProxy, PlayerClient, Position2dProxy};
-use player_server::stage::{self, StageOptions};
-use player_server::{DriverRegistry, Pace, Server, ServerConfig, cfg};
-use worldfile::{CfgFile, LoadOptions};
+use player_server::Pace;
 
 const CFG: &str = r#"
 driver( name "stage" provides ["0:simulation:0"] plugin "stageplugin" worldfile "bigbob.world" )
@@ -18,26 +17,12 @@ driver( name "stage" provides ["0:position2d:0" "0:laser:0"] model "bob1" )
 
 #[test]
 fn stage_scans_come_back_stamped_with_interpolated_odometry() {
-    let worlds = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../worlds");
-    let cfgfile =
-        CfgFile::parse(&worlds.join("lpi-test.cfg"), CFG, &LoadOptions::default()).unwrap();
-    let mut registry = DriverRegistry::new();
-    stage::register(
-        &mut registry,
-        StageOptions {
-            seed: 1,
-            usegui: Some(false),
-        },
+    let handle = common::serve_cfg(
+        &common::worlds(),
+        "lpi-test.cfg",
+        CFG,
+        Pace::RealTime { speedup: 4.0 },
     );
-    player_drivers::register_all(&mut registry);
-    let mut server = Server::new(ServerConfig {
-        pace: Pace::RealTime { speedup: 4.0 },
-        ..ServerConfig::default()
-    });
-    for block in cfg::driver_blocks(&cfgfile, 6665).unwrap() {
-        server.add_block(&block, &mut registry).unwrap();
-    }
-    let handle = server.start().unwrap();
     let port = handle.ports()[0];
 
     let client = PlayerClient::connect("localhost", port).unwrap();

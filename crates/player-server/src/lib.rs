@@ -7,6 +7,8 @@
 //! * [`device`] — the [`DeviceTable`] (cfg order, duplicate check, ports);
 //! * [`queue`] — the per-connection outgoing queue with upstream's exact PUSH/PULL, replace-rule
 //!   and SYNCH semantics;
+//! * [`remote`] — [`remote::RemoteLink`], a client link to one device on another Player server,
+//!   for drivers whose required devices live there;
 //! * [`clock`] — the server clock and the schedule drivers are stepped on ([`Pace`]);
 //! * [`server`] — [`Server`] (assembling) and [`ServerHandle`] (running);
 //! * [`stage`] — the `stage` driver: Player devices on an embedded Stage world;
@@ -26,6 +28,7 @@ pub mod driver;
 mod error;
 mod player_iface;
 pub mod queue;
+pub mod remote;
 pub mod server;
 pub mod stage;
 pub mod test_driver;

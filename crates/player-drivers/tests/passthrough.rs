@@ -66,3 +66,57 @@ fn a_local_device_relayed_under_another_address() {
     drop(client);
     handle.shutdown();
 }
+
+#[test]
+fn a_device_of_another_server_relayed_over_tcp() {
+    // Server A: the robot. Server B: a passthrough to A's position2d and sonar, and a local
+    // chain on top of the remote sonar (rangers of another server are devices like any other).
+    let a = common::serve_cfg(
+        &common::worlds(),
+        "a.cfg",
+        r#"
+driver( name "stage" provides ["0:simulation:0"] plugin "stageplugin" worldfile "bigbob.world" )
+driver( name "stage" provides ["0:position2d:0" "0:ranger:0"] model "bob1" )
+"#,
+        Pace::RealTime { speedup: 4.0 },
+    );
+    let pa = a.ports()[0];
+    let b_cfg = format!(
+        r#"
+driver( name "passthrough" provides ["0:position2d:0" "0:ranger:0"] requires ["localhost:{pa}:position2d:0" "127.0.0.1:{pa}:ranger:0"] )
+"#
+    );
+    let b = common::serve_cfg(&common::worlds(), "b.cfg", &b_cfg, Pace::default());
+    let pb = b.ports()[0];
+    assert_ne!(pa, pb);
+    let remote_devices = b
+        .table()
+        .devices()
+        .iter()
+        .filter(|d| d.driver_name == "remote")
+        .count();
+    assert_eq!(remote_devices, 2);
+
+    let client = PlayerClient::connect("localhost", pb).unwrap();
+    let base = Position2dProxy::new(&client, 0).unwrap();
+    let sonar = RangerProxy::new(&client, 0).unwrap();
+    // Requests cross both servers.
+    let direct_client = PlayerClient::connect("localhost", pa).unwrap();
+    let direct = Position2dProxy::new(&direct_client, 0).unwrap();
+    assert_eq!(base.request_geom().unwrap(), direct.request_geom().unwrap());
+    read_until(&client, "remote sonar ranges", || {
+        !sonar.ranges().is_empty()
+    });
+    read_until(&client, "a first remote pose", || base.is_fresh());
+    let start = base.pose();
+    base.set_speed(0.5, 0.0, 0.0).unwrap();
+    read_until(&client, "the remote robot to move", || {
+        let p = base.pose();
+        (p.px - start.px).hypot(p.py - start.py) > 0.1
+    });
+    base.set_speed(0.0, 0.0, 0.0).unwrap();
+    drop((base, sonar, direct));
+    drop((client, direct_client));
+    b.shutdown();
+    a.shutdown();
+}

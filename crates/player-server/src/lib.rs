@@ -29,6 +29,7 @@ mod error;
 mod player_iface;
 pub mod queue;
 pub mod remote;
+pub mod remote_device;
 pub mod server;
 pub mod stage;
 pub mod test_driver;

@@ -93,7 +93,8 @@ impl std::fmt::Debug for Server {
 }
 
 impl Server {
-    /// An empty server.
+    /// An empty server. Devices of other Player servers are reached over TCP
+    /// ([`crate::remote_device::RemoteDevice`]).
     pub fn new(config: ServerConfig) -> Server {
         Server {
             config,
@@ -101,14 +102,16 @@ impl Server {
             drivers: Vec::new(),
             listeners: HashMap::new(),
             port_zero: None,
-            remote: None,
+            remote: Some(Box::new(|required: &RequiredDevice| {
+                Ok(Box::new(crate::remote_device::RemoteDevice::new(required)) as Box<dyn Driver>)
+            })),
         }
     }
 
-    /// Sets how devices on other Player servers are reached (see [`RemoteFactory`]); without
-    /// one, a `requires` naming a device this server does not serve is a start-up error.
-    pub fn set_remote_factory(&mut self, factory: RemoteFactory) {
-        self.remote = Some(factory);
+    /// Sets how devices on other Player servers are reached (see [`RemoteFactory`]); `None`
+    /// makes a `requires` naming a device this server does not serve a start-up error.
+    pub fn set_remote_factory(&mut self, factory: Option<RemoteFactory>) {
+        self.remote = factory;
     }
 
     /// Gives devices configured on port 0 the port the OS picks (bound now, once, and served

@@ -356,8 +356,40 @@ fn start_up_errors_name_the_cfg_line() {
     assert!(e.starts_with("chain.cfg:2") && e.contains("factor"), "{e}");
 
     // A device on another server, with no way to reach it configured.
-    let e = start_error(
+    let cfgfile = CfgFile::parse(
+        Path::new("chain.cfg"),
         "driver( name \"scaler\" provides [\"ranger:1\"] requires [\"192.0.2.1:7000:ranger:0\"] )\n",
-    );
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let mut server = Server::new(ServerConfig::default());
+    server.set_remote_factory(None);
+    for block in cfg::driver_blocks(&cfgfile, 6665).unwrap() {
+        server
+            .add_block(&block, &mut registry(&Arc::new(Counts::default())))
+            .unwrap();
+    }
+    let e = server.resolve_requires().unwrap_err().to_string();
     assert!(e.starts_with("chain.cfg:1") && e.contains("7000"), "{e}");
+}
+
+#[test]
+fn remote_devices_are_listed_but_open_no_port() {
+    let server = build(
+        "driver( name \"scaler\" provides [\"ranger:1\"] requires [\"192.0.2.1:7000:ranger:0\"] )\n",
+        &Arc::new(Counts::default()),
+    )
+    .unwrap();
+    let remote: Vec<_> = server
+        .table()
+        .devices()
+        .iter()
+        .filter(|d| d.driver_name == "remote")
+        .map(|d| (d.addr.robot, d.addr.interf, d.origin.clone()))
+        .collect();
+    assert_eq!(remote.len(), 1);
+    assert_eq!(remote[0].0, 7000);
+    assert_eq!(remote[0].1, InterfaceCode::RANGER);
+    assert!(remote[0].2.starts_with("chain.cfg:1"), "{:?}", remote[0]);
+    assert_eq!(server.table().ports(), [6665]);
 }

@@ -1,0 +1,158 @@
+//! A device of another Player server, served in this one's device table so that drivers can
+//! require it like any local device (upstream's `TCPRemoteDriver`, which Player creates for a
+//! `requires` naming a host or port it does not serve).
+//!
+//! The link ([`RemoteLink`]) is opened by the first subscription and closed by the last, so a
+//! cfg that names a server which is not up yet still starts: its data simply begins when that
+//! server answers. Everything crossing the network happens on the link's task; the core only
+//! drains what arrived when the link wakes it, so a slow or silent peer never stalls the server.
+//! Requests are deferred until the remote reply (or the link's 5 s timeout, answered NACK).
+
+use std::collections::{HashMap, VecDeque};
+use std::net::Ipv4Addr;
+use std::sync::{Arc, Mutex};
+
+use player_proto::constants::PLAYER_OPEN_MODE;
+use player_proto::{DeviceAddr, Message};
+
+use crate::driver::{Context, Driver, DriverError, PendingReply, Reply, RequiredDevice};
+use crate::remote::{RemoteEvent, RemoteLink, RequestTicket};
+
+/// What the link reported and the core has not handled yet.
+type Inbox = Arc<Mutex<VecDeque<RemoteEvent>>>;
+
+/// The driver of one remote device.
+#[derive(Debug)]
+pub struct RemoteDevice {
+    /// The device's address in this server's table (the remote host and port).
+    addr: DeviceAddr,
+    /// Where it was required first (`file:line`), for log lines.
+    origin: String,
+    link: Option<(RemoteLink, Inbox)>,
+    waiting: HashMap<RequestTicket, PendingReply>,
+}
+
+impl RemoteDevice {
+    /// The driver for the device a `requires` entry names.
+    pub fn new(required: &RequiredDevice) -> RemoteDevice {
+        RemoteDevice {
+            addr: required.addr,
+            origin: required.origin.clone(),
+            link: None,
+            waiting: HashMap::new(),
+        }
+    }
+
+    /// The host to connect to: the packed address, as upstream packs it.
+    fn host(&self) -> String {
+        Ipv4Addr::from(self.addr.host.to_le_bytes()).to_string()
+    }
+
+    /// Answers every request still waiting for the link with a NACK.
+    fn refuse_waiting(&mut self, ctx: &mut Context<'_>) {
+        for (_, pending) in self.waiting.drain() {
+            ctx.answer(pending, Reply::Nack);
+        }
+    }
+}
+
+impl Driver for RemoteDevice {
+    fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
+        let waker = ctx
+            .waker()
+            .ok_or_else(|| DriverError::new("a remote device needs a running server"))?;
+        let handle = tokio::runtime::Handle::try_current()
+            .map_err(|_| DriverError::new("a remote device needs the server's runtime"))?;
+        let port = u16::try_from(self.addr.robot)
+            .map_err(|_| DriverError::new(format!("{} is not a TCP port", self.addr.robot)))?;
+        let inbox: Inbox = Arc::default();
+        let sink = {
+            let inbox = inbox.clone();
+            move |event: RemoteEvent| {
+                inbox
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .push_back(event);
+                waker.wake();
+            }
+        };
+        tracing::info!(
+            "connecting to remote device {} (required at {})",
+            self.addr,
+            self.origin
+        );
+        let link = RemoteLink::spawn(
+            &handle,
+            self.host(),
+            port,
+            self.addr,
+            PLAYER_OPEN_MODE,
+            sink,
+        );
+        self.link = Some((link, inbox));
+        Ok(())
+    }
+
+    fn teardown(&mut self, ctx: &mut Context<'_>) {
+        // Dropping the link closes it; what it still reports goes to an inbox nobody reads.
+        self.link = None;
+        self.refuse_waiting(ctx);
+    }
+
+    fn wake(&mut self, ctx: &mut Context<'_>) {
+        let Some((_, inbox)) = &self.link else {
+            return;
+        };
+        let events: Vec<RemoteEvent> = inbox
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .drain(..)
+            .collect();
+        for event in events {
+            match event {
+                RemoteEvent::Data(msg) => {
+                    ctx.publish_at(self.addr, msg.body, msg.header.timestamp);
+                }
+                RemoteEvent::Reply { ticket, result } => {
+                    let Some(pending) = self.waiting.remove(&ticket) else {
+                        continue;
+                    };
+                    let reply = match result {
+                        Ok(ack) => Reply::Ack(ack.body.has_body().then_some(ack.body)),
+                        Err(e) => {
+                            tracing::warn!("{e}");
+                            Reply::Nack
+                        }
+                    };
+                    ctx.answer(pending, reply);
+                }
+                RemoteEvent::Connected { driver_name } => tracing::info!(
+                    "remote device {} is up (driver \"{driver_name}\")",
+                    self.addr
+                ),
+                RemoteEvent::Failed(why) | RemoteEvent::Closed(why) => {
+                    tracing::warn!("{why} (required at {})", self.origin);
+                    self.refuse_waiting(ctx);
+                }
+            }
+        }
+    }
+
+    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
+        let Some((link, _)) = &self.link else {
+            return Reply::Nack;
+        };
+        let Some(pending) = ctx.defer() else {
+            return Reply::NotHandled;
+        };
+        let ticket = link.request(request.body.clone());
+        self.waiting.insert(ticket, pending);
+        Reply::Deferred
+    }
+
+    fn handle_command(&mut self, _ctx: &mut Context<'_>, command: &Message) {
+        if let Some((link, _)) = &self.link {
+            link.command(command.body.clone());
+        }
+    }
+}

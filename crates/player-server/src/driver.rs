@@ -330,6 +330,21 @@ impl<'a> Context<'a> {
         self
     }
 
+    /// Sets what the core would: the next free ticket and the token of the request being
+    /// handled. For unit tests of drivers outside this crate, which build contexts by hand and
+    /// need [`Context::defer`] to work and tickets not to restart at 1 in every call.
+    pub fn with_request(mut self, next_ticket: u64, request: Option<PendingReply>) -> Context<'a> {
+        self.next_ticket = next_ticket;
+        self.request = request;
+        self
+    }
+
+    /// What the driver asked for so far in this call (subscriptions, commands, requests,
+    /// answers), in order: for unit tests of drivers, which cannot run the core.
+    pub fn actions(&self) -> &[Action] {
+        &self.actions
+    }
+
     /// What the driver asked for during the call, and the next free ticket.
     pub(crate) fn finish(self) -> (Vec<Action>, u64) {
         (self.actions, self.next_ticket)
@@ -625,6 +640,25 @@ mod tests {
         );
         block.name = "b".into();
         assert!(reg.create(&block).is_ok());
+    }
+
+    #[test]
+    fn hand_made_contexts_defer_and_show_actions() {
+        let mut out = Vec::new();
+        let addr = DeviceAddr::new(0, 6665, InterfaceCode::RANGER, 0);
+        let mut ctx = Context::new(2.0, None, &mut out).with_request(7, Some(PendingReply(3)));
+        let ticket = ctx.request(addr, player_proto::RangerReq::GetGeom(None));
+        assert_eq!(ticket, RequestTicket(7));
+        assert_eq!(ctx.defer(), Some(PendingReply(3)));
+        assert_eq!(ctx.defer(), None);
+        ctx.answer(PendingReply(3), Reply::Nack);
+        assert!(matches!(
+            ctx.actions(),
+            [
+                Action::Request(RequestTicket(7), a, _),
+                Action::Answer(PendingReply(3), Reply::Nack)
+            ] if *a == addr
+        ));
     }
 
     #[test]

@@ -1,12 +1,29 @@
 //! Player 3.0.2's drivers other than `stage`, one module per driver as in Player's
 //! `server/drivers/`. Each module exposes a `register` function; [`register_all`] adds every
 //! driver of this crate to a [`DriverRegistry`] under its Player name.
+//!
+//! * [`ranger`] — `rangertolaser`, `lasertoranger`, `sonartoranger`: Player 3's ranger
+//!   interface to and from Player 2's laser and sonar;
+//! * [`shell`] — `passthrough`: devices served under another address (local or remote).
+//!
+//! These drivers use other devices through the server's bus ([`player_server::Context`]):
+//! they subscribe in `setup`, convert the DATA they receive, and answer a client's request by
+//! forwarding it, deferring the client's request, and answering it when the reply comes back.
 
 #![warn(missing_docs)]
+
+mod forward;
+pub mod ranger;
+pub mod shell;
+#[cfg(test)]
+mod testing;
 
 use player_server::DriverRegistry;
 
 /// Registers every driver of this crate under its Player 3.0.2 name.
 pub fn register_all(registry: &mut DriverRegistry) {
-    let _ = registry;
+    ranger::rangertolaser::register(registry);
+    ranger::lasertoranger::register(registry);
+    ranger::sonartoranger::register(registry);
+    shell::passthrough::register(registry);
 }

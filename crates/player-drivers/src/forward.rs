@@ -1,59 +1,177 @@
-//! Passing a client's request on to a required device and its answer back: what Player's
-//! relaying drivers (laserposeinterpolator, passthrough) do with a queue filter, done here with
-//! a deferred reply per forwarded request.
+//! Requests a driver passes on to a device it uses, and the bookkeeping that brings each
+//! answer back to whoever asked.
+//!
+//! Upstream's converters keep one `ret_queue` — the queue of the *last* requester — and send
+//! every answer from their input device there, so two clients asking at once can get each
+//! other's replies. Here every forwarded request has its own [`RequestTicket`], and the ticket
+//! remembers what the driver owes (usually a client's [`PendingReply`]), so answers can never
+//! cross.
 
 use std::collections::HashMap;
 
-use player_proto::{DeviceAddr, Message};
+use player_proto::{Body, Message, UniversalMsg, UniversalReq};
 use player_server::{Context, PendingReply, Reply, RequestError, RequestTicket};
 
-/// Requests forwarded and not yet answered.
-#[derive(Debug, Default)]
-pub struct Forwarder {
-    waiting: HashMap<RequestTicket, PendingReply>,
+/// What a driver is waiting for, by the ticket of the request it sent.
+#[derive(Debug)]
+pub(crate) struct Waiting<K> {
+    by_ticket: HashMap<RequestTicket, K>,
 }
 
-impl Forwarder {
-    /// An empty forwarder.
-    pub fn new() -> Forwarder {
-        Forwarder::default()
+impl<K> Default for Waiting<K> {
+    fn default() -> Self {
+        Waiting {
+            by_ticket: HashMap::new(),
+        }
+    }
+}
+
+impl<K> Waiting<K> {
+    /// Remembers what the answer to `ticket` is for.
+    pub(crate) fn insert(&mut self, ticket: RequestTicket, what: K) {
+        self.by_ticket.insert(ticket, what);
     }
 
-    /// Sends `request` (addressed to one of the driver's own devices) on to `to`, and returns
-    /// the reply to give the requester now: deferred until `to` answers.
-    pub fn forward(&mut self, ctx: &mut Context<'_>, request: &Message, to: DeviceAddr) -> Reply {
-        let Some(pending) = ctx.defer() else {
-            return Reply::NotHandled;
-        };
-        let ticket = ctx.request(to, request.body.clone());
-        self.waiting.insert(ticket, pending);
-        Reply::Deferred
+    /// What the answer to `ticket` is for (once: a second answer finds nothing).
+    pub(crate) fn take(&mut self, ticket: RequestTicket) -> Option<K> {
+        self.by_ticket.remove(&ticket)
+    }
+}
+
+/// The answer of a device, passed on unchanged: its ACK body (or an empty ACK), else a NACK.
+/// Whatever kept the device from answering (gone, failed) is a NACK to the requester, as a
+/// client of upstream would see (or time out waiting for).
+pub(crate) fn passed_on(reply: Result<Message, RequestError>) -> Reply {
+    match reply {
+        Ok(msg) if msg.body.has_body() => Reply::Ack(Some(msg.body)),
+        Ok(_) => Reply::Ack(None),
+        Err(e) => {
+            tracing::debug!("forwarded request not acknowledged: {e}");
+            Reply::Nack
+        }
+    }
+}
+
+/// Sends `body` to `device` on behalf of the request being handled and takes that request to
+/// answer later; returns the ticket and the token to answer with. `None` when there is no
+/// request to take (called outside `handle_request`), in which case nothing is sent.
+pub(crate) fn forward(
+    ctx: &mut Context<'_>,
+    device: player_proto::DeviceAddr,
+    body: impl Into<Body>,
+) -> Option<(RequestTicket, PendingReply)> {
+    let pending = ctx.defer()?;
+    let ticket = ctx.request(device, body);
+    Some((ticket, pending))
+}
+
+/// Whether `body` is one of the property requests upstream's `ToRanger` / `FromRanger` base
+/// classes pass to their input device (integer, double and string properties; booleans
+/// are not among them in 3.0.2).
+pub(crate) fn is_forwarded_property(body: &Body) -> bool {
+    matches!(
+        body,
+        Body::Universal(UniversalMsg::Req(
+            UniversalReq::GetIntProp(_)
+                | UniversalReq::SetIntProp(_)
+                | UniversalReq::GetDblProp(_)
+                | UniversalReq::SetDblProp(_)
+                | UniversalReq::GetStrProp(_)
+                | UniversalReq::SetStrProp(_)
+        ))
+    )
+}
+
+/// Upstream's `HANDLE_CAPABILITY_REQUEST` lines for a driver answering requests of the
+/// subtypes in `requests`: a CAPABILITIES request asking about (REQ, one of them) or about
+/// CAPABILITIES itself gets an empty ACK, any other one a NACK. `None` when `body` is not a
+/// CAPABILITIES request.
+pub(crate) fn capability_reply(body: &Body, requests: &[u8]) -> Option<Reply> {
+    let Body::Universal(UniversalMsg::Req(UniversalReq::Capabilities(asked))) = body else {
+        return None;
+    };
+    let req = u32::from(player_proto::MsgType::Req.code());
+    let capabilities = u32::from(UniversalReq::PLAYER_CAPABILTIES_REQ);
+    let known = asked.as_ref().is_some_and(|c| {
+        c.msg_type == req
+            && (c.subtype == capabilities || requests.iter().any(|&s| u32::from(s) == c.subtype))
+    });
+    Some(if known {
+        Reply::empty_ack()
+    } else {
+        Reply::Nack
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use player_proto::{
+        CapabilitiesReq, DeviceAddr, IntPropReq, InterfaceCode, MsgType, RangerReq, Text,
+    };
+
+    fn caps(msg_type: MsgType, subtype: u8) -> Body {
+        Body::Universal(UniversalMsg::Req(UniversalReq::Capabilities(Some(
+            CapabilitiesReq {
+                msg_type: u32::from(msg_type.code()),
+                subtype: u32::from(subtype),
+            },
+        ))))
     }
 
-    /// Passes the answer to a forwarded request back to its requester; `false` when `ticket`
-    /// is not one of this forwarder's (the driver's own requests).
-    pub fn answer(
-        &mut self,
-        ctx: &mut Context<'_>,
-        ticket: RequestTicket,
-        reply: &Result<Message, RequestError>,
-    ) -> bool {
-        let Some(pending) = self.waiting.remove(&ticket) else {
-            return false;
-        };
-        let answer = match reply {
-            Ok(ack) => Reply::Ack(ack.body.has_body().then(|| ack.body.clone())),
-            Err(e) => {
-                tracing::debug!("forwarded request {} failed: {e}", ticket.0);
-                Reply::Nack
-            }
-        };
-        ctx.answer(pending, answer);
-        true
+    #[test]
+    fn capabilities_are_the_listed_requests_and_capabilities_itself() {
+        let own = [RangerReq::GET_GEOM, RangerReq::POWER];
+        assert_eq!(
+            capability_reply(&caps(MsgType::Req, RangerReq::GET_GEOM), &own),
+            Some(Reply::empty_ack())
+        );
+        assert_eq!(
+            capability_reply(
+                &caps(MsgType::Req, UniversalReq::PLAYER_CAPABILTIES_REQ),
+                &own
+            ),
+            Some(Reply::empty_ack())
+        );
+        assert_eq!(
+            capability_reply(&caps(MsgType::Req, RangerReq::SET_CONFIG), &own),
+            Some(Reply::Nack)
+        );
+        assert_eq!(
+            capability_reply(&caps(MsgType::Cmd, RangerReq::GET_GEOM), &own),
+            Some(Reply::Nack)
+        );
+        assert_eq!(
+            capability_reply(&RangerReq::GetGeom(None).into(), &own),
+            None
+        );
     }
 
-    /// Forgets every request in flight (the driver stopped; their requesters were told or left).
-    pub fn clear(&mut self) {
-        self.waiting.clear();
+    #[test]
+    fn property_requests_forwarded_are_int_double_and_string() {
+        let int = Body::Universal(UniversalMsg::Req(UniversalReq::GetIntProp(Some(
+            IntPropReq {
+                key: Text::from("x"),
+                value: 0,
+            },
+        ))));
+        assert!(is_forwarded_property(&int));
+        let boolean = Body::Universal(UniversalMsg::Req(UniversalReq::GetBoolProp(None)));
+        assert!(!is_forwarded_property(&boolean));
+        assert!(!is_forwarded_property(&RangerReq::GetGeom(None).into()));
+    }
+
+    #[test]
+    fn answers_pass_on_ack_bodies_empty_acks_and_nacks() {
+        let addr = DeviceAddr::new(0, 6665, InterfaceCode::RANGER, 0);
+        let full = Message::new(addr, 1.0, RangerReq::GetConfig(Some(Default::default())));
+        assert!(matches!(passed_on(Ok(full)), Reply::Ack(Some(_))));
+        let empty = Message::new(addr, 1.0, RangerReq::GetConfig(None));
+        assert_eq!(passed_on(Ok(empty)), Reply::Ack(None));
+        assert_eq!(passed_on(Err(RequestError::Nack)), Reply::Nack);
+        let mut w = Waiting::default();
+        w.insert(RequestTicket(3), "geom");
+        assert_eq!(w.take(RequestTicket(3)), Some("geom"));
+        assert_eq!(w.take(RequestTicket(3)), None);
     }
 }

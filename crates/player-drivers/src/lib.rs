@@ -1,17 +1,32 @@
 //! Player 3.0.2's drivers other than `stage`, one module per driver as in Player's
 //! `server/drivers/`. Each module exposes a `register` function; [`register_all`] adds every
 //! driver of this crate to a [`DriverRegistry`] under its Player name.
+//!
+//! * [`ranger`] — `rangertolaser`, `lasertoranger`, `sonartoranger`: Player 3's ranger
+//!   interface to and from Player 2's laser and sonar;
+//! * [`laser`] — `laserposeinterpolator`: scans stamped with the pose they were taken from;
+//! * [`shell`] — `passthrough`: devices served under another address (local or remote).
+//!
+//! These drivers use other devices through the server's bus ([`player_server::Context`]):
+//! they subscribe in `setup`, convert the DATA they receive, and answer a client's request by
+//! forwarding it, deferring the client's request, and answering it when the reply comes back.
 
 #![warn(missing_docs)]
 
-use player_server::DriverRegistry;
+mod forward;
+pub mod laser;
+pub mod ranger;
+pub mod shell;
+#[cfg(test)]
+mod testing;
 
-pub mod forward;
-pub mod laserposeinterpolator;
-pub mod passthrough;
+use player_server::DriverRegistry;
 
 /// Registers every driver of this crate under its Player 3.0.2 name.
 pub fn register_all(registry: &mut DriverRegistry) {
-    laserposeinterpolator::register(registry);
-    passthrough::register(registry);
+    ranger::rangertolaser::register(registry);
+    ranger::lasertoranger::register(registry);
+    ranger::sonartoranger::register(registry);
+    shell::passthrough::register(registry);
+    laser::laserposeinterpolator::register(registry);
 }

@@ -98,9 +98,11 @@ impl DriverBlock {
     }
 
     /// The required device of `interface` with `key` (Player's `ReadDeviceAddr(.., "requires",
-    /// code, -1, key)`): the first entry of that interface whose key matches (`None` matches
-    /// only unkeyed entries). An entry with the key but another interface is an error saying
-    /// what the driver needs there, as is a missing one.
+    /// code, -1, key)`): the first entry of that interface whose key matches. `None` matches
+    /// any entry of that interface, keyed or not, as upstream's NULL key does (so
+    /// `requires ["laser:::ranger:0"]` serves a driver that asks for no key). An entry with the
+    /// key but another interface is an error saying what the driver needs there, as is a
+    /// missing one.
     pub fn required(
         &self,
         interface: InterfaceCode,
@@ -131,7 +133,11 @@ impl DriverBlock {
         interface: InterfaceCode,
         key: Option<&str>,
     ) -> Result<Option<&RequiredDevice>, DriverError> {
-        let keyed = || self.requires.iter().filter(|r| r.key.as_deref() == key);
+        let keyed = || {
+            self.requires
+                .iter()
+                .filter(|r| key.is_none() || r.key.as_deref() == key)
+        };
         if let Some(found) = keyed().find(|r| r.addr.interf == interface) {
             return Ok(Some(found));
         }
@@ -322,6 +328,21 @@ impl<'a> Context<'a> {
         self.request = request;
         self.waker = Some(waker);
         self
+    }
+
+    /// Sets what the core would: the next free ticket and the token of the request being
+    /// handled. For unit tests of drivers outside this crate, which build contexts by hand and
+    /// need [`Context::defer`] to work and tickets not to restart at 1 in every call.
+    pub fn with_request(mut self, next_ticket: u64, request: Option<PendingReply>) -> Context<'a> {
+        self.next_ticket = next_ticket;
+        self.request = request;
+        self
+    }
+
+    /// What the driver asked for so far in this call (subscriptions, commands, requests,
+    /// answers), in order: for unit tests of drivers, which cannot run the core.
+    pub fn actions(&self) -> &[Action] {
+        &self.actions
     }
 
     /// What the driver asked for during the call, and the next free ticket.
@@ -619,6 +640,68 @@ mod tests {
         );
         block.name = "b".into();
         assert!(reg.create(&block).is_ok());
+    }
+
+    #[test]
+    fn hand_made_contexts_defer_and_show_actions() {
+        let mut out = Vec::new();
+        let addr = DeviceAddr::new(0, 6665, InterfaceCode::RANGER, 0);
+        let mut ctx = Context::new(2.0, None, &mut out).with_request(7, Some(PendingReply(3)));
+        let ticket = ctx.request(addr, player_proto::RangerReq::GetGeom(None));
+        assert_eq!(ticket, RequestTicket(7));
+        assert_eq!(ctx.defer(), Some(PendingReply(3)));
+        assert_eq!(ctx.defer(), None);
+        ctx.answer(PendingReply(3), Reply::Nack);
+        assert!(matches!(
+            ctx.actions(),
+            [
+                Action::Request(RequestTicket(7), a, _),
+                Action::Answer(PendingReply(3), Reply::Nack)
+            ] if *a == addr
+        ));
+    }
+
+    #[test]
+    fn required_devices_by_interface_and_key() {
+        let entry = |interf, key: Option<&str>| RequiredDevice {
+            addr: DeviceAddr::new(0, 6665, interf, 0),
+            key: key.map(str::to_string),
+            origin: "x.cfg:2".into(),
+        };
+        let block = DriverBlock {
+            requires: vec![
+                entry(InterfaceCode::POSITION2D, Some("odometry")),
+                entry(InterfaceCode::LASER, Some("scanner")),
+                entry(InterfaceCode::RANGER, None),
+            ],
+            ..Default::default()
+        };
+        // No key: the first entry of the interface, keyed or not (upstream's NULL key).
+        let laser = block.required(InterfaceCode::LASER, None).unwrap();
+        assert_eq!(laser.key.as_deref(), Some("scanner"));
+        assert!(block.required(InterfaceCode::RANGER, None).is_ok());
+        // A key must match.
+        assert!(
+            block
+                .required(InterfaceCode::POSITION2D, Some("odometry"))
+                .is_ok()
+        );
+        assert!(
+            block
+                .optional_required(InterfaceCode::POSITION2D, Some("other"))
+                .unwrap()
+                .is_none()
+        );
+        let wrong = block
+            .required(InterfaceCode::RANGER, Some("scanner"))
+            .unwrap_err()
+            .to_string();
+        assert!(wrong.contains("is a laser device"), "{wrong}");
+        let missing = block
+            .required(InterfaceCode::SONAR, None)
+            .unwrap_err()
+            .to_string();
+        assert!(missing.contains("requires a sonar device"), "{missing}");
     }
 
     #[test]

@@ -18,10 +18,11 @@ use player_proto::{
     Message, Pose2d, Position2dData, Position2dMsg,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply, RequestError, RequestTicket,
+    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
+    RequestTicket,
 };
 
-use crate::forward::Forwarder;
+use crate::forward::{Waiting, forward, passed_on};
 
 /// The Player name of this driver.
 pub const NAME: &str = "laserposeinterpolator";
@@ -211,7 +212,7 @@ pub struct LaserPoseInterpolator {
     laser: DeviceAddr,
     position: DeviceAddr,
     interp: Interpolator,
-    forwarder: Forwarder,
+    waiting: Waiting<PendingReply>,
 }
 
 impl LaserPoseInterpolator {
@@ -233,7 +234,7 @@ impl LaserPoseInterpolator {
             laser,
             position,
             interp: Interpolator::new(Settings::from_block(block)?),
-            forwarder: Forwarder::new(),
+            waiting: Waiting::default(),
         })
     }
 }
@@ -244,10 +245,6 @@ impl Driver for LaserPoseInterpolator {
         ctx.subscribe(self.laser);
         ctx.subscribe(self.position);
         Ok(())
-    }
-
-    fn teardown(&mut self, _ctx: &mut Context<'_>) {
-        self.forwarder.clear();
     }
 
     fn handle_data(&mut self, ctx: &mut Context<'_>, data: &Message) {
@@ -272,7 +269,13 @@ impl Driver for LaserPoseInterpolator {
     }
 
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        self.forwarder.forward(ctx, request, self.laser)
+        match forward(ctx, self.laser, request.body.clone()) {
+            Some((ticket, pending)) => {
+                self.waiting.insert(ticket, pending);
+                Reply::Deferred
+            }
+            None => Reply::Nack,
+        }
     }
 
     fn handle_reply(
@@ -281,7 +284,9 @@ impl Driver for LaserPoseInterpolator {
         ticket: RequestTicket,
         reply: Result<Message, RequestError>,
     ) {
-        self.forwarder.answer(ctx, ticket, &reply);
+        if let Some(pending) = self.waiting.take(ticket) {
+            ctx.answer(pending, passed_on(reply));
+        }
     }
 }
 

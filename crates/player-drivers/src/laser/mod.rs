@@ -1,0 +1,3 @@
+//! Player's `server/drivers/laser/` drivers that are not hardware: `laserposeinterpolator`.
+
+pub mod laserposeinterpolator;

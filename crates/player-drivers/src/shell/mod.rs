@@ -1,0 +1,4 @@
+//! Player's `server/drivers/shell/`: drivers that move messages around rather than talk to
+//! hardware.
+
+pub mod passthrough;

@@ -7,6 +7,8 @@
 //! * [`device`] — the [`DeviceTable`] (cfg order, duplicate check, ports);
 //! * [`queue`] — the per-connection outgoing queue with upstream's exact PUSH/PULL, replace-rule
 //!   and SYNCH semantics;
+//! * [`map`] — the `map` interface: the [`map::OccupancyGrid`] map drivers serve and the answers
+//!   to its requests;
 //! * [`clock`] — the server clock and the schedule drivers are stepped on ([`Pace`]);
 //! * [`server`] — [`Server`] (assembling) and [`ServerHandle`] (running);
 //! * [`stage`] — the `stage` driver: Player devices on an embedded Stage world;
@@ -24,6 +26,7 @@ mod core;
 pub mod device;
 pub mod driver;
 mod error;
+pub mod map;
 mod player_iface;
 pub mod queue;
 pub mod server;

@@ -20,6 +20,8 @@
 //!   for small tiles (the golden vector); for large tiles its deflate blocks may differ from
 //!   zlib 1.2's, as zlib-ng-based systems' do: clients only ever inflate them.
 //!
+//! A client fetches a map tile by tile as [`MapInfo::tile_requests`] lists them.
+//!
 //! Where we differ on purpose: a tile of more cells than a message can carry
 //! ([`MAX_TILE_CELLS`]), or whose size overflows 32 bits, is refused with a NACK instead of
 //! being allocated; the off-map warning is logged once per request, not once per cell.
@@ -31,10 +33,6 @@ use player_proto::{Body, InterfaceCode, MapInfo, MapMsg, MapReq, MapTile, MsgHea
 use player_proto::{Pose2d, Xdr};
 
 use crate::driver::Reply;
-
-/// The side of the square tiles libplayerc's `playerc_map_get_map` and Player's map transform
-/// drivers request a map in.
-pub const TILE_SIZE: u32 = 640;
 
 /// Most cells one GET_DATA reply may carry: what fits an XDR message uncompressed.
 pub const MAX_TILE_CELLS: usize = PLAYERXDR_MAX_MESSAGE_SIZE - 64;
@@ -225,26 +223,6 @@ fn cell_count(width: u32, height: u32) -> Option<usize> {
         .filter(|&n| n <= MAX_GRID_CELLS)
 }
 
-/// The tiles, in the order libplayerc's `playerc_map_get_map` and Player's map transform drivers
-/// request them: [`TILE_SIZE`] squares (smaller at the right and top edges), along the lowest
-/// band of rows first. Each is a GET_DATA request body (no cells).
-pub fn tile_requests(width: u32, height: u32) -> impl Iterator<Item = MapTile> {
-    let cols = width.div_ceil(TILE_SIZE);
-    let rows = height.div_ceil(TILE_SIZE);
-    (0..rows).flat_map(move |r| {
-        (0..cols).map(move |c| {
-            let (col, row) = (c * TILE_SIZE, r * TILE_SIZE);
-            MapTile {
-                col,
-                row,
-                width: TILE_SIZE.min(width - col),
-                height: TILE_SIZE.min(height - row),
-                data: Vec::new(),
-            }
-        })
-    })
-}
-
 /// Answers a request to a map device served from `grid`, as Player's grid map drivers do:
 /// GET_INFO and GET_DATA are ACKed, anything else is left unhandled (empty NACK).
 pub fn answer(grid: &OccupancyGrid, body: &Body) -> Reply {
@@ -421,30 +399,16 @@ mod tests {
     }
 
     #[test]
-    fn tile_requests_follow_playerc_map_get_map() {
-        let tiles: Vec<_> = tile_requests(1000, 700)
-            .map(|t| (t.col, t.row, t.width, t.height))
-            .collect();
-        assert_eq!(
-            tiles,
-            [
-                (0, 0, 640, 640),
-                (640, 0, 360, 640),
-                (0, 640, 640, 60),
-                (640, 640, 360, 60)
-            ]
-        );
-        assert_eq!(tile_requests(0, 5).count(), 0);
-        assert_eq!(tile_requests(640, 640).count(), 1);
-        // Reassembling the tiles gives the map back.
+    fn a_map_fetched_tile_by_tile_is_the_map() {
         let mut g = OccupancyGrid::new(700, 650, 0.1, pose(0.0, 0.0), 0).unwrap();
         for (k, c) in g.cells_mut().iter_mut().enumerate() {
             *c = (k % 3) as i8 - 1;
         }
         let mut copy = OccupancyGrid::new(700, 650, 0.1, pose(0.0, 0.0), 0).unwrap();
-        for t in tile_requests(700, 650) {
-            let cells = g.tile(t.col, t.row, t.width, t.height).unwrap();
-            assert!(copy.put_tile(t.col, t.row, t.width, t.height, &cells));
+        for t in g.info().tile_requests() {
+            let (col, row, width, height) = (t.col, t.row, t.width, t.height);
+            let cells = ack_tile(answer(&g, &Body::from(MapReq::GetData(Some(t))))).data;
+            assert!(copy.put_tile(col, row, width, height, &cells));
         }
         assert_eq!(copy, g);
         assert!(!copy.put_tile(0, 0, 2, 2, &[0; 3]));

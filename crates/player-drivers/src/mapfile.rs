@@ -409,6 +409,33 @@ mod tests {
     }
 
     #[test]
+    fn one_bit_images_read_as_black_and_white() {
+        // Stage's ghost.png is a 1-bit greyscale PNG: its samples expand to 0 and 255.
+        let shared = match std::env::var_os("PLAYERSTAGE_SHARED") {
+            Some(dir) => PathBuf::from(dir),
+            None => std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"),
+        };
+        let path = shared.join("stage-worlds/bitmaps/ghost.png");
+        if !path.exists() {
+            eprintln!(
+                "SKIP: {} not found (set PLAYERSTAGE_SHARED to the shared folder)",
+                path.display()
+            );
+            return;
+        }
+        let o = MapFileOptions {
+            filename: path,
+            ..opts(1.0, false, None)
+        };
+        let g = o.load().unwrap();
+        assert_eq!((g.width(), g.height()), (23, 20));
+        let occupied = g.cells().iter().filter(|&&c| c == 1).count();
+        let free = g.cells().iter().filter(|&&c| c == -1).count();
+        assert!(occupied > 0 && free > 0, "{occupied} occupied, {free} free");
+        assert_eq!(occupied + free, 23 * 20, "no unknown cells");
+    }
+
+    #[test]
     fn a_missing_image_is_an_error_naming_the_file() {
         let o = opts(0.1, false, None);
         let e = o.load().unwrap_err().to_string();

@@ -807,3 +807,148 @@ impl CameraProxy {
         }
     }
 }
+
+proxy!(
+    /// A map (`map`): an occupancy grid fetched by request, tile by tile (libplayerc++'s
+    /// `MapProxy`, libplayerc's `playerc_map_t`).
+    MapProxy,
+    MAP
+);
+
+/// A whole grid map as [`MapProxy::get_map`] assembles it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OccupancyMap {
+    /// Scale (m/cell), size (cells) and the pose of cell (0, 0).
+    pub info: MapInfo,
+    /// `width × height` cells, row by row from row 0 (the lowest): -1 free, 0 unknown,
+    /// +1 occupied.
+    pub cells: Vec<i8>,
+}
+
+impl OccupancyMap {
+    /// Index of cell (`x`, `y`) in [`OccupancyMap::cells`] (`PLAYERC_MAP_INDEX`), `None` off
+    /// the map.
+    pub fn index(&self, x: u32, y: u32) -> Option<usize> {
+        (x < self.info.width && y < self.info.height)
+            .then(|| y as usize * self.info.width as usize + x as usize)
+    }
+
+    /// Cell (`x`, `y`) (`GetCell`), `None` off the map.
+    pub fn cell(&self, x: u32, y: u32) -> Option<i8> {
+        self.index(x, y).map(|k| self.cells[k])
+    }
+}
+
+impl MapProxy {
+    /// The map's metadata (GET_INFO).
+    pub fn request_info(&self) -> Result<MapInfo, ClientError> {
+        let reply = self.request(MapReq::GetInfo(None))?;
+        ack_body!(self, reply,
+            Body::Map(MapMsg::Ack(MapReq::GetInfo(Some(i)))) => i,
+            "map GET_INFO")
+    }
+
+    /// The cells of one tile (GET_DATA), row by row, inflated as libplayerc does: upstream
+    /// servers send them zlib-compressed. Exactly `width × height` cells or an error.
+    pub fn request_tile(
+        &self,
+        col: u32,
+        row: u32,
+        width: u32,
+        height: u32,
+    ) -> Result<Vec<i8>, ClientError> {
+        let want = MapTile {
+            col,
+            row,
+            width,
+            height,
+            data: Vec::new(),
+        };
+        let reply = self.request(MapReq::GetData(Some(want)))?;
+        let zipped = ack_body!(self, reply,
+            Body::Map(MapMsg::Ack(MapReq::GetData(Some(t)))) => t.data,
+            "map GET_DATA")?;
+        let cells = width as usize * height as usize;
+        inflate(&zipped, cells).ok_or_else(|| {
+            self.bad_reply(&format!(
+                "map GET_DATA ({col},{row}) {width} x {height}: cells that do not inflate to \
+                 {cells} bytes"
+            ))
+        })
+    }
+
+    /// The whole map (`RequestMap`, `playerc_map_get_map`): GET_INFO, then every tile in
+    /// libplayerc's order ([`MapInfo::tile_requests`]).
+    pub fn get_map(&self) -> Result<OccupancyMap, ClientError> {
+        let info = self.request_info()?;
+        let (w, h) = (info.width as usize, info.height as usize);
+        let mut cells = vec![0i8; w * h];
+        for t in info.tile_requests() {
+            let tile = self.request_tile(t.col, t.row, t.width, t.height)?;
+            let tw = t.width as usize;
+            for (j, band) in tile.chunks_exact(tw).enumerate() {
+                let start = (t.row as usize + j) * w + t.col as usize;
+                cells[start..start + tw].copy_from_slice(band);
+            }
+        }
+        Ok(OccupancyMap { info, cells })
+    }
+
+    /// The vector map (GET_VECTOR, `playerc_map_get_vector`); grid map drivers NACK it.
+    pub fn get_vector(&self) -> Result<MapDataVector, ClientError> {
+        let reply = self.request(MapReq::GetVector(None))?;
+        ack_body!(self, reply,
+            Body::Map(MapMsg::Ack(MapReq::GetVector(Some(v)))) => v,
+            "map GET_VECTOR")
+    }
+}
+
+/// Inflates a zlib stream that must hold exactly `len` bytes (reading at most one more, so a
+/// hostile stream cannot make us allocate more).
+fn inflate(zipped: &[i8], len: usize) -> Option<Vec<i8>> {
+    use std::io::Read;
+    let bytes: Vec<u8> = zipped.iter().map(|&b| b as u8).collect();
+    let mut out = Vec::with_capacity(len);
+    flate2::read::ZlibDecoder::new(&bytes[..])
+        .take(len as u64 + 1)
+        .read_to_end(&mut out)
+        .ok()?;
+    (out.len() == len).then(|| out.into_iter().map(|b| b as i8).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inflate_wants_exactly_the_tile() {
+        use std::io::Write;
+        let cells: Vec<u8> = (0..600u32).map(|k| [255, 0, 1][(k % 3) as usize]).collect();
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::new(6));
+        z.write_all(&cells).unwrap();
+        let z: Vec<i8> = z.finish().unwrap().into_iter().map(|b| b as i8).collect();
+        let back = inflate(&z, 600).unwrap();
+        assert_eq!(back[..3], [-1, 0, 1]);
+        assert_eq!(inflate(&z, 599), None);
+        assert_eq!(inflate(&z, 601), None);
+        assert_eq!(inflate(&[1, 2, 3], 3), None);
+    }
+
+    #[test]
+    fn map_cells_are_indexed_row_by_row() {
+        let m = OccupancyMap {
+            info: MapInfo {
+                scale: 1.0,
+                width: 3,
+                height: 2,
+                origin: Pose2d::default(),
+            },
+            cells: vec![-1, 0, 1, 1, 1, -1],
+        };
+        assert_eq!(m.index(2, 1), Some(5));
+        assert_eq!(m.cell(2, 0), Some(1));
+        assert_eq!(m.cell(0, 1), Some(1));
+        assert_eq!(m.cell(3, 0), None);
+        assert_eq!(m.cell(0, 2), None);
+    }
+}

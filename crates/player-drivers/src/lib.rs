@@ -5,6 +5,8 @@
 //! * [`ranger`] — `rangertolaser`, `lasertoranger`, `sonartoranger`: Player 3's ranger
 //!   interface to and from Player 2's laser and sonar;
 //! * [`laser`] — `laserposeinterpolator`: scans stamped with the pose they were taken from;
+//! * [`map`] — `mapfile` (a map read from an image), `mapscale` (resampled to another
+//!   resolution) and `mapcspace` (the configuration space of a round robot);
 //! * [`shell`] — `passthrough`: devices served under another address (local or remote).
 //!
 //! These drivers use other devices through the server's bus ([`player_server::Context`]):
@@ -13,12 +15,17 @@
 
 #![warn(missing_docs)]
 
+mod error;
 mod forward;
 pub mod laser;
+pub mod map;
+mod options;
 pub mod ranger;
 pub mod shell;
 #[cfg(test)]
 mod testing;
+
+pub use error::Error;
 
 use player_server::DriverRegistry;
 
@@ -29,4 +36,5 @@ pub fn register_all(registry: &mut DriverRegistry) {
     ranger::sonartoranger::register(registry);
     shell::passthrough::register(registry);
     laser::laserposeinterpolator::register(registry);
+    map::mapfile::register(registry);
 }

@@ -194,7 +194,18 @@ impl Bus {
 
     /// Runs a callback and carries out what it asked for, then delivers what it published.
     fn run(&mut self, d: DriverId, f: impl FnOnce(&mut dyn Driver, &mut Context<'_>)) {
-        let ((), actions, _) = self.call(d, None, None, f);
+        self.run_for(d, None, f);
+    }
+
+    /// As [`Bus::run`], for a message from `client` (drivers keep per-client state, e.g.
+    /// Stage's graphics are drawn per client).
+    fn run_for(
+        &mut self,
+        d: DriverId,
+        client: Option<ClientId>,
+        f: impl FnOnce(&mut dyn Driver, &mut Context<'_>),
+    ) {
+        let ((), actions, _) = self.call(d, client, None, f);
         self.act(d, actions);
         self.fan_out(d);
     }
@@ -832,7 +843,7 @@ impl Core {
             Some(MsgType::Req) => self.bus.client_request(id, driver, addr, msg),
             Some(MsgType::Cmd) => self
                 .bus
-                .run(driver, |drv, ctx| drv.handle_command(ctx, msg)),
+                .run_for(driver, Some(id), |drv, ctx| drv.handle_command(ctx, msg)),
             _ => tracing::warn!(
                 "client {}: ignoring {} message sent to {}:{}",
                 id.0,

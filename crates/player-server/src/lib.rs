@@ -9,6 +9,8 @@
 //!   and SYNCH semantics;
 //! * [`remote`] — [`remote::RemoteLink`], a client link to one device on another Player server,
 //!   for drivers whose required devices live there;
+//! * [`map`] — the `map` interface: the [`map::OccupancyGrid`] map drivers serve and the answers
+//!   to its requests;
 //! * [`clock`] — the server clock and the schedule drivers are stepped on ([`Pace`]);
 //! * [`server`] — [`Server`] (assembling) and [`ServerHandle`] (running);
 //! * [`stage`] — the `stage` driver: Player devices on an embedded Stage world;
@@ -26,6 +28,7 @@ mod core;
 pub mod device;
 pub mod driver;
 mod error;
+pub mod map;
 mod player_iface;
 pub mod queue;
 pub mod remote;

@@ -23,6 +23,8 @@ use player_proto::{
     PlayerMsg, PlayerSynch, Uint32,
 };
 
+use crate::map;
+
 /// One encoded message waiting to be written, with the header fields the queue rules look at.
 ///
 /// The bytes are shared ([`Bytes`]), so a DATA message fanned out to many subscribers is encoded
@@ -42,6 +44,9 @@ pub struct Outgoing {
 impl Outgoing {
     /// Encodes a typed message.
     pub fn from_message(msg: &Message) -> Result<Outgoing, player_proto::Error> {
+        if map::is_tile_reply(&msg.header) {
+            return Ok(Outgoing::from_frame(&Frame::try_from(msg)?));
+        }
         Ok(Outgoing {
             addr: msg.header.addr,
             msg_type: msg.header.msg_type,
@@ -52,7 +57,22 @@ impl Outgoing {
 
     /// Encodes a raw frame (for messages the typed bodies cannot express, e.g. a bodyless NACK
     /// to a subtype that is not in the function table).
+    ///
+    /// The cells of a map GET_DATA ACK are zlib-compressed here, on their way to a TCP client,
+    /// as upstream's TCP layer does (see [`crate::map`]).
     pub fn from_frame(frame: &Frame) -> Outgoing {
+        if map::is_tile_reply(&frame.header) {
+            if let Some(body) = map::tcp_body(&frame.body) {
+                if let Ok(zipped) = Frame::new(frame.header, body) {
+                    return Outgoing::from_frame_as_is(&zipped);
+                }
+            }
+            tracing::warn!("map tile reply of unexpected form: sent uncompressed");
+        }
+        Outgoing::from_frame_as_is(frame)
+    }
+
+    fn from_frame_as_is(frame: &Frame) -> Outgoing {
         let mut bytes = Vec::with_capacity(player_proto::HEADER_SIZE + frame.body.len());
         frame.encode_into(&mut bytes);
         Outgoing {

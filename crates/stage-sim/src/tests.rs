@@ -771,3 +771,48 @@ fn world_can_move_between_threads() {
     fn assert_send_sync<T: Send + Sync>() {}
     assert_send_sync::<World>();
 }
+
+#[test]
+fn a_model_rasterises_to_its_own_blocks_over_its_footprint() {
+    let mut d = WorldDesc::default();
+    // A 4 m × 2 m model centred on (1, 2): an L of two blocks (the left metre and the bottom
+    // half metre), a child robot on it that is not part of its map.
+    let mut floor = wall("floor", 1.0, 2.0, 4.0, 2.0, 1.0);
+    floor.default_body = false;
+    floor.blocks = vec![
+        BlockDesc::rect(-2.0, -1.0, 1.0, 2.0, 1.0),
+        BlockDesc::rect(-1.0, -1.0, 3.0, 0.5, 1.0),
+    ];
+    let f = d.add(floor, None);
+    d.add(robot("r", 1.0, 0.5, 0.0, Drive::Diff), Some(f));
+    let w = World::from_desc(&d, 1).unwrap();
+    let r = w.rasterize(ModelId(f as u32), 0.5, 1000).unwrap();
+    assert_eq!((r.width, r.height, r.cell), (8, 4, 0.5));
+    assert_eq!(r.origin, [-1.0, 1.0]);
+    let rows: Vec<String> = (0..r.height)
+        .rev()
+        .map(|j| {
+            (0..r.width)
+                .map(|i| if r.get(i, j) { '#' } else { '.' })
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows, ["##......", "##......", "##......", "########"]);
+    // Too many cells, or no cell size: no raster.
+    assert!(w.rasterize(ModelId(f as u32), 0.5, 31).is_none());
+    assert!(w.rasterize(ModelId(f as u32), 0.0, 1000).is_none());
+}
+
+#[test]
+fn a_turned_model_rasterises_over_its_world_bounding_box() {
+    let mut d = WorldDesc::default();
+    let mut m = wall("box", 0.0, 0.0, 2.0, 1.0, 1.0);
+    m.pose = Pose::new(0.0, 0.0, 0.0, PI / 2.0);
+    let b = d.add(m, None);
+    let w = World::from_desc(&d, 1).unwrap();
+    let r = w.rasterize(ModelId(b as u32), 0.25, 1000).unwrap();
+    // Standing on end: 1 m wide, 2 m tall, every cell covered.
+    assert_eq!((r.width, r.height), (4, 8));
+    assert!((r.origin[0] + 0.5).abs() < 1e-12 && (r.origin[1] + 1.0).abs() < 1e-12);
+    assert!(r.cells.iter().all(|&c| c));
+}

@@ -17,6 +17,7 @@ use crate::models::gripper::{self, GripAction, GripperCmd, GripperData, GripperM
 use crate::models::position::{PositionData, PositionModel};
 use crate::models::ranger::{self, RangerData};
 use crate::pose::Pose;
+use crate::raster::Raster;
 use crate::rng::SimRng;
 use crate::space::{Body, RayHit, RayQuery, Space, WorldBlock};
 
@@ -1047,6 +1048,37 @@ impl World {
     /// The model's body in world coordinates (for drawing; borrowed, not copied).
     pub fn body(&self, m: ModelId) -> &Body {
         self.space.body(m.0)
+    }
+
+    /// The model's own blocks (not its children's), as they are now, rasterised onto square
+    /// cells of `cell` metres ([`Raster`], for serving a model as a grid map). The grid spans
+    /// the world-axis-aligned bounding box of the model's footprint (its `size` rectangle at
+    /// its current pose), rounded up to whole cells from its lower-left corner. `None` when
+    /// `cell` is not a positive length or the grid would have more than `max_cells` cells.
+    pub fn rasterize(&self, m: ModelId, cell: f64, max_cells: usize) -> Option<Raster> {
+        if !(cell > 0.0 && cell.is_finite()) {
+            return None;
+        }
+        let node = &self.nodes[m.index()];
+        let frame = self.globals[m.index()].compose(&node.origin);
+        let [hx, hy] = [node.size[0] / 2.0, node.size[1] / 2.0];
+        let mut bb = Aabb::EMPTY;
+        for (x, y) in [(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)] {
+            let (wx, wy) = frame.transform_xy(x, y);
+            bb.add([wx, wy]);
+        }
+        // An extent of a whole number of cells (up to rounding) gets no extra sliver of a cell.
+        let count = |len: f64| (len / cell - crate::raster::SLIVER).ceil().max(0.0);
+        let (w, h) = (count(bb.max[0] - bb.min[0]), count(bb.max[1] - bb.min[1]));
+        if w * h > max_cells as f64 {
+            return None;
+        }
+        let mut raster = Raster::new(bb.min, cell, w as usize, h as usize);
+        let body = self.space.body(m.0);
+        for b in 0..body.blocks.len() {
+            raster.fill_polygon(body.block_pts(b));
+        }
+        Some(raster)
     }
 
     /// The spatial engine (for viewers and tools that cast their own rays).

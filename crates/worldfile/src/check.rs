@@ -87,7 +87,8 @@ pub enum StageBinding {
     /// The first model of this type not yet bound, in the named model's subtree (pre-order),
     /// preferring one of the given ranger shape when there is a choice.
     Model(ModelType, RangerShape),
-    /// The named model itself, not marked as bound (`speech`, `graphics2d`, `graphics3d`).
+    /// The named model itself, not marked as bound (`speech`, `graphics2d`, `graphics3d`,
+    /// `map`).
     Named,
 }
 
@@ -105,7 +106,9 @@ pub enum RangerShape {
 
 /// How the stage driver binds a device of `interface`, or `None` for interfaces it does not
 /// provide. Stage 4.1.1's own set (§8.5) plus the legacy `laser` and `sonar` (on rangers) and
-/// `camera` (on camera models) that Stage 4 dropped and that Player 2 clients still use.
+/// `camera` (on camera models) that Stage 4 dropped and that Player 2 clients still use, and
+/// `map` (the named model's blocks as a grid, as Stage 2's `p_map` served it; Stage 4.1.1
+/// ships that source but does not build it).
 pub fn stage_binding(interface: InterfaceCode) -> Option<StageBinding> {
     let model = |t| Some(StageBinding::Model(t, RangerShape::Any));
     match interface {
@@ -122,9 +125,10 @@ pub fn stage_binding(interface: InterfaceCode) -> Option<StageBinding> {
             ModelType::Ranger,
             RangerShape::Multiple,
         )),
-        InterfaceCode::SPEECH | InterfaceCode::GRAPHICS2D | InterfaceCode::GRAPHICS3D => {
-            Some(StageBinding::Named)
-        }
+        InterfaceCode::SPEECH
+        | InterfaceCode::GRAPHICS2D
+        | InterfaceCode::GRAPHICS3D
+        | InterfaceCode::MAP => Some(StageBinding::Named),
         _ => None,
     }
 }
@@ -139,7 +143,7 @@ fn transducers(m: &ModelSpec) -> Option<usize> {
 }
 
 /// Binds one stage-driver device of `interface` in `world` to a model (player-cfg.md §8.3):
-/// the model called `name` itself for `speech`/`graphics*`, else the first model of the
+/// the model called `name` itself for `speech`/`graphics*`/`map`, else the first model of the
 /// required type in its subtree (pre-order) that is not in `bound`, which it is added to.
 /// Errors are the reason the server refuses the device.
 pub fn bind_stage_model(
@@ -464,6 +468,7 @@ mod tests {
             bind(InterfaceCode::LASER),
             bind(InterfaceCode::SONAR),
             bind(InterfaceCode::SPEECH),
+            bind(InterfaceCode::MAP),
             bind(InterfaceCode::GRIPPER),
             bind(InterfaceCode::RANGER),
             bind(InterfaceCode::FIDUCIAL),
@@ -475,6 +480,7 @@ mod tests {
                 "r0",
                 "r0.ranger:1",
                 "r0.ranger:0",
+                "r0",
                 "r0",
                 "r0.gripper:0",
                 "error: no unbound `ranger` model in \"r0\" or its children",

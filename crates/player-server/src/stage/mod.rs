@@ -16,7 +16,9 @@
 //! * model subscriptions are reference counted: a model stays subscribed until the *last*
 //!   client unsubscribes (Stage unsubscribes it on the first unsubscription, stopping the robot
 //!   and its sensors for every other client);
-//! * the legacy `laser`, `sonar` (on rangers) and `camera` interfaces are served;
+//! * the legacy `laser`, `sonar` (on rangers) and `camera` interfaces are served, and `map`
+//!   (the named model's blocks as a grid, [`map`](self::map) module), which Stage 4.1.1 ships
+//!   but does not build;
 //! * fields Stage leaves uninitialised are 0; GET_PROPERTY "time" answers instead of crashing;
 //!   CAPABILITIES requests are answered (Stage crashes on the simulation one).
 //!
@@ -29,6 +31,7 @@ mod fiducial;
 pub mod graphics;
 mod gripper;
 mod laser;
+mod map;
 mod position;
 mod ranger;
 mod simulation;
@@ -170,6 +173,7 @@ enum Kind {
     Speech,
     Graphics2d,
     Graphics3d,
+    Map,
 }
 
 impl Kind {
@@ -188,6 +192,7 @@ impl Kind {
             InterfaceCode::SPEECH => Kind::Speech,
             InterfaceCode::GRAPHICS2D => Kind::Graphics2d,
             InterfaceCode::GRAPHICS3D => Kind::Graphics3d,
+            InterfaceCode::MAP => Kind::Map,
             _ => return None,
         })
     }
@@ -206,6 +211,8 @@ struct Device {
     published_us: u64,
     /// Scans published (the legacy laser's scan id).
     count: u32,
+    /// A `map` device's grid, made on request.
+    map: Option<map::MapCache>,
 }
 
 /// The model a request, command or publication is about, with the world around it.
@@ -391,6 +398,7 @@ impl StageDriver {
                 subs: 0,
                 published_us: 0,
                 count: 0,
+                map: None,
             });
         }
         let s = shared.as_ref().ok_or_else(|| {
@@ -443,7 +451,11 @@ impl StageDriver {
                 Kind::Gripper => world.gripper_state(model).map(|s| s.time_us),
                 Kind::Camera => world.camera_image(model).map(|s| s.time_us),
                 Kind::Actarray => world.actuator(model).map(|s| s.time_us),
-                Kind::Simulation | Kind::Speech | Kind::Graphics2d | Kind::Graphics3d => None,
+                Kind::Simulation
+                | Kind::Speech
+                | Kind::Graphics2d
+                | Kind::Graphics3d
+                | Kind::Map => None,
             };
             let Some(stamp_us) = stamp_us.filter(|&t| t > d.published_us) else {
                 continue;
@@ -469,7 +481,11 @@ impl StageDriver {
                 Kind::Gripper => gripper::publish(&bound, &mut out),
                 Kind::Camera => camera::publish(&bound, &mut out),
                 Kind::Actarray => actarray::publish(&bound, &mut out),
-                Kind::Simulation | Kind::Speech | Kind::Graphics2d | Kind::Graphics3d => {}
+                Kind::Simulation
+                | Kind::Speech
+                | Kind::Graphics2d
+                | Kind::Graphics3d
+                | Kind::Map => {}
             }
             d.count = d.count.wrapping_add(1);
         }
@@ -612,6 +628,10 @@ impl Driver for StageDriver {
         let Some(model) = model else {
             return Reply::NotHandled;
         };
+        if kind == Kind::Map {
+            let world = self.world.read().unwrap_or_else(|e| e.into_inner());
+            return map::request(&world, model, &mut self.devices[i].map, &request.body);
+        }
         let world = self.write();
         let mut b = Bound {
             world,

@@ -531,3 +531,86 @@ position ( name "robot" size [0.5 0.5 0.5] localization "odom" odom_error [0 0 0
     let reset = pose(step(&mut s));
     assert_eq!((reset.px, reset.py, reset.pa), (0.0, 0.0, 0.0));
 }
+
+#[test]
+fn map_serves_the_named_models_blocks_at_the_world_resolution() {
+    use player_proto::{MapMsg, MapReq, MapTile};
+    let world = world_file_with(
+        "map",
+        "resolution 0.1\n\
+         model ( name \"wall\" size [0.2 4 1] pose [2 0 0 0] )\n\
+         position ( name \"robot\" size [0.5 0.5 0.5] pose [0 0 0 0] )\n",
+    );
+    let mut registry = DriverRegistry::new();
+    let handle = register(&mut registry, StageOptions::default());
+    let _sim = registry
+        .create(&block(
+            &[(InterfaceCode::SIMULATION, 0)],
+            &[("worldfile", world.to_str().unwrap())],
+        ))
+        .unwrap();
+    let mut wall = registry
+        .create(&block(&[(InterfaceCode::MAP, 0)], &[("model", "wall")]))
+        .unwrap();
+    // Another block may serve a map of a model other devices are bound to.
+    let mut robot = registry
+        .create(&block(
+            &[(InterfaceCode::POSITION2D, 0), (InterfaceCode::MAP, 1)],
+            &[("model", "robot")],
+        ))
+        .unwrap();
+    let info = |d: &mut Box<dyn Driver>, index| match request(
+        d,
+        addr(InterfaceCode::MAP, index),
+        MapReq::GetInfo(None),
+    ) {
+        Reply::Ack(Some(Body::Map(MapMsg::Req(MapReq::GetInfo(Some(i)))))) => i,
+        other => panic!("{other:?}"),
+    };
+    let tile = |d: &mut Box<dyn Driver>, index, col, row, width, height| {
+        let want = MapTile {
+            col,
+            row,
+            width,
+            height,
+            data: Vec::new(),
+        };
+        match request(
+            d,
+            addr(InterfaceCode::MAP, index),
+            MapReq::GetData(Some(want)),
+        ) {
+            Reply::Ack(Some(Body::Map(MapMsg::Req(MapReq::GetData(Some(t)))))) => t.data,
+            other => panic!("{other:?}"),
+        }
+    };
+    // The wall: 0.2 m × 4 m centred on (2, 0) at 0.1 m, all occupied.
+    let i = info(&mut wall, 0);
+    assert_eq!((i.width, i.height, i.scale), (2, 40, 0.1f32));
+    assert!((i.origin.px - 1.9).abs() < 1e-9 && (i.origin.py + 2.0).abs() < 1e-9);
+    assert_eq!(i.origin.pa, 0.0);
+    assert_eq!(tile(&mut wall, 0, 0, 0, 2, 40), vec![1i8; 80]);
+    // Off the map: unknown, as Player's map drivers fill it.
+    assert_eq!(tile(&mut wall, 0, 1, 39, 2, 2), [1, 0, 0, 0]);
+    // The robot's map follows it when it moves.
+    let i = info(&mut robot, 1);
+    assert_eq!((i.width, i.height), (5, 5));
+    assert!((i.origin.px + 0.25).abs() < 1e-9);
+    let world = handle.world().unwrap();
+    let id = world.read().unwrap().model_by_name("robot").unwrap();
+    world
+        .write()
+        .unwrap()
+        .set_pose(id, stage_sim::Pose::new(3.0, 1.0, 0.0, 0.0));
+    let i = info(&mut robot, 1);
+    assert!((i.origin.px - 2.75).abs() < 1e-9 && (i.origin.py - 0.75).abs() < 1e-9);
+    // No vector map.
+    assert_eq!(
+        request(
+            &mut wall,
+            addr(InterfaceCode::MAP, 0),
+            MapReq::GetVector(None)
+        ),
+        Reply::NotHandled
+    );
+}

@@ -1,0 +1,88 @@
+//! Reading a driver's cfg options the way Player's `ConfigFile` accessors do, but strictly: a
+//! value that is not a number is an error naming the option, where `atof`/`atoi` would read 0.
+//!
+//! Lengths are in metres: Player multiplies `ReadLength` values by the cfg's `unit_length`
+//! (metres unless the cfg sets it), which [`DriverBlock`] does not carry yet.
+
+use player_server::DriverBlock;
+
+use crate::error::Error;
+
+/// Element `index` of option `key`, parsed; `None` when the option or the element is absent
+/// (Player's tuple accessors return their default then).
+fn element<T: std::str::FromStr>(
+    block: &DriverBlock,
+    key: &'static str,
+    index: usize,
+    what: &str,
+) -> Result<Option<T>, Error> {
+    let Some(text) = block.options.get(key).and_then(|v| v.get(index)) else {
+        return Ok(None);
+    };
+    text.parse().map(Some).map_err(|_| Error::BadOption {
+        option: key,
+        value: text.clone(),
+        why: format!("not {what}"),
+    })
+}
+
+/// `ReadLength(key)`: a length in metres.
+pub fn length(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Error> {
+    element(block, key, 0, "a length")
+}
+
+/// `ReadTupleLength(key, index)`: element `index` of a tuple of lengths.
+pub fn tuple_length(
+    block: &DriverBlock,
+    key: &'static str,
+    index: usize,
+) -> Result<Option<f64>, Error> {
+    element(block, key, index, "a length")
+}
+
+/// `ReadInt(key)`.
+pub fn int(block: &DriverBlock, key: &'static str) -> Result<Option<i64>, Error> {
+    element(block, key, 0, "an integer")
+}
+
+/// `ReadString(key)`.
+pub fn string<'a>(block: &'a DriverBlock, key: &str) -> Option<&'a str> {
+    block.option(key)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A block with `options` (values split on spaces, as a tuple).
+    pub(crate) fn block(name: &str, options: &[(&str, &str)]) -> DriverBlock {
+        DriverBlock {
+            name: name.into(),
+            origin: "test.cfg:1".into(),
+            options: options
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.split(' ').map(str::to_string).collect()))
+                .collect(),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn numbers_are_read_strictly() {
+        let b = block(
+            "x",
+            &[("r", "0.25"), ("n", "3"), ("o", "1 -2.5 90"), ("bad", "5x")],
+        );
+        assert_eq!(length(&b, "r").unwrap(), Some(0.25));
+        assert_eq!(length(&b, "none").unwrap(), None);
+        assert_eq!(int(&b, "n").unwrap(), Some(3));
+        assert_eq!(tuple_length(&b, "o", 1).unwrap(), Some(-2.5));
+        assert_eq!(tuple_length(&b, "o", 3).unwrap(), None);
+        assert_eq!(
+            length(&b, "bad").unwrap_err().to_string(),
+            "option `bad` has an invalid value \"5x\": not a length"
+        );
+        assert!(int(&b, "r").is_err());
+        assert_eq!(string(&b, "n"), Some("3"));
+    }
+}

@@ -417,7 +417,12 @@ impl World {
                         None => worldfile::models::PositionSpec::ODOM_ERROR_SPAN
                             .map(|span| rng.uniform(-span / 2.0, span / 2.0)),
                     };
-                    KindState::Position(Box::new(PositionModel::new(p.clone(), origin, err)))
+                    KindState::Position(Box::new(PositionModel::new(
+                        p.clone(),
+                        &globals[i],
+                        origin,
+                        err,
+                    )))
                 }
                 KindDesc::Ranger(s) => KindState::Ranger(RangerData::new(s.clone())),
                 KindDesc::Blobfinder(b) => {

@@ -984,8 +984,8 @@ impl World {
         }
     }
 
-    /// Removes a subscription; the last one shuts the model down (position models stop, sensors
-    /// clear their data).
+    /// Removes a subscription; the last one shuts the model down (position models stop,
+    /// actuators drop their goal, sensors clear their data).
     pub fn unsubscribe(&mut self, m: ModelId) {
         let st = &mut self.states[m.index()];
         if st.subs == 0 {
@@ -995,6 +995,7 @@ impl World {
         if st.subs == 0 {
             match &mut st.kind {
                 KindState::Position(p) => p.shutdown(),
+                KindState::Actuator(a) => a.shutdown(),
                 KindState::Ranger(r) => r.clear(),
                 KindState::Blobfinder(b) => b.data.blobs.clear(),
                 KindState::Fiducial(_, f) => f.fiducials.clear(),

@@ -118,6 +118,12 @@ fn choose(sensor: &SensorDesc, world_res: f64, req: &LaserConfig) -> Result<Scan
     if !(min.is_finite() && max.is_finite() && resolution.is_finite() && range_res.is_finite()) {
         return Err("the angles, resolution and range_res must be numbers".into());
     }
+    if resolution <= 0.0 || range_res <= 0.0 {
+        return Err(format!(
+            "resolution {} and range_res {range_res} must be above 0",
+            req.resolution
+        ));
+    }
     if min > max {
         return Err(format!(
             "min_angle {:.2}° is above max_angle {:.2}°",
@@ -174,9 +180,9 @@ fn choose(sensor: &SensorDesc, world_res: f64, req: &LaserConfig) -> Result<Scan
         (snap(min), snap(max), k.min(f64::from(n)) as u32)
     };
     let max_range = sensor.range[1];
-    if range_res <= 0.0 || range_res > max_range {
+    if range_res > max_range {
         return Err(format!(
-            "range_res {range_res} m must be above 0 and at most the maximum range {max_range} m"
+            "range_res {range_res} m is above the maximum range {max_range} m"
         ));
     }
     // The simulation's own resolution (what GET_CONFIG reports by default): as simulated.
@@ -408,8 +414,9 @@ mod tests {
         assert!(refused(req(10.0, -10.0, res, 0.01, 1)).contains("above max_angle"));
         assert!(refused(req(-90.0, 90.0, 0.5f64.to_radians(), 0.01, 1)).contains("finer"));
         assert!(refused(req(-90.0, 90.0, 1.5f64.to_radians(), 0.01, 1)).contains("whole number"));
-        assert!(refused(req(-90.0, 90.0, res, 0.0, 1)).contains("range_res"));
-        assert!(refused(req(-90.0, 90.0, res, 9.0, 1)).contains("range_res"));
+        assert!(refused(req(-90.0, 90.0, res, 0.0, 1)).contains("above 0"));
+        assert!(refused(req(-90.0, 90.0, -res, 0.01, 1)).contains("above 0"));
+        assert!(refused(req(-90.0, 90.0, res, 9.0, 1)).contains("maximum range"));
         assert!(refused(req(-90.0, 90.0, f64::NAN, 0.01, 1)).contains("numbers"));
     }
 

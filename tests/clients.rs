@@ -1,7 +1,8 @@
 //! Real libplayerc / libplayerc++ 3.0.2 programs against our server: `examples/c/basic.c` and
 //! the C++ Bigbob controller `examples/bigbob/bigbob.cc` are built with their Makefiles into a
-//! temporary folder and run against the Bigbob world on a free port. Skipped (with a message)
-//! when `pkg-config` does not find `playerc` and `playerc++`.
+//! temporary folder and run against the Bigbob world on a free port, and
+//! `examples/c/stage_devices.c` against the Pioneer world of `common`. Skipped (with a
+//! message) when `pkg-config` does not find `playerc` and `playerc++`.
 
 mod common;
 
@@ -9,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-use common::{root, serve_cfg};
+use common::{pioneer_odom_cfg, root, serve_cfg};
 use player_server::Pace;
 
 fn have_libplayerc() -> bool {
@@ -127,4 +128,39 @@ fn libplayerc_plus_plus_bigbob_controller_runs_against_our_server() {
     let summary = stdout.lines().last().unwrap_or_default();
     assert!(summary.starts_with("bigbob: pose "), "{stdout}");
     assert!(!summary.contains(" 0 reads with blobs"), "{summary}");
+}
+
+/// libplayerc sees the odometry start in world coordinates, the actuator's goal clamped to its
+/// limit, and a laser on the SICK-like ranger with the ranger's size that takes libplayerc++'s
+/// test configuration, refuses a finer resolution than its rays and narrows its scan.
+#[test]
+fn libplayerc_stage_devices_client_checks_odometry_actuator_and_laser() {
+    if !have_libplayerc() {
+        return;
+    }
+    let program = build("c", "stage_devices");
+    let (cfg, dir) = pioneer_odom_cfg("clients-stage-devices");
+    let server = serve_cfg(&cfg, Pace::RealTime { speedup: 5.0 });
+    let port = server.port(6665).to_string();
+    let out = run_bounded(
+        &program,
+        &["localhost".into(), port],
+        Duration::from_secs(60),
+    );
+    drop(server);
+    let _ = std::fs::remove_dir_all(program.parent().unwrap());
+    let _ = std::fs::remove_dir_all(&dir);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "stage_devices failed: {stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("stage_devices: r0 odometry -6.946 -6.947 0.785398"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("speed 0.50 state 2"), "{stdout}");
+    assert!(stdout.contains("size [0.156 0.155]"), "{stdout}");
+    assert!(stdout.contains("stage_devices: ok"), "{stdout}");
 }

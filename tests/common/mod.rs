@@ -119,3 +119,66 @@ pub fn bigbob2(pace: Pace) -> Running {
 pub fn conformance_cfg() -> Option<PathBuf> {
     shared("conformance/sessions/world/bigbob.cfg")
 }
+
+/// A Pioneer 2DX-like world (our own; sizes as in Stage's pioneer.inc and sick.inc) for what
+/// Player's own client programs check: `r0` at (-6.946, -6.947, 45°) on odometry started in
+/// world coordinates (`localization_origin [0 0 0 0]`), with a SICK LMS200-like ranger
+/// (180 rays over 180°, as sick.inc) and a lift limited to [0, 0.5] m; `r1` on odometry with
+/// the default origin (its start pose). A wall stands 2.85 m east of `r0`.
+pub const PIONEER_ODOM_WORLD: &str = r#"
+interval_sim 100
+resolution 0.02
+
+model ( name "east_wall" pose [-4 -6.947 0 0] size [0.2 20 1] color "gray30" )
+
+position
+(
+  name "r0"
+  pose [-6.946 -6.947 0 45]
+  size [0.44 0.38 0.22]
+  origin [-0.04 0 0 0]
+  drive "diff"
+  localization "odom"
+  localization_origin [0 0 0 0]
+  odom_error [0 0 0 0]
+  ranger
+  (
+    size [0.156 0.155 0.19]
+    sensor ( range [0 8] fov 180 samples 180 pose [0 0 0.1 0] )
+  )
+  actuator
+  (
+    name "lift"
+    size [0.1 0.1 0.05]
+    type "linear" axis [0 0 1]
+    min_position 0 max_position 0.5 max_speed 0.2
+  )
+)
+
+position
+(
+  name "r1"
+  pose [2 3 0 30]
+  size [0.44 0.38 0.22]
+  localization "odom"
+  odom_error [0 0 0 0]
+)
+"#;
+
+/// [`PIONEER_ODOM_WORLD`] and its cfg in a fresh temporary folder (removed by the caller):
+/// `r0`'s base, laser and lift as position2d:0, laser:0 and actarray:0, `r1`'s base as
+/// position2d:1, all on port 6665. Returns (cfg path, folder).
+pub fn pioneer_odom_cfg(tag: &str) -> (PathBuf, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("playerstage-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("pioneer.world"), PIONEER_ODOM_WORLD).unwrap();
+    let cfg = dir.join("pioneer.cfg");
+    std::fs::write(
+        &cfg,
+        "driver( name \"stage\" provides [\"simulation:0\"] worldfile \"pioneer.world\" )\n\
+         driver( name \"stage\" provides [\"position2d:0\" \"laser:0\" \"actarray:0\"] model \"r0\" )\n\
+         driver( name \"stage\" provides [\"position2d:1\"] model \"r1\" )\n",
+    )
+    .unwrap();
+    (cfg, dir)
+}

@@ -470,6 +470,17 @@ impl LaserProxy {
             Body::Laser(LaserMsg::Ack(LaserReq::GetConfig(Some(c)))) => c,
             "laser GET_CONFIG")
     }
+
+    /// Changes the scan configuration (`Configure`): scan angles and resolution (rad), range
+    /// resolution (m), intensities on/off. Returns the configuration the device applied (a
+    /// SICK LMS200 echoes the request; a ranger served as a laser reports the rays it
+    /// chose); a device that cannot do it refuses ([`ClientError::Nack`]).
+    pub fn configure(&self, config: LaserConfig) -> Result<LaserConfig, ClientError> {
+        let reply = self.request(LaserReq::SetConfig(Some(config)))?;
+        ack_body!(self, reply,
+            Body::Laser(LaserMsg::Ack(LaserReq::SetConfig(Some(c)))) => c,
+            "laser SET_CONFIG")
+    }
 }
 
 proxy!(

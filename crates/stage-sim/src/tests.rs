@@ -816,3 +816,56 @@ fn a_turned_model_rasterises_over_its_world_bounding_box() {
     assert!((r.origin[0] + 0.5).abs() < 1e-12 && (r.origin[1] + 1.0).abs() < 1e-12);
     assert!(r.cells.iter().all(|&c| c));
 }
+
+/// Stage's load computes every position model's estimate from its start pose in the
+/// `localization_origin` frame, odometry included: a robot placed at (-6.946, -6.947, 45°)
+/// with `localization_origin [0 0 0 0]` (as Stage's pioneer.inc sets it) reports that pose,
+/// a robot without the property reports zero, and other origins see the start from there.
+#[test]
+fn odometry_starts_from_the_start_pose_in_the_localization_origin_frame() {
+    let text = r#"
+define bot position ( size [0.4 0.4 0.3] localization "odom" odom_error [0 0 0 0] )
+bot ( name "world_frame" pose [-6.946 -6.947 0 45] localization_origin [0 0 0 0] )
+bot ( name "own_frame" pose [2 3 0 30] )
+bot ( name "shifted" pose [2 3 0 30] localization_origin [1 1 0 90] )
+"#;
+    let opts = worldfile::LoadOptions::default();
+    let spec = worldfile::WorldSpec::parse(std::path::Path::new("odom.world"), text, &opts)
+        .expect("world parses");
+    let mut w = World::from_spec(&spec, 1).unwrap();
+    let ids: Vec<ModelId> = ["world_frame", "own_frame", "shifted"]
+        .iter()
+        .map(|n| w.model_by_name(n).unwrap())
+        .collect();
+    for &id in &ids {
+        w.subscribe(id);
+    }
+    run(&mut w, 3);
+    let est = |w: &World, i: usize| w.position_state(ids[i]).unwrap().pose;
+    let close = |p: Pose, x: f64, y: f64, a: f64| {
+        (p.x - x).abs() < 1e-9 && (p.y - y).abs() < 1e-9 && (p.a - a).abs() < 1e-9
+    };
+    assert!(
+        close(est(&w, 0), -6.946, -6.947, PI / 4.0),
+        "{:?}",
+        est(&w, 0)
+    );
+    assert!(close(est(&w, 1), 0.0, 0.0, 0.0), "{:?}", est(&w, 1));
+    // (2, 3) seen from (1, 1) facing +y: 2 m ahead, 1 m to the right; heading 30° - 90°
+    assert!(close(est(&w, 2), 2.0, -1.0, -PI / 3.0), "{:?}", est(&w, 2));
+
+    // Driving integrates from there; SET_ODOM then moves the estimate, not the robot.
+    w.position_cmd_vel(ids[0], 0.5, 0.0, 0.0).unwrap();
+    run(&mut w, 10);
+    let d = 0.5 * 1.0 / 2f64.sqrt();
+    assert!(
+        close(est(&w, 0), -6.946 + d, -6.947 + d, PI / 4.0),
+        "{:?}",
+        est(&w, 0)
+    );
+    w.set_odom(ids[0], Pose::new(0.0, 0.0, 0.0, 0.0)).unwrap();
+    w.position_cmd_vel(ids[0], 0.0, 0.0, 0.0).unwrap();
+    run(&mut w, 2);
+    assert!(close(est(&w, 0), 0.0, 0.0, 0.0), "{:?}", est(&w, 0));
+    assert!((w.pose(ids[0]).x - (-6.946 + d)).abs() < 1e-9);
+}

@@ -418,7 +418,12 @@ impl World {
                         None => worldfile::models::PositionSpec::ODOM_ERROR_SPAN
                             .map(|span| rng.uniform(-span / 2.0, span / 2.0)),
                     };
-                    KindState::Position(Box::new(PositionModel::new(p.clone(), origin, err)))
+                    KindState::Position(Box::new(PositionModel::new(
+                        p.clone(),
+                        &globals[i],
+                        origin,
+                        err,
+                    )))
                 }
                 KindDesc::Ranger(s) => KindState::Ranger(RangerData::new(s.clone())),
                 KindDesc::Blobfinder(b) => {
@@ -980,8 +985,8 @@ impl World {
         }
     }
 
-    /// Removes a subscription; the last one shuts the model down (position models stop, sensors
-    /// clear their data).
+    /// Removes a subscription; the last one shuts the model down (position models stop,
+    /// actuators drop their goal, sensors clear their data).
     pub fn unsubscribe(&mut self, m: ModelId) {
         let st = &mut self.states[m.index()];
         if st.subs == 0 {
@@ -991,6 +996,7 @@ impl World {
         if st.subs == 0 {
             match &mut st.kind {
                 KindState::Position(p) => p.shutdown(),
+                KindState::Actuator(a) => a.shutdown(),
                 KindState::Ranger(r) => r.clear(),
                 KindState::Blobfinder(b) => b.data.blobs.clear(),
                 KindState::Fiducial(_, f) => f.fiducials.clear(),

@@ -17,7 +17,9 @@ use worldfile::TypeSpec;
 use super::{Bound, Out, Writing};
 use crate::driver::Reply;
 
-/// DATA STATE: one actuator, moving while its goal is non-zero.
+/// DATA STATE: one actuator, as Stage's plugin fills it: the position, the goal as the speed
+/// (a position goal clamped to the joint's limits, a speed goal as commanded), moving while
+/// that goal is non-zero; acceleration and current are 0 (Stage models neither).
 pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
     let Some(a) = b.world.actuator(b.model) else {
         return;

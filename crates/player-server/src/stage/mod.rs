@@ -213,6 +213,8 @@ struct Device {
     count: u32,
     /// A `map` device's grid, made on request.
     map: Option<map::MapCache>,
+    /// What a client configured of a `laser` device's scan (`None`: the whole fan).
+    scan: Option<laser::ScanConfig>,
 }
 
 /// The model a request, command or publication is about, with the world around it.
@@ -399,6 +401,7 @@ impl StageDriver {
                 published_us: 0,
                 count: 0,
                 map: None,
+                scan: None,
             });
         }
         let s = shared.as_ref().ok_or_else(|| {
@@ -474,7 +477,7 @@ impl StageDriver {
             match d.kind {
                 Kind::Position => position::publish(&bound, &mut out),
                 Kind::Ranger => ranger::publish(&bound, &mut out),
-                Kind::Laser => laser::publish(&bound, &mut out, d.count),
+                Kind::Laser => laser::publish(&bound, d.scan.as_ref(), &mut out, d.count),
                 Kind::Sonar => sonar::publish(&bound, &mut out),
                 Kind::Blobfinder => blobfinder_publish(&bound, &mut out),
                 Kind::Fiducial => fiducial::publish(&bound, &mut out),
@@ -632,7 +635,8 @@ impl Driver for StageDriver {
             let world = self.world.read().unwrap_or_else(|e| e.into_inner());
             return map::request(&world, model, &mut self.devices[i].map, &request.body);
         }
-        let world = self.write();
+        // the world field alone is borrowed: the device's own state stays writable
+        let world = self.world.write().unwrap_or_else(|e| e.into_inner());
         let mut b = Bound {
             world,
             spec: &self.spec,
@@ -641,7 +645,7 @@ impl Driver for StageDriver {
         match kind {
             Kind::Position => position::request(&mut b, &request.body),
             Kind::Ranger => ranger::request(&b, &request.body),
-            Kind::Laser => laser::request(&b, &request.body),
+            Kind::Laser => laser::request(&b, &mut self.devices[i].scan, &request.body),
             Kind::Sonar => sonar::request(&b, &request.body),
             Kind::Fiducial => fiducial::request(&mut b, &request.body),
             Kind::Gripper => gripper::request(&b, &request.body),

@@ -614,3 +614,200 @@ fn map_serves_the_named_models_blocks_at_the_world_resolution() {
         Reply::NotHandled
     );
 }
+
+/// A Pioneer-like robot as Stage's pioneer.inc and simple.world make it, but with odometry:
+/// `localization_origin [0 0 0 0]` at (-6.946, -6.947, 45°); a SICK-like ranger (Stage's
+/// sick.inc size, 361 rays over 180°) and an arm with one joint limited to [0, 0.5].
+const PIONEER_WORLD: &str = r#"
+interval_sim 100
+resolution 0.02
+position
+(
+  name "robot"
+  size [0.44 0.38 0.22]
+  pose [-6.946 -6.947 0 45]
+  localization "odom"
+  localization_origin [0 0 0 0]
+  odom_error [0 0 0 0]
+  ranger
+  (
+    size [0.156 0.155 0.19]
+    sensor ( range [0 8] fov 180 samples 361 pose [0 0 0.1 0] )
+  )
+  actuator ( type "linear" axis [1 0 0] min_position 0 max_position 0.5 max_speed 1 )
+)
+model ( name "wall" size [0.2 20 1] pose [-4 -6.947 0 0] )
+"#;
+
+fn first_body(out: &[Publication]) -> &Body {
+    &out.first().expect("a publication").body
+}
+
+#[test]
+fn odometry_starts_at_the_world_pose_under_a_zero_localization_origin() {
+    use player_proto::{Position2dData, Position2dSetOdomReq};
+    let p = addr(InterfaceCode::POSITION2D, 0);
+    let mut s = setup_on(
+        world_file_with("odomstart", PIONEER_WORLD),
+        &[(InterfaceCode::POSITION2D, 0)],
+    );
+    s.robot.subscribe(p).unwrap();
+    let pose = |out: &[Publication]| match first_body(out) {
+        Body::Position2d(Position2dMsg::Data(Position2dData::State(st))) => st.pos,
+        other => panic!("{other:?}"),
+    };
+    let start = pose(&step(&mut s));
+    assert!(
+        (start.px + 6.946).abs() < 1e-9
+            && (start.py + 6.947).abs() < 1e-9
+            && (start.pa - std::f64::consts::FRAC_PI_4).abs() < 1e-9,
+        "{start:?}"
+    );
+    // SET_ODOM and RESET_ODOM move the estimate for good (odom mode)
+    let set = Position2dReq::SetOdom(Some(Position2dSetOdomReq {
+        pose: player_proto::Pose2d {
+            px: 1.0,
+            py: -1.0,
+            pa: 0.25,
+        },
+    }));
+    assert_eq!(request(&mut s.robot, p, set), Reply::empty_ack());
+    step(&mut s);
+    let after = pose(&step(&mut s));
+    assert_eq!((after.px, after.py, after.pa), (1.0, -1.0, 0.25));
+    assert_eq!(
+        request(&mut s.robot, p, Position2dReq::ResetOdom),
+        Reply::empty_ack()
+    );
+    let reset = pose(&step(&mut s));
+    assert_eq!((reset.px, reset.py, reset.pa), (0.0, 0.0, 0.0));
+}
+
+#[test]
+fn actarray_reports_a_position_goal_clamped_to_the_joint_limits() {
+    use player_proto::constants::{PLAYER_ACTARRAY_ACTSTATE_IDLE, PLAYER_ACTARRAY_ACTSTATE_MOVING};
+    use player_proto::{
+        ActarrayCmd, ActarrayData, ActarrayMsg, ActarrayPositionCmd, ActarraySpeedCmd,
+    };
+    let a = addr(InterfaceCode::ACTARRAY, 0);
+    let mut s = setup_on(
+        world_file_with("actlimits", PIONEER_WORLD),
+        &[(InterfaceCode::ACTARRAY, 0)],
+    );
+    s.robot.subscribe(a).unwrap();
+    let joint = |out: &[Publication]| match first_body(out) {
+        Body::Actarray(ActarrayMsg::Data(ActarrayData::State(st))) => st.actuators[0].clone(),
+        other => panic!("{other:?}"),
+    };
+    let send = |s: &mut Setup, cmd: ActarrayCmd| {
+        command(&mut s.robot, a, cmd);
+        joint(&step(s))
+    };
+    let pos = |position| ActarrayCmd::Pos(ActarrayPositionCmd { joint: 0, position });
+    let above = send(&mut s, pos(1.0));
+    assert_eq!(
+        (above.speed, above.state),
+        (0.5, PLAYER_ACTARRAY_ACTSTATE_MOVING)
+    );
+    let below = send(&mut s, pos(-0.3));
+    assert_eq!(
+        (below.speed, below.state),
+        (0.0, PLAYER_ACTARRAY_ACTSTATE_IDLE)
+    );
+    // max_speed bounds the motion Stage computes, not the reported speed goal
+    let fast = send(
+        &mut s,
+        ActarrayCmd::Speed(ActarraySpeedCmd {
+            joint: 0,
+            speed: 3.0,
+        }),
+    );
+    assert_eq!((fast.speed, fast.acceleration), (3.0, 0.0));
+}
+
+#[test]
+fn laser_on_a_ranger_answers_sick_configuration_requests() {
+    use player_proto::{LaserConfig, LaserData, LaserMsg, LaserReq};
+    let l = addr(InterfaceCode::LASER, 0);
+    let mut s = setup_on(
+        world_file_with("lasercfg", PIONEER_WORLD),
+        &[(InterfaceCode::LASER, 0)],
+    );
+    s.robot.subscribe(l).unwrap();
+    let Reply::Ack(Some(Body::Laser(LaserMsg::Req(LaserReq::GetGeom(Some(g)))))) =
+        request(&mut s.robot, l, LaserReq::GetGeom(None))
+    else {
+        panic!("no geometry")
+    };
+    assert_eq!((g.size.sl, g.size.sw), (0.156, 0.155), "the ranger's size");
+    let get = |s: &mut Setup| match request(&mut s.robot, l, LaserReq::GetConfig(None)) {
+        Reply::Ack(Some(Body::Laser(LaserMsg::Req(LaserReq::GetConfig(Some(c)))))) => c,
+        other => panic!("{other:?}"),
+    };
+    let whole = get(&mut s);
+    assert!(
+        (whole.resolution.to_degrees() - 0.5).abs() < 1e-4,
+        "{whole:?}"
+    );
+    assert!((whole.max_angle.to_degrees() - 90.0).abs() < 1e-4);
+    assert_eq!(whole.intensity, 1);
+    assert!(
+        (whole.range_res - 0.02).abs() < 1e-7,
+        "the world's resolution"
+    );
+
+    let wanted = LaserConfig {
+        min_angle: (-45f32).to_radians(),
+        max_angle: 45f32.to_radians(),
+        resolution: 1f32.to_radians(),
+        max_range: f32::NAN,
+        range_res: 0.1,
+        intensity: 0,
+        scanning_frequency: f32::NAN,
+    };
+    let Reply::Ack(Some(Body::Laser(LaserMsg::Req(LaserReq::SetConfig(Some(applied)))))) =
+        request(&mut s.robot, l, LaserReq::SetConfig(Some(wanted.clone())))
+    else {
+        panic!("SET_CONFIG refused")
+    };
+    assert_eq!(applied, get(&mut s));
+    assert!(
+        (applied.min_angle.to_degrees() + 45.0).abs() < 1e-4,
+        "{applied:?}"
+    );
+    assert!((applied.resolution.to_degrees() - 1.0).abs() < 1e-4);
+    assert_eq!((applied.range_res, applied.intensity), (0.1, 0));
+    assert_eq!(applied.max_range, 8.0, "the worldfile's");
+
+    let out = step(&mut s);
+    let Body::Laser(LaserMsg::Data(LaserData::Scan(scan))) = first_body(&out) else {
+        panic!("{out:?}")
+    };
+    assert_eq!(scan.ranges.len(), 91);
+    assert_eq!(scan.intensity, vec![0; 91]);
+    assert_eq!(
+        (scan.min_angle, scan.resolution),
+        (applied.min_angle, applied.resolution)
+    );
+    // Ranges in whole 0.1 m units; the first ray (-45° on a robot facing 45°) runs along +x to
+    // the wall's face 2.846 m away.
+    assert!(
+        scan.ranges
+            .iter()
+            .all(|&r| ((r * 10.0).round() - r * 10.0).abs() < 1e-4),
+        "{:?}",
+        scan.ranges
+    );
+    assert!((scan.ranges[0] - 2.8).abs() < 1e-4, "{}", scan.ranges[0]);
+
+    // Finer than the rays: refused, and the configuration stays.
+    let finer = LaserConfig {
+        resolution: 0.25f32.to_radians(),
+        ..wanted
+    };
+    assert_eq!(
+        request(&mut s.robot, l, LaserReq::SetConfig(Some(finer))),
+        Reply::Nack
+    );
+    assert_eq!(get(&mut s), applied);
+}

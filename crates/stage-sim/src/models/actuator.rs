@@ -21,7 +21,9 @@ pub struct ActuatorData {
     pub time_us: u64,
     /// Joint position (projection of the pose on the axis, or the heading).
     pub position: f64,
-    /// The goal (Stage reports the goal as the speed).
+    /// The goal, which Stage reports as the speed: a position goal clamped to
+    /// `[min_position, max_position]`, a speed goal as commanded (`max_speed` bounds only the
+    /// computed velocity).
     pub speed: f64,
     /// Velocity Stage computes (and does not apply).
     pub computed_velocity: f64,
@@ -53,23 +55,40 @@ impl ActuatorModel {
         }
     }
 
-    /// One update from the model's local pose.
+    /// One update (of a subscribed model) from the model's local pose, as Stage's
+    /// `ModelActuator::Update`: a position goal is clamped to the position limits for good
+    /// (and reported so), the velocity towards the goal to `max_speed`.
     pub fn update(&mut self, pose: &Pose, time_us: u64) {
         let c = &self.cfg;
         let pos = match c.kind {
             ActuatorKind::Linear => pose.x * c.axis[0] + pose.y * c.axis[1] + pose.z * c.axis[2],
             ActuatorKind::Rotational => pose.a,
         };
-        let vel = match self.mode {
+        let wanted = match self.mode {
             ActuatorMode::Velocity => {
-                let v = self.goal.clamp(-c.max_speed, c.max_speed);
-                if (pos <= c.min_position && v < 0.0) || (pos >= c.max_position && v > 0.0) {
+                let g = self.goal;
+                if (pos <= c.min_position && g < 0.0) || (pos >= c.max_position && g > 0.0) {
                     0.0
                 } else {
-                    v
+                    g
                 }
             }
-            ActuatorMode::Position => (self.goal - pos).clamp(-c.max_speed, c.max_speed),
+            ActuatorMode::Position => {
+                // in Stage's order: below the minimum first (so min wins if min > max)
+                if self.goal < c.min_position {
+                    self.goal = c.min_position;
+                } else if self.goal > c.max_position {
+                    self.goal = c.max_position;
+                }
+                self.goal - pos
+            }
+        };
+        let vel = if wanted < -c.max_speed {
+            -c.max_speed
+        } else if wanted > c.max_speed {
+            c.max_speed
+        } else {
+            wanted
         };
         self.data = ActuatorData {
             time_us,
@@ -78,5 +97,75 @@ impl ActuatorModel {
             computed_velocity: vel,
             moving: self.goal != 0.0,
         };
+    }
+
+    /// The last subscriber left: Stage zeroes the goal (the control mode stays).
+    pub fn shutdown(&mut self) {
+        self.goal = 0.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn joint(min: f64, max: f64, max_speed: f64) -> ActuatorModel {
+        ActuatorModel::new(ActuatorDesc {
+            kind: ActuatorKind::Linear,
+            axis: [1.0, 0.0, 0.0],
+            min_position: min,
+            max_position: max,
+            max_speed,
+            start_position: 0.0,
+        })
+    }
+
+    #[test]
+    fn a_position_goal_is_clamped_to_the_limits_and_reported_clamped() {
+        let mut a = joint(0.0, 0.5, 1.0);
+        a.mode = ActuatorMode::Position;
+        a.goal = 1.0;
+        a.update(&Pose::ZERO, 100);
+        assert_eq!(a.goal, 0.5, "the goal itself is clamped");
+        assert_eq!(a.data.speed, 0.5);
+        assert_eq!(a.data.computed_velocity, 0.5);
+        assert!(a.data.moving);
+        a.goal = -2.0;
+        a.update(&Pose::ZERO, 200);
+        assert_eq!((a.data.speed, a.data.computed_velocity), (0.0, 0.0));
+        assert!(!a.data.moving, "clamped to 0: idle");
+        // the joint does not move in Stage 4.1.1: the position stays where the pose puts it
+        assert_eq!(a.data.position, 0.0);
+    }
+
+    #[test]
+    fn max_speed_bounds_the_velocity_not_the_reported_goal() {
+        let mut a = joint(-1.0, 1.0, 0.25);
+        a.mode = ActuatorMode::Velocity;
+        a.goal = 3.0;
+        a.update(&Pose::ZERO, 100);
+        assert_eq!(a.data.speed, 3.0);
+        assert_eq!(a.data.computed_velocity, 0.25);
+        a.mode = ActuatorMode::Position;
+        a.goal = -0.8;
+        a.update(&Pose::ZERO, 200);
+        assert_eq!((a.data.speed, a.data.computed_velocity), (-0.8, -0.25));
+    }
+
+    #[test]
+    fn a_speed_goal_stops_at_a_limit_it_pushes_against() {
+        let mut a = joint(0.0, 0.5, 1.0);
+        a.mode = ActuatorMode::Velocity;
+        a.goal = -0.5;
+        a.update(&Pose::ZERO, 100);
+        assert_eq!(a.data.computed_velocity, 0.0, "at the minimum, moving down");
+        assert_eq!(a.data.speed, -0.5, "the goal is reported as commanded");
+        a.goal = 0.5;
+        a.update(&Pose::ZERO, 200);
+        assert_eq!(a.data.computed_velocity, 0.5);
+        a.shutdown();
+        a.update(&Pose::ZERO, 300);
+        assert_eq!(a.data.speed, 0.0);
+        assert!(!a.data.moving);
     }
 }

@@ -64,21 +64,42 @@ fn clamp(v: f64, lo: f64, hi: f64) -> f64 {
     }
 }
 
+/// `global` expressed in the localization frame whose origin is `origin` (Stage's GPS
+/// estimate, and every model's estimate at load). The estimate has no height.
+pub fn estimate_in_frame(origin: &Pose, global: &Pose) -> Pose {
+    Pose {
+        z: 0.0,
+        ..origin.relative(global)
+    }
+}
+
 impl PositionModel {
-    /// A model at rest with its localization origin and odometry error factors resolved.
-    pub fn new(cfg: PositionDesc, est_origin: Pose, odom_error: [f64; 4]) -> PositionModel {
+    /// A model at rest at global pose `global`, with its localization origin and odometry
+    /// error factors resolved. As Stage's load does, the estimate starts at the global pose
+    /// expressed in the origin's frame whatever the localization mode: zero when the origin
+    /// defaults to the start pose, the world pose under `localization_origin [0 0 0 0]`.
+    pub fn new(
+        cfg: PositionDesc,
+        global: &Pose,
+        est_origin: Pose,
+        odom_error: [f64; 4],
+    ) -> PositionModel {
         let velocity = cfg.velocity;
+        let est = estimate_in_frame(&est_origin, global);
         PositionModel {
             cfg,
             mode: ControlMode::Velocity,
             goal: Pose::ZERO,
             velocity,
-            est: Pose::ZERO,
+            est,
             est_origin,
             odom_error,
             stall: false,
             watts: 0.0,
-            data: PositionData::default(),
+            data: PositionData {
+                pose: est,
+                ..PositionData::default()
+            },
         }
     }
 
@@ -188,18 +209,7 @@ impl PositionModel {
         self.velocity = v;
 
         match self.cfg.localization {
-            Localization::Gps => {
-                let o = &self.est_origin;
-                let (s, c) = o.a.sin_cos();
-                let dx = global.x - o.x;
-                let dy = global.y - o.y;
-                self.est = Pose {
-                    x: dx * c + dy * s,
-                    y: -dx * s + dy * c,
-                    z: 0.0,
-                    a: normalize(global.a - o.a),
-                };
-            }
+            Localization::Gps => self.est = estimate_in_frame(&self.est_origin, global),
             Localization::Odom => {
                 let e = &self.odom_error;
                 self.est.a = normalize(self.est.a + v.a * dt * (1.0 + e[3]));
@@ -239,7 +249,8 @@ impl PositionModel {
         self.data.stall = stall;
     }
 
-    /// Player SET_ODOM: sets the estimate (lasting only in odom mode, spec §7.8).
+    /// Player SET_ODOM / RESET_ODOM: sets the estimate only, as Stage's plugin does (not the
+    /// origin, so the next GPS update overwrites it; in odom mode it lasts, spec §7.8).
     pub fn set_odom(&mut self, p: Pose) {
         self.est = p;
         self.data.pose = p;
@@ -249,6 +260,7 @@ impl PositionModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 
     fn model(drive: Drive) -> PositionModel {
         PositionModel::new(
@@ -256,6 +268,7 @@ mod tests {
                 drive,
                 ..PositionDesc::default()
             },
+            &Pose::ZERO,
             Pose::ZERO,
             [0.0; 4],
         )
@@ -294,6 +307,50 @@ mod tests {
             "lateral motion is integrated negated: {:?}",
             p.est
         );
+    }
+
+    #[test]
+    fn the_estimate_starts_at_the_global_pose_in_the_origin_frame() {
+        let global = Pose::new(-6.946, -6.947, 0.3, FRAC_PI_4);
+        let at = |origin: Pose| {
+            PositionModel::new(PositionDesc::default(), &global, origin, [0.0; 4]).est
+        };
+        // localization_origin [0 0 0 0]: the world pose (no height)
+        assert_eq!(at(Pose::ZERO), Pose { z: 0.0, ..global });
+        // no localization_origin: the origin is the start pose, so the estimate is zero
+        let own = at(global);
+        assert!(own.x.abs() < 1e-12 && own.y.abs() < 1e-12 && own.a.abs() < 1e-12);
+        // a rotated, shifted origin: the start pose seen from it
+        let o = at(Pose::new(1.0, 2.0, 0.0, FRAC_PI_2));
+        let (dx, dy) = (-6.946 - 1.0, -6.947 - 2.0);
+        assert!(
+            (o.x - dy).abs() < 1e-12 && (o.y + dx).abs() < 1e-12,
+            "{o:?}"
+        );
+        assert!((o.a - (FRAC_PI_4 - FRAC_PI_2)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn odometry_integrates_from_the_start_estimate_and_keeps_set_odom() {
+        let global = Pose::new(3.0, -2.0, 0.0, FRAC_PI_2);
+        let cfg = PositionDesc {
+            localization: Localization::Odom,
+            ..PositionDesc::default()
+        };
+        let mut p = PositionModel::new(cfg, &global, Pose::ZERO, [0.0; 4]);
+        assert_eq!(p.data.pose, p.est, "published before the first update too");
+        p.command_velocity(1.0, 0.0, 0.0);
+        p.update(&global, 0.5, 0.0, 0);
+        // half a metre along the heading (+y), from (3, -2)
+        assert!((p.est.x - 3.0).abs() < 1e-12 && (p.est.y + 1.5).abs() < 1e-12);
+        p.set_odom(Pose::new(1.0, 1.0, 0.0, 0.0));
+        p.update(&global, 0.5, 0.0, 0);
+        assert!((p.est.x - 1.5).abs() < 1e-12 && (p.est.y - 1.0).abs() < 1e-12);
+        // GPS mode recomputes from the origin: SET_ODOM does not last
+        p.cfg.localization = Localization::Gps;
+        p.set_odom(Pose::ZERO);
+        p.update(&global, 0.5, 0.0, 0);
+        assert_eq!(p.est, Pose { z: 0.0, ..global });
     }
 
     #[test]

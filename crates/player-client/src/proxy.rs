@@ -877,10 +877,15 @@ impl MapProxy {
         };
         let reply = self.request(MapReq::GetData(Some(want)))?;
         let zipped = ack_body!(self, reply,
-            Body::Map(MapMsg::Ack(MapReq::GetData(Some(t)))) => t.data,
+            Body::Map(MapMsg::Ack(MapReq::GetData(Some(t)))) => t,
             "map GET_DATA")?;
         let cells = width as usize * height as usize;
-        inflate(&zipped, cells).ok_or_else(|| {
+        let zipped = MapTile {
+            width,
+            height,
+            ..zipped
+        };
+        zipped.unzipped().map(|t| t.data).ok_or_else(|| {
             self.bad_reply(&format!(
                 "map GET_DATA ({col},{row}) {width} x {height}: cells that do not inflate to \
                  {cells} bytes"
@@ -914,36 +919,9 @@ impl MapProxy {
     }
 }
 
-/// Inflates a zlib stream that must hold exactly `len` bytes (reading at most one more, so a
-/// hostile stream cannot make us allocate more).
-fn inflate(zipped: &[i8], len: usize) -> Option<Vec<i8>> {
-    use std::io::Read;
-    let bytes: Vec<u8> = zipped.iter().map(|&b| b as u8).collect();
-    let mut out = Vec::with_capacity(len);
-    flate2::read::ZlibDecoder::new(&bytes[..])
-        .take(len as u64 + 1)
-        .read_to_end(&mut out)
-        .ok()?;
-    (out.len() == len).then(|| out.into_iter().map(|b| b as i8).collect())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn inflate_wants_exactly_the_tile() {
-        use std::io::Write;
-        let cells: Vec<u8> = (0..600u32).map(|k| [255, 0, 1][(k % 3) as usize]).collect();
-        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::new(6));
-        z.write_all(&cells).unwrap();
-        let z: Vec<i8> = z.finish().unwrap().into_iter().map(|b| b as i8).collect();
-        let back = inflate(&z, 600).unwrap();
-        assert_eq!(back[..3], [-1, 0, 1]);
-        assert_eq!(inflate(&z, 599), None);
-        assert_eq!(inflate(&z, 601), None);
-        assert_eq!(inflate(&[1, 2, 3], 3), None);
-    }
 
     #[test]
     fn map_cells_are_indexed_row_by_row() {

@@ -26,8 +26,6 @@
 //! ([`MAX_TILE_CELLS`]), or whose size overflows 32 bits, is refused with a NACK instead of
 //! being allocated; the off-map warning is logged once per request, not once per cell.
 
-use flate2::Compression;
-use flate2::write::ZlibEncoder;
 use player_proto::constants::PLAYERXDR_MAX_MESSAGE_SIZE;
 use player_proto::{Body, InterfaceCode, MapInfo, MapMsg, MapReq, MapTile, MsgHeader, MsgType};
 use player_proto::{Pose2d, Xdr};
@@ -279,24 +277,10 @@ pub(crate) fn tcp_body(raw: &[u8]) -> Option<Vec<u8>> {
     if !r.is_empty() {
         return None;
     }
-    let cells: Vec<u8> = tile.data.iter().map(|&c| c as u8).collect();
-    let zipped = compress(&cells);
-    let wire = MapTile {
-        data: zipped.into_iter().map(|b| b as i8).collect(),
-        ..tile
-    };
+    let wire = tile.zipped();
     let mut out = Vec::with_capacity(raw.len().min(64 + wire.data.len()));
     wire.encode(&mut out).ok()?;
     Some(out)
-}
-
-/// zlib's `compress()`: a zlib stream (RFC 1950) at the default level, 6.
-fn compress(bytes: &[u8]) -> Vec<u8> {
-    use std::io::Write;
-    let mut z = ZlibEncoder::new(Vec::new(), Compression::new(6));
-    // Writing into a Vec cannot fail.
-    z.write_all(bytes).expect("compressing into memory");
-    z.finish().expect("compressing into memory")
 }
 
 #[cfg(test)]
@@ -427,21 +411,6 @@ mod tests {
     }
 
     #[test]
-    fn compressed_cells_inflate_to_the_tile() {
-        use std::io::Read;
-        let cells: Vec<u8> = (0..5000u32)
-            .map(|k| [255u8, 0, 1][(k / 7 % 3) as usize])
-            .collect();
-        let z = compress(&cells);
-        assert!(z.len() < cells.len() / 10);
-        let mut back = Vec::new();
-        flate2::read::ZlibDecoder::new(&z[..])
-            .read_to_end(&mut back)
-            .unwrap();
-        assert_eq!(back, cells);
-    }
-
-    #[test]
     fn only_map_get_data_acks_are_tile_replies() {
         use player_proto::DeviceAddr;
         let addr = |interf| DeviceAddr::new(0, 6665, interf, 0);
@@ -461,7 +430,6 @@ mod tests {
     fn tile_replies_are_compressed_on_their_way_to_a_client() {
         use crate::queue::Outgoing;
         use player_proto::{DecodeLimits, DeviceAddr, Frame, HEADER_SIZE, Message};
-        use std::io::Read;
         let addr = DeviceAddr::new(0, 6665, InterfaceCode::MAP, 0);
         let cells: Vec<i8> = (0..4000)
             .map(|k| (k % 5 == 0) as i8 - (k % 7 == 0) as i8)
@@ -491,13 +459,7 @@ mod tests {
             (3, 4, 80, 50)
         );
         assert!(wire.data.len() < 400, "{} bytes", wire.data.len());
-        let zipped: Vec<u8> = wire.data.iter().map(|&b| b as u8).collect();
-        let mut raw = Vec::new();
-        flate2::read::ZlibDecoder::new(&zipped[..])
-            .read_to_end(&mut raw)
-            .unwrap();
-        let raw: Vec<i8> = raw.into_iter().map(|b| b as i8).collect();
-        assert_eq!(raw, cells);
+        assert_eq!(wire.unzipped().unwrap().data, cells);
         // Other map replies are sent as they are.
         let info = Message::new(
             addr,

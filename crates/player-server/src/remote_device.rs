@@ -13,7 +13,7 @@ use std::net::Ipv4Addr;
 use std::sync::{Arc, Mutex};
 
 use player_proto::constants::PLAYER_OPEN_MODE;
-use player_proto::{DeviceAddr, Message};
+use player_proto::{Body, DeviceAddr, MapMsg, MapReq, Message};
 
 use crate::driver::{Context, Driver, DriverError, PendingReply, Reply, RequiredDevice};
 use crate::remote::{RemoteEvent, RemoteLink, RequestTicket};
@@ -117,8 +117,15 @@ impl Driver for RemoteDevice {
                     let Some(pending) = self.waiting.remove(&ticket) else {
                         continue;
                     };
-                    let reply = match result {
-                        Ok(ack) => Reply::Ack(ack.body.has_body().then_some(ack.body)),
+                    let reply = match result.map(unzip_map_tile) {
+                        Ok(Some(ack)) => Reply::Ack(ack.body.has_body().then_some(ack.body)),
+                        Ok(None) => {
+                            tracing::warn!(
+                                "remote device {}: a map tile whose cells do not inflate; NACK",
+                                self.addr
+                            );
+                            Reply::Nack
+                        }
                         Err(e) => {
                             tracing::warn!("{e}");
                             Reply::Nack
@@ -154,5 +161,19 @@ impl Driver for RemoteDevice {
         if let Some((link, _)) = &self.link {
             link.command(command.body.clone());
         }
+    }
+}
+
+/// A map GET_DATA ACK read from TCP carries its cells zlib-compressed (Player's TCP layer
+/// compresses them): inside this server cells are raw, so they are inflated here (and
+/// compressed again on their way to a TCP client). Anything else passes unchanged; `None` is a
+/// tile that does not inflate.
+fn unzip_map_tile(ack: Message) -> Option<Message> {
+    match &ack.body {
+        Body::Map(MapMsg::Ack(MapReq::GetData(Some(tile)))) => {
+            let body = Body::Map(MapMsg::Ack(MapReq::GetData(Some(tile.unzipped()?))));
+            Some(Message { body, ..ack })
+        }
+        _ => Some(ack),
     }
 }

@@ -50,6 +50,43 @@ xdr_struct! {
 /// 640 × 640 cells at a time.
 pub const MAP_TILE_SIZE: u32 = 640;
 
+impl MapTile {
+    /// The tile as it travels over TCP in a GET_DATA ACK: its cells replaced by their zlib
+    /// stream (zlib's `compress()`, level 6) and `data_count` the stream's length, as Player's
+    /// TCP layer sends it and libplayerc inflates it. Part of the wire format, so it lives here,
+    /// beside the struct.
+    pub fn zipped(&self) -> MapTile {
+        use std::io::Write;
+        let cells: Vec<u8> = self.data.iter().map(|&c| c as u8).collect();
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::new(6));
+        // Writing into a Vec cannot fail.
+        z.write_all(&cells).expect("compressing into memory");
+        let zipped = z.finish().expect("compressing into memory");
+        MapTile {
+            data: zipped.into_iter().map(|b| b as i8).collect(),
+            ..self.clone()
+        }
+    }
+
+    /// The tile with its zlib-compressed cells inflated (a GET_DATA ACK read from TCP), or
+    /// `None` when they do not inflate to exactly `width × height` cells. At most one cell
+    /// more is ever read, so a hostile stream cannot make the reader allocate more.
+    pub fn unzipped(&self) -> Option<MapTile> {
+        use std::io::Read;
+        let len = (self.width as usize).checked_mul(self.height as usize)?;
+        let bytes: Vec<u8> = self.data.iter().map(|&b| b as u8).collect();
+        let mut out = Vec::with_capacity(len);
+        flate2::read::ZlibDecoder::new(&bytes[..])
+            .take(len as u64 + 1)
+            .read_to_end(&mut out)
+            .ok()?;
+        (out.len() == len).then(|| MapTile {
+            data: out.into_iter().map(|b| b as i8).collect(),
+            ..self.clone()
+        })
+    }
+}
+
 impl MapInfo {
     /// The GET_DATA requests (tiles without cells) that fetch this whole map, in the order
     /// libplayerc sends them: [`MAP_TILE_SIZE`] squares, smaller at the right and top edges,
@@ -70,6 +107,35 @@ impl MapInfo {
                 }
             })
         })
+    }
+}
+
+#[cfg(test)]
+mod zlib_tests {
+    use super::*;
+
+    fn tile(width: u32, height: u32, data: Vec<i8>) -> MapTile {
+        MapTile {
+            col: 0,
+            row: 0,
+            width,
+            height,
+            data,
+        }
+    }
+
+    #[test]
+    fn zipped_cells_unzip_to_exactly_the_tile() {
+        let cells: Vec<i8> = (0..5000u32)
+            .map(|k| [-1i8, 0, 1][(k / 7 % 3) as usize])
+            .collect();
+        let z = tile(100, 50, cells.clone()).zipped();
+        assert!(z.data.len() < cells.len() / 10, "{} bytes", z.data.len());
+        assert_eq!(z.unzipped().unwrap().data, cells);
+        // One cell more or less than the tile holds, or no zlib stream at all: refused.
+        assert_eq!(tile(100, 49, z.data.clone()).unzipped(), None);
+        assert_eq!(tile(101, 50, z.data.clone()).unzipped(), None);
+        assert_eq!(tile(1, 3, vec![1, 2, 3]).unzipped(), None);
     }
 }
 

@@ -37,4 +37,5 @@ pub fn register_all(registry: &mut DriverRegistry) {
     shell::passthrough::register(registry);
     laser::laserposeinterpolator::register(registry);
     map::mapfile::register(registry);
+    map::transform::register(registry);
 }

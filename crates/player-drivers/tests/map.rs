@@ -227,3 +227,55 @@ fn a_mapfile_block_without_its_image_stops_the_server_naming_the_block() {
     assert!(err.contains("nowhere.png"), "{err}");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// `mapscale` and `mapcspace` read their source map from another device of the cfg (here a
+/// `mapfile` written after them) through the server, and serve it transformed: what the client
+/// reads equals the transform applied to the source map it reads directly.
+#[test]
+fn mapscale_and_mapcspace_serve_their_source_transformed() {
+    use player_drivers::map::{mapcspace, mapscale};
+    use player_server::map::OccupancyGrid;
+    let dir = scratch("transform");
+    let (w, h) = (700u32, 660u32);
+    GrayImage::from_fn(w, h, |x, y| Luma([shade(x, y)]))
+        .save(dir.join("squares.png"))
+        .unwrap();
+    let cfg = dir.join("transform.cfg");
+    std::fs::write(
+        &cfg,
+        "driver( name \"mapscale\" provides [\"map:2\"] requires [\"map:0\"] resolution 0.25 )\n\
+         driver( name \"mapcspace\" provides [\"map:3\"] requires [\"map:2\"] robot_radius 0.5 )\n\
+         driver( name \"mapfile\" provides [\"map:0\"] filename \"squares.png\" resolution 0.1 )\n",
+    )
+    .unwrap();
+    let (handle, port) = serve(&cfg);
+    let client = PlayerClient::connect("localhost", port).unwrap();
+    let grid = |m: &OccupancyMap| {
+        OccupancyGrid::from_cells(
+            m.info.width,
+            m.info.height,
+            m.info.scale,
+            m.info.origin,
+            m.cells.clone(),
+        )
+        .unwrap()
+    };
+    let source = MapProxy::new(&client, 0).unwrap().get_map().unwrap();
+    let scaled = MapProxy::new(&client, 2).unwrap().get_map().unwrap();
+    let expected = mapscale::scale(&grid(&source), 0.25).unwrap();
+    assert_eq!((scaled.info.width, scaled.info.height), (280, 264));
+    assert_eq!(scaled.info.scale, 0.25);
+    assert_eq!(scaled.info.origin, source.info.origin);
+    assert_eq!(scaled.cells, expected.cells());
+    // A chain of two transforms: the C-space of the scaled map.
+    let cspace = MapProxy::new(&client, 3).unwrap().get_map().unwrap();
+    let expected = mapcspace::cspace(&expected, 0.5);
+    assert_eq!(cspace.cells, expected.cells());
+    assert!(
+        cspace.cells.iter().filter(|&&c| c == 1).count()
+            > scaled.cells.iter().filter(|&&c| c == 1).count(),
+        "obstacles grew"
+    );
+    drop(client);
+    handle.shutdown();
+}

@@ -6,8 +6,8 @@
 //! (GET_INFO, then 640 × 640 tiles, [`player_proto::MapInfo::tile_requests`]) when it is set
 //! up, transforms it with [`cspace`] and answers GET_INFO/GET_DATA from the result with
 //! [`player_server::map::answer`] (other requests NACK). This module holds the algorithm and
-//! the options ([`CspaceOptions::from_block`]); the `Driver` that reads its source map through
-//! the server is wired where the server can give a driver another device's map.
+//! the options ([`CspaceOptions::from_block`]); the driver that fetches the source map and serves
+//! the result is [`super::transform::MapTransform`].
 //!
 //! cfg options:
 //! * `robot_radius` (required): the robot's radius (m).

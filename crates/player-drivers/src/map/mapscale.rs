@@ -5,8 +5,8 @@
 //! (GET_INFO, then 640 × 640 tiles, [`player_proto::MapInfo::tile_requests`]) when it is set
 //! up, transforms it with [`scale`] and answers GET_INFO/GET_DATA from the result with
 //! [`player_server::map::answer`] (other requests NACK). This module holds the algorithm and
-//! the options ([`ScaleOptions::from_block`]); the `Driver` that reads its source map through
-//! the server is wired where the server can give a driver another device's map.
+//! the options ([`ScaleOptions::from_block`]); the driver that fetches the source map and serves
+//! the result is [`super::transform::MapTransform`].
 //!
 //! cfg option: `resolution` (required): the new scale, metres per cell. Player prints an error
 //! when it is missing and then computes a map of negative size; we refuse the block.

@@ -4,3 +4,4 @@
 pub mod mapcspace;
 pub mod mapfile;
 pub mod mapscale;
+pub mod transform;

@@ -7,7 +7,8 @@
 //! * [`laser`] — `laserposeinterpolator`: scans stamped with the pose they were taken from;
 //! * [`map`] — `mapfile` (a map read from an image), `mapscale` (resampled to another
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
-//! * [`shell`] — `passthrough`: devices served under another address (local or remote).
+//! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
+//!   `relay` (clients' opaque messages echoed to every subscriber).
 //!
 //! These drivers use other devices through the server's bus ([`player_server::Context`]):
 //! they subscribe in `setup`, convert the DATA they receive, and answer a client's request by
@@ -35,6 +36,7 @@ pub fn register_all(registry: &mut DriverRegistry) {
     ranger::lasertoranger::register(registry);
     ranger::sonartoranger::register(registry);
     shell::passthrough::register(registry);
+    shell::relay::register(registry);
     laser::laserposeinterpolator::register(registry);
     map::mapfile::register(registry);
     map::transform::register(registry);

@@ -287,6 +287,20 @@ message_table! {
         }
     }
 
+    /// Messages of the `opaque` interface (51): the same struct for data, commands and
+    /// requests.
+    interface Opaque (OpaqueMsg) = OPAQUE {
+        data OpaqueDataMsg {
+            1 STATE State(OpaqueData),
+        }
+        cmd OpaqueCmd {
+            1 DATA Data(OpaqueData),
+        }
+        req OpaqueReq {
+            1 DATA Data(OpaqueData),
+        }
+    }
+
     /// Messages of the `bumper` interface (14).
     interface Bumper (BumperMsg) = BUMPER {
         data BumperData {
@@ -612,7 +626,7 @@ mod tests {
         }
         let interfaces: std::collections::BTreeSet<u16> =
             rows.iter().map(|r| r.interface.0).collect();
-        assert_eq!(interfaces.len(), 22, "{interfaces:?}");
+        assert_eq!(interfaces.len(), 23, "{interfaces:?}");
     }
 
     #[test]

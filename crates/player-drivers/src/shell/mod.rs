@@ -2,3 +2,4 @@
 //! hardware.
 
 pub mod passthrough;
+pub mod relay;

@@ -81,7 +81,7 @@ mod tests {
         let dev = addr(InterfaceCode::OPAQUE, 0);
         let out = h.command(dev, OpaqueCmd::Data(bytes.clone()));
         let echoed = Body::from(OpaqueDataMsg::State(bytes.clone()));
-        assert_eq!(out.bodies(), [echoed.clone()]);
+        assert_eq!(out.bodies(), std::slice::from_ref(&echoed));
         let (reply, _, out) = h.request(dev, OpaqueReq::Data(Some(bytes.clone())));
         assert_eq!(reply, Reply::empty_ack());
         assert_eq!(out.bodies(), [echoed]);

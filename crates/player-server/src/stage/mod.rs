@@ -8,9 +8,11 @@
 //! `provides` order, each time the bound model produced a new sample (that is, at the model's
 //! `update_interval`), stamped with the sample's simulated time.
 //!
-//! Devices bind to models by [`worldfile::check::bind_stage_model`] (the same rule `player
-//! --check` reports): the first unbound model of the interface's type in the named model's
-//! subtree. One file per interface holds its requests, commands and data.
+//! The interfaces the driver serves are listed once, in `Kind::of`, each with its binding rule
+//! beside it (`Kind::binding`). Devices bind to models by [`binding::bind_stage_model`]: the
+//! first unbound model of the interface's type in the named model's subtree. What each device
+//! was bound to (or why not) is kept in the [`StageHandle`] ([`StageHandle::devices`]), which is
+//! what `player --check` reports. One file per interface holds its requests, commands and data.
 //!
 //! Where we differ from Stage 4.1.1, on purpose:
 //! * model subscriptions are reference counted: a model stays subscribed until the *last*
@@ -26,6 +28,7 @@
 //! returned by [`register`] hands it (and the clients' graphics) to a world window.
 
 mod actarray;
+pub mod binding;
 mod camera;
 mod fiducial;
 pub mod graphics;
@@ -46,10 +49,15 @@ use std::time::Duration;
 
 use player_proto::{Body, DeviceAddr, InterfaceCode, Message, Pose3d};
 use stage_sim::{ModelId, Pose, World};
-use worldfile::check::{StageBinding, bind_stage_model, stage_binding};
-use worldfile::{LoadOptions, WorldSpec};
+use worldfile::{LoadOptions, ModelType, WorldSpec};
 
-use crate::driver::{ClientId, Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply};
+use crate::driver::{
+    ClientId, Context, Driver, DriverBlock, DriverError, DriverRegistry, ProvidedDevice, Reply,
+};
+pub use binding::{
+    BindError, BindErrorKind, DeviceBinding, DeviceRecord, RangerShape, StageBinding,
+    bind_stage_model, stage_binding,
+};
 pub use graphics::{Drawings, Figure, SharedDrawings};
 
 /// The simulated world, shared between the server (which steps it) and viewers.
@@ -86,6 +94,7 @@ struct HandleState {
     worldfile: Option<PathBuf>,
     usegui: bool,
     drawings: SharedDrawings,
+    devices: Vec<DeviceRecord>,
 }
 
 impl std::fmt::Debug for HandleState {
@@ -135,13 +144,44 @@ impl StageHandle {
     pub fn drawings(&self) -> SharedDrawings {
         self.state().drawings.clone()
     }
+
+    /// Every device the stage blocks built so far were given, in cfg order, with the model it
+    /// is bound to or the reason it is not served. A refused block's devices are here too
+    /// (each refusal with its own reason), so a check can report all of them at once.
+    pub fn devices(&self) -> Vec<DeviceRecord> {
+        self.state().devices.clone()
+    }
+
+    fn record(&self, record: DeviceRecord) {
+        self.state().devices.push(record);
+    }
 }
 
-/// The state the factory keeps across cfg blocks: the one world and the models already bound.
+/// The one world and the models already bound.
 struct Shared {
     world: SharedWorld,
     spec: Arc<WorldSpec>,
     bound: HashSet<worldfile::ModelId>,
+}
+
+impl Shared {
+    /// What a `simulation` device is bound to: this world.
+    fn binding(&self) -> DeviceBinding {
+        DeviceBinding::World {
+            path: self.spec.path.clone(),
+            models: self.spec.models.len(),
+        }
+    }
+}
+
+/// The state the factory keeps across cfg blocks.
+#[derive(Default)]
+struct FactoryState {
+    /// The world, once a `simulation` device created it.
+    shared: Option<Shared>,
+    /// Where the `simulation` device that failed to create it is written, if one did: later
+    /// blocks have nothing to bind to. The server stops at that failure; only a check goes on.
+    world_failure: Option<String>,
 }
 
 /// Registers the `stage` driver in `registry`. The factory owns the shared world; the returned
@@ -149,15 +189,16 @@ struct Shared {
 pub fn register(registry: &mut DriverRegistry, options: StageOptions) -> StageHandle {
     let handle = StageHandle::default();
     let h = handle.clone();
-    let mut shared: Option<Shared> = None;
+    let mut state = FactoryState::default();
     registry.register(STAGE_DRIVER_NAME, move |block: &DriverBlock| {
-        let driver = StageDriver::build(block, &mut shared, &options, &h)?;
+        let driver = StageDriver::build(block, &mut state, &options, &h)?;
         Ok(Box::new(driver) as Box<dyn Driver>)
     });
     handle
 }
 
-/// What a device of this driver is.
+/// What a device of this driver is. [`Kind::of`] is the list of interfaces the driver serves
+/// and [`Kind::binding`] how each binds: the one table both building and checking use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kind {
     Simulation,
@@ -195,6 +236,27 @@ impl Kind {
             InterfaceCode::MAP => Kind::Map,
             _ => return None,
         })
+    }
+
+    /// How a device of this kind binds (player-cfg.md §8.3, §8.5): the legacy `laser` prefers
+    /// a one-transducer ranger and `sonar` a ring, as Player 2 clients expect; `map` serves the
+    /// named model's blocks as a grid, as Stage 2's `p_map` did (Stage 4.1.1 ships that source
+    /// but does not build it).
+    fn binding(self) -> StageBinding {
+        let model = |t| StageBinding::Model(t, RangerShape::Any);
+        match self {
+            Kind::Simulation => StageBinding::World,
+            Kind::Position => model(ModelType::Position),
+            Kind::Ranger => model(ModelType::Ranger),
+            Kind::Fiducial => model(ModelType::Fiducial),
+            Kind::Blobfinder => model(ModelType::Blobfinder),
+            Kind::Gripper => model(ModelType::Gripper),
+            Kind::Actarray => model(ModelType::Actuator),
+            Kind::Camera => model(ModelType::Camera),
+            Kind::Laser => StageBinding::Model(ModelType::Ranger, RangerShape::Single),
+            Kind::Sonar => StageBinding::Model(ModelType::Ranger, RangerShape::Multiple),
+            Kind::Speech | Kind::Graphics2d | Kind::Graphics3d | Kind::Map => StageBinding::Named,
+        }
     }
 }
 
@@ -323,88 +385,47 @@ impl std::fmt::Debug for StageDriver {
 impl StageDriver {
     fn build(
         block: &DriverBlock,
-        shared: &mut Option<Shared>,
+        state: &mut FactoryState,
         options: &StageOptions,
         handle: &StageHandle,
     ) -> Result<StageDriver, DriverError> {
         let mut steps_world = false;
         let mut devices = Vec::with_capacity(block.provides.len());
+        let mut refused = Vec::new();
+        // Every device is tried, even after one is refused, so that all of a block's problems
+        // are known (and recorded) at once.
         for p in &block.provides {
             let addr = p.addr;
-            let Some(kind) = Kind::of(addr.interf).filter(|_| stage_binding(addr.interf).is_some())
-            else {
-                return Err(DriverError::new(format!(
-                    "{}: the stage driver does not support interface `{}` ({})",
-                    p.origin, addr.interf, addr.interf.0
-                )));
-            };
-            let model = if kind == Kind::Simulation {
-                if shared.is_none() {
-                    *shared = Some(create_world(block, options, handle)?);
-                    steps_world = true;
-                } else {
-                    tracing::warn!(
-                        "{}: a second simulation device; Stage keeps one world",
-                        p.origin
-                    );
+            let served = Self::serve_device(block, p, state, options, handle, &mut steps_world);
+            let binding = match served {
+                Ok((kind, model, binding)) => {
+                    devices.push(Device {
+                        addr,
+                        kind,
+                        model,
+                        subs: 0,
+                        published_us: 0,
+                        count: 0,
+                        map: None,
+                        scan: None,
+                    });
+                    binding
                 }
-                None
-            } else {
-                let Some(s) = shared.as_mut() else {
-                    return Err(DriverError::new(format!(
-                        "{}: no world yet for `{}:{}`: the block providing `simulation` (with \
-                         the `worldfile`) must come first",
-                        p.origin, addr.interf, addr.index
-                    )));
-                };
-                let Some(name) = block.option("model") else {
-                    return Err(DriverError::new(format!(
-                        "{}: `{}:{}` needs a `model` field naming the Stage model to serve",
-                        p.origin, addr.interf, addr.index
-                    )));
-                };
-                let id =
-                    bind_stage_model(&s.spec, name, addr.interf, &mut s.bound).map_err(|why| {
-                        DriverError::new(format!(
-                            "{}: cannot bind `{}:{}`: {why}",
-                            p.origin, addr.interf, addr.index
-                        ))
-                    })?;
-                debug_assert!(matches!(
-                    stage_binding(addr.interf),
-                    Some(StageBinding::Model(..) | StageBinding::Named)
-                ));
-                let m = ModelId(id as u32);
-                let w = s.world.read().unwrap_or_else(|e| e.into_inner());
-                if id >= w.model_count() || w.name(m) != s.spec.model(id).name {
-                    return Err(DriverError::new(format!(
-                        "{}: model \"{}\" is not in the simulated world",
-                        p.origin,
-                        s.spec.model(id).name
-                    )));
+                Err(e) => {
+                    refused.push(format!("{}: {e}", p.origin));
+                    DeviceBinding::Failed(e)
                 }
-                tracing::debug!(
-                    "{}: {}:{} bound to model \"{}\" ({})",
-                    p.origin,
-                    addr.interf,
-                    addr.index,
-                    w.name(m),
-                    w.type_name(m)
-                );
-                Some(m)
             };
-            devices.push(Device {
+            handle.record(DeviceRecord {
                 addr,
-                kind,
-                model,
-                subs: 0,
-                published_us: 0,
-                count: 0,
-                map: None,
-                scan: None,
+                origin: p.origin.clone(),
+                binding,
             });
         }
-        let s = shared.as_ref().ok_or_else(|| {
+        if !refused.is_empty() {
+            return Err(DriverError::new(refused.join("; ")));
+        }
+        let s = state.shared.as_ref().ok_or_else(|| {
             DriverError::new(
                 "no world: the first stage block must provide `simulation:0` with a `worldfile`",
             )
@@ -424,6 +445,89 @@ impl StageDriver {
             quit_reported: false,
             devices,
         })
+    }
+
+    /// One provided device: the world for `simulation` (created by the first one, which sets
+    /// `creates_world`), else the model it binds to.
+    fn serve_device(
+        block: &DriverBlock,
+        p: &ProvidedDevice,
+        state: &mut FactoryState,
+        options: &StageOptions,
+        handle: &StageHandle,
+        creates_world: &mut bool,
+    ) -> Result<(Kind, Option<ModelId>, DeviceBinding), BindError> {
+        let addr = p.addr;
+        let Some(kind) = Kind::of(addr.interf) else {
+            return Err(BindError::new(
+                BindErrorKind::UnsupportedInterface,
+                format!(
+                    "the stage driver does not support interface `{}` ({})",
+                    addr.interf, addr.interf.0
+                ),
+            ));
+        };
+        if kind == Kind::Simulation {
+            if let Some(s) = &state.shared {
+                tracing::warn!(
+                    "{}: a second simulation device; Stage keeps one world",
+                    p.origin
+                );
+                return Ok((kind, None, s.binding()));
+            }
+            let shared = create_world(block, options, handle).inspect_err(|_| {
+                state.world_failure = Some(p.origin.clone());
+            })?;
+            let binding = shared.binding();
+            state.shared = Some(shared);
+            *creates_world = true;
+            return Ok((kind, None, binding));
+        }
+        let device = format!("{}:{}", addr.interf, addr.index);
+        let Some(s) = state.shared.as_mut() else {
+            return Err(match &state.world_failure {
+                Some(at) => BindError::new(
+                    BindErrorKind::WorldFailed,
+                    format!("`{device}` not bound: the simulation device ({at}) created no world"),
+                ),
+                None => BindError::new(
+                    BindErrorKind::NoWorldYet,
+                    format!(
+                        "no world yet for `{device}`: the block providing `simulation` (with the \
+                         `worldfile`) must come first"
+                    ),
+                ),
+            });
+        };
+        let Some(name) = block.option("model") else {
+            return Err(BindError::new(
+                BindErrorKind::NoModelField,
+                format!("`{device}` needs a `model` field naming the Stage model to serve"),
+            ));
+        };
+        let id = bind_stage_model(&s.spec, name, addr.interf, &mut s.bound)
+            .map_err(|why| BindError::new(why.kind, format!("cannot bind `{device}`: {why}")))?;
+        let m = ModelId(id as u32);
+        let spec = s.spec.model(id);
+        let w = s.world.read().unwrap_or_else(|e| e.into_inner());
+        if id >= w.model_count() || w.name(m) != spec.name {
+            return Err(BindError::new(
+                BindErrorKind::NoSuchModel,
+                format!("model \"{}\" is not in the simulated world", spec.name),
+            ));
+        }
+        tracing::debug!(
+            "{}: {device} bound to model \"{}\" ({})",
+            p.origin,
+            w.name(m),
+            w.type_name(m)
+        );
+        let binding = DeviceBinding::Model {
+            id,
+            name: spec.name.clone(),
+            model_type: spec.model_type,
+        };
+        Ok((kind, Some(m), binding))
     }
 
     fn write(&self) -> RwLockWriteGuard<'_, World> {
@@ -535,19 +639,27 @@ fn create_world(
     block: &DriverBlock,
     options: &StageOptions,
     handle: &StageHandle,
-) -> Result<Shared, DriverError> {
+) -> Result<Shared, BindError> {
     let Some(written) = block.option("worldfile") else {
-        return Err(DriverError::new(
+        return Err(BindError::new(
+            BindErrorKind::NoWorldfileField,
             "the simulation device needs a `worldfile` field naming the Stage world",
         ));
     };
     let path = block.resolve_path(written);
     let usegui = match options.usegui {
         Some(v) => v,
-        None => bool_option(block, "usegui")?.unwrap_or(true),
+        None => bool_option(block, "usegui")
+            .map_err(|e| BindError::new(BindErrorKind::BadOption, e.to_string()))?
+            .unwrap_or(true),
     };
-    let (world, spec) = World::load_with(&path, &LoadOptions::from_env(), options.seed)
-        .map_err(|e| DriverError::new(format!("worldfile {}: {e}", path.display())))?;
+    let (world, spec) =
+        World::load_with(&path, &LoadOptions::from_env(), options.seed).map_err(|e| {
+            BindError::new(
+                BindErrorKind::WorldDoesNotLoad,
+                format!("the worldfile {} does not load: {e}", path.display()),
+            )
+        })?;
     tracing::info!(
         "stage: world \"{}\" loaded from {} ({} models)",
         world.config().name,

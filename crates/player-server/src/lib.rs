@@ -4,6 +4,8 @@
 //! * [`driver`] — the [`Driver`] trait, the cfg [`DriverBlock`] a driver is built from, and the
 //!   [`DriverRegistry`] of factories by driver name;
 //! * [`cfg`] — cfg `driver` blocks ([`worldfile::CfgFile`]) to [`DriverBlock`]s;
+//! * [`check`] — what a cfg makes of the server, built as start-up builds it but never started
+//!   (`player --check`);
 //! * [`device`] — the [`DeviceTable`] (cfg order, duplicate check, ports);
 //! * [`queue`] — the per-connection outgoing queue with upstream's exact PUSH/PULL, replace-rule
 //!   and SYNCH semantics;
@@ -22,6 +24,7 @@
 #![warn(missing_docs)]
 
 pub mod cfg;
+pub mod check;
 pub mod clock;
 mod connection;
 mod core;

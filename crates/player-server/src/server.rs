@@ -80,6 +80,8 @@ pub struct Server {
     /// The port the OS chose for devices configured on port 0, once one was.
     port_zero: Option<u32>,
     remote: Option<RemoteFactory>,
+    /// Only assembled and checked, never started: binds nothing (see [`Server::for_check`]).
+    check_only: bool,
 }
 
 impl std::fmt::Debug for Server {
@@ -105,6 +107,17 @@ impl Server {
             remote: Some(Box::new(|required: &RequiredDevice| {
                 Ok(Box::new(crate::remote_device::RemoteDevice::new(required)) as Box<dyn Driver>)
             })),
+            check_only: false,
+        }
+    }
+
+    /// A server that is only assembled to see what a cfg makes of it (`player --check`) and is
+    /// never started: it builds drivers and resolves `requires` exactly as [`Server::new`]'s
+    /// does, but devices on port 0 keep port 0 instead of having a listener bound for them.
+    pub fn for_check(config: ServerConfig) -> Server {
+        Server {
+            check_only: true,
+            ..Server::new(config)
         }
     }
 
@@ -118,8 +131,9 @@ impl Server {
     /// later), so drivers only ever see final addresses.
     fn resolve_port_zero(&mut self, block: &DriverBlock) -> Result<DriverBlock, ServerError> {
         let mut block = block.clone();
-        if !block.provides.iter().any(|p| p.addr.robot == 0)
-            && !block.requires.iter().any(|r| r.addr.robot == 0)
+        if self.check_only
+            || (!block.provides.iter().any(|p| p.addr.robot == 0)
+                && !block.requires.iter().any(|r| r.addr.robot == 0))
         {
             return Ok(block);
         }
@@ -202,6 +216,16 @@ impl Server {
     /// driver added once per address. A local address nothing provides, and a cycle of
     /// `requires`, are errors naming the cfg line. Idempotent; [`Server::start`] calls it.
     pub fn resolve_requires(&mut self) -> Result<(), ServerError> {
+        match self.resolve_all_requires().into_iter().next() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// [`Server::resolve_requires`], going on past every problem: all of them, in cfg order
+    /// (a cycle last). What `player --check` reports.
+    pub fn resolve_all_requires(&mut self) -> Vec<ServerError> {
+        let mut problems = Vec::new();
         let local_ports = self.table.ports();
         let mut wanted: Vec<RequiredDevice> = Vec::new();
         for d in &self.drivers {
@@ -211,11 +235,12 @@ impl Server {
                 }
                 let is_local_host = r.addr.host == LOCALHOST_ADDR || r.addr.host == 0;
                 if is_local_host && local_ports.contains(&r.addr.robot) {
-                    return Err(ServerError::RequiresMissing {
+                    problems.push(ServerError::RequiresMissing {
                         origin: r.origin.clone(),
                         addr: r.addr,
                         driver: d.name.clone(),
                     });
+                    continue;
                 }
                 if !wanted.iter().any(|w| w.addr.same_device(&r.addr)) {
                     wanted.push(r.clone());
@@ -224,17 +249,24 @@ impl Server {
         }
         for r in wanted {
             let driver = match self.remote.as_mut() {
-                Some(make) => make(&r).map_err(|source| ServerError::DriverFailed {
-                    name: REMOTE_DRIVER_NAME.into(),
-                    origin: r.origin.clone(),
-                    source,
-                })?,
+                Some(make) => match make(&r) {
+                    Ok(driver) => driver,
+                    Err(source) => {
+                        problems.push(ServerError::DriverFailed {
+                            name: REMOTE_DRIVER_NAME.into(),
+                            origin: r.origin.clone(),
+                            source,
+                        });
+                        continue;
+                    }
+                },
                 None => {
-                    return Err(ServerError::RequiresMissing {
+                    problems.push(ServerError::RequiresMissing {
                         origin: r.origin.clone(),
                         addr: r.addr,
                         driver: REMOTE_DRIVER_NAME.into(),
                     });
+                    continue;
                 }
             };
             let block = DriverBlock {
@@ -248,9 +280,12 @@ impl Server {
                 alwayson: Some(false),
                 ..DriverBlock::default()
             };
-            self.add_driver(&block, driver)?;
+            if let Err(e) = self.add_driver(&block, driver) {
+                problems.push(e);
+            }
         }
-        self.check_cycles()
+        problems.extend(self.check_cycles().err());
+        problems
     }
 
     /// Refuses a cycle of `requires` (it could never be set up), naming each block on it.
@@ -337,6 +372,7 @@ impl Server {
             mut listeners,
             port_zero: _,
             remote: _,
+            check_only: _,
         } = self;
         if table.is_empty() {
             return Err(ServerError::NoDevices);

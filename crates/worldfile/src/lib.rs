@@ -9,8 +9,9 @@
 //! - the **resolved** level for worlds ([`WorldSpec::load`]): settings, window, and models in
 //!   pre-order, each with its typed properties in metres and radians and Stage's defaults, its
 //!   body as blocks in the body frame, and a per-type spec ([`models::TypeSpec`]). For cfg files,
-//!   [`CfgFile::load`] gives the driver blocks with parsed device addresses, and [`check::check`]
-//!   what the server would build from them.
+//!   [`CfgFile::load`] gives the driver blocks with parsed device addresses. What a server makes
+//!   of them (drivers, model bindings, `player --check`) is the server's business, not this
+//!   crate's.
 //!
 //! Every error is an [`Error`] that prints like a compiler diagnostic (`file:line:col`, the
 //! offending text, the include chain). Nothing Stage would accept is rejected, except where
@@ -20,7 +21,6 @@
 pub mod bitmap;
 pub mod body;
 pub mod cfg;
-pub mod check;
 pub mod color;
 mod colors_x11;
 pub mod document;

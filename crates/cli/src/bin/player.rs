@@ -2,7 +2,8 @@
 //! 3.0.2's command line. Loads the cfg, builds every driver block (`stage` and `testdriver`),
 //! listens on every port a device names and serves until SIGINT/SIGTERM. Without a cfg it
 //! serves the built-in Bigbob world (`worlds/bigbob.cfg`, embedded). `player --check FILE.cfg`
-//! only reports what the configuration would create.
+//! builds the server the same way, with the same drivers, but binds no port and runs nothing:
+//! it reports what the configuration creates and every problem in it.
 
 use std::fs::OpenOptions;
 use std::io::IsTerminal;
@@ -17,14 +18,15 @@ use player_server::{DriverRegistry, Pace, Server, ServerConfig};
 use tracing_subscriber::EnvFilter;
 use viewer::handle::WorldHandle;
 use viewer::world_window::{self, WindowOptions};
-use worldfile::{CfgFile, LoadOptions, check};
+use worldfile::{CfgFile, LoadOptions};
 
 /// Player 3.0.2-compatible robot server.
 #[derive(Parser, Debug)]
 #[command(name = "player", version)]
 struct Args {
-    /// Parse the cfg and its worldfile, report the drivers, devices, ports and model bindings,
-    /// and exit (status 1 if the server would refuse the configuration).
+    /// Build the server from the cfg as start-up does, without listening or running: report
+    /// the drivers, devices, model bindings, ports and every problem, and exit (status 1 if the
+    /// server would refuse the configuration).
     #[arg(long)]
     check: bool,
     /// Print the check report as JSON.
@@ -139,7 +141,8 @@ fn init_logging(args: &Args) -> anyhow::Result<()> {
 fn run_check(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
     let opts = LoadOptions::from_env();
     let cfg = CfgFile::load(cfgfile, &opts).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let (report, _world) = check::check(&cfg, args.port, &opts);
+    let (mut registry, stage) = registry(args);
+    let report = player_server::check::check(&cfg, args.port, &mut registry, &stage);
     if !args.quiet {
         for w in &report.warnings {
             eprintln!("{w}");

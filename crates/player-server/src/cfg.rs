@@ -45,7 +45,11 @@ pub fn driver_block(
             .unwrap_or_else(|| origin.clone());
         let host = packed_host(&a.host).ok_or_else(|| ServerError::Config {
             origin: where_.clone(),
-            message: format!("cannot resolve the host of \"{}\"", a.text),
+            message: format!(
+                "cannot resolve the host of \"{}\"{}",
+                a.text,
+                player1_key_hint(a).unwrap_or_default()
+            ),
         })?;
         let addr = DeviceAddr::new(
             host,
@@ -92,6 +96,20 @@ pub fn driver_block(
         alwayson: spec.alwayson,
         options,
     })
+}
+
+/// For an address whose host does not resolve and that reads as Player 1's
+/// `key:port:interface:index` (Player 2 put the host where Player 1 had the key): what it meant
+/// there and how Player 3 writes it, e.g. `odometry::position:0` -> `odometry:::position2d:0`.
+fn player1_key_hint(a: &worldfile::DeviceAddr) -> Option<String> {
+    let (Host::Name(name), None) = (&a.host, &a.key) else {
+        return None;
+    };
+    let port = a.port.map(|p| p.to_string()).unwrap_or_default();
+    Some(format!(
+        " (if \"{name}\" is a key, as Player 1 read `key:port:interface:index`, write \"{name}::{port}:{}:{}\")",
+        a.interface, a.index
+    ))
 }
 
 /// A host as upstream packs it: the IPv4 address's bytes read as a little-endian integer, so
@@ -169,6 +187,29 @@ mod tests {
         // -p changes the default port.
         let blocks = driver_blocks(&cfg, 7100).unwrap();
         assert_eq!(blocks[0].provides[0].addr.robot, 7100);
+    }
+
+    #[test]
+    fn player1_keys_in_the_host_field_get_a_hint() {
+        let hint = |text: &str| {
+            let a = worldfile::DeviceAddr::parse(text).unwrap();
+            player1_key_hint(&a)
+        };
+        assert_eq!(
+            hint("odometry::position:0").as_deref(),
+            Some(
+                " (if \"odometry\" is a key, as Player 1 read `key:port:interface:index`, write \
+                 \"odometry:::position2d:0\")"
+            )
+        );
+        assert!(
+            hint("sonar:6666:map:1")
+                .unwrap()
+                .ends_with("write \"sonar::6666:map:1\")")
+        );
+        // Already keyed, or no host name: nothing to suggest.
+        assert_eq!(hint("odometry:robot::position2d:0"), None);
+        assert_eq!(hint("position2d:0"), None);
     }
 
     #[test]

@@ -61,8 +61,100 @@ pub struct DeviceAddr {
     pub interface: InterfaceCode,
     /// Index.
     pub index: u16,
+    /// The interface name as written, when it is an older Player's name that is read as
+    /// `interface` (see [`OLD_INTERFACE_NAMES`]).
+    pub renamed_from: Option<&'static str>,
     /// Where the string is written.
     pub location: Option<SourceLoc>,
+}
+
+/// What became of an interface name of an older Player that Player 3.0.2 no longer knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OldInterface {
+    /// The same kind of device under another name: read as that interface, with a warning.
+    Renamed {
+        /// The Player 3.0.2 interface.
+        now: InterfaceCode,
+        /// When and how it changed.
+        history: &'static str,
+    },
+    /// Gone without a drop-in replacement: still an error, saying what replaced it.
+    Dropped {
+        /// When it went and what to use instead.
+        history: &'static str,
+    },
+}
+
+/// Interface names of Player 1.x and 2.x that Player 3.0.2's address parser rejects, from
+/// upstream's interface tables (`server/player.h` in 1.6.5, `libplayercore/player.h` and
+/// `interface_util.c` in 2.0.x, the `interfaces/*.def` files of 2.1 and 3.0). Old cfgs still
+/// use them (Stage 4.1.1's own `amcl-sonar.cfg` writes `position:0`).
+pub const OLD_INTERFACE_NAMES: &[(&str, OldInterface)] = &[
+    (
+        "position",
+        OldInterface::Renamed {
+            now: InterfaceCode::POSITION2D,
+            history: "Player 1.x's name for code 4, renamed in Player 2.0",
+        },
+    ),
+    (
+        "energy",
+        OldInterface::Renamed {
+            now: InterfaceCode::POWER,
+            history: "folded into `power` in Player 2.0, removed in 2.1",
+        },
+    ),
+    (
+        "truth",
+        OldInterface::Dropped {
+            history: "removed in Player 2.1; use `simulation`, one device for the whole world \
+                      that gives poses by model name",
+        },
+    ),
+    (
+        "mcom",
+        OldInterface::Dropped {
+            history: "removed in Player 3.0; `opaque` covers most of what it did",
+        },
+    ),
+    (
+        "sound",
+        OldInterface::Dropped {
+            history: "removed in Player 2.1",
+        },
+    ),
+    (
+        "audiodsp",
+        OldInterface::Dropped {
+            history: "removed in Player 2.1",
+        },
+    ),
+    (
+        "audiomixer",
+        OldInterface::Dropped {
+            history: "removed in Player 2.1",
+        },
+    ),
+    (
+        "waveform",
+        OldInterface::Dropped {
+            history: "removed in Player 2.1",
+        },
+    ),
+    (
+        "nomad",
+        OldInterface::Dropped {
+            history: "removed in Player 2.1",
+        },
+    ),
+];
+
+/// What became of the old interface name `name`, if it is one.
+pub fn old_interface(name: &str) -> Option<OldInterface> {
+    OLD_INTERFACE_NAMES
+        .iter()
+        .find(|(old, _)| *old == name)
+        .map(|(_, what)| *what)
 }
 
 impl Serialize for DeviceAddr {
@@ -82,7 +174,9 @@ impl Serialize for DeviceAddr {
 impl DeviceAddr {
     /// Parses an address string the way `ConfigFile::ReadDeviceAddr` does: split from the right
     /// on `:` into index, interface, robot, host, key; a fifth colon discards everything left of
-    /// it. Where Player's `atoi` would silently read a non-number as 0 we reject it.
+    /// it. Where Player's `atoi` would silently read a non-number as 0 we reject it. An older
+    /// Player's name for a renamed interface is read as the new one, noted in
+    /// [`DeviceAddr::renamed_from`] (see [`DeviceAddr::old_name_warning`]).
     pub fn parse(text: &str) -> Result<DeviceAddr, String> {
         let mut fields: Vec<&str> = text.rsplitn(6, ':').collect();
         if fields.len() == 6 {
@@ -95,8 +189,21 @@ impl DeviceAddr {
         let robot = fields.get(2).copied().filter(|s| !s.is_empty());
         let host = fields.get(3).copied().filter(|s| !s.is_empty());
         let key = fields.get(4).copied().filter(|s| !s.is_empty());
-        let interface = InterfaceCode::from_name(interface)
-            .ok_or_else(|| format!("unknown interface `{interface}`"))?;
+        let (interface, renamed_from) = match InterfaceCode::from_name(interface) {
+            Some(code) => (code, None),
+            None => match OLD_INTERFACE_NAMES
+                .iter()
+                .find(|(old, _)| *old == interface)
+            {
+                Some((old, OldInterface::Renamed { now, .. })) => (*now, Some(*old)),
+                Some((_, OldInterface::Dropped { history })) => {
+                    return Err(format!(
+                        "unknown interface `{interface}` (an older Player's, {history})"
+                    ));
+                }
+                None => return Err(format!("unknown interface `{interface}`")),
+            },
+        };
         let index = match atoi(index) {
             Some(n) if (0..=u16::MAX as i64).contains(&n.value) => n.value as u16,
             Some(_) => return Err(format!("index `{index}` is out of range")),
@@ -125,8 +232,27 @@ impl DeviceAddr {
             port,
             interface,
             index,
+            renamed_from,
             location: None,
         })
+    }
+
+    /// The warning for an address written with an older Player's interface name: what it is
+    /// served as, and the address to write instead.
+    pub fn old_name_warning(&self) -> Option<String> {
+        let old = self.renamed_from?;
+        let Some(OldInterface::Renamed { history, .. }) = old_interface(old) else {
+            return None;
+        };
+        // The address with only its interface field replaced: `odometry::position:0` ->
+        // `odometry::position2d:0`.
+        let (front, index) = self.text.rsplit_once(':')?;
+        let prefix = front.strip_suffix(old)?;
+        Some(format!(
+            "interface \"{old}\" is an older Player's name ({history}); serving it as \"{now}\" \
+             (write \"{prefix}{now}:{index}\")",
+            now = self.interface
+        ))
     }
 
     /// The port, with the server default for an absent robot field.
@@ -290,6 +416,7 @@ fn read_driver(
         });
     };
     let mut address_errors = Vec::new();
+    let mut renamed = Vec::new();
     let mut addresses = |field: &str| -> Vec<DeviceAddr> {
         let mut out = Vec::new();
         let Some(p) = entity.property(field) else {
@@ -300,6 +427,9 @@ fn read_driver(
             match DeviceAddr::parse(&v.text) {
                 Ok(mut a) => {
                     a.location = Some(doc.loc(v.loc));
+                    if let Some(w) = a.old_name_warning() {
+                        renamed.push(Warning::at(doc.loc(v.loc), w));
+                    }
                     out.push(a);
                 }
                 Err(reason) => {
@@ -321,6 +451,7 @@ fn read_driver(
     };
     let provides = addresses("provides");
     let requires = addresses("requires");
+    warnings.append(&mut renamed);
     let options = entity
         .properties
         .iter()
@@ -439,6 +570,64 @@ mod tests {
             DeviceAddr::parse("ranger:70000")
                 .unwrap_err()
                 .contains("out of range")
+        );
+    }
+
+    #[test]
+    fn older_players_interface_names() {
+        let a = addr("position:0");
+        assert_eq!(
+            (a.interface, a.renamed_from),
+            (InterfaceCode::POSITION2D, Some("position"))
+        );
+        assert_eq!(
+            a.old_name_warning().unwrap(),
+            "interface \"position\" is an older Player's name (Player 1.x's name for code 4, \
+             renamed in Player 2.0); serving it as \"position2d\" (write \"position2d:0\")"
+        );
+        let a = addr("odometry::6665:position:3");
+        assert_eq!(
+            (a.key.as_deref(), a.port, a.index),
+            (Some("odometry"), Some(6665), 3)
+        );
+        assert!(
+            a.old_name_warning()
+                .unwrap()
+                .ends_with("(write \"odometry::6665:position2d:3\")"),
+            "{:?}",
+            a.old_name_warning()
+        );
+        assert_eq!(addr("energy:1").interface, InterfaceCode::POWER);
+        assert_eq!(addr("position2d:0").old_name_warning(), None);
+        let e = DeviceAddr::parse("truth:0").unwrap_err();
+        assert!(
+            e.starts_with("unknown interface `truth` (an older Player's, removed in Player 2.1; use `simulation`"),
+            "{e}"
+        );
+        // Every old name is one Player 3.0.2 rejects; renamed ones land on 3.0.2 interfaces.
+        for (old, what) in OLD_INTERFACE_NAMES {
+            assert_eq!(InterfaceCode::from_name(old), None, "{old}");
+            if let OldInterface::Renamed { now, .. } = what {
+                assert!(now.name().is_some(), "{old}");
+            }
+        }
+        // In a cfg: read as the new name, with a warning at the address.
+        let cfg = CfgFile::parse(
+            Path::new("old.cfg"),
+            "driver( name \"amcl\"\n provides [\"localize:0\"]\n requires [\"odometry::position:0\" \"sonar:0\"] )\n",
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        let d = &cfg.drivers[0];
+        assert_eq!(d.requires[0].interface, InterfaceCode::POSITION2D);
+        assert!(d.address_errors.is_empty());
+        assert_eq!(cfg.warnings.len(), 1, "{:?}", cfg.warnings);
+        let w = cfg.warnings[0].to_string();
+        assert!(
+            w.starts_with(
+                "old.cfg:3:12: warning: interface \"position\" is an older Player's name"
+            ) && w.ends_with("(write \"odometry::position2d:0\")"),
+            "{w}"
         );
     }
 

@@ -6,6 +6,7 @@ mod common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+use player_proto::InterfaceCode;
 use worldfile::body::BlockOrigin;
 use worldfile::{CfgFile, ErrorKind, LoadOptions, ModelType, TypeSpec, WorldSpec};
 
@@ -181,5 +182,30 @@ fn every_cfg_parses() {
     for path in &cfgs {
         let cfg = CfgFile::load(path, &opts).unwrap_or_else(|e| panic!("{e}"));
         assert!(!cfg.drivers.is_empty(), "{}", path.display());
+        for d in &cfg.drivers {
+            assert!(
+                d.address_errors.is_empty(),
+                "{}: {:?}",
+                path.display(),
+                d.address_errors
+            );
+        }
     }
+    // amcl-sonar.cfg is older than Player 2.0 in places: `position` is read as `position2d`,
+    // with a warning at each address that says so.
+    let cfg = CfgFile::load(&root.join("amcl-sonar.cfg"), &opts).unwrap();
+    assert_eq!(
+        cfg.drivers[1].provides[0].interface,
+        InterfaceCode::POSITION2D
+    );
+    let renamed: Vec<u32> = cfg
+        .warnings
+        .iter()
+        .filter(|w| {
+            w.message
+                .contains("interface \"position\" is an older Player's name")
+        })
+        .map(|w| w.location.as_ref().unwrap().line)
+        .collect();
+    assert_eq!(renamed, [21, 48]);
 }

@@ -1,0 +1,754 @@
+//! `nd`: Nearness Diagram navigation, as Player 3.0.2's driver runs it.
+//!
+//! Provides a `position2d`; requires the base as two `position2d` devices, keyed `output`
+//! (velocity commands go there; its geometry sizes the robot) and `input` (the pose: odometry
+//! or a localizer; it may be the same device), and a `laser` and/or a `sonar`. A
+//! `PLAYER_POSITION2D_CMD_POS` goal is driven to by [`alg::iterate`] every 20 ms of server
+//! time until the robot is within `goal_tol` (distance and heading: it drives there, then
+//! turns in place); a velocity command stops navigation and passes through to the base.
+//! The provided device republishes the input's pose with the output's velocity, and reports
+//! a stall when ND gave up (emergency stop, no way through, or no progress within the stuck
+//! times). Requests are forwarded to the output device.
+//!
+//! Options (Player's, with its defaults; angles in degrees in the cfg): `goal_tol`
+//! `[0.5 10]`, `max_speed` `[0.3 45]`, `min_speed` `[0.05 10]`, `avoid_dist` 0.5,
+//! `safety_dist` 0.0, `rotate_stuck_time` 2.0, `translate_stuck_time` 2.0,
+//! `translate_stuck_dist` 0.25, `translate_stuck_angle` 20, `wait_on_stall` 0,
+//! `laser_buffer` 10, `sonar_buffer` 20 (upstream's documentation says 10, its code reads
+//! 20), `sonar_bad_transducers` `[]`.
+
+pub mod alg;
+
+use std::collections::VecDeque;
+use std::time::Duration;
+
+use player_proto::{
+    Body, DeviceAddr, InterfaceCode, LaserData, LaserMsg, LaserReq, Message, Pose2d, Pose3d,
+    Position2dCmd, Position2dCmdVel, Position2dData, Position2dDataState, Position2dGeom,
+    Position2dMsg, Position2dReq, SonarData, SonarMsg, SonarReq,
+};
+use player_server::{
+    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
+    RequestTicket,
+};
+
+use crate::error::Error;
+use crate::forward::{Waiting, forward, passed_on};
+use crate::options;
+
+use alg::{NdParams, Pose, Robot, Velocities};
+
+/// The Player name of this driver.
+pub const NAME: &str = "nd";
+
+/// How often the navigation loop runs (upstream sleeps 20 ms between iterations).
+const CYCLE: Duration = Duration::from_millis(20);
+
+/// The driver's settings, from its cfg block (lengths in m, angles in rad, times in s).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Distance within which the goal counts as reached.
+    pub dist_eps: f64,
+    /// Heading error within which the goal counts as reached.
+    pub ang_eps: f64,
+    /// Largest forward speed commanded.
+    pub vx_max: f64,
+    /// Largest turn rate commanded.
+    pub va_max: f64,
+    /// Smallest non-zero forward speed commanded.
+    pub vx_min: f64,
+    /// Smallest non-zero turn rate commanded (when not moving forward).
+    pub va_min: f64,
+    /// Distance at which avoidance begins (ND's front security distance).
+    pub avoid_dist: f64,
+    /// Extra extent added to the robot on every side.
+    pub safety_dist: f64,
+    /// Time allowed to turn in place without getting nearer the goal heading.
+    pub rotate_stuck_time: f64,
+    /// Time allowed to translate without moving `translate_stuck_dist` or turning
+    /// `translate_stuck_angle`.
+    pub translate_stuck_time: f64,
+    /// See `translate_stuck_time`.
+    pub translate_stuck_dist: f64,
+    /// See `translate_stuck_time`.
+    pub translate_stuck_angle: f64,
+    /// Pause (stop and wait) while the input device reports a stall.
+    pub wait_on_stall: bool,
+    /// Laser scans merged into the obstacle list.
+    pub laser_buffer: usize,
+    /// Sonar scans merged into the obstacle list.
+    pub sonar_buffer: usize,
+    /// Sonar transducers to ignore.
+    pub sonar_bad_transducers: Vec<usize>,
+}
+
+impl Default for Settings {
+    fn default() -> Settings {
+        Settings {
+            dist_eps: 0.5,
+            ang_eps: 10f64.to_radians(),
+            vx_max: 0.3,
+            va_max: 45f64.to_radians(),
+            vx_min: 0.05,
+            va_min: 10f64.to_radians(),
+            avoid_dist: 0.5,
+            safety_dist: 0.0,
+            rotate_stuck_time: 2.0,
+            translate_stuck_time: 2.0,
+            translate_stuck_dist: 0.25,
+            translate_stuck_angle: 20f64.to_radians(),
+            wait_on_stall: false,
+            laser_buffer: 10,
+            sonar_buffer: 20,
+            sonar_bad_transducers: Vec::new(),
+        }
+    }
+}
+
+fn angle(block: &DriverBlock, key: &'static str, index: usize) -> Result<Option<f64>, Error> {
+    Ok(options::tuple_length(block, key, index)?.map(f64::to_radians))
+}
+
+fn buffer(block: &DriverBlock, key: &'static str) -> Result<Option<usize>, Error> {
+    match options::int(block, key)? {
+        Some(n) if n < 1 => Err(Error::BadOption {
+            option: key,
+            value: n.to_string(),
+            why: "must be at least 1".into(),
+        }),
+        n => Ok(n.map(|n| n as usize)),
+    }
+}
+
+impl Settings {
+    /// Reads the options of a cfg block (absent ones keep Player's defaults).
+    pub fn from_block(block: &DriverBlock) -> Result<Settings, Error> {
+        let d = Settings::default();
+        let len = |k: &'static str, i: usize, def: f64| -> Result<f64, Error> {
+            Ok(options::tuple_length(block, k, i)?.unwrap_or(def))
+        };
+        let ang = |k: &'static str, i: usize, def: f64| -> Result<f64, Error> {
+            Ok(angle(block, k, i)?.unwrap_or(def))
+        };
+        let bad = match block.options.get("sonar_bad_transducers") {
+            None => Vec::new(),
+            Some(v) => v
+                .iter()
+                .map(|t| {
+                    t.parse::<usize>().map_err(|_| Error::BadOption {
+                        option: "sonar_bad_transducers",
+                        value: t.clone(),
+                        why: "not a transducer index".into(),
+                    })
+                })
+                .collect::<Result<_, _>>()?,
+        };
+        Ok(Settings {
+            dist_eps: len("goal_tol", 0, d.dist_eps)?,
+            ang_eps: ang("goal_tol", 1, d.ang_eps)?,
+            vx_max: len("max_speed", 0, d.vx_max)?,
+            va_max: ang("max_speed", 1, d.va_max)?,
+            vx_min: len("min_speed", 0, d.vx_min)?,
+            va_min: ang("min_speed", 1, d.va_min)?,
+            avoid_dist: len("avoid_dist", 0, d.avoid_dist)?,
+            safety_dist: len("safety_dist", 0, d.safety_dist)?,
+            rotate_stuck_time: len("rotate_stuck_time", 0, d.rotate_stuck_time)?,
+            translate_stuck_time: len("translate_stuck_time", 0, d.translate_stuck_time)?,
+            translate_stuck_dist: len("translate_stuck_dist", 0, d.translate_stuck_dist)?,
+            translate_stuck_angle: ang("translate_stuck_angle", 0, d.translate_stuck_angle)?,
+            wait_on_stall: options::int(block, "wait_on_stall")?.is_some_and(|v| v != 0),
+            laser_buffer: buffer(block, "laser_buffer")?.unwrap_or(d.laser_buffer),
+            sonar_buffer: buffer(block, "sonar_buffer")?.unwrap_or(d.sonar_buffer),
+            sonar_bad_transducers: bad,
+        })
+    }
+
+    /// ND's robot description for a base of `geom`, driving forwards (`dir > 0`) or
+    /// backwards (front and back swapped), as the driver fills upstream's `TParametersND`.
+    pub fn nd_params(&self, geom: &Position2dGeom, forwards: bool) -> NdParams {
+        let half = geom.size.sl / 2.0;
+        let (front, back) = if forwards {
+            (half + geom.pose.px, half - geom.pose.px)
+        } else {
+            (half - geom.pose.px, half + geom.pose.px)
+        };
+        let left = geom.size.sw / 2.0 + self.safety_dist;
+        let dsmax = self.avoid_dist;
+        let dsmin = dsmax / 4.0;
+        NdParams {
+            front: front + self.safety_dist,
+            back: back + self.safety_dist,
+            left,
+            vlmax: self.vx_max,
+            vamax: self.va_max,
+            almax: 0.75,
+            aamax: 0.75,
+            dsmax,
+            dsmin,
+            enlarge: dsmin * 0.2,
+            discontinuity: 2.0 * left,
+            period: 0.1,
+        }
+    }
+}
+
+/// `v` limited to `[min, max]` in magnitude, keeping its sign; zero stays zero.
+pub fn threshold(v: f64, min: f64, max: f64) -> f64 {
+    if v == 0.0 {
+        v
+    } else if v > 0.0 {
+        v.min(max).max(min)
+    } else {
+        v.max(-max).min(-min)
+    }
+}
+
+/// The signed smallest difference `a - b` between two headings.
+pub fn angle_diff(a: f64, b: f64) -> f64 {
+    let d = alg::normalize(a) - alg::normalize(b);
+    let other = 2.0 * std::f64::consts::PI - d.abs();
+    let other = if d > 0.0 { -other } else { other };
+    if d.abs() < other.abs() { d } else { other }
+}
+
+/// A sensor reading in the robot frame, carried into the odometric frame at `odom`.
+fn to_world(sensor: &Pose3d, odom: Pose2d, x: f64, y: f64) -> (f64, f64) {
+    let (ss, cs) = sensor.pyaw.sin_cos();
+    let rx = sensor.px + x * cs - y * ss;
+    let ry = sensor.py + x * ss + y * cs;
+    let (so, co) = odom.pa.sin_cos();
+    (odom.px + rx * co - ry * so, odom.py + rx * so + ry * co)
+}
+
+/// What the navigation step decided.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Decision {
+    /// Nothing to do (no goal, waiting on a stall, or no geometry yet).
+    Idle,
+    /// Goal reached: stop.
+    Arrived,
+    /// ND or the stuck timers gave up: stop and report a stall.
+    GaveUp,
+    /// Send this velocity.
+    Drive(f64, f64),
+}
+
+/// The navigation state: the goal, progress timers and obstacle buffers. Pure: time, poses
+/// and scans come in, decisions go out.
+#[derive(Debug)]
+pub struct Navigator {
+    settings: Settings,
+    geom: Option<Position2dGeom>,
+    robot: Option<(Robot, bool)>,
+    goal: Option<Pose2d>,
+    dir_backwards: bool,
+    odom: Pose2d,
+    last_odom: Pose2d,
+    turning_in_place: bool,
+    rotate_start: f64,
+    rotate_min_error: f64,
+    translate_start: f64,
+    /// ND gave up on the last goal (reported as a stall).
+    pub stalled: bool,
+    laser_scans: VecDeque<Vec<(f64, f64)>>,
+    sonar_scans: VecDeque<Vec<(f64, f64)>>,
+}
+
+impl Navigator {
+    /// A navigator with no goal and no geometry yet.
+    pub fn new(settings: Settings) -> Navigator {
+        Navigator {
+            settings,
+            geom: None,
+            robot: None,
+            goal: None,
+            dir_backwards: false,
+            odom: Pose2d::default(),
+            last_odom: Pose2d::default(),
+            turning_in_place: false,
+            rotate_start: 0.0,
+            rotate_min_error: 0.0,
+            translate_start: 0.0,
+            stalled: false,
+            laser_scans: VecDeque::new(),
+            sonar_scans: VecDeque::new(),
+        }
+    }
+
+    /// Forgets goal and scans (the driver was shut down).
+    pub fn reset(&mut self) {
+        self.goal = None;
+        self.stalled = false;
+        self.turning_in_place = false;
+        self.laser_scans.clear();
+        self.sonar_scans.clear();
+        self.last_odom = Pose2d {
+            px: f64::from(f32::MAX),
+            py: f64::from(f32::MAX),
+            pa: f64::from(f32::MAX),
+        };
+    }
+
+    /// The base's geometry arrived.
+    pub fn set_geometry(&mut self, geom: Position2dGeom) {
+        self.geom = Some(geom);
+        self.robot = None;
+    }
+
+    /// The robot's current pose.
+    pub fn set_pose(&mut self, pose: Pose2d) {
+        self.odom = pose;
+    }
+
+    /// Whether a goal is being driven to.
+    pub fn active(&self) -> bool {
+        self.goal.is_some()
+    }
+
+    /// A new goal at time `now`.
+    pub fn set_goal(&mut self, goal: Pose2d, now: f64) {
+        self.goal = Some(goal);
+        self.turning_in_place = false;
+        self.stalled = false;
+        self.translate_start = now;
+        self.last_odom = self.odom;
+    }
+
+    /// A velocity command: navigation stops; negative speeds make later goals be driven to
+    /// backwards (upstream's `dir`).
+    pub fn velocity_command(&mut self, vx: f64) {
+        self.goal = None;
+        self.dir_backwards = vx < 0.0;
+    }
+
+    fn push(buf: &mut VecDeque<Vec<(f64, f64)>>, cap: usize, points: Vec<(f64, f64)>) {
+        if buf.len() >= cap {
+            buf.pop_front();
+        }
+        buf.push_back(points);
+    }
+
+    /// A laser scan taken from `laser` (its pose on the robot).
+    pub fn laser_scan(&mut self, laser: &Pose3d, min_angle: f64, resolution: f64, ranges: &[f32]) {
+        let points = ranges
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| {
+                let b = min_angle + i as f64 * resolution;
+                let r = f64::from(r);
+                to_world(laser, self.odom, r * b.cos(), r * b.sin())
+            })
+            .collect();
+        Self::push(&mut self.laser_scans, self.settings.laser_buffer, points);
+    }
+
+    /// A sonar reading from transducers at `poses`.
+    pub fn sonar_scan(&mut self, poses: &[Pose3d], ranges: &[f32]) {
+        let points = ranges
+            .iter()
+            .zip(poses)
+            .enumerate()
+            .filter(|(i, _)| !self.settings.sonar_bad_transducers.contains(i))
+            .map(|(_, (&r, p))| to_world(p, self.odom, f64::from(r), 0.0))
+            .collect();
+        Self::push(&mut self.sonar_scans, self.settings.sonar_buffer, points);
+    }
+
+    fn robot(&mut self, forwards: bool) -> Option<&Robot> {
+        let geom = self.geom.as_ref()?;
+        if self.robot.as_ref().is_none_or(|(_, f)| *f != forwards) {
+            let r = Robot::new(&self.settings.nd_params(geom, forwards));
+            self.robot = Some((r, forwards));
+        }
+        self.robot.as_ref().map(|(r, _)| r)
+    }
+
+    fn give_up(&mut self) -> Decision {
+        self.stalled = true;
+        self.goal = None;
+        Decision::GaveUp
+    }
+
+    /// One iteration of the navigation loop at time `now` (upstream's `Main` body).
+    pub fn step(&mut self, now: f64) -> Decision {
+        let Some(goal) = self.goal else {
+            return Decision::Idle;
+        };
+        if self.geom.is_none() {
+            return Decision::Idle;
+        }
+        let points: Vec<(f64, f64)> = self
+            .laser_scans
+            .iter()
+            .chain(&self.sonar_scans)
+            .flatten()
+            .copied()
+            .collect();
+        let odom = self.odom;
+        let g_dx = (goal.px - odom.px).hypot(goal.py - odom.py);
+        let g_da = angle_diff(goal.pa, odom.pa);
+        let s = self.settings.clone();
+        if g_dx < s.dist_eps && g_da.abs() < s.ang_eps {
+            self.goal = None;
+            return Decision::Arrived;
+        }
+        let mut pose = Pose {
+            x: odom.px,
+            y: odom.py,
+            a: odom.pa,
+        };
+        let (vx, va);
+        if g_dx < s.dist_eps || self.turning_in_place {
+            // Turn towards the goal heading by aiming ND at a point far along it.
+            let fake = (
+                odom.px + 10.0 * goal.pa.cos(),
+                odom.py + 10.0 * goal.pa.sin(),
+            );
+            let robot = self.robot(true).expect("geometry known");
+            let Ok(step) = alg::iterate(
+                robot,
+                fake,
+                s.dist_eps,
+                pose,
+                Velocities::default(),
+                &points,
+            ) else {
+                return self.give_up();
+            };
+            vx = 0.0;
+            va = step.cmd.w;
+            if !self.turning_in_place {
+                self.rotate_start = now;
+                self.rotate_min_error = g_da.abs();
+                self.turning_in_place = true;
+            } else if g_da.abs() < self.rotate_min_error {
+                self.rotate_start = now;
+                self.rotate_min_error = g_da.abs();
+            } else if now - self.rotate_start > s.rotate_stuck_time {
+                tracing::warn!("nd: ran out of time trying to attain goal heading");
+                return self.give_up();
+            }
+        } else {
+            let o_dx = (odom.px - self.last_odom.px).hypot(odom.py - self.last_odom.py);
+            let o_da = angle_diff(odom.pa, self.last_odom.pa);
+            if o_dx > s.translate_stuck_dist || o_da.abs() > s.translate_stuck_angle {
+                self.last_odom = odom;
+                self.translate_start = now;
+            } else if now - self.translate_start > s.translate_stuck_time {
+                tracing::warn!("nd: ran out of time trying to get to goal");
+                return self.give_up();
+            }
+            let backwards = self.dir_backwards;
+            if backwards {
+                // ND thinks the robot faces the other way, with its geometry reversed.
+                pose.a = alg::normalize(pose.a + std::f64::consts::PI);
+            }
+            let robot = self.robot(!backwards).expect("geometry known");
+            let Ok(step) = alg::iterate(
+                robot,
+                (goal.px, goal.py),
+                s.dist_eps,
+                pose,
+                Velocities::default(),
+                &points,
+            ) else {
+                return self.give_up();
+            };
+            vx = step.cmd.v;
+            va = step.cmd.w;
+        }
+        if vx == 0.0 && va == 0.0 {
+            // ND says done, yet the goal test above did not: give up as upstream does.
+            return self.give_up();
+        }
+        let vx = threshold(vx, s.vx_min, s.vx_max);
+        let va = if vx == 0.0 {
+            threshold(va, s.va_min, s.va_max)
+        } else {
+            va
+        };
+        let vx = if self.dir_backwards { -vx } else { vx };
+        Decision::Drive(vx, va)
+    }
+}
+
+/// What a request this driver sent is for.
+#[derive(Debug)]
+enum Asked {
+    RobotGeom,
+    LaserGeom,
+    SonarGeom,
+    Forwarded(PendingReply),
+}
+
+/// The driver.
+#[derive(Debug)]
+pub struct Nd {
+    addr: DeviceAddr,
+    output: DeviceAddr,
+    input: DeviceAddr,
+    laser: Option<DeviceAddr>,
+    sonar: Option<DeviceAddr>,
+    nav: Navigator,
+    laser_pose: Option<Pose3d>,
+    sonar_poses: Option<Vec<Pose3d>>,
+    odom_vel: Pose2d,
+    waiting_on_stall: bool,
+    asked: Waiting<Asked>,
+}
+
+impl Nd {
+    /// Builds the driver from its cfg block.
+    pub fn from_block(block: &DriverBlock) -> Result<Nd, DriverError> {
+        let addr = block
+            .provides
+            .iter()
+            .find(|p| p.addr.interf == InterfaceCode::POSITION2D)
+            .ok_or_else(|| DriverError::new("must provide a position2d device"))?
+            .addr;
+        let output = block
+            .required(InterfaceCode::POSITION2D, Some("output"))?
+            .addr;
+        let input = block
+            .required(InterfaceCode::POSITION2D, Some("input"))?
+            .addr;
+        let laser = block
+            .optional_required(InterfaceCode::LASER, None)?
+            .map(|r| r.addr);
+        let sonar = block
+            .optional_required(InterfaceCode::SONAR, None)?
+            .map(|r| r.addr);
+        if laser.is_none() && sonar.is_none() {
+            return Err(DriverError::new(
+                "ND needs at least one sonar or one laser (e.g. \"laser:0\")",
+            ));
+        }
+        if output.same_device(&addr) || input.same_device(&addr) {
+            return Err(DriverError::new("attempt to subscribe to self"));
+        }
+        Ok(Nd {
+            addr,
+            output,
+            input,
+            laser,
+            sonar,
+            nav: Navigator::new(Settings::from_block(block)?),
+            laser_pose: None,
+            sonar_poses: None,
+            odom_vel: Pose2d::default(),
+            waiting_on_stall: false,
+            asked: Waiting::default(),
+        })
+    }
+
+    fn put_vel(&self, ctx: &mut Context<'_>, vx: f64, va: f64) {
+        ctx.command(
+            self.output,
+            Position2dCmd::Vel(Position2dCmdVel {
+                vel: Pose2d {
+                    px: vx,
+                    py: 0.0,
+                    pa: va,
+                },
+                state: 1,
+            }),
+        );
+    }
+
+    fn input_pose(&mut self, ctx: &mut Context<'_>, state: &Position2dDataState, time: f64) {
+        self.nav.set_pose(state.pos);
+        let mut stall = 0;
+        if state.stall != 0 {
+            if self.nav.settings.wait_on_stall {
+                self.put_vel(ctx, 0.0, 0.0);
+                self.waiting_on_stall = true;
+            } else {
+                stall = 1;
+            }
+        } else {
+            self.waiting_on_stall = false;
+        }
+        if self.nav.stalled {
+            stall = 1;
+        }
+        ctx.publish_at(
+            self.addr,
+            Position2dData::State(Position2dDataState {
+                pos: state.pos,
+                vel: self.odom_vel,
+                stall,
+            }),
+            time,
+        );
+    }
+}
+
+impl Driver for Nd {
+    fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
+        self.nav.reset();
+        self.laser_pose = None;
+        self.sonar_poses = None;
+        self.waiting_on_stall = false;
+        ctx.subscribe(self.output);
+        if !self.input.same_device(&self.output) {
+            ctx.subscribe(self.input);
+        }
+        let t = ctx.request(self.output, Position2dReq::GetGeom(None));
+        self.asked.insert(t, Asked::RobotGeom);
+        if let Some(laser) = self.laser {
+            ctx.subscribe(laser);
+            let t = ctx.request(laser, LaserReq::GetGeom(None));
+            self.asked.insert(t, Asked::LaserGeom);
+        }
+        if let Some(sonar) = self.sonar {
+            ctx.subscribe(sonar);
+            let t = ctx.request(sonar, SonarReq::GetGeom(None));
+            self.asked.insert(t, Asked::SonarGeom);
+        }
+        Ok(())
+    }
+
+    fn teardown(&mut self, ctx: &mut Context<'_>) {
+        // Stop the robot before letting go of it.
+        self.put_vel(ctx, 0.0, 0.0);
+        self.nav.reset();
+    }
+
+    fn handle_data(&mut self, ctx: &mut Context<'_>, data: &Message) {
+        let time = data.header.timestamp;
+        let from = data.header.addr;
+        match &data.body {
+            Body::Position2d(Position2dMsg::Data(Position2dData::State(state))) => {
+                if from.same_device(&self.output) {
+                    self.odom_vel = state.vel;
+                }
+                if from.same_device(&self.input) {
+                    self.input_pose(ctx, state, time);
+                }
+            }
+            Body::Laser(LaserMsg::Data(LaserData::Scan(scan)))
+                if self.laser.is_some_and(|l| from.same_device(&l)) =>
+            {
+                if let Some(pose) = self.laser_pose {
+                    self.nav.laser_scan(
+                        &pose,
+                        f64::from(scan.min_angle),
+                        f64::from(scan.resolution),
+                        &scan.ranges,
+                    );
+                }
+            }
+            Body::Sonar(SonarMsg::Data(SonarData::Ranges(r)))
+                if self.sonar.is_some_and(|s| from.same_device(&s)) =>
+            {
+                if let Some(poses) = &self.sonar_poses {
+                    self.nav.sonar_scan(poses, &r.ranges);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn handle_command(&mut self, ctx: &mut Context<'_>, command: &Message) {
+        match &command.body {
+            Body::Position2d(Position2dMsg::Cmd(Position2dCmd::Pos(cmd))) => {
+                tracing::debug!(
+                    "nd: new goal ({:.3} {:.3} {:.3})",
+                    cmd.pos.px,
+                    cmd.pos.py,
+                    cmd.pos.pa.to_degrees()
+                );
+                self.nav.set_goal(cmd.pos, ctx.now());
+            }
+            Body::Position2d(Position2dMsg::Cmd(Position2dCmd::Vel(cmd))) => {
+                if cmd.state == 0 {
+                    self.put_vel(ctx, 0.0, 0.0);
+                } else {
+                    self.put_vel(ctx, cmd.vel.px, cmd.vel.pa);
+                }
+                self.nav.velocity_command(cmd.vel.px);
+            }
+            other => tracing::warn!("nd: ignoring command {}", other.constant()),
+        }
+    }
+
+    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
+        match forward(ctx, self.output, request.body.clone()) {
+            Some((ticket, pending)) => {
+                self.asked.insert(ticket, Asked::Forwarded(pending));
+                Reply::Deferred
+            }
+            None => Reply::Nack,
+        }
+    }
+
+    fn handle_reply(
+        &mut self,
+        ctx: &mut Context<'_>,
+        ticket: RequestTicket,
+        reply: Result<Message, RequestError>,
+    ) {
+        let Some(asked) = self.asked.take(ticket) else {
+            return;
+        };
+        let body = reply.as_ref().ok().map(|m| &m.body);
+        match asked {
+            Asked::Forwarded(pending) => ctx.answer(pending, passed_on(reply)),
+            Asked::RobotGeom => match body {
+                Some(Body::Position2d(Position2dMsg::Req(Position2dReq::GetGeom(Some(g))))) => {
+                    tracing::info!(
+                        "nd: robot geom: {:.3} {:.3} {:.3} {:.3} {:.3}",
+                        g.size.sl,
+                        g.size.sw,
+                        g.pose.px,
+                        g.pose.py,
+                        g.pose.pyaw.to_degrees()
+                    );
+                    self.nav.set_geometry(g.clone());
+                }
+                _ => tracing::error!("nd: failed to get geometry of underlying position device"),
+            },
+            Asked::LaserGeom => match body {
+                Some(Body::Laser(LaserMsg::Req(LaserReq::GetGeom(Some(g))))) => {
+                    self.laser_pose = Some(g.pose);
+                }
+                _ => tracing::error!("nd: failed to get laser geometry"),
+            },
+            Asked::SonarGeom => match body {
+                Some(Body::Sonar(SonarMsg::Req(SonarReq::GetGeom(Some(g))))) => {
+                    self.sonar_poses = Some(g.poses.clone());
+                }
+                _ => tracing::error!("nd: failed to get sonar geometry"),
+            },
+        }
+    }
+
+    fn update(&mut self, ctx: &mut Context<'_>) {
+        if self.waiting_on_stall {
+            return;
+        }
+        match self.nav.step(ctx.now()) {
+            Decision::Idle => {}
+            Decision::Arrived => {
+                tracing::debug!("nd: at goal");
+                self.put_vel(ctx, 0.0, 0.0);
+            }
+            Decision::GaveUp => {
+                tracing::debug!("nd: gave up");
+                self.put_vel(ctx, 0.0, 0.0);
+            }
+            Decision::Drive(vx, va) => self.put_vel(ctx, vx, va),
+        }
+    }
+
+    fn step(&self) -> Option<Duration> {
+        Some(CYCLE)
+    }
+}
+
+/// Registers the driver under its Player name.
+pub fn register(registry: &mut DriverRegistry) {
+    registry.register(NAME, |block: &DriverBlock| {
+        Ok(Box::new(Nd::from_block(block)?) as Box<dyn Driver>)
+    });
+}

@@ -319,9 +319,10 @@ pub struct Region {
     pub start: usize,
     /// Last sector (clockwise end).
     pub end: usize,
-    /// Whether the range rises (into free space) across the start discontinuity.
+    /// Whether the region is the deep side (farther, or empty) of its start discontinuity:
+    /// such an edge is a way into open space.
     pub start_rising: bool,
-    /// Whether the range rises across the end discontinuity.
+    /// Whether the region is the deep side of its end discontinuity.
     pub end_rising: bool,
     /// Tried and found impassable.
     pub discarded: bool,
@@ -343,8 +344,8 @@ pub struct Goal {
 }
 
 /// The next discontinuity from `from` going counter-clockwise (`left`) or clockwise:
-/// the sector before the jump, and whether the range rises across it (upstream's
-/// `SiguienteDiscontinuidad`). `None` when there is none all the way round.
+/// the last sector before the jump, and whether that side is the deep one (farther or
+/// empty; upstream's "ascending", `SiguienteDiscontinuidad`). `None` when there is none all the way round.
 pub fn next_discontinuity(
     robot: &Robot,
     d: &[Polar; SECTORS],
@@ -956,4 +957,274 @@ pub fn iterate(
         cmd,
         situation: Some(situation),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A Pioneer-sized robot with the driver's defaults.
+    fn params() -> NdParams {
+        NdParams {
+            front: 0.22,
+            back: 0.22,
+            left: 0.19,
+            vlmax: 0.3,
+            vamax: 45f64.to_radians(),
+            almax: 0.75,
+            aamax: 0.75,
+            dsmax: 0.5,
+            dsmin: 0.125,
+            enlarge: 0.025,
+            discontinuity: 0.38,
+            period: 0.1,
+        }
+    }
+
+    /// A laser's points: `range(bearing)` over 181 beams from -90° to 90°, robot at origin.
+    fn scan(range: impl Fn(f64) -> Option<f64>) -> Vec<(f64, f64)> {
+        (0..=180)
+            .filter_map(|i| {
+                let b = (i as f64 - 90.0).to_radians();
+                range(b).map(|r| (r * b.cos(), r * b.sin()))
+            })
+            .collect()
+    }
+
+    /// Points along the segment from `a` to `b`, every 2 cm.
+    fn wall(a: (f64, f64), b: (f64, f64)) -> Vec<(f64, f64)> {
+        let n = ((b.0 - a.0).hypot(b.1 - a.1) / 0.02) as usize;
+        (0..=n)
+            .map(|k| {
+                let t = k as f64 / n as f64;
+                (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn sectors_run_clockwise_from_behind() {
+        assert_eq!(angle_to_sector(0.0), SECTORS / 2);
+        assert_eq!(angle_to_sector(PI), 0);
+        assert_eq!(angle_to_sector(-PI), 0);
+        assert_eq!(angle_to_sector(PI / 2.0), SECTORS / 4);
+        assert_eq!(angle_to_sector(-PI / 2.0), 3 * SECTORS / 4);
+        for s in 0..SECTORS {
+            assert_eq!(
+                angle_to_sector(normalize(sector_to_angle(s))),
+                s,
+                "sector {s}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_outline_is_the_rectangle_and_security_grows_to_the_front() {
+        let r = Robot::new(&params());
+        assert!((r.outline(0) - 0.22).abs() < 1e-9, "behind: the back");
+        assert!(
+            (r.outline(SECTORS / 4) - 0.19).abs() < 1e-3,
+            "left: the side"
+        );
+        assert_eq!(
+            r.outline(SECTORS / 4),
+            r.outline(3 * SECTORS / 4),
+            "symmetric"
+        );
+        let corner = 0.22f64.hypot(0.19);
+        assert!((r.outline(SECTORS / 2) - corner).abs() < 1e-9);
+        assert!((r.security(SECTORS / 2) - 0.5).abs() < 1e-9, "dsmax ahead");
+        assert!((r.security(0) - 0.125).abs() < 1e-9, "dsmin behind");
+        for s in 1..SECTORS / 2 {
+            assert!(r.security(s) > 0.0);
+            assert_eq!(r.security(s), r.security(SECTORS - s));
+        }
+    }
+
+    #[test]
+    fn open_space_heads_straight_for_the_goal() {
+        let r = Robot::new(&params());
+        let step = iterate(
+            &r,
+            (3.0, 1.0),
+            0.5,
+            Pose::default(),
+            Velocities::default(),
+            &[],
+        )
+        .unwrap();
+        assert_eq!(step.situation, Some(Situation::Hsgr));
+        assert!(step.cmd.v > 0.0 && step.cmd.w > 0.0, "{:?}", step.cmd);
+        // Far walls, all outside the security zone: still high safety.
+        let pts = scan(|_| Some(4.0));
+        let step = iterate(
+            &r,
+            (2.0, 0.0),
+            0.5,
+            Pose::default(),
+            Velocities::default(),
+            &pts,
+        )
+        .unwrap();
+        assert_eq!(step.situation, Some(Situation::Hsgr));
+        assert!((step.cmd.v - 0.3).abs() < 1e-9 && step.cmd.w.abs() < 1e-6);
+    }
+
+    #[test]
+    fn within_tolerance_the_command_is_zero() {
+        let r = Robot::new(&params());
+        let pose = Pose {
+            x: 1.0,
+            y: 1.0,
+            a: 0.3,
+        };
+        let step = iterate(&r, (1.2, 1.1), 0.5, pose, Velocities::default(), &[]).unwrap();
+        assert_eq!(step.cmd, Velocities::default());
+        assert_eq!(step.situation, None);
+    }
+
+    #[test]
+    fn points_are_taken_in_the_robots_frame() {
+        let r = Robot::new(&params());
+        let pose = Pose {
+            x: 2.0,
+            y: -1.0,
+            a: PI / 2.0,
+        };
+        // A point 1 m ahead of a robot facing +y.
+        let d = sectorize(&r, pose, &[(2.0, 0.0)]);
+        let s = &d[SECTORS / 2];
+        assert!((s.r - 1.0).abs() < 1e-9 && s.a.abs() < 1e-9, "{s:?}");
+        assert_eq!(d.iter().filter(|s| s.r >= 0.0).count(), 1);
+    }
+
+    #[test]
+    fn an_obstacle_touching_the_front_is_an_emergency() {
+        let r = Robot::new(&params());
+        let pts = [(0.2, 0.0)];
+        assert_eq!(
+            iterate(
+                &r,
+                (3.0, 0.0),
+                0.5,
+                Pose::default(),
+                Velocities::default(),
+                &pts
+            ),
+            Err(Halt::Emergency)
+        );
+    }
+
+    #[test]
+    fn a_wall_across_the_way_is_skirted_through_a_gap() {
+        let r = Robot::new(&params());
+        // A wall 1.5 m ahead from y = -3 to y = 0.5; the goal straight behind it; free space
+        // past its left end.
+        let pts = wall((1.5, -3.0), (1.5, 0.5));
+        let goal = (4.0, 0.0);
+        let d = sectorize(&r, Pose::default(), &pts);
+        let g = polar(goal.0, goal.1);
+        let goal_s = Goal {
+            p: g,
+            sector: angle_to_sector(g.a),
+        };
+        let regions = select_region(&r, &d, &goal_s);
+        let chosen = regions.list[regions.chosen.expect("a region")];
+        assert_ne!(chosen.direction, Direction::Goal, "the goal is hidden");
+        assert!(chosen.direction_angle > 0.0, "to the left: {chosen:?}");
+        let step = iterate(&r, goal, 0.5, Pose::default(), Velocities::default(), &pts).unwrap();
+        assert!(step.cmd.w > 0.0, "turns left: {:?}", step.cmd);
+        assert!(
+            matches!(step.situation, Some(Situation::Hswr | Situation::Hsnr)),
+            "{:?}",
+            step.situation
+        );
+    }
+
+    #[test]
+    fn a_closed_ring_has_no_way_out() {
+        let r = Robot::new(&params());
+        let ring: Vec<(f64, f64)> = (0..360)
+            .map(|k| {
+                let a = (k as f64).to_radians();
+                (1.0 * a.cos(), 1.0 * a.sin())
+            })
+            .collect();
+        assert_eq!(
+            iterate(
+                &r,
+                (3.0, 0.0),
+                0.5,
+                Pose::default(),
+                Velocities::default(),
+                &ring
+            ),
+            Err(Halt::NoRegion)
+        );
+    }
+
+    #[test]
+    fn a_near_obstacle_on_one_side_pushes_the_heading_away() {
+        let r = Robot::new(&params());
+        // A wall along the right side, 0.35 m away, goal straight ahead.
+        let pts = wall((-1.0, -0.35), (3.0, -0.35));
+        let step = iterate(
+            &r,
+            (3.0, 0.0),
+            0.3,
+            Pose::default(),
+            Velocities::default(),
+            &pts,
+        )
+        .unwrap();
+        assert_eq!(step.situation, Some(Situation::Lsg));
+        assert!(step.cmd.w > 0.0, "turns away to the left: {:?}", step.cmd);
+        // Walls near both sides: LS2.
+        let mut both = pts.clone();
+        both.extend(wall((-1.0, 0.4), (3.0, 0.4)));
+        let step = iterate(
+            &r,
+            (3.0, 0.0),
+            0.3,
+            Pose::default(),
+            Velocities::default(),
+            &both,
+        )
+        .unwrap();
+        assert_eq!(step.situation, Some(Situation::Ls2));
+        // Closer to the right wall than the left: still edges left.
+        assert!(step.cmd.w > 0.0, "{:?}", step.cmd);
+    }
+
+    #[test]
+    fn discontinuities_are_range_jumps_wider_than_the_robot() {
+        let r = Robot::new(&params());
+        // Obstacles 2 m away ahead, 4 m on the left half: a jump at the front.
+        let pts = scan(|b| Some(if b > 0.2 { 4.0 } else { 2.0 }));
+        let d = sectorize(&r, Pose::default(), &pts);
+        // Going left from straight ahead: the near side (this region) is the shallow one.
+        let (s, rising) = next_discontinuity(&r, &d, SECTORS / 2, true).unwrap();
+        assert!(!rising, "the region is nearer than past the jump");
+        assert!(
+            (sector_to_angle(s) - 0.2).abs() < 0.05,
+            "at {}",
+            sector_to_angle(s)
+        );
+        // Going right from the far part: the same jump, seen from the deep side.
+        let (s, rising) = next_discontinuity(&r, &d, angle_to_sector(1.0), false).unwrap();
+        assert!(rising);
+        assert!(
+            (sector_to_angle(s) - 0.2).abs() < 0.05,
+            "at {}",
+            sector_to_angle(s)
+        );
+        // Going right from straight ahead: the end of the scan, empty space behind.
+        let (s, rising) = next_discontinuity(&r, &d, SECTORS / 2, false).unwrap();
+        assert!(!rising);
+        assert!(sector_to_angle(s) < -1.5, "at {}", sector_to_angle(s));
+        assert_eq!(
+            next_discontinuity(&r, &[Polar { r: -1.0, a: 0.0 }; SECTORS], 0, true),
+            None
+        );
+    }
 }

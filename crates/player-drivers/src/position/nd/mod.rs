@@ -752,3 +752,168 @@ pub fn register(registry: &mut DriverRegistry) {
         Ok(Box::new(Nd::from_block(block)?) as Box<dyn Driver>)
     });
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::options::tests::block;
+    use player_proto::Bbox3d;
+
+    fn geom() -> Position2dGeom {
+        Position2dGeom {
+            pose: Pose3d::default(),
+            size: Bbox3d {
+                sw: 0.38,
+                sl: 0.44,
+                sh: 0.25,
+            },
+        }
+    }
+
+    fn pose(px: f64, py: f64, pa: f64) -> Pose2d {
+        Pose2d { px, py, pa }
+    }
+
+    #[test]
+    fn options_default_as_upstream_and_angles_are_degrees() {
+        let s = Settings::from_block(&block("nd", &[])).unwrap();
+        assert_eq!(s, Settings::default());
+        assert_eq!(s.sonar_buffer, 20);
+        let s = Settings::from_block(&block(
+            "nd",
+            &[
+                ("goal_tol", "0.3 15"),
+                ("max_speed", "0.4 30"),
+                ("translate_stuck_angle", "10"),
+                ("sonar_bad_transducers", "0 3"),
+                ("wait_on_stall", "1"),
+            ],
+        ))
+        .unwrap();
+        assert_eq!(s.dist_eps, 0.3);
+        assert!((s.ang_eps - 15f64.to_radians()).abs() < 1e-12);
+        assert!((s.va_max - 30f64.to_radians()).abs() < 1e-12);
+        assert!((s.translate_stuck_angle - 10f64.to_radians()).abs() < 1e-12);
+        assert_eq!(s.sonar_bad_transducers, [0, 3]);
+        assert!(s.wait_on_stall);
+        assert!(Settings::from_block(&block("nd", &[("laser_buffer", "0")])).is_err());
+        assert!(Settings::from_block(&block("nd", &[("avoid_dist", "far")])).is_err());
+    }
+
+    #[test]
+    fn thresholds_keep_the_sign_and_zero() {
+        assert_eq!(threshold(0.0, 0.1, 0.3), 0.0);
+        assert_eq!(threshold(0.01, 0.1, 0.3), 0.1);
+        assert_eq!(threshold(0.5, 0.1, 0.3), 0.3);
+        assert_eq!(threshold(-0.01, 0.1, 0.3), -0.1);
+        assert_eq!(threshold(-0.5, 0.1, 0.3), -0.3);
+    }
+
+    #[test]
+    fn the_robot_geometry_follows_the_driving_direction() {
+        let s = Settings {
+            safety_dist: 0.1,
+            ..Settings::default()
+        };
+        let mut g = geom();
+        g.pose.px = -0.04;
+        let f = s.nd_params(&g, true);
+        assert!((f.front - (0.22 - 0.04 + 0.1)).abs() < 1e-12);
+        assert!((f.back - (0.22 + 0.04 + 0.1)).abs() < 1e-12);
+        assert!((f.left - 0.29).abs() < 1e-12);
+        assert!((f.discontinuity - 0.58).abs() < 1e-12);
+        assert!((f.dsmin - 0.125).abs() < 1e-12 && (f.enlarge - 0.025).abs() < 1e-12);
+        let b = s.nd_params(&g, false);
+        assert_eq!((b.front, b.back), (f.back, f.front));
+    }
+
+    #[test]
+    fn a_goal_is_driven_to_and_reached() {
+        let mut nav = Navigator::new(Settings::default());
+        nav.reset();
+        nav.set_pose(pose(0.0, 0.0, 0.0));
+        assert_eq!(nav.step(0.0), Decision::Idle, "no goal");
+        nav.set_goal(pose(3.0, 0.0, 0.0), 0.0);
+        assert_eq!(nav.step(0.0), Decision::Idle, "no geometry yet");
+        nav.set_geometry(geom());
+        // The laser sees a far wall.
+        let ranges = vec![5.0f32; 181];
+        nav.laser_scan(
+            &Pose3d::default(),
+            -std::f64::consts::FRAC_PI_2,
+            1f64.to_radians(),
+            &ranges,
+        );
+        let Decision::Drive(vx, va) = nav.step(0.02) else {
+            panic!("should drive");
+        };
+        assert!((vx - 0.3).abs() < 1e-9 && va.abs() < 1e-6, "{vx} {va}");
+        // Close enough in distance, heading off: turn in place.
+        nav.set_pose(pose(2.8, 0.0, 1.0));
+        let Decision::Drive(vx, va) = nav.step(0.04) else {
+            panic!("should turn");
+        };
+        assert_eq!(vx, 0.0);
+        assert!(va < 0.0 && va.abs() >= 10f64.to_radians() - 1e-9, "{va}");
+        nav.set_pose(pose(2.8, 0.0, 0.05));
+        assert_eq!(nav.step(0.06), Decision::Arrived);
+        assert!(!nav.active() && !nav.stalled);
+    }
+
+    #[test]
+    fn no_progress_gives_up_with_a_stall() {
+        let mut nav = Navigator::new(Settings::default());
+        nav.reset();
+        nav.set_geometry(geom());
+        nav.set_pose(pose(0.0, 0.0, 0.0));
+        nav.set_goal(pose(3.0, 0.0, 0.0), 10.0);
+        assert!(matches!(nav.step(10.0), Decision::Drive(..)));
+        // The robot does not move for longer than translate_stuck_time.
+        assert!(matches!(nav.step(11.9), Decision::Drive(..)));
+        assert_eq!(nav.step(12.1), Decision::GaveUp);
+        assert!(nav.stalled && !nav.active());
+        // A new goal clears the stall.
+        nav.set_goal(pose(3.0, 0.0, 0.0), 13.0);
+        assert!(!nav.stalled);
+    }
+
+    #[test]
+    fn a_velocity_command_cancels_the_goal_and_sets_the_direction() {
+        let mut nav = Navigator::new(Settings::default());
+        nav.reset();
+        nav.set_geometry(geom());
+        nav.set_goal(pose(-3.0, 0.0, 0.0), 0.0);
+        nav.velocity_command(-0.1);
+        assert!(!nav.active());
+        nav.set_goal(pose(-3.0, 0.0, 0.0), 0.0);
+        // Backwards: ND sees the robot facing the goal, the speed comes out negative.
+        let Decision::Drive(vx, _) = nav.step(0.02) else {
+            panic!("should drive");
+        };
+        assert!(vx < 0.0, "{vx}");
+    }
+
+    #[test]
+    fn scans_are_buffered_in_the_odometric_frame() {
+        let mut nav = Navigator::new(Settings {
+            laser_buffer: 2,
+            sonar_bad_transducers: vec![1],
+            ..Settings::default()
+        });
+        nav.set_pose(pose(1.0, 2.0, std::f64::consts::FRAC_PI_2));
+        let laser = Pose3d {
+            px: 0.1,
+            ..Pose3d::default()
+        };
+        nav.laser_scan(&laser, 0.0, 0.0, &[1.0]);
+        let (x, y) = nav.laser_scans[0][0];
+        assert!((x - 1.0).abs() < 1e-9 && (y - 3.1).abs() < 1e-9, "{x} {y}");
+        nav.laser_scan(&laser, 0.0, 0.0, &[2.0]);
+        nav.laser_scan(&laser, 0.0, 0.0, &[3.0]);
+        assert_eq!(nav.laser_scans.len(), 2, "oldest dropped");
+        assert!((nav.laser_scans[0][0].1 - 4.1).abs() < 1e-9);
+        let ring = [Pose3d::default(), Pose3d::default(), Pose3d::default()];
+        nav.sonar_scan(&ring, &[1.0, 1.0, 1.0]);
+        assert_eq!(nav.sonar_scans[0].len(), 2, "transducer 1 ignored");
+    }
+}

@@ -1,0 +1,125 @@
+//! `nd` end to end: a Stage room with a wall segment between the robot and its goal, the
+//! robot's laser served as `laser:0` on its ranger, `nd` on top of the robot's position2d.
+//! A client sends a goal behind the obstacle to `position2d:1` and watches it: the robot must
+//! get there (within nd's goal tolerance) without touching anything and without nd giving up.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use player_client::{PlayerClient, Position2dProxy, SimulationProxy};
+use player_server::Pace;
+
+const WORLD: &str = r#"
+interval_sim 100
+resolution 0.02
+define wall model ( color "gray30" )
+wall ( name "north" size [8.2 0.2 1] pose [0 3 0 0] )
+wall ( name "south" size [8.2 0.2 1] pose [0 -3 0 0] )
+wall ( name "east" size [0.2 6 1] pose [4 0 0 0] )
+wall ( name "west" size [0.2 6 1] pose [-4 0 0 0] )
+wall ( name "block" size [0.4 2.0 1] pose [0 0.3 0 0] )
+position
+(
+  name "r0"
+  size [0.44 0.38 0.25]
+  pose [-2.5 0 0 0]
+  drive "diff"
+  ranger ( sensor ( pose [0.15 0 0 0] size [0.1 0.1 0.1] range [0 8] fov 180 samples 181 ) )
+)
+"#;
+
+const CFG: &str = r#"
+driver ( name "stage" provides ["0:simulation:0"] worldfile "nd.world" )
+driver ( name "stage" provides ["0:position2d:0" "0:laser:0"] model "r0" )
+driver
+(
+  name "nd"
+  provides ["0:position2d:1"]
+  requires ["output::0:position2d:0" "input::0:position2d:0" "0:laser:0"]
+  goal_tol [0.3 15]
+  max_speed [0.4 60]
+  avoid_dist 0.4
+  laser_buffer 1
+)
+"#;
+
+fn folder(tag: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("nd-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("nd.world"), WORLD).unwrap();
+    dir
+}
+
+#[test]
+fn nd_drives_round_the_obstacle_to_the_goal() {
+    let dir = folder("goto");
+    let handle = common::serve_cfg(&dir, "nd.cfg", CFG, Pace::RealTime { speedup: 10.0 });
+    let port = handle.ports()[0];
+    let client = PlayerClient::connect("localhost", port).unwrap();
+    let nav = Position2dProxy::new(&client, 1).unwrap();
+    let base = Position2dProxy::new(&client, 0).unwrap();
+    let sim = SimulationProxy::new(&client, 0).unwrap();
+
+    // Requests to nd's device are answered by the base.
+    assert_eq!(nav.request_geom().unwrap(), base.request_geom().unwrap());
+
+    // Wait for odometry through nd, then aim 5 m ahead: (2.5, 0) in the world, behind the
+    // block that spans y -0.7..1.3 at x = 0.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while nav.state().is_none() {
+        assert!(Instant::now() < deadline, "nd published no odometry");
+        client.read().unwrap();
+    }
+    let start = nav.pose();
+    let goal = (start.px + 5.0, start.py, start.pa);
+    let world_goal = (2.5, 0.0);
+    nav.go_to(goal.0, goal.1, goal.2).unwrap();
+
+    let deadline = Instant::now() + Duration::from_secs(90);
+    let mut passed_block = false;
+    loop {
+        assert!(
+            Instant::now() < deadline,
+            "the robot did not arrive: at {:?}, goal {goal:?}",
+            nav.pose()
+        );
+        client.read().unwrap();
+        let here = nav.pose();
+        assert!(!nav.stall(), "nd gave up at {here:?}");
+        assert!(!base.stall(), "the robot hit something at {here:?}");
+        let truth = sim.get_pose2d("r0").unwrap();
+        if truth.px > 0.3 {
+            passed_block = true;
+        }
+        let dist = (here.px - goal.0).hypot(here.py - goal.1);
+        let speed = base.velocity();
+        if dist < 0.3 && speed.px == 0.0 && speed.pa == 0.0 && passed_block {
+            let world = (truth.px - world_goal.0).hypot(truth.py - world_goal.1);
+            assert!(world < 0.35, "stopped at {truth:?}, not at the goal");
+            let heading = (here.pa - goal.2).sin().atan2((here.pa - goal.2).cos());
+            assert!(
+                heading.abs() < 15f64.to_radians(),
+                "heading off by {heading}"
+            );
+            break;
+        }
+    }
+    drop((nav, base, sim));
+    drop(client);
+    handle.shutdown();
+}
+
+#[test]
+fn nd_refuses_a_cfg_without_its_keyed_position_devices_or_a_range_sensor() {
+    let dir = folder("refused");
+    let no_keys = CFG.replace(
+        r#"["output::0:position2d:0" "input::0:position2d:0" "0:laser:0"]"#,
+        r#"["0:position2d:0" "0:laser:0"]"#,
+    );
+    let err = common::build_cfg(&dir, "nd.cfg", &no_keys, Pace::AsFastAsPossible).unwrap_err();
+    assert!(err.contains("output"), "{err}");
+    let no_sensor = CFG.replace(r#" "0:laser:0"]"#, "]");
+    let err = common::build_cfg(&dir, "nd.cfg", &no_sensor, Pace::AsFastAsPossible).unwrap_err();
+    assert!(err.contains("sonar or one laser"), "{err}");
+}

@@ -108,8 +108,6 @@ const EXPECTED: &[(&str, u32, &str, &str)] = &[
     // `laser:0`), none left for `sonar:0`.
     ("mbicp.cfg", 15, "no-unbound-model", "sonar:0"),
     ("mbicp.cfg", 28, "unknown-driver", "mbicp"), // issue 16
-    ("mbicp.cfg", 55, "unknown-driver", "nd"),    // issue 16
-    ("nd.cfg", 26, "unknown-driver", "nd"),       // issue 16
     // test.world is not in Stage's tree.
     ("test.cfg", 12, "world-does-not-load", "test.world"),
     ("uoa_robotics_lab.cfg", 31, "unknown-driver", "vfh"), // issue 16

@@ -78,6 +78,7 @@ fn nd_drives_round_the_obstacle_to_the_goal() {
 
     let deadline = Instant::now() + Duration::from_secs(90);
     let mut passed_block = false;
+    let mut widest: f64 = 0.0;
     loop {
         assert!(
             Instant::now() < deadline,
@@ -89,6 +90,7 @@ fn nd_drives_round_the_obstacle_to_the_goal() {
         assert!(!nav.stall(), "nd gave up at {here:?}");
         assert!(!base.stall(), "the robot hit something at {here:?}");
         let truth = sim.get_pose2d("r0").unwrap();
+        widest = widest.max(truth.py.abs());
         if truth.px > 0.3 {
             passed_block = true;
         }
@@ -102,6 +104,20 @@ fn nd_drives_round_the_obstacle_to_the_goal() {
                 heading.abs() < 15f64.to_radians(),
                 "heading off by {heading}"
             );
+            break;
+        }
+    }
+    // A velocity command to nd passes through to the base.
+    nav.set_speed(0.1, 0.0, 0.2).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        assert!(
+            Instant::now() < deadline,
+            "the velocity command did not reach the base"
+        );
+        client.read().unwrap();
+        let v = base.velocity();
+        if (v.px - 0.1).abs() < 1e-6 && (v.pa - 0.2).abs() < 1e-6 {
             break;
         }
     }

@@ -695,7 +695,10 @@ impl Driver for Nd {
         match asked {
             Asked::Forwarded(pending) => ctx.answer(pending, passed_on(reply)),
             Asked::RobotGeom => match body {
-                Some(Body::Position2d(Position2dMsg::Req(Position2dReq::GetGeom(Some(g))))) => {
+                Some(Body::Position2d(
+                    Position2dMsg::Ack(Position2dReq::GetGeom(Some(g)))
+                    | Position2dMsg::Req(Position2dReq::GetGeom(Some(g))),
+                )) => {
                     tracing::info!(
                         "nd: robot geom: {:.3} {:.3} {:.3} {:.3} {:.3}",
                         g.size.sl,
@@ -709,13 +712,19 @@ impl Driver for Nd {
                 _ => tracing::error!("nd: failed to get geometry of underlying position device"),
             },
             Asked::LaserGeom => match body {
-                Some(Body::Laser(LaserMsg::Req(LaserReq::GetGeom(Some(g))))) => {
+                Some(Body::Laser(
+                    LaserMsg::Ack(LaserReq::GetGeom(Some(g)))
+                    | LaserMsg::Req(LaserReq::GetGeom(Some(g))),
+                )) => {
                     self.laser_pose = Some(g.pose);
                 }
                 _ => tracing::error!("nd: failed to get laser geometry"),
             },
             Asked::SonarGeom => match body {
-                Some(Body::Sonar(SonarMsg::Req(SonarReq::GetGeom(Some(g))))) => {
+                Some(Body::Sonar(
+                    SonarMsg::Ack(SonarReq::GetGeom(Some(g)))
+                    | SonarMsg::Req(SonarReq::GetGeom(Some(g))),
+                )) => {
                     self.sonar_poses = Some(g.poses.clone());
                 }
                 _ => tracing::error!("nd: failed to get sonar geometry"),

@@ -925,4 +925,204 @@ mod tests {
         nav.sonar_scan(&ring, &[1.0, 1.0, 1.0]);
         assert_eq!(nav.sonar_scans[0].len(), 2, "transducer 1 ignored");
     }
+
+    mod driver {
+        use super::*;
+        use crate::testing::{Harness, addr, block as test_block};
+        use player_proto::{LaserDataScan, LaserGeom};
+
+        fn nav() -> DeviceAddr {
+            addr(InterfaceCode::POSITION2D, 1)
+        }
+        fn base() -> DeviceAddr {
+            addr(InterfaceCode::POSITION2D, 0)
+        }
+        fn laser() -> DeviceAddr {
+            addr(InterfaceCode::LASER, 0)
+        }
+
+        fn nd_block(options: &[(&str, &str)]) -> DriverBlock {
+            let mut b = test_block(NAME, &[nav()], &[base(), base(), laser()], options);
+            b.requires[0].key = Some("output".into());
+            b.requires[1].key = Some("input".into());
+            b
+        }
+
+        fn state(px: f64, stall: u8) -> Position2dData {
+            Position2dData::State(Position2dDataState {
+                pos: pose(px, 0.0, 0.0),
+                vel: pose(0.1, 0.0, 0.0),
+                stall,
+            })
+        }
+
+        /// The velocity commands sent to the base.
+        fn commands(out: &crate::testing::Outcome) -> Vec<(f64, f64)> {
+            out.actions
+                .iter()
+                .filter_map(|a| match a {
+                    player_server::Action::Command(
+                        to,
+                        Body::Position2d(Position2dMsg::Cmd(Position2dCmd::Vel(v))),
+                    ) if *to == base() => Some((v.vel.px, v.vel.pa)),
+                    _ => None,
+                })
+                .collect()
+        }
+
+        /// A driver set up, with the base's and the laser's geometry answered.
+        fn ready(options: &[(&str, &str)]) -> Harness<Nd> {
+            let mut h = Harness::new(Nd::from_block(&nd_block(options)).unwrap());
+            let out = h.setup();
+            assert_eq!(out.subscriptions(), [base(), laser()], "the base once");
+            let reqs = out.requests();
+            assert_eq!(reqs.len(), 2);
+            h.ack(reqs[0].0, base(), Position2dReq::GetGeom(Some(geom())));
+            h.ack(
+                reqs[1].0,
+                laser(),
+                LaserReq::GetGeom(Some(LaserGeom::default())),
+            );
+            h
+        }
+
+        #[test]
+        fn blocks_need_keyed_position_devices_and_a_range_sensor() {
+            let unkeyed = test_block(NAME, &[nav()], &[base(), laser()], &[]);
+            assert!(
+                Nd::from_block(&unkeyed)
+                    .unwrap_err()
+                    .to_string()
+                    .contains("output")
+            );
+            let mut no_sensor = nd_block(&[]);
+            no_sensor.requires.pop();
+            assert!(
+                Nd::from_block(&no_sensor)
+                    .unwrap_err()
+                    .to_string()
+                    .contains("sonar or one laser")
+            );
+        }
+
+        #[test]
+        fn odometry_is_republished_with_the_stall_of_giving_up() {
+            let mut h = ready(&[]);
+            let out = h.data(base(), state(1.0, 0), 2.0);
+            assert_eq!(out.published.len(), 1);
+            assert_eq!(out.published[0].addr, nav());
+            assert_eq!(out.published[0].timestamp, Some(2.0));
+            assert_eq!(out.bodies()[0], state(1.0, 0).into());
+            // A goal the robot never moves towards: nd gives up after translate_stuck_time,
+            // stops the robot and reports a stall.
+            h.command(
+                nav(),
+                Position2dCmd::Pos(player_proto::Position2dCmdPos {
+                    pos: pose(4.0, 0.0, 0.0),
+                    ..Default::default()
+                }),
+            );
+            let out = h.update();
+            assert_eq!(commands(&out), [(0.3, 0.0)]);
+            h.now += 2.5;
+            let out = h.update();
+            assert_eq!(commands(&out), [(0.0, 0.0)]);
+            let out = h.data(base(), state(1.0, 0), 4.5);
+            let Body::Position2d(Position2dMsg::Data(Position2dData::State(s))) = &out.bodies()[0]
+            else {
+                panic!("state expected");
+            };
+            assert_eq!(s.stall, 1);
+        }
+
+        #[test]
+        fn laser_scans_become_obstacles() {
+            let mut h = ready(&[]);
+            h.data(base(), state(0.0, 0), 1.0);
+            // A wall 0.3 m ahead, across the whole view: ND cannot go forward.
+            let scan = LaserDataScan {
+                min_angle: -std::f32::consts::FRAC_PI_2,
+                max_angle: std::f32::consts::FRAC_PI_2,
+                resolution: 1f32.to_radians(),
+                max_range: 8.0,
+                ranges: (0..=180)
+                    .map(|i| {
+                        let b = (i as f32 - 90.0).to_radians();
+                        (0.3 / b.cos()).min(8.0)
+                    })
+                    .collect(),
+                ..LaserDataScan::default()
+            };
+            h.data(laser(), LaserData::Scan(scan), 1.0);
+            h.command(
+                nav(),
+                Position2dCmd::Pos(player_proto::Position2dCmdPos {
+                    pos: pose(4.0, 0.0, 0.0),
+                    ..Default::default()
+                }),
+            );
+            let out = h.update();
+            let cmds = commands(&out);
+            assert_eq!(cmds.len(), 1);
+            assert!(
+                cmds[0] != (0.3, 0.0),
+                "the wall changes the command: {cmds:?}"
+            );
+        }
+
+        #[test]
+        fn wait_on_stall_stops_and_hides_the_stall() {
+            let mut h = ready(&[("wait_on_stall", "1")]);
+            h.command(
+                nav(),
+                Position2dCmd::Pos(player_proto::Position2dCmdPos {
+                    pos: pose(4.0, 0.0, 0.0),
+                    ..Default::default()
+                }),
+            );
+            let out = h.data(base(), state(0.0, 1), 1.0);
+            assert_eq!(commands(&out), [(0.0, 0.0)]);
+            let Body::Position2d(Position2dMsg::Data(Position2dData::State(s))) = &out.bodies()[0]
+            else {
+                panic!("state expected");
+            };
+            assert_eq!(s.stall, 0);
+            assert!(commands(&h.update()).is_empty(), "paused while stalled");
+            h.data(base(), state(0.0, 0), 1.1);
+            assert_eq!(commands(&h.update()).len(), 1, "resumes");
+        }
+
+        #[test]
+        fn velocity_commands_pass_through_and_requests_go_to_the_output() {
+            let mut h = ready(&[]);
+            let out = h.command(
+                nav(),
+                Position2dCmd::Vel(Position2dCmdVel {
+                    vel: pose(0.2, 0.0, 0.1),
+                    state: 1,
+                }),
+            );
+            assert_eq!(commands(&out), [(0.2, 0.1)]);
+            let out = h.command(
+                nav(),
+                Position2dCmd::Vel(Position2dCmdVel {
+                    vel: pose(0.2, 0.0, 0.1),
+                    state: 0,
+                }),
+            );
+            assert_eq!(commands(&out), [(0.0, 0.0)], "motors off: stop");
+            let (reply, token, out) = h.request(nav(), Position2dReq::GetGeom(None));
+            assert_eq!(reply, Reply::Deferred);
+            let reqs = out.requests();
+            assert_eq!(
+                (reqs[0].1, &reqs[0].2),
+                (base(), &Position2dReq::GetGeom(None).into())
+            );
+            let out = h.ack(reqs[0].0, base(), Position2dReq::GetGeom(Some(geom())));
+            assert_eq!(
+                out.answers(),
+                [(token, Reply::ack(Position2dReq::GetGeom(Some(geom()))))]
+            );
+        }
+    }
 }

@@ -887,10 +887,9 @@ pub fn iterate(
         return Err(Halt::Emergency);
     }
     let regions = select_region(robot, &d, &goal_r);
-    let Some(chosen) = regions.chosen else {
+    let Some(&region) = regions.chosen.and_then(|c| regions.list.get(c)) else {
         return Err(Halt::NoRegion);
     };
-    let region = regions.list[chosen];
     let mut dr = [0.0; SECTORS];
     for i in 0..SECTORS {
         dr[i] = if d[i].r < 0.0 {

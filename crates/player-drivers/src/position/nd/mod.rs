@@ -392,6 +392,8 @@ impl Navigator {
             self.goal = None;
             return Decision::Arrived;
         }
+        // Upstream hands ND a velocity it never fills in (zero in practice); ND only reads
+        // it to brake when the rear is about to graze something.
         let mut pose = Pose {
             x: odom.px,
             y: odom.py,

@@ -7,7 +7,7 @@
 //! * [`laser`] — `laserposeinterpolator`: scans stamped with the pose they were taken from;
 //! * [`map`] — `mapfile` (a map read from an image), `mapscale` (resampled to another
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
-//! * [`position`] — `nd`: Nearness Diagram navigation to position goals;
+//! * [`position`] — `nd` and `snd`: (Smooth) Nearness Diagram navigation to position goals;
 //! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
 //!   `relay` (clients' opaque messages echoed to every subscriber).
 //!
@@ -43,4 +43,5 @@ pub fn register_all(registry: &mut DriverRegistry) {
     map::mapfile::register(registry);
     map::transform::register(registry);
     position::nd::register(registry);
+    position::snd::register(registry);
 }

@@ -44,6 +44,19 @@ driver
 )
 "#;
 
+const SND_CFG: &str = r#"
+driver ( name "stage" provides ["0:simulation:0"] worldfile "nd.world" )
+driver ( name "stage" provides ["0:position2d:0" "0:laser:0"] model "r0" )
+driver
+(
+  name "snd"
+  provides ["0:position2d:1"]
+  requires ["input::0:position2d:0" "output::0:position2d:0" "0:laser:0"]
+  robot_radius 0.3
+  goal_tol [0.3 0.26]  # radians: snd reads this angle as a length
+)
+"#;
+
 fn folder(tag: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("nd-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -53,8 +66,18 @@ fn folder(tag: &str) -> std::path::PathBuf {
 
 #[test]
 fn nd_drives_round_the_obstacle_to_the_goal() {
-    let dir = folder("goto");
-    let handle = common::serve_cfg(&dir, "nd.cfg", CFG, Pace::RealTime { speedup: 10.0 });
+    drive_round_the_block("goto", CFG);
+}
+
+#[test]
+fn snd_drives_round_the_obstacle_to_the_goal() {
+    drive_round_the_block("snd", SND_CFG);
+}
+
+/// Both drivers' goal tolerances are 0.3 m and 15° in these cfgs.
+fn drive_round_the_block(tag: &str, cfg: &str) {
+    let dir = folder(tag);
+    let handle = common::serve_cfg(&dir, "nd.cfg", cfg, Pace::RealTime { speedup: 10.0 });
     let port = handle.ports()[0];
     let client = PlayerClient::connect("localhost", port).unwrap();
     let nav = Position2dProxy::new(&client, 1).unwrap();

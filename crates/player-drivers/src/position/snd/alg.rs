@@ -80,15 +80,16 @@ fn between_directed(s1: i64, s2: i64, n: i64, dir: i64) -> i64 {
     (dir * (wrap(s2, n) as i64 - wrap(s1, n) as i64)).rem_euclid(n)
 }
 
-/// A range discontinuity: at `sector`, the near side's range `dist`, and `dir` the way
-/// (+1 counter-clockwise, -1 clockwise) from the near side into the far one.
+/// A range discontinuity, placed on its far (open) side: `sector` is there, `dist` is the
+/// range of the corner on the near side, and `dir` the way from the gap to that corner
+/// (+1 counter-clockwise, -1 clockwise).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Gap {
-    /// The sector on the near side.
+    /// The sector on the far side.
     pub sector: i64,
-    /// Range on the near side (m).
+    /// Range of the corner on the near side (m).
     pub dist: f64,
-    /// +1: opens to the left (counter-clockwise), -1: to the right.
+    /// +1: the corner is counter-clockwise of the gap, -1: clockwise.
     pub dir: i64,
 }
 
@@ -197,7 +198,7 @@ pub fn find_gaps(full: &[f64], lps: usize, min_gap_width: f64, max_range: f64, r
         .collect();
     let mut gaps = Vec::new();
     if nl < n {
-        // The laser's right edge opens to the left.
+        // The laser's right edge: open space clockwise of its first beam.
         let idx = n / 2 - nl / 2;
         gaps.push(Gap {
             sector: wrap(idx - 1, n) as i64,
@@ -223,7 +224,7 @@ pub fn find_gaps(full: &[f64], lps: usize, min_gap_width: f64, max_range: f64, r
         }
     }
     if nl < n {
-        // The laser's left edge opens to the right.
+        // The laser's left edge: open space counter-clockwise of its last beam.
         let idx = n / 2 - nl / 2 + nl;
         gaps.push(Gap {
             sector: wrap(idx, n) as i64,
@@ -445,4 +446,147 @@ pub fn step(
         * ((min_obs - r) / p.obstacle_avoid_dist).clamp(0.0, 1.0)
         * ((PI / 6.0 - theta.abs()) / (PI / 6.0)).clamp(0.0, 1.0);
     Some(Command::Drive { v, w })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> SndParams {
+        SndParams {
+            robot_radius: 0.25,
+            min_gap_width: 0.5,
+            obstacle_avoid_dist: 1.0,
+            max_speed: 0.5,
+            max_turn_rate: 60f64.to_radians(),
+            goal_position_tol: 0.125,
+            goal_angle_tol: 30f64.to_radians(),
+        }
+    }
+
+    /// A 181-beam, 180° scan with `range(bearing)`.
+    fn scan(range: impl Fn(f64) -> f64) -> Scan {
+        Scan {
+            ranges: (0..=180)
+                .map(|i| range((i as f64 - 90.0).to_radians()))
+                .collect(),
+            resolution: 1f64.to_radians(),
+            max_range: 8.0,
+        }
+    }
+
+    fn drive(c: Option<Command>) -> (f64, f64) {
+        match c {
+            Some(Command::Drive { v, w }) => (v, w),
+            other => panic!("expected a drive command, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn sector_arithmetic_wraps_the_short_way() {
+        assert_eq!(between(10, 20, 360), 10);
+        assert_eq!(between(350, 10, 360), 20);
+        assert_eq!(between(10, 350, 360), -20);
+        assert_eq!(between_directed(10, 350, 360, 1), 340);
+        assert_eq!(between_directed(10, 350, 360, -1), 20);
+        assert_eq!(wrap(-1, 360), 359);
+    }
+
+    #[test]
+    fn free_space_goes_straight_at_the_goal() {
+        let s = scan(|_| 8.0);
+        let (v, w) = drive(step(&params(), &s, (0.0, 0.0, 0.0), (3.0, 0.0, 0.0)));
+        // Half a sector off straight ahead: upstream centres sectors on n/2 as a real.
+        assert!(v > 0.45 && w.abs() < 0.02, "{v} {w}");
+        // A goal to the left: turn left, slowing while the heading is off.
+        let (v, w) = drive(step(&params(), &s, (0.0, 0.0, 0.0), (0.0, 3.0, 0.0)));
+        assert!(w > 0.5 && v == 0.0, "{v} {w}");
+    }
+
+    #[test]
+    fn the_goal_pose_is_reached_in_position_then_heading() {
+        let s = scan(|_| 8.0);
+        let at = step(&params(), &s, (1.0, 1.0, 0.1), (1.05, 1.0, 0.0));
+        assert_eq!(at, Some(Command::Arrived));
+        // In position, heading 90° off: turn in place by a third of the error.
+        let (v, w) = drive(step(&params(), &s, (1.0, 1.0, 0.0), (1.05, 1.0, 1.5)));
+        assert_eq!(v, 0.0);
+        assert!((w - 0.5).abs() < 1e-9, "{w}");
+    }
+
+    #[test]
+    fn unusable_scans_give_no_command() {
+        let mut s = scan(|_| 8.0);
+        s.resolution = 0.0;
+        assert_eq!(step(&params(), &s, (0.0, 0.0, 0.0), (3.0, 0.0, 0.0)), None);
+        s.ranges.clear();
+        s.resolution = 0.01;
+        assert_eq!(step(&params(), &s, (0.0, 0.0, 0.0), (3.0, 0.0, 0.0)), None);
+    }
+
+    #[test]
+    fn gaps_are_range_jumps_and_the_laser_edges() {
+        // 2 m ahead on the right half, 6 m on the left: one jump at the front.
+        let s = scan(|b| if b > 0.0 { 6.0 } else { 2.0 });
+        let n = (2.0 * PI / s.resolution + 0.5).round() as i64;
+        let full: Vec<f64> = (0..n)
+            .map(|i| {
+                let k = i - n / 2 + 90;
+                if (0..181).contains(&k) {
+                    s.ranges[k as usize]
+                } else {
+                    8.0
+                }
+            })
+            .collect();
+        let gaps = find_gaps(&full, 181, 0.5, 8.0, 0.25);
+        // Right edge, the jump, left edge; each at its far side, with the near range, and
+        // `dir` pointing at the near side.
+        assert_eq!(gaps.len(), 3, "{gaps:?}");
+        assert_eq!(gaps[0].dir, 1);
+        let jump = gaps[1];
+        assert_eq!(jump.dir, -1);
+        assert_eq!(jump.sector, n / 2 + 1);
+        assert_eq!(jump.dist, 2.0);
+        assert_eq!(gaps[2].dir, -1);
+    }
+
+    #[test]
+    fn a_wall_ahead_is_skirted_towards_its_open_end() {
+        // A wall 1.5 m ahead across the right and centre, open on the left beyond 20°.
+        let s = scan(|b| {
+            if b < 20f64.to_radians() {
+                (1.5 / b.cos()).min(8.0)
+            } else {
+                8.0
+            }
+        });
+        let (_, w) = drive(step(&params(), &s, (0.0, 0.0, 0.0), (4.0, 0.0, 0.0)));
+        assert!(w > 0.0, "turns left round the wall's end: {w}");
+    }
+
+    #[test]
+    fn a_near_obstacle_deflects_and_slows() {
+        // A post 0.6 m away, 30° to the right; the goal straight ahead and clear of it.
+        let post = 30f64.to_radians();
+        let s = scan(|b| if (b + post).abs() < 0.05 { 0.6 } else { 8.0 });
+        let (v, w) = drive(step(&params(), &s, (0.0, 0.0, 0.0), (4.0, 0.0, 0.0)));
+        let free = drive(step(
+            &params(),
+            &scan(|_| 8.0),
+            (0.0, 0.0, 0.0),
+            (4.0, 0.0, 0.0),
+        ));
+        assert!(v < free.0, "slower near the post: {v}");
+        assert!(w > 0.0, "pushed left, away from the post: {w}");
+    }
+
+    #[test]
+    fn too_close_goes_straight_slowly() {
+        // Something inside the robot's radius: heading straight, speed zero.
+        let s = scan(|b| if b.abs() < 0.05 { 0.2 } else { 8.0 });
+        let (v, w) = drive(step(&params(), &s, (0.0, 0.0, 0.0), (4.0, 2.0, 0.0)));
+        assert_eq!(v, 0.0);
+        assert!(w.abs() < 0.02, "{w}");
+    }
 }

@@ -279,3 +279,64 @@ pub fn register(registry: &mut DriverRegistry) {
         Ok(Box::new(Snd::from_block(block)?) as Box<dyn Driver>)
     });
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::options::tests::block;
+
+    fn pose(px: f64, py: f64, pa: f64) -> Pose2d {
+        Pose2d { px, py, pa }
+    }
+
+    fn open() -> Scan {
+        Scan {
+            ranges: vec![8.0; 181],
+            resolution: 1f64.to_radians(),
+            max_range: 8.0,
+        }
+    }
+
+    #[test]
+    fn options_default_from_the_radius() {
+        let p = params_from_block(&block(NAME, &[])).unwrap();
+        assert_eq!(
+            (p.robot_radius, p.min_gap_width, p.obstacle_avoid_dist),
+            (0.25, 0.5, 1.0)
+        );
+        assert_eq!((p.max_speed, p.goal_position_tol), (0.5, 0.125));
+        assert!((p.max_turn_rate - 60f64.to_radians()).abs() < 1e-12);
+        assert!((p.goal_angle_tol - 30f64.to_radians()).abs() < 1e-12);
+        let p = params_from_block(&block(
+            NAME,
+            &[("robot_radius", "0.4"), ("goal_tol", "0.2 0.1")],
+        ))
+        .unwrap();
+        assert_eq!((p.min_gap_width, p.obstacle_avoid_dist), (0.8, 1.6));
+        assert_eq!(
+            (p.goal_position_tol, p.goal_angle_tol),
+            (0.2, 0.1),
+            "radians as written"
+        );
+        assert!(params_from_block(&block(NAME, &[("max_speed", "fast")])).is_err());
+    }
+
+    #[test]
+    fn the_robot_holds_its_first_pose_until_a_goal_comes() {
+        let mut nav = Navigator::new(params_from_block(&block(NAME, &[])).unwrap());
+        assert_eq!(nav.scan(open()), None, "no pose yet");
+        // The first pose is the goal: arrived (twice, as upstream), then idle.
+        assert_eq!(nav.pose(pose(1.0, 2.0, 0.0)), Some(Command::Arrived));
+        assert_eq!(nav.pose(pose(1.0, 2.0, 0.0)), None, "waits for a scan");
+        assert_eq!(nav.scan(open()), Some(Command::Arrived));
+        nav.pose(pose(1.0, 2.0, 0.0));
+        assert_eq!(nav.scan(open()), None, "idle");
+        nav.set_goal((4.0, 2.0, 0.0));
+        // The scan and pose that came in while idle are still new (as upstream's ready
+        // flags): the next pose alone starts the drive.
+        let Some(Command::Drive { v, .. }) = nav.pose(pose(1.0, 2.0, 0.0)) else {
+            panic!("should drive");
+        };
+        assert!(v > 0.4);
+    }
+}

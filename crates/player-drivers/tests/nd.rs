@@ -1,7 +1,9 @@
-//! `nd` end to end: a Stage room with a wall segment between the robot and its goal, the
-//! robot's laser served as `laser:0` on its ranger, `nd` on top of the robot's position2d.
-//! A client sends a goal behind the obstacle to `position2d:1` and watches it: the robot must
-//! get there (within nd's goal tolerance) without touching anything and without nd giving up.
+//! `nd` and `snd` end to end: a Stage room with a wall segment between the robot and its
+//! goal, the robot's laser served as `laser:0` on its ranger, the navigation driver on top of
+//! the robot's position2d. A client sends a goal behind the obstacle to `position2d:1` and
+//! watches it: the robot must get there (within the goal tolerance) round the obstacle,
+//! without touching anything and without the driver giving up; a velocity command then passes
+//! through to the base.
 
 mod common;
 
@@ -14,6 +16,7 @@ const WORLD: &str = r#"
 interval_sim 100
 resolution 0.02
 define wall model ( color "gray30" )
+define sonar sensor ( range [0 5] fov 15 samples 1 )
 wall ( name "north" size [8.2 0.2 1] pose [0 3 0 0] )
 wall ( name "south" size [8.2 0.2 1] pose [0 -3 0 0] )
 wall ( name "east" size [0.2 6 1] pose [4 0 0 0] )
@@ -26,6 +29,13 @@ position
   pose [-2.5 0 0 0]
   drive "diff"
   ranger ( sensor ( pose [0.15 0 0 0] size [0.1 0.1 0.1] range [0 8] fov 180 samples 181 ) )
+  ranger
+  (
+    sonar ( pose [0.2 0 0 0] ) sonar ( pose [0.15 0.15 0 45] ) sonar ( pose [0 0.19 0 90] )
+    sonar ( pose [-0.15 0.15 0 135] ) sonar ( pose [-0.2 0 0 180] )
+    sonar ( pose [-0.15 -0.15 0 -135] ) sonar ( pose [0 -0.19 0 -90] )
+    sonar ( pose [0.15 -0.15 0 -45] )
+  )
 )
 "#;
 
@@ -57,6 +67,24 @@ driver
 )
 "#;
 
+/// Stage's own nd.cfg shape: laser and sonar, the sonar's rear transducers ignored.
+const ND_SONAR_CFG: &str = r#"
+driver ( name "stage" provides ["0:simulation:0"] worldfile "nd.world" )
+driver ( name "stage" provides ["0:position2d:0" "0:laser:0" "0:sonar:0"] model "r0" )
+driver
+(
+  name "nd"
+  provides ["0:position2d:1"]
+  requires ["output::0:position2d:0" "input::0:position2d:0" "0:laser:0" "0:sonar:0"]
+  sonar_bad_transducers [3 4 5]
+  goal_tol [0.3 15]
+  max_speed [0.4 60]
+  avoid_dist 0.4
+  laser_buffer 1
+  sonar_buffer 1
+)
+"#;
+
 fn folder(tag: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("nd-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -67,6 +95,11 @@ fn folder(tag: &str) -> std::path::PathBuf {
 #[test]
 fn nd_drives_round_the_obstacle_to_the_goal() {
     drive_round_the_block("goto", CFG);
+}
+
+#[test]
+fn nd_with_laser_and_sonar_drives_round_the_obstacle_to_the_goal() {
+    drive_round_the_block("sonar", ND_SONAR_CFG);
 }
 
 #[test]

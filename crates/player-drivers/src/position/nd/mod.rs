@@ -1073,6 +1073,52 @@ mod tests {
         }
 
         #[test]
+        fn sonar_readings_become_obstacles_without_the_bad_transducers() {
+            let sonar = addr(InterfaceCode::SONAR, 0);
+            let mut b = test_block(NAME, &[nav()], &[base(), base(), sonar], &[]);
+            b.requires[0].key = Some("output".into());
+            b.requires[1].key = Some("input".into());
+            b.options
+                .insert("sonar_bad_transducers".into(), vec!["1".into()]);
+            let mut h = Harness::new(Nd::from_block(&b).unwrap());
+            let reqs = h.setup().requests();
+            assert_eq!(
+                (reqs[1].1, &reqs[1].2),
+                (sonar, &SonarReq::GetGeom(None).into())
+            );
+            h.ack(reqs[0].0, base(), Position2dReq::GetGeom(Some(geom())));
+            // Transducer 0 looks ahead, 1 (ignored) too, 2 behind.
+            let ahead = Pose3d::default();
+            let behind = Pose3d {
+                pyaw: std::f64::consts::PI,
+                ..Pose3d::default()
+            };
+            h.ack(
+                reqs[1].0,
+                sonar,
+                SonarReq::GetGeom(Some(player_proto::SonarGeom {
+                    poses: vec![ahead, ahead, behind],
+                })),
+            );
+            h.data(base(), state(0.0, 0), 1.0);
+            let goal = Position2dCmd::Pos(player_proto::Position2dCmdPos {
+                pos: pose(4.0, 0.0, 0.0),
+                ..Default::default()
+            });
+            // Only the ignored transducer sees something close: free driving.
+            let readings = |r: [f32; 3]| {
+                SonarData::Ranges(player_proto::SonarDataRanges { ranges: r.to_vec() })
+            };
+            h.data(sonar, readings([5.0, 0.1, 5.0]), 1.0);
+            h.command(nav(), goal.clone());
+            assert_eq!(commands(&h.update()), [(0.3, 0.0)]);
+            // Transducer 0 sees an obstacle at the robot's nose: emergency stop.
+            h.data(sonar, readings([0.1, 5.0, 5.0]), 1.1);
+            assert_eq!(commands(&h.update()), [(0.0, 0.0)]);
+            assert!(h.driver.nav.stalled);
+        }
+
+        #[test]
         fn wait_on_stall_stops_and_hides_the_stall() {
             let mut h = ready(&[("wait_on_stall", "1")]);
             h.command(

@@ -9,6 +9,7 @@ use player_server::DriverRegistry;
 pub mod forward;
 pub mod laserposeinterpolator;
 pub mod passthrough;
+pub mod vfh;
 
 /// Registers every driver of this crate under its Player 3.0.2 name.
 pub fn register_all(registry: &mut DriverRegistry) {

@@ -1,0 +1,5 @@
+//! `vfh`: Vector Field Histogram Plus local navigation (Player 3.0.2's
+//! `server/drivers/position/vfh`).
+
+pub mod algorithm;
+pub mod ranges;

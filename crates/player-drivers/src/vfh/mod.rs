@@ -2,4 +2,5 @@
 //! `server/drivers/position/vfh`).
 
 pub mod algorithm;
+pub mod navigator;
 pub mod ranges;

@@ -15,4 +15,5 @@ pub mod vfh;
 pub fn register_all(registry: &mut DriverRegistry) {
     laserposeinterpolator::register(registry);
     passthrough::register(registry);
+    vfh::register(registry);
 }

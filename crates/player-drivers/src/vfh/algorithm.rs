@@ -35,7 +35,7 @@ const WIDE_OPENING: f32 = 80.0;
 const BORDER_CLEARANCE: i32 = 40;
 /// The turn rate is proportional to the picked direction's offset from straight ahead,
 /// reaching the maximum at this offset (degrees).
-const FULL_TURN_OFFSET: f32 = 75.0;
+const FULL_TURN_OFFSET: f64 = 75.0;
 /// Speed step (mm/s) used when the time since the last update is unknown or implausible.
 const FALLBACK_SPEED_STEP: i32 = 10;
 /// Updates further apart than this (s) count as a restart of the speed ramp.
@@ -182,15 +182,14 @@ impl Window {
         let mut direction = Vec::with_capacity(size * size);
         let mut dist = Vec::with_capacity(size * size);
         let mut base_mag = Vec::with_capacity(size * size);
+        // In single precision throughout, as upstream (checked against its tables).
         for y in 0..size {
             for x in 0..size {
-                let dx = center as f64 - x as f64;
-                let dy = center as f64 - y as f64;
-                let d = ((dx * dx + dy * dy).sqrt() * f64::from(p.cell_width)) as f32;
+                let dx = center as f32 - x as f32;
+                let dy = center as f32 - y as f32;
+                let d = (dx * dx + dy * dy).sqrt() * p.cell_width;
                 dist.push(d);
-                base_mag.push(
-                    ((f64::from(BASE_MAG_REACH - d)).powi(4) / f64::from(BASE_MAG_SCALE)) as f32,
-                );
+                base_mag.push((BASE_MAG_REACH - d).powi(4) / BASE_MAG_SCALE);
                 direction.push(cell_direction(x, y, center));
             }
         }
@@ -231,6 +230,11 @@ fn safety_dist(p: &Params, speed: i32) -> i32 {
     let step =
         (f64::from(speed) * f64::from(p.safety_dist_1ms - p.safety_dist_0ms) / 1000.0) as i32;
     ((p.safety_dist_0ms + step as f32) as i32).max(0)
+}
+
+/// `t` seconds in whole microseconds.
+fn whole_microseconds(t: f64) -> i64 {
+    (t * 1e6).round() as i64
 }
 
 /// Top turn rate (deg/s) at `speed` mm/s, interpolated between the 0 and 1 m/s settings.
@@ -287,7 +291,10 @@ pub struct Vfh {
     last_picked_angle: f32,
     max_speed_for_picked_angle: i32,
     blocked_circle_radius: f32,
-    last_update_time: f64,
+    /// Time of the last update in whole microseconds: upstream measures the time between
+    /// updates with `timeval`s, so 0.1 s steps of simulated time are exactly 0.1 s apart
+    /// (with f64 seconds they can come out a hair short, and the speed step one mm/s less).
+    last_update_us: i64,
     last_chosen_speed: i32,
 }
 
@@ -319,7 +326,7 @@ impl Vfh {
             last_picked_angle: 90.0,
             max_speed_for_picked_angle: 0,
             blocked_circle_radius: 0.0,
-            last_update_time: now,
+            last_update_us: whole_microseconds(now),
             last_chosen_speed: 0,
             p,
         };
@@ -492,15 +499,13 @@ impl Vfh {
                 let (xf, yf) = (x as f32, y as f32);
                 if delta_angle(dir, angle_ahead) > 0.0 && delta_angle(dir, phi_right) <= 0.0 {
                     // Between the right limit and straight ahead.
-                    let d = (f64::from(center_x_right - xf).hypot(f64::from(center_y - yf))
-                        * f64::from(cell_width)) as f32;
+                    let d = (center_x_right - xf).hypot(center_y - yf) * cell_width;
                     if d < self.blocked_circle_radius {
                         phi_right = dir;
                     }
                 } else if delta_angle(dir, angle_ahead) <= 0.0 && delta_angle(dir, phi_left) > 0.0 {
                     // Between straight ahead and the left limit.
-                    let d = (f64::from(center_x_left - xf).hypot(f64::from(center_y - yf))
-                        * f64::from(cell_width)) as f32;
+                    let d = (center_x_left - xf).hypot(center_y - yf) * cell_width;
                     if d < self.blocked_circle_radius {
                         phi_left = dir;
                     }
@@ -641,8 +646,8 @@ impl Vfh {
         let goal_x = self.dist_to_goal * a.cos();
         let goal_y = self.dist_to_goal * a.sin();
         let r = self.blocked_circle_radius;
-        let right = (f64::from(goal_x - r).hypot(f64::from(goal_y))) as f32;
-        let left = (f64::from(-goal_x - r).hypot(f64::from(goal_y))) as f32;
+        let right = (goal_x - r).hypot(goal_y);
+        let left = (-goal_x - r).hypot(goal_y);
         right + self.goal_distance_tolerance < r || left + self.goal_distance_tolerance < r
     }
 
@@ -662,8 +667,9 @@ impl Vfh {
         } else if a < 270.0 && a > 180.0 {
             top
         } else {
-            let t = (f64::from((a - 90.0) / FULL_TURN_OFFSET) * f64::from(top)).round_ties_even()
-                as i32;
+            // The offset is single precision, the division double (it decides ties).
+            let t =
+                (f64::from(a - 90.0) / FULL_TURN_OFFSET * f64::from(top)).round_ties_even() as i32;
             t.clamp(-top, top)
         };
         Motion { speed, turnrate }
@@ -687,8 +693,9 @@ impl Vfh {
         // The larger of the measured speed and the last set point: conservative if the robot
         // lags behind its commands.
         let current_pos_speed = current_speed.max(0).max(self.last_chosen_speed);
-        let elapsed = now - self.last_update_time;
-        self.last_update_time = now;
+        let now_us = whole_microseconds(now);
+        let elapsed = (now_us - self.last_update_us) as f64 / 1e6;
+        self.last_update_us = now_us;
 
         if self.build_primary_polar_histogram(ranges, current_pos_speed) {
             self.build_binary_polar_histogram(current_pos_speed);
@@ -794,6 +801,38 @@ mod tests {
         assert!((d - 45.02).abs() < 0.01, "{d}");
         let d = cell_direction(20, 20, 30).unwrap();
         assert!((d - 134.98).abs() < 0.01, "{d}");
+    }
+
+    #[test]
+    fn the_window_is_computed_in_single_precision_as_upstreams() {
+        // Values of Player 3.0.2's own tables for a 61-cell window of 0.1 m cells.
+        let v = Vfh::new(defaults(), 220.0, 0.0);
+        let cell = 3; // column 3 of the front row
+        assert_eq!(v.window.dist[cell], 4_036.087);
+        assert_eq!(v.window.base_mag[cell], 11_523.51);
+        assert_eq!(v.window.direction[cell], Some(131.96286));
+        assert_eq!(v.window.sectors[0][cell], [25, 26, 27]);
+        let cell = 28 * 61 + 28;
+        assert_eq!(v.window.base_mag[cell], 545_078.56);
+    }
+
+    #[test]
+    fn turn_rates_round_half_to_even_on_a_double_ratio() {
+        let mut p = defaults();
+        p.max_turnrate_0ms = 90;
+        p.max_turnrate_1ms = 35;
+        let mut v = Vfh::new(p, 220.0, 0.0);
+        v.picked_angle = 97.5;
+        // 7.5/75 of 85 deg/s is 8.5 in double precision: 8 (it would be 9 in single).
+        assert_eq!(v.set_motion(100, 100).turnrate, 8);
+    }
+
+    #[test]
+    fn time_between_updates_is_measured_in_whole_microseconds() {
+        let mut v = Vfh::new(defaults(), 220.0, 3.2);
+        // 3.3 - 3.2 is a hair under 0.1 in f64; upstream's timevals make it 0.1: +20 mm/s.
+        let m = v.update(&open(), 0, 90.0, 5000.0, 500.0, 3.3);
+        assert_eq!(m.speed, 20);
     }
 
     #[test]

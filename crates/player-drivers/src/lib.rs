@@ -5,6 +5,8 @@
 //! * [`ranger`] — `rangertolaser`, `lasertoranger`, `sonartoranger`: Player 3's ranger
 //!   interface to and from Player 2's laser and sonar;
 //! * [`laser`] — `laserposeinterpolator`: scans stamped with the pose they were taken from;
+//! * [`position`] — `vfh`: local navigation (Vector Field Histogram+) over a base and a
+//!   laser or sonar;
 //! * [`map`] — `mapfile` (a map read from an image), `mapscale` (resampled to another
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
 //! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
@@ -21,6 +23,7 @@ mod forward;
 pub mod laser;
 pub mod map;
 mod options;
+pub mod position;
 pub mod ranger;
 pub mod shell;
 #[cfg(test)]
@@ -40,4 +43,5 @@ pub fn register_all(registry: &mut DriverRegistry) {
     laser::laserposeinterpolator::register(registry);
     map::mapfile::register(registry);
     map::transform::register(registry);
+    position::vfh::register(registry);
 }

@@ -18,6 +18,7 @@
 
 #![warn(missing_docs)]
 
+pub mod amcl;
 mod error;
 mod forward;
 pub mod laser;

@@ -4,15 +4,67 @@
 //! KLD-sampling: many particles while the pose is uncertain, few once it is known. Odometry
 //! moves the particles ([`models::OdometryModel`]); laser scans and sonar ranges, compared
 //! with a map by ray casting, weigh them ([`models::LaserModel`], [`models::SonarModel`]).
+//! Clusters of particles are published as hypotheses on `localize`, and the heaviest one, kept
+//! up to date with odometry between filter updates, as `position2d` data.
+//!
+//! Requires `odometry:::position2d:N` (the action sensor), and optionally a `laser` with its
+//! map (`laser:::map:N`) and/or a `sonar` with its map (`sonar:::map:N`), as Player names
+//! them. Provides `localize` (DATA HYPOTHS; SET_POSE, GET_PARTICLES) and/or `position2d`
+//! (DATA STATE; GET_GEOM answers a 1 cm point, as upstream, so viewers draw something).
+//!
+//! Maps are fetched when the driver starts (GET_INFO, then GET_DATA in tiles of at most
+//! 640 x 640) along with the laser's or the sonar's geometry; data arriving meanwhile is
+//! kept and fed to the filter once everything is there. Filter updates can take tens of
+//! milliseconds with thousands of particles, so the filter runs on a thread of its own and
+//! hands its results back through the driver's waker; the server never waits for it.
+//! The filter's inputs are handled strictly in arrival order with a seeded generator
+//! ([`engine`]), so a simulation run repeats exactly.
+//!
+//! Options: see [`settings::Settings`]. `odom_init` and `enable_gui` are accepted and
+//! ignored (3.0.2 never uses the first; there is no GUI). The sonar options (`scount`,
+//! `spose[i]`, `sonar_range_*`) are Player 2.0's: 3.0.2 had dropped its sonar sensor.
 
+pub mod engine;
 pub mod histogram;
 pub mod map;
 pub mod models;
 pub mod pdf;
 pub mod pf;
 pub mod pose;
+pub mod settings;
 
-/// What can go wrong while the driver builds its map.
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{self, Receiver, Sender, TryRecvError};
+use std::sync::{Arc, Mutex};
+
+use player_proto::{
+    Bbox3d, Body, DeviceAddr, InterfaceCode, LaserMsg, LaserReq, LocalizeData, LocalizeMsg,
+    LocalizeReq, MapMsg, MapReq, MapTile, Message, Pose2d, Position2dData, Position2dDataState,
+    Position2dGeom, Position2dMsg, Position2dReq, SonarData, SonarMsg, SonarReq,
+};
+use player_server::{
+    Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply, RequestError,
+    RequestTicket,
+};
+
+use engine::{Engine, EngineConfig, Input, Output};
+use map::OccupancyMap;
+use models::{LaserModel, LaserScan, OdometryModel, SonarModel};
+use pf::Population;
+use pose::Pose;
+use settings::Settings;
+
+/// The Player name of this driver.
+pub const NAME: &str = "amcl";
+
+/// Inputs allowed to wait for the filter before new data is dropped (upstream's queue size).
+pub const QUEUE_LIMIT: usize = 20_000;
+
+/// Largest map tile asked for at once, in cells per side (upstream's).
+pub const TILE: usize = 640;
+
+/// What can go wrong while the driver fetches its map and geometry.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum AmclError {
     /// The map is bigger than [`map::MAX_CELLS`].
@@ -42,4 +94,792 @@ pub enum AmclError {
         /// Cells received.
         cells: usize,
     },
+    /// A device did not answer a request the driver needs.
+    #[error("{what} from {device} failed: {source}")]
+    Request {
+        /// What was asked.
+        what: &'static str,
+        /// The device asked.
+        device: DeviceAddr,
+        /// Why it failed.
+        source: RequestError,
+    },
+    /// A device answered with something else than what was asked.
+    #[error("{what} from {device}: unexpected answer {got}")]
+    Unexpected {
+        /// What was asked.
+        what: &'static str,
+        /// The device asked.
+        device: DeviceAddr,
+        /// The answer's message name.
+        got: String,
+    },
+}
+
+/// A range sensor the filter uses, and the map it is compared with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct SensorDevices {
+    device: DeviceAddr,
+    map: DeviceAddr,
+}
+
+/// Which range sensor something belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Which {
+    Laser,
+    Sonar,
+}
+
+/// What a request the driver sent was for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Asked {
+    MapInfo(Which),
+    MapTile {
+        which: Which,
+        col: usize,
+        row: usize,
+        width: usize,
+        height: usize,
+    },
+    Geometry(Which),
+}
+
+/// A map being fetched.
+#[derive(Debug, Default)]
+struct MapLoad {
+    map: Option<OccupancyMap>,
+    tiles_left: usize,
+    done: bool,
+}
+
+/// The filter thread's side of the driver.
+#[derive(Debug)]
+struct Worker {
+    tx: Sender<Input>,
+    shared: Arc<Shared>,
+}
+
+/// What the driver and its filter thread share.
+#[derive(Debug, Default)]
+struct Shared {
+    outputs: Mutex<Vec<Output>>,
+    /// Inputs sent and not yet handled.
+    queued: AtomicUsize,
+}
+
+/// One run of the driver, from setup to teardown.
+#[derive(Debug, Default)]
+struct Run {
+    asked: HashMap<RequestTicket, Asked>,
+    laser_map: MapLoad,
+    sonar_map: MapLoad,
+    laser_pose: Option<Pose>,
+    sonar_poses: Option<Vec<Pose>>,
+    /// Inputs that arrived before the filter could start.
+    backlog: Vec<Input>,
+    worker: Option<Worker>,
+    failed: bool,
+    overflow_reported: bool,
+}
+
+/// The driver.
+#[derive(Debug)]
+pub struct Amcl {
+    settings: Settings,
+    localize: Option<DeviceAddr>,
+    position: Option<DeviceAddr>,
+    odometry: DeviceAddr,
+    laser: Option<SensorDevices>,
+    sonar: Option<SensorDevices>,
+    run: Option<Run>,
+}
+
+impl Amcl {
+    /// Builds the driver from its cfg block: what it provides and requires, and its options.
+    pub fn from_block(block: &DriverBlock) -> Result<Amcl, DriverError> {
+        let provided = |code| {
+            block
+                .provides
+                .iter()
+                .find(|p| p.addr.interf == code)
+                .map(|p| p.addr)
+        };
+        let localize = provided(InterfaceCode::LOCALIZE);
+        let position = provided(InterfaceCode::POSITION2D);
+        if localize.is_none() && position.is_none() {
+            return Err(DriverError::new(
+                "must provide a localize and/or a position2d device",
+            ));
+        }
+        // The action sensor (upstream: "No action sensor" otherwise).
+        let odometry = block
+            .required(InterfaceCode::POSITION2D, Some("odometry"))?
+            .addr;
+        // Upstream looks the range sensors up by interface, whatever their key; their maps by
+        // the key naming the sensor.
+        let sensor = |code: InterfaceCode, key: &str| -> Result<_, DriverError> {
+            let Some(device) = block.requires.iter().find(|r| r.addr.interf == code) else {
+                return Ok(None);
+            };
+            let map = block
+                .optional_required(InterfaceCode::MAP, Some(key))?
+                .ok_or_else(|| {
+                    DriverError::new(format!(
+                        "the {code} needs a map to compare its ranges with: add \"{key}:::map:0\" \
+                         to requires"
+                    ))
+                })?;
+            Ok(Some(SensorDevices {
+                device: device.addr,
+                map: map.addr,
+            }))
+        };
+        let laser = sensor(InterfaceCode::LASER, "laser")?;
+        let sonar = sensor(InterfaceCode::SONAR, "sonar")?;
+        let me = |a: &DeviceAddr| block.provides.iter().any(|p| p.addr.same_device(a));
+        if me(&odometry) || laser.is_some_and(|l| me(&l.device)) {
+            return Err(DriverError::new("attempt to subscribe to self"));
+        }
+        Ok(Amcl {
+            settings: Settings::from_block(block)?,
+            localize,
+            position,
+            odometry,
+            laser,
+            sonar,
+            run: None,
+        })
+    }
+
+    fn engine_config(&self) -> EngineConfig {
+        let s = &self.settings;
+        EngineConfig {
+            population: Population {
+                min_samples: s.pf_min_samples,
+                max_samples: s.pf_max_samples,
+                err: s.pf_err,
+                z: s.pf_z,
+            },
+            seed: s.seed,
+            init_mean: s.init_pose,
+            init_cov: s.init_cov(),
+            update_dist: s.update_dist,
+            update_angle: s.update_angle,
+            odometry: OdometryModel {
+                drift: s.odom_drift,
+            },
+        }
+    }
+
+    /// Hands an input to the filter (or keeps it until the filter starts). Data beyond the
+    /// queue limit is dropped with an error, as upstream does; requests never are.
+    fn feed(&mut self, input: Input) {
+        let Some(run) = self.run.as_mut() else {
+            return;
+        };
+        let is_data = matches!(
+            input,
+            Input::Odometry { .. } | Input::Laser(_) | Input::Sonar(_)
+        );
+        if run.failed {
+            return;
+        }
+        let queued = match &run.worker {
+            Some(w) => w.shared.queued.load(Ordering::Acquire),
+            None => run.backlog.len(),
+        };
+        if is_data && queued >= QUEUE_LIMIT {
+            if !run.overflow_reported {
+                tracing::error!("amcl: queue overflow: the filter is {queued} inputs behind");
+                run.overflow_reported = true;
+            }
+            return;
+        }
+        run.overflow_reported = false;
+        match &run.worker {
+            Some(w) => {
+                w.shared.queued.fetch_add(1, Ordering::AcqRel);
+                if w.tx.send(input).is_err() {
+                    tracing::error!("amcl: the filter thread stopped");
+                }
+            }
+            None => run.backlog.push(input),
+        }
+    }
+
+    /// Starts the filter once every map and geometry has arrived.
+    fn start_if_ready(&mut self, ctx: &mut Context<'_>) {
+        let config = self.engine_config();
+        let Some(run) = self.run.as_mut() else {
+            return;
+        };
+        if run.worker.is_some() || run.failed {
+            return;
+        }
+        let laser_ready = self.laser.is_none() || (run.laser_map.done && run.laser_pose.is_some());
+        let sonar_ready = self.sonar.is_none() || (run.sonar_map.done && run.sonar_poses.is_some());
+        if !(laser_ready && sonar_ready) {
+            return;
+        }
+        let s = &self.settings;
+        let laser = match (&self.laser, run.laser_map.map.take(), run.laser_pose) {
+            (Some(_), Some(map), Some(laser_pose)) => Some(LaserModel {
+                map: Arc::new(map),
+                laser_pose,
+                max_beams: s.laser_max_beams,
+                range_sigma: s.laser_range_var,
+                range_bad: s.laser_range_bad,
+            }),
+            _ => None,
+        };
+        let sonar = match (
+            &self.sonar,
+            run.sonar_map.map.take(),
+            run.sonar_poses.take(),
+        ) {
+            (Some(_), Some(map), Some(poses)) if !poses.is_empty() => Some(SonarModel {
+                map: Arc::new(map),
+                poses,
+                range_max: s.sonar_range_max,
+                range_sigma: s.sonar_range_var,
+                range_bad: s.sonar_range_bad,
+            }),
+            _ => None,
+        };
+        // Unsubscribe from the maps: they are copied (upstream does the same).
+        for d in self.laser.iter().chain(self.sonar.iter()) {
+            ctx.unsubscribe(d.map);
+        }
+        let engine = Engine::new(config, laser, sonar);
+        let (tx, rx) = mpsc::channel();
+        let shared = Arc::new(Shared::default());
+        let backlog = std::mem::take(&mut run.backlog);
+        shared.queued.store(backlog.len(), Ordering::Release);
+        for input in backlog {
+            // The receiver is alive: it is moved into the thread below.
+            let _ = tx.send(input);
+        }
+        let thread_shared = shared.clone();
+        let waker = ctx.waker();
+        let spawned = std::thread::Builder::new()
+            .name("amcl".into())
+            .spawn(move || filter_thread(engine, rx, thread_shared, waker));
+        if let Err(e) = spawned {
+            tracing::error!("amcl: cannot start the filter thread: {e}");
+            run.failed = true;
+            return;
+        }
+        tracing::debug!("amcl: map and geometry loaded, filter running");
+        run.worker = Some(Worker { tx, shared });
+    }
+
+    /// Gives up on this run: logs why, and refuses the requests that were waiting.
+    fn fail(&mut self, ctx: &mut Context<'_>, error: AmclError) {
+        tracing::error!("amcl: {error}; the driver publishes nothing until restarted");
+        let Some(run) = self.run.as_mut() else {
+            return;
+        };
+        run.failed = true;
+        for input in run.backlog.drain(..) {
+            if let Input::GetParticles(pending) = input {
+                ctx.answer(pending, Reply::Nack);
+            }
+        }
+    }
+
+    fn sensor(&self, which: Which) -> Option<SensorDevices> {
+        match which {
+            Which::Laser => self.laser,
+            Which::Sonar => self.sonar,
+        }
+    }
+
+    fn map_load(&mut self, which: Which) -> Option<&mut MapLoad> {
+        let run = self.run.as_mut()?;
+        Some(match which {
+            Which::Laser => &mut run.laser_map,
+            Which::Sonar => &mut run.sonar_map,
+        })
+    }
+
+    fn map_info(
+        &mut self,
+        ctx: &mut Context<'_>,
+        which: Which,
+        device: DeviceAddr,
+        reply: Message,
+    ) -> Result<(), AmclError> {
+        let info = match reply.body {
+            Body::Map(MapMsg::Ack(MapReq::GetInfo(Some(info)))) => info,
+            other => {
+                return Err(AmclError::Unexpected {
+                    what: "map info",
+                    device,
+                    got: other.constant().to_string(),
+                });
+            }
+        };
+        let map = OccupancyMap::from_info(&info)?;
+        tracing::debug!(
+            "amcl: loading a {} x {} map of {} m cells from {device}",
+            map.width(),
+            map.height(),
+            map.scale()
+        );
+        let (w, h) = (map.width(), map.height());
+        let mut tiles = Vec::new();
+        let mut row = 0;
+        while row < h {
+            let mut col = 0;
+            while col < w {
+                tiles.push((col, row, TILE.min(w - col), TILE.min(h - row)));
+                col += TILE;
+            }
+            row += TILE;
+        }
+        for &(col, row, width, height) in &tiles {
+            let ticket = ctx.request(
+                device,
+                MapReq::GetData(Some(MapTile {
+                    col: col as u32,
+                    row: row as u32,
+                    width: width as u32,
+                    height: height as u32,
+                    data: Vec::new(),
+                })),
+            );
+            if let Some(run) = self.run.as_mut() {
+                run.asked.insert(
+                    ticket,
+                    Asked::MapTile {
+                        which,
+                        col,
+                        row,
+                        width,
+                        height,
+                    },
+                );
+            }
+        }
+        if let Some(load) = self.map_load(which) {
+            load.tiles_left = tiles.len();
+            load.done = tiles.is_empty();
+            load.map = Some(map);
+        }
+        Ok(())
+    }
+
+    fn map_tile(
+        &mut self,
+        which: Which,
+        device: DeviceAddr,
+        (col, row, width, height): (usize, usize, usize, usize),
+        reply: Message,
+    ) -> Result<(), AmclError> {
+        let tile = match reply.body {
+            Body::Map(MapMsg::Ack(MapReq::GetData(Some(tile)))) => tile,
+            other => {
+                return Err(AmclError::Unexpected {
+                    what: "map data",
+                    device,
+                    got: other.constant().to_string(),
+                });
+            }
+        };
+        let Some(load) = self.map_load(which) else {
+            return Ok(());
+        };
+        if let Some(map) = load.map.as_mut() {
+            map.set_tile(col, row, width, height, &tile.data)?;
+        }
+        load.tiles_left = load.tiles_left.saturating_sub(1);
+        load.done = load.tiles_left == 0;
+        Ok(())
+    }
+
+    fn geometry(&mut self, which: Which, device: DeviceAddr, reply: Result<Message, RequestError>) {
+        let Some(run) = self.run.as_mut() else {
+            return;
+        };
+        match (which, reply) {
+            (Which::Laser, Ok(msg)) => match msg.body {
+                Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(g)))) => {
+                    tracing::debug!(
+                        "amcl: laser geometry {:.3} {:.3} {:.1} deg",
+                        g.pose.px,
+                        g.pose.py,
+                        g.pose.pyaw.to_degrees()
+                    );
+                    run.laser_pose = Some(Pose::new(g.pose.px, g.pose.py, g.pose.pyaw));
+                }
+                other => {
+                    tracing::warn!(
+                        "amcl: failed to get laser geometry ({}); assuming the laser sits at the robot's origin",
+                        other.constant()
+                    );
+                    run.laser_pose = Some(Pose::zeros());
+                }
+            },
+            (Which::Laser, Err(e)) => {
+                tracing::warn!(
+                    "amcl: failed to get laser geometry from {device} ({e}); assuming the laser sits at the robot's origin"
+                );
+                run.laser_pose = Some(Pose::zeros());
+            }
+            (Which::Sonar, Ok(msg)) => match msg.body {
+                Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g)))) => {
+                    run.sonar_poses = Some(
+                        g.poses
+                            .iter()
+                            .map(|p| Pose::new(p.px, p.py, p.pyaw))
+                            .collect(),
+                    );
+                }
+                other => {
+                    tracing::error!(
+                        "amcl: unexpected sonar geometry answer {} from {device}: the sonar is not used (give `scount` and `spose[i]`)",
+                        other.constant()
+                    );
+                    run.sonar_poses = Some(Vec::new());
+                }
+            },
+            (Which::Sonar, Err(e)) => {
+                tracing::error!(
+                    "amcl: failed to get sonar geometry from {device} ({e}): the sonar is not used (give `scount` and `spose[i]`)"
+                );
+                run.sonar_poses = Some(Vec::new());
+            }
+        }
+    }
+
+    /// Publishes what the filter thread produced and answers the requests it served.
+    fn collect(&mut self, ctx: &mut Context<'_>) {
+        let Some(worker) = self.run.as_ref().and_then(|r| r.worker.as_ref()) else {
+            return;
+        };
+        let outputs = std::mem::take(
+            &mut *worker
+                .shared
+                .outputs
+                .lock()
+                .unwrap_or_else(|e| e.into_inner()),
+        );
+        for output in outputs {
+            match output {
+                Output::Hypotheses { data, time } => {
+                    if let Some(addr) = self.localize {
+                        ctx.publish_at(addr, LocalizeData::Hypoths(data), time);
+                    }
+                }
+                Output::Position { pose, time } => {
+                    if let Some(addr) = self.position {
+                        let state = Position2dDataState {
+                            pos: Pose2d {
+                                px: pose.x,
+                                py: pose.y,
+                                pa: pose.z,
+                            },
+                            vel: Pose2d::default(),
+                            stall: 0,
+                        };
+                        ctx.publish_at(addr, Position2dData::State(state), time);
+                    }
+                }
+                Output::Particles { reply, data } => {
+                    ctx.answer(reply, Reply::ack(LocalizeReq::GetParticles(Some(data))));
+                }
+            }
+        }
+    }
+}
+
+/// The filter thread: takes inputs in order, runs them through the engine, and hands the
+/// results to the driver (waking it) after every input that produced some. It ends when the
+/// driver drops its sender (teardown), without finishing the queue.
+fn filter_thread(
+    mut engine: Engine,
+    rx: Receiver<Input>,
+    shared: Arc<Shared>,
+    waker: Option<DriverWaker>,
+) {
+    let mut out = Vec::new();
+    loop {
+        loop {
+            match rx.try_recv() {
+                Ok(input) => engine.push(input),
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => return,
+            }
+        }
+        if !engine.step(&mut out) {
+            match rx.recv() {
+                Ok(input) => engine.push(input),
+                Err(_) => return,
+            }
+            continue;
+        }
+        shared.queued.fetch_sub(1, Ordering::AcqRel);
+        if !out.is_empty() {
+            shared
+                .outputs
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .append(&mut out);
+            if let Some(w) = &waker {
+                w.wake();
+            }
+        }
+    }
+}
+
+impl Driver for Amcl {
+    fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
+        let mut run = Run::default();
+        ctx.subscribe(self.odometry);
+        for (which, sensor) in [(Which::Laser, self.laser), (Which::Sonar, self.sonar)] {
+            let Some(s) = sensor else { continue };
+            ctx.subscribe(s.device);
+            ctx.subscribe(s.map);
+            let t = ctx.request(s.map, MapReq::GetInfo(None));
+            run.asked.insert(t, Asked::MapInfo(which));
+            match which {
+                Which::Laser => {
+                    let t = ctx.request(s.device, LaserReq::GetGeom(None));
+                    run.asked.insert(t, Asked::Geometry(which));
+                }
+                Which::Sonar => match &self.settings.sonar_poses {
+                    Some(poses) => run.sonar_poses = Some(poses.clone()),
+                    None => {
+                        let t = ctx.request(s.device, SonarReq::GetGeom(None));
+                        run.asked.insert(t, Asked::Geometry(which));
+                    }
+                },
+            }
+        }
+        self.run = Some(run);
+        self.start_if_ready(ctx);
+        Ok(())
+    }
+
+    fn teardown(&mut self, _ctx: &mut Context<'_>) {
+        // Dropping the sender ends the filter thread after its current input.
+        self.run = None;
+    }
+
+    fn shutdown(&mut self) {
+        self.run = None;
+    }
+
+    fn handle_data(&mut self, ctx: &mut Context<'_>, data: &Message) {
+        let from = data.header.addr;
+        let input = match &data.body {
+            Body::Position2d(Position2dMsg::Data(Position2dData::State(s)))
+                if from.same_device(&self.odometry) =>
+            {
+                Input::Odometry {
+                    pose: Pose::new(s.pos.px, s.pos.py, s.pos.pa),
+                    time: data.header.timestamp,
+                }
+            }
+            Body::Laser(LaserMsg::Data(player_proto::LaserData::Scan(scan)))
+                if self.laser.is_some_and(|l| from.same_device(&l.device)) =>
+            {
+                Input::Laser(LaserScan::from_data(scan))
+            }
+            Body::Sonar(SonarMsg::Data(SonarData::Ranges(r)))
+                if self.sonar.is_some_and(|s| from.same_device(&s.device)) =>
+            {
+                Input::Sonar(r.ranges.iter().map(|&v| f64::from(v)).collect())
+            }
+            _ => return,
+        };
+        self.feed(input);
+        self.collect(ctx);
+    }
+
+    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
+        let to = request.header.addr;
+        match &request.body {
+            Body::Localize(LocalizeMsg::Req(LocalizeReq::SetPose(Some(p))))
+                if self.localize.is_some_and(|a| a.same_device(&to)) =>
+            {
+                let mean = Pose::new(p.mean.px, p.mean.py, p.mean.pa);
+                let cov =
+                    nalgebra::Matrix3::from_diagonal(&Pose::new(p.cov[0], p.cov[1], p.cov[2]));
+                self.feed(Input::SetPose { mean, cov });
+                Reply::empty_ack()
+            }
+            Body::Localize(LocalizeMsg::Req(LocalizeReq::GetParticles(_)))
+                if self.localize.is_some_and(|a| a.same_device(&to)) =>
+            {
+                if self.run.as_ref().is_none_or(|r| r.failed) {
+                    return Reply::Nack;
+                }
+                let Some(pending) = ctx.defer() else {
+                    return Reply::NotHandled;
+                };
+                self.feed(Input::GetParticles(pending));
+                Reply::Deferred
+            }
+            Body::Position2d(Position2dMsg::Req(Position2dReq::GetGeom(None)))
+                if self.position.is_some_and(|a| a.same_device(&to)) =>
+            {
+                Reply::ack(Position2dReq::GetGeom(Some(Position2dGeom {
+                    size: Bbox3d {
+                        sw: 0.01,
+                        sl: 0.01,
+                        sh: 0.0,
+                    },
+                    ..Position2dGeom::default()
+                })))
+            }
+            _ => Reply::NotHandled,
+        }
+    }
+
+    fn handle_reply(
+        &mut self,
+        ctx: &mut Context<'_>,
+        ticket: RequestTicket,
+        reply: Result<Message, RequestError>,
+    ) {
+        let Some(asked) = self.run.as_mut().and_then(|r| r.asked.remove(&ticket)) else {
+            return;
+        };
+        let which = match asked {
+            Asked::MapInfo(w) | Asked::MapTile { which: w, .. } | Asked::Geometry(w) => w,
+        };
+        let Some(devices) = self.sensor(which) else {
+            return;
+        };
+        let result = match (asked, reply) {
+            (Asked::Geometry(_), reply) => {
+                self.geometry(which, devices.device, reply);
+                Ok(())
+            }
+            (Asked::MapInfo(_), Ok(msg)) => self.map_info(ctx, which, devices.map, msg),
+            (Asked::MapInfo(_), Err(source)) => Err(AmclError::Request {
+                what: "map info",
+                device: devices.map,
+                source,
+            }),
+            (
+                Asked::MapTile {
+                    col,
+                    row,
+                    width,
+                    height,
+                    ..
+                },
+                Ok(msg),
+            ) => self.map_tile(which, devices.map, (col, row, width, height), msg),
+            (Asked::MapTile { .. }, Err(source)) => Err(AmclError::Request {
+                what: "map data",
+                device: devices.map,
+                source,
+            }),
+        };
+        match result {
+            Ok(()) => self.start_if_ready(ctx),
+            Err(e) => {
+                if !self.run.as_ref().is_some_and(|r| r.failed) {
+                    self.fail(ctx, e);
+                }
+            }
+        }
+    }
+
+    fn wake(&mut self, ctx: &mut Context<'_>) {
+        self.collect(ctx);
+    }
+
+    fn update(&mut self, ctx: &mut Context<'_>) {
+        self.collect(ctx);
+    }
+}
+
+/// Registers the driver under its Player name.
+pub fn register(registry: &mut DriverRegistry) {
+    registry.register(NAME, |block: &DriverBlock| {
+        Ok(Box::new(Amcl::from_block(block)?) as Box<dyn Driver>)
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use player_server::{ProvidedDevice, RequiredDevice};
+
+    fn addr(interf: InterfaceCode, index: u16) -> DeviceAddr {
+        DeviceAddr::new(0, 6665, interf, index)
+    }
+
+    fn block(provides: &[DeviceAddr], requires: &[(Option<&str>, DeviceAddr)]) -> DriverBlock {
+        DriverBlock {
+            name: NAME.into(),
+            provides: provides
+                .iter()
+                .map(|&addr| ProvidedDevice {
+                    addr,
+                    key: None,
+                    origin: "t.cfg:1".into(),
+                })
+                .collect(),
+            requires: requires
+                .iter()
+                .map(|&(key, addr)| RequiredDevice {
+                    addr,
+                    key: key.map(str::to_string),
+                    origin: "t.cfg:1".into(),
+                })
+                .collect(),
+            ..DriverBlock::default()
+        }
+    }
+
+    #[test]
+    fn requires_are_found_as_player_finds_them() {
+        let loc = addr(InterfaceCode::LOCALIZE, 0);
+        let odom = addr(InterfaceCode::POSITION2D, 0);
+        let laser = addr(InterfaceCode::LASER, 0);
+        let map = addr(InterfaceCode::MAP, 0);
+        // The laser matches with or without a key; its map by the key "laser".
+        for laser_key in [None, Some("laser")] {
+            let a = Amcl::from_block(&block(
+                &[loc],
+                &[
+                    (Some("odometry"), odom),
+                    (laser_key, laser),
+                    (Some("laser"), map),
+                ],
+            ))
+            .unwrap();
+            assert_eq!(a.odometry, odom);
+            assert_eq!(a.laser, Some(SensorDevices { device: laser, map }));
+            assert_eq!(a.sonar, None);
+        }
+        // Odometry alone is enough.
+        assert!(Amcl::from_block(&block(&[loc], &[(Some("odometry"), odom)])).is_ok());
+    }
+
+    #[test]
+    fn missing_pieces_are_clear_errors() {
+        let loc = addr(InterfaceCode::LOCALIZE, 0);
+        let odom = addr(InterfaceCode::POSITION2D, 0);
+        let laser = addr(InterfaceCode::LASER, 0);
+        let err = |b: DriverBlock| Amcl::from_block(&b).unwrap_err().to_string();
+        assert!(err(block(&[loc], &[(None, odom)])).contains("odometry"));
+        assert!(
+            err(block(&[loc], &[(Some("odometry"), odom), (None, laser)]))
+                .contains("laser:::map:0")
+        );
+        assert!(err(block(&[], &[(Some("odometry"), odom)])).contains("provide"));
+        let sonar = addr(InterfaceCode::SONAR, 0);
+        assert!(
+            err(block(&[loc], &[(Some("odometry"), odom), (None, sonar)]))
+                .contains("sonar:::map:0")
+        );
+        let pos = addr(InterfaceCode::POSITION2D, 1);
+        assert!(err(block(&[loc, pos], &[(Some("odometry"), pos)])).contains("self"));
+    }
 }

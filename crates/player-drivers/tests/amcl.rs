@@ -1,0 +1,340 @@
+//! `amcl` on the stage driver, over TCP: a robot wandering (Stage's `wander` controller) in a
+//! room with drifting odometry and a laser, localised against a map of the same room served
+//! by a small map driver of this test. The estimate must stay near the simulation's true
+//! pose, and two runs must publish the same hypotheses.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use player_client::{ClientProxy, PlayerClient, Position2dProxy, SimulationProxy};
+use player_proto::{
+    Body, InterfaceCode, LocalizeData, LocalizeDataHypoths, LocalizeMsg, LocalizeReq,
+    LocalizeSetPose, MapInfo, MapMsg, MapReq, MapTile, Message, Pose2d,
+};
+use player_server::{
+    Context, Driver, DriverBlock, Pace, Reply, Server, ServerConfig, ServerHandle, cfg,
+};
+use worldfile::{CfgFile, LoadOptions};
+
+/// The room: (centre x, centre y, size x, size y) of every wall and obstacle, in metres. The
+/// world file and the map are both made from this list.
+const WALLS: [(f64, f64, f64, f64); 7] = [
+    (0.0, 4.0, 10.2, 0.2),
+    (0.0, -4.0, 10.2, 0.2),
+    (5.0, 0.0, 0.2, 8.2),
+    (-5.0, 0.0, 0.2, 8.2),
+    (2.0, 1.5, 1.0, 1.0),
+    (-2.0, -1.0, 0.6, 2.0),
+    (2.5, -2.5, 1.6, 0.3),
+];
+
+/// The robot's start (x, y, heading in degrees).
+const START: (f64, f64, f64) = (-3.0, 2.0, -20.0);
+
+/// Map cell size (m) and extent: 11 x 9 m around the room.
+const MAP_SCALE: f64 = 0.05;
+const MAP_ORIGIN: (f64, f64) = (-5.5, -4.5);
+const MAP_SIZE: (usize, usize) = (220, 180);
+
+fn world_text() -> String {
+    let mut w = String::from(
+        "resolution 0.02\ninterval_sim 100\n\
+         define wall model ( color \"gray30\" obstacle_return 1 ranger_return 1 gui_nose 0 )\n",
+    );
+    for (i, (x, y, sx, sy)) in WALLS.iter().enumerate() {
+        w += &format!("wall( name \"wall{i}\" pose [{x} {y} 0 0] size [{sx} {sy} 0.5] )\n");
+    }
+    let (x, y, a) = START;
+    w += &format!(
+        "position(\n  name \"robot\" pose [{x} {y} 0 {a}] size [0.4 0.4 0.3] drive \"diff\"\n  \
+         localization \"odom\" odom_error [0.05 0.05 0 0.1]\n  ctrl \"wander\"\n  \
+         ranger( pose [0.1 0 0 0] sensor( range [0 8] fov 180 samples 181 ) )\n)\n"
+    );
+    w
+}
+
+/// The room rasterised: a cell is occupied when its centre lies in a wall, free otherwise.
+fn map_cells() -> Vec<i8> {
+    let (w, h) = MAP_SIZE;
+    let mut cells = vec![-1i8; w * h];
+    for j in 0..h {
+        for i in 0..w {
+            let x = MAP_ORIGIN.0 + (i as f64 + 0.5) * MAP_SCALE;
+            let y = MAP_ORIGIN.1 + (j as f64 + 0.5) * MAP_SCALE;
+            let inside = WALLS
+                .iter()
+                .any(|&(cx, cy, sx, sy)| (x - cx).abs() <= sx / 2.0 && (y - cy).abs() <= sy / 2.0);
+            if inside {
+                cells[j * w + i] = 1;
+            }
+        }
+    }
+    cells
+}
+
+/// A map device answering GET_INFO and GET_DATA from [`map_cells`].
+struct RoomMap {
+    cells: Vec<i8>,
+}
+
+impl Driver for RoomMap {
+    fn handle_request(&mut self, _ctx: &mut Context<'_>, request: &Message) -> Reply {
+        let (w, h) = MAP_SIZE;
+        match &request.body {
+            Body::Map(MapMsg::Req(MapReq::GetInfo(_))) => {
+                Reply::ack(MapReq::GetInfo(Some(MapInfo {
+                    scale: MAP_SCALE as f32,
+                    width: w as u32,
+                    height: h as u32,
+                    origin: Pose2d {
+                        px: MAP_ORIGIN.0,
+                        py: MAP_ORIGIN.1,
+                        pa: 0.0,
+                    },
+                })))
+            }
+            Body::Map(MapMsg::Req(MapReq::GetData(Some(t)))) => {
+                let (c0, r0) = (t.col as usize, t.row as usize);
+                let (tw, th) = (t.width as usize, t.height as usize);
+                if c0 + tw > w || r0 + th > h {
+                    return Reply::Nack;
+                }
+                let mut data = Vec::with_capacity(tw * th);
+                for r in r0..r0 + th {
+                    data.extend_from_slice(&self.cells[r * w + c0..r * w + c0 + tw]);
+                }
+                Reply::ack(MapReq::GetData(Some(MapTile { data, ..t.clone() })))
+            }
+            _ => Reply::NotHandled,
+        }
+    }
+}
+
+fn cfg_text(extra: &str) -> String {
+    format!(
+        r#"
+driver( name "stage" provides ["0:simulation:0"] plugin "stageplugin" worldfile "amcl-room.world" )
+driver( name "stage" provides ["0:position2d:0" "0:laser:0"] model "robot" )
+driver( name "roommap" provides ["0:map:0"] )
+driver(
+  name "amcl"
+  provides ["0:localize:0" "0:position2d:1"]
+  requires ["odometry::0:position2d:0" "0:laser:0" "laser::0:map:0"]
+  init_pose [-2.8 2.2 -10]
+  init_pose_var [0.3 0.3 10]
+  alwayson 1
+  {extra}
+)
+"#
+    )
+}
+
+fn serve(dir: &Path, extra: &str) -> ServerHandle {
+    std::fs::write(dir.join("amcl-room.world"), world_text()).unwrap();
+    let cfgfile = CfgFile::parse(
+        &dir.join("amcl-room.cfg"),
+        &cfg_text(extra),
+        &LoadOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut registry = common::registry();
+    let cells = map_cells();
+    registry.register("roommap", move |_b: &DriverBlock| {
+        Ok(Box::new(RoomMap {
+            cells: cells.clone(),
+        }) as Box<dyn Driver>)
+    });
+    let mut server = Server::new(ServerConfig {
+        pace: Pace::RealTime { speedup: 5.0 },
+        ..ServerConfig::default()
+    });
+    for block in cfg::driver_blocks(&cfgfile, 6665).unwrap() {
+        server
+            .add_block(&block, &mut registry)
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    server.resolve_requires().unwrap_or_else(|e| panic!("{e}"));
+    server.start().unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// What one run saw.
+struct Run {
+    /// Hypotheses by timestamp (ms).
+    hypotheses: BTreeMap<i64, LocalizeDataHypoths>,
+    /// (time s, true pose, amcl's position2d estimate at that time).
+    checks: Vec<(f64, Pose2d, Pose2d)>,
+    /// Distance the robot travelled (m), from the true poses checked.
+    travelled: f64,
+    /// The largest distance between dead reckoning and the true pose at the checks (m).
+    odometry_error: f64,
+    /// The GET_PARTICLES answer at the end.
+    particle_count: usize,
+    particle_weight: f64,
+}
+
+fn ms(t: f64) -> i64 {
+    (t * 1000.0).round() as i64
+}
+
+/// Runs the world until `until` simulated seconds, recording amcl's output and checking the
+/// true pose about every simulated second.
+fn run(dir: &Path, until: f64) -> Run {
+    let handle = serve(dir, "");
+    let port = handle.ports()[0];
+    let client = PlayerClient::connect("localhost", port).unwrap();
+    let localize = ClientProxy::subscribe(&client, InterfaceCode::LOCALIZE, 0).unwrap();
+    assert_eq!(localize.driver_name(), "amcl");
+    let estimate = Position2dProxy::new(&client, 1).unwrap();
+    let sim = SimulationProxy::new(&client, 0).unwrap();
+    let odom = Position2dProxy::new(&client, 0).unwrap();
+
+    let mut hypotheses = BTreeMap::new();
+    let mut estimates: BTreeMap<i64, Pose2d> = BTreeMap::new();
+    let mut truths: Vec<(f64, Pose2d)> = Vec::new();
+    let mut next_check = 1.0;
+    let mut odometry_error: f64 = 0.0;
+    let deadline = Instant::now() + Duration::from_secs(120);
+    loop {
+        assert!(Instant::now() < deadline, "the run took too long");
+        client.read().unwrap();
+        if localize.is_fresh() {
+            localize.not_fresh();
+            if let Some(Body::Localize(LocalizeMsg::Data(LocalizeData::Hypoths(h)))) =
+                localize.latest(1)
+            {
+                hypotheses.insert(ms(localize.datatime()), h);
+            }
+        }
+        if estimate.is_fresh() {
+            estimate.not_fresh();
+            estimates.insert(ms(estimate.datatime()), estimate.pose());
+        }
+        let now = client.datatime();
+        if now >= next_check {
+            let (p, simtime_us) = sim.get_pose3d("robot").unwrap();
+            truths.push((
+                simtime_us / 1e6,
+                Pose2d {
+                    px: p.px,
+                    py: p.py,
+                    pa: p.pyaw,
+                },
+            ));
+            next_check = now + 1.0;
+            // Dead reckoning: the odometry (which starts at zero) placed at the start pose.
+            let o = odom.pose();
+            let (sx, sy, sa) = (START.0, START.1, START.2.to_radians());
+            let (wx, wy) = (
+                sx + o.px * sa.cos() - o.py * sa.sin(),
+                sy + o.px * sa.sin() + o.py * sa.cos(),
+            );
+            odometry_error = odometry_error.max((wx - p.px).hypot(wy - p.py));
+        }
+        if now >= until {
+            break;
+        }
+    }
+    // Let the filter's output for the last checks arrive.
+    let settle = Instant::now() + Duration::from_millis(500);
+    while Instant::now() < settle {
+        client.read().unwrap();
+        if estimate.is_fresh() {
+            estimate.not_fresh();
+            estimates.insert(ms(estimate.datatime()), estimate.pose());
+        }
+    }
+    let particles = match localize.request(LocalizeReq::GetParticles(None)).unwrap() {
+        Some(Body::Localize(LocalizeMsg::Ack(LocalizeReq::GetParticles(Some(p))))) => p,
+        other => panic!("GET_PARTICLES answered {other:?}"),
+    };
+    // SET_POSE is acknowledged.
+    localize
+        .request(LocalizeReq::SetPose(Some(LocalizeSetPose {
+            mean: truths.last().unwrap().1,
+            cov: [0.01, 0.01, 0.01],
+        })))
+        .unwrap();
+    drop((localize, estimate, sim, odom));
+    drop(client);
+    handle.shutdown();
+
+    let travelled = truths
+        .windows(2)
+        .map(|w| (w[1].1.px - w[0].1.px).hypot(w[1].1.py - w[0].1.py))
+        .sum();
+    let checks = truths
+        .iter()
+        .filter_map(|&(t, truth)| estimates.get(&ms(t)).map(|&e| (t, truth, e)))
+        .collect();
+    Run {
+        hypotheses,
+        checks,
+        travelled,
+        odometry_error,
+        particle_count: particles.particles.len(),
+        particle_weight: particles.particles.iter().map(|p| p.alpha).sum(),
+    }
+}
+
+fn angle_diff(a: f64, b: f64) -> f64 {
+    (a - b).sin().atan2((a - b).cos())
+}
+
+#[test]
+fn amcl_follows_a_wandering_robot_and_repeats_exactly() {
+    let dir = std::env::temp_dir().join(format!("amcl-e2e-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let first = run(&dir, 40.0);
+
+    assert!(
+        first.travelled > 4.0,
+        "the robot only moved {:.2} m",
+        first.travelled
+    );
+    assert!(
+        first.checks.len() >= 20,
+        "only {} true poses matched an estimate",
+        first.checks.len()
+    );
+    for &(t, truth, est) in &first.checks {
+        let err = (truth.px - est.px).hypot(truth.py - est.py);
+        let aerr = angle_diff(truth.pa, est.pa).abs();
+        assert!(
+            err < 0.3 && aerr < 0.2,
+            "at {t:.1} s the estimate {est:?} is {err:.3} m / {aerr:.3} rad from the true pose {truth:?}"
+        );
+    }
+    // Odometry alone would be off by more than that.
+    assert!(
+        first.odometry_error > 0.3,
+        "dead reckoning stayed within {:.3} m",
+        first.odometry_error
+    );
+    assert!(first.hypotheses.len() >= 5);
+    assert!(first.particle_count > 100 && first.particle_count <= 10_000);
+    assert!((first.particle_weight - 1.0).abs() < 1e-6);
+
+    // The same world, seed and inputs: the same hypotheses, bit for bit, over the time both
+    // clients listened.
+    let second = run(&dir, 25.0);
+    let from = *first
+        .hypotheses
+        .keys()
+        .next()
+        .unwrap()
+        .max(second.hypotheses.keys().next().unwrap());
+    let to = *second.hypotheses.keys().last().unwrap();
+    let window = |r: &Run| -> Vec<(i64, LocalizeDataHypoths)> {
+        r.hypotheses
+            .range(from..=to)
+            .map(|(t, h)| (*t, h.clone()))
+            .collect()
+    };
+    let (a, b) = (window(&first), window(&second));
+    assert!(a.len() >= 5, "only {} hypotheses to compare", a.len());
+    assert_eq!(a, b, "two runs published different hypotheses");
+    let _ = std::fs::remove_dir_all(&dir);
+}

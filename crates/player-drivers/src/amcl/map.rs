@@ -16,6 +16,13 @@ use super::AmclError;
 /// Largest map accepted, in cells (a 16,384 x 16,384 grid; bigger is surely a bad request).
 pub const MAX_CELLS: usize = 1 << 28;
 
+/// `x` rounded down, as `x.floor() as i64` but without the library call `floor` is on
+/// baseline x86-64 (ray casting does this once per cell visited).
+fn floor(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x { t - 1 } else { t }
+}
+
 /// A grid of occupancy values with its placement.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OccupancyMap {
@@ -114,12 +121,12 @@ impl OccupancyMap {
 
     /// The cell column of world x.
     pub fn column(&self, x: f64) -> i64 {
-        ((x - self.centre_x) / self.scale + 0.5).floor() as i64 + self.width / 2
+        floor((x - self.centre_x) / self.scale + 0.5) + self.width / 2
     }
 
     /// The cell row of world y.
     pub fn row(&self, y: f64) -> i64 {
-        ((y - self.centre_y) / self.scale + 0.5).floor() as i64 + self.height / 2
+        floor((y - self.centre_y) / self.scale + 0.5) + self.height / 2
     }
 
     /// The value of cell (`i`, `j`), `None` off the grid.
@@ -138,18 +145,22 @@ impl OccupancyMap {
     /// The range a perfect sensor at (`ox`, `oy`) looking along `oa` would read, up to
     /// `max_range`: cells are visited along the ray's major axis, one per column (or row), and
     /// the range is the cell distance from the start cell to the first cell that stops the ray
-    /// (upstream's `map_calc_range`).
+    /// (upstream's `map_calc_range`; the minor coordinate is stepped by the slope instead of
+    /// recomputed from world coordinates, which picks the same cells but for rounding at
+    /// exact cell boundaries).
     pub fn calc_range(&self, ox: f64, oy: f64, oa: f64, max_range: f64) -> f64 {
         let (s, c) = oa.sin_cos();
         let (ai, aj) = (self.column(ox), self.row(oy));
         let hit = |i: i64, j: i64| ((i - ai) as f64).hypot((j - aj) as f64) * self.scale;
         if c.abs() > s.abs() {
             let bi = self.column(ox + max_range * c);
-            let dy = oa.tan() * self.scale;
+            // Row of the ray at column ai + k: floor(j0 + k * slope) + height / 2.
+            let j0 = (oy - self.centre_y) / self.scale + 0.5;
+            let slope = oa.tan();
             let step = if ai < bi { 1 } else { -1 };
             let mut i = ai;
             while i != bi {
-                let j = self.row(oy + (i - ai) as f64 * dy);
+                let j = floor(j0 + (i - ai) as f64 * slope) + self.height / 2;
                 if self.stops(i, j) {
                     return hit(i, j);
                 }
@@ -157,11 +168,12 @@ impl OccupancyMap {
             }
         } else {
             let bj = self.row(oy + max_range * s);
-            let dx = (std::f64::consts::FRAC_PI_2 - oa).tan() * self.scale;
+            let i0 = (ox - self.centre_x) / self.scale + 0.5;
+            let slope = (std::f64::consts::FRAC_PI_2 - oa).tan();
             let step = if aj < bj { 1 } else { -1 };
             let mut j = aj;
             while j != bj {
-                let i = self.column(ox + (j - aj) as f64 * dx);
+                let i = floor(i0 + (j - aj) as f64 * slope) + self.width / 2;
                 if self.stops(i, j) {
                     return hit(i, j);
                 }
@@ -189,6 +201,13 @@ pub(crate) mod tests {
             }
         }
         m
+    }
+
+    #[test]
+    fn floor_rounds_down() {
+        for x in [0.0, 0.5, -0.5, -1.0, 1.0, -2.7, 3.2, 1e12, -1e12] {
+            assert_eq!(floor(x), x.floor() as i64, "{x}");
+        }
     }
 
     #[test]

@@ -20,6 +20,18 @@ use super::pose::Pose;
 /// upstream's fixed cluster table.
 pub const MAX_CLUSTERS: usize = 100;
 
+/// Fewest particles per thread when weighing (below this, threads cost more than they save).
+const PARALLEL_CHUNK: usize = 1024;
+
+/// How many threads weigh particles: all cores but one, left to the server and simulation
+/// (found once; at least 1).
+fn sensor_threads() -> usize {
+    static THREADS: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *THREADS.get_or_init(|| {
+        std::thread::available_parallelism().map_or(1, |n| n.get().saturating_sub(1).max(1))
+    })
+}
+
 /// One weighted pose.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
@@ -154,12 +166,39 @@ impl ParticleFilter {
     /// Multiplies every weight by the likelihood `model` gives its pose, then normalises. A
     /// set whose total comes to zero (or is not a number) is made uniform instead, with a
     /// warning: the observation fits no particle.
-    pub fn update_sensor(&mut self, model: impl Fn(&Pose) -> f64) {
-        let mut total = 0.0;
-        for s in &mut self.samples {
-            s.weight *= model(&s.pose);
-            total += s.weight;
+    ///
+    /// Likelihoods (ray casting, the filter's main cost) are computed on several threads for
+    /// large sets on machines with more than two cores; each particle's weight depends only on
+    /// its own pose and the total is summed in order afterwards, so the result does not depend
+    /// on the thread count.
+    pub fn update_sensor(&mut self, model: impl Fn(&Pose) -> f64 + Sync) {
+        self.update_sensor_on(model, sensor_threads());
+    }
+
+    /// [`ParticleFilter::update_sensor`] on at most `threads` threads.
+    fn update_sensor_on(&mut self, model: impl Fn(&Pose) -> f64 + Sync, threads: usize) {
+        let weigh = |chunk: &mut [Sample]| {
+            for s in chunk {
+                s.weight *= model(&s.pose);
+            }
+        };
+        let threads = threads.min(self.samples.len() / PARALLEL_CHUNK).max(1);
+        if threads > 1 {
+            let per = self.samples.len().div_ceil(threads);
+            std::thread::scope(|scope| {
+                let mut chunks = self.samples.chunks_mut(per);
+                let mine = chunks.next();
+                for chunk in chunks {
+                    scope.spawn(|| weigh(chunk));
+                }
+                if let Some(chunk) = mine {
+                    weigh(chunk);
+                }
+            });
+        } else {
+            weigh(&mut self.samples);
         }
+        let total: f64 = self.samples.iter().map(|s| s.weight).sum();
         if total > 0.0 && total.is_finite() {
             for s in &mut self.samples {
                 s.weight /= total;
@@ -417,6 +456,17 @@ mod tests {
         assert!(pf.samples().iter().all(|s| s.weight == 0.01));
         pf.resample();
         assert!(pf.samples().len() > 10);
+    }
+
+    #[test]
+    fn weighing_on_threads_gives_the_same_weights() {
+        let mut one = ParticleFilter::new(population(100, 10_000), 3);
+        one.init_gaussian(Pose::zeros(), Matrix3::identity());
+        let mut four = one.clone();
+        let model = |p: &Pose| (-(p.x * p.x + p.y * p.y)).exp() * (1.0 + p.z.cos());
+        one.update_sensor_on(model, 1);
+        four.update_sensor_on(model, 4);
+        assert_eq!(one.samples(), four.samples());
     }
 
     #[test]

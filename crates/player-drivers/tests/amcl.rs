@@ -231,6 +231,8 @@ struct Run {
     travelled: f64,
     /// The largest distance between dead reckoning and the true pose at the checks (m).
     odometry_error: f64,
+    /// The pose SET_POSE gave at the end, and the best hypotheses published after it.
+    set_pose: (Pose2d, Vec<Pose2d>),
     /// The GET_PARTICLES answer at the end.
     particle_count: usize,
     particle_weight: f64,
@@ -311,13 +313,38 @@ fn run(dir: &Path, sensor: Sensor, until: f64) -> Run {
         Some(Body::Localize(LocalizeMsg::Ack(LocalizeReq::GetParticles(Some(p))))) => p,
         other => panic!("GET_PARTICLES answered {other:?}"),
     };
-    // SET_POSE is acknowledged.
+    // SET_POSE restarts the filter at the pose given: a metre and a quarter turn off the
+    // truth, with a tight covariance, the next hypotheses are there (the filter is told, not
+    // asked). Updates already under way when the request arrived may publish the old belief
+    // first, so the first few hypotheses after it are looked at.
+    let before = client.datatime();
+    let told = {
+        let t = truths.last().unwrap().1;
+        Pose2d {
+            px: t.px - 1.0,
+            py: t.py,
+            pa: t.pa + std::f64::consts::FRAC_PI_2,
+        }
+    };
     localize
         .request(LocalizeReq::SetPose(Some(LocalizeSetPose {
-            mean: truths.last().unwrap().1,
-            cov: [0.01, 0.01, 0.01],
+            mean: told,
+            cov: [1e-4, 1e-4, 1e-4],
         })))
         .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut after_set_pose = Vec::new();
+    while Instant::now() < deadline && after_set_pose.len() < 3 {
+        client.read().unwrap();
+        if localize.is_fresh() && localize.datatime() > before {
+            localize.not_fresh();
+            if let Some(Body::Localize(LocalizeMsg::Data(LocalizeData::Hypoths(h)))) =
+                localize.latest(1)
+            {
+                after_set_pose.push(h.hypoths[0].mean);
+            }
+        }
+    }
     drop((localize, estimate, sim, odom));
     drop(client);
     handle.shutdown();
@@ -335,6 +362,7 @@ fn run(dir: &Path, sensor: Sensor, until: f64) -> Run {
         checks,
         travelled,
         odometry_error,
+        set_pose: (told, after_set_pose),
         particle_count: particles.particles.len(),
         particle_weight: particles.particles.iter().map(|p| p.alpha).sum(),
     }
@@ -377,6 +405,13 @@ fn amcl_follows_a_wandering_robot_and_repeats_exactly() {
     assert!(first.hypotheses.len() >= 5);
     assert!(first.particle_count > 100 && first.particle_count <= 10_000);
     assert!((first.particle_weight - 1.0).abs() < 1e-6);
+    let (told, next) = &first.set_pose;
+    assert!(
+        next.iter()
+            .any(|m| (told.px - m.px).hypot(told.py - m.py) < 0.1
+                && angle_diff(told.pa, m.pa).abs() < 0.1),
+        "after SET_POSE to {told:?} the best hypotheses were {next:?}"
+    );
 
     // The same world, seed and inputs: the same hypotheses, bit for bit, over the time both
     // clients listened.

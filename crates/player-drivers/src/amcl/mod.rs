@@ -18,7 +18,10 @@
 //! milliseconds with thousands of particles, so the filter runs on a thread of its own and
 //! hands its results back through the driver's waker; the server never waits for it.
 //! The filter's inputs are handled strictly in arrival order with a seeded generator
-//! ([`engine`]), so a simulation run repeats exactly.
+//! ([`engine`]), so a simulation run repeats exactly. Hypotheses are stamped with the time of
+//! the odometry reading that triggered the update (upstream stamps them with the time they
+//! are sent, which differs from run to run); `position2d` data with the odometry's time, as
+//! upstream.
 //!
 //! Options: see [`settings::Settings`]. `odom_init` and `enable_gui` are accepted and
 //! ignored (3.0.2 never uses the first; there is no GUI). The sonar options (`scount`,
@@ -191,6 +194,8 @@ pub struct Amcl {
     odometry: DeviceAddr,
     laser: Option<SensorDevices>,
     sonar: Option<SensorDevices>,
+    /// The last SET_POSE, which a restarted filter starts from (as upstream's does).
+    set_pose: Option<(Pose, nalgebra::Matrix3<f64>)>,
     run: Option<Run>,
 }
 
@@ -247,6 +252,7 @@ impl Amcl {
             odometry,
             laser,
             sonar,
+            set_pose: None,
             run: None,
         })
     }
@@ -261,8 +267,8 @@ impl Amcl {
                 z: s.pf_z,
             },
             seed: s.seed,
-            init_mean: s.init_pose,
-            init_cov: s.init_cov(),
+            init_mean: self.set_pose.map_or(s.init_pose, |(mean, _)| mean),
+            init_cov: self.set_pose.map_or_else(|| s.init_cov(), |(_, cov)| cov),
             update_dist: s.update_dist,
             update_angle: s.update_angle,
             odometry: OdometryModel {
@@ -704,8 +710,10 @@ impl Driver for Amcl {
                 if self.localize.is_some_and(|a| a.same_device(&to)) =>
             {
                 let mean = Pose::new(p.mean.px, p.mean.py, p.mean.pa);
+                // The covariance's diagonal, as given (variances, not standard deviations).
                 let cov =
                     nalgebra::Matrix3::from_diagonal(&Pose::new(p.cov[0], p.cov[1], p.cov[2]));
+                self.set_pose = Some((mean, cov));
                 self.feed(Input::SetPose { mean, cov });
                 Reply::empty_ack()
             }

@@ -135,15 +135,21 @@ fn map_cells() -> Vec<i8> {
     cells
 }
 
-/// A map device answering GET_INFO and GET_DATA from [`map_cells`].
+/// A map device answering GET_INFO and GET_DATA from [`map_cells`]; with the option
+/// `fail "info"` it refuses GET_INFO, with `fail "tile"` it answers tiles with half their
+/// cells.
 struct RoomMap {
     cells: Vec<i8>,
+    fail: Option<String>,
 }
 
 impl Driver for RoomMap {
     fn handle_request(&mut self, _ctx: &mut Context<'_>, request: &Message) -> Reply {
         let (w, h) = MAP_SIZE;
         match &request.body {
+            Body::Map(MapMsg::Req(MapReq::GetInfo(_))) if self.fail.as_deref() == Some("info") => {
+                Reply::Nack
+            }
             Body::Map(MapMsg::Req(MapReq::GetInfo(_))) => {
                 Reply::ack(MapReq::GetInfo(Some(MapInfo {
                     scale: MAP_SCALE as f32,
@@ -166,6 +172,9 @@ impl Driver for RoomMap {
                 for r in r0..r0 + th {
                     data.extend_from_slice(&self.cells[r * w + c0..r * w + c0 + tw]);
                 }
+                if self.fail.as_deref() == Some("tile") {
+                    data.truncate(data.len() / 2);
+                }
                 Reply::ack(MapReq::GetData(Some(MapTile { data, ..t.clone() })))
             }
             _ => Reply::NotHandled,
@@ -173,13 +182,13 @@ impl Driver for RoomMap {
     }
 }
 
-fn cfg_text(sensor: Sensor, extra: &str) -> String {
+fn cfg_text(sensor: Sensor, map_options: &str, extra: &str) -> String {
     let (provided, required) = sensor.cfg();
     format!(
         r#"
 driver( name "stage" provides ["0:simulation:0"] plugin "stageplugin" worldfile "amcl-room.world" )
 driver( name "stage" provides ["0:position2d:0" "{provided}"] model "robot" )
-driver( name "roommap" provides ["0:map:0"] )
+driver( name "roommap" provides ["0:map:0"] {map_options} )
 driver(
   name "amcl"
   provides ["0:localize:0" "0:position2d:1"]
@@ -193,19 +202,20 @@ driver(
     )
 }
 
-fn serve(dir: &Path, sensor: Sensor, extra: &str) -> ServerHandle {
+fn serve(dir: &Path, sensor: Sensor, map_options: &str, extra: &str) -> ServerHandle {
     std::fs::write(dir.join("amcl-room.world"), world_text(sensor)).unwrap();
     let cfgfile = CfgFile::parse(
         &dir.join("amcl-room.cfg"),
-        &cfg_text(sensor, extra),
+        &cfg_text(sensor, map_options, extra),
         &LoadOptions::default(),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let mut registry = common::registry();
     let cells = map_cells();
-    registry.register("roommap", move |_b: &DriverBlock| {
+    registry.register("roommap", move |b: &DriverBlock| {
         Ok(Box::new(RoomMap {
             cells: cells.clone(),
+            fail: b.option("fail").map(str::to_string),
         }) as Box<dyn Driver>)
     });
     let mut server = Server::new(ServerConfig {
@@ -245,7 +255,7 @@ fn ms(t: f64) -> i64 {
 /// Runs the world until `until` simulated seconds, recording amcl's output and checking the
 /// true pose about every simulated second.
 fn run(dir: &Path, sensor: Sensor, until: f64) -> Run {
-    let handle = serve(dir, sensor, "");
+    let handle = serve(dir, sensor, "", "");
     let port = handle.ports()[0];
     let client = PlayerClient::connect("localhost", port).unwrap();
     let localize = ClientProxy::subscribe(&client, InterfaceCode::LOCALIZE, 0).unwrap();
@@ -457,4 +467,33 @@ fn amcl_localises_with_a_sonar_ring_from_its_geometry() {
             "at {t:.1} s the estimate {est:?} is {err:.3} m from the true pose {truth:?}"
         );
     }
+}
+
+/// A map device that refuses its info, or sends short tiles: amcl says why in the log,
+/// refuses GET_PARTICLES, and the rest of the server carries on.
+#[test]
+fn a_broken_map_leaves_amcl_refusing_and_the_server_running() {
+    let dir = std::env::temp_dir().join(format!("amcl-e2e-broken-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for fail in ["info", "tile"] {
+        let handle = serve(&dir, Sensor::Laser, &format!("fail \"{fail}\""), "");
+        let client = PlayerClient::connect("localhost", handle.ports()[0]).unwrap();
+        let localize = ClientProxy::subscribe(&client, InterfaceCode::LOCALIZE, 0).unwrap();
+        let reply = localize.request(LocalizeReq::GetParticles(None));
+        assert!(
+            matches!(reply, Err(player_client::ClientError::Nack { .. })),
+            "{fail}: {reply:?}"
+        );
+        // The stage devices still serve.
+        let odom = Position2dProxy::new(&client, 0).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while odom.state().is_none() {
+            assert!(Instant::now() < deadline, "{fail}: no odometry");
+            client.read().unwrap();
+        }
+        drop((localize, odom));
+        drop(client);
+        handle.shutdown();
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -497,3 +497,42 @@ fn a_broken_map_leaves_amcl_refusing_and_the_server_running() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Stage's `amcl-sonar.cfg` (written for Player 2.0's amcl): its amcl block's options read as
+/// they mean (16 transducer poses in degrees, `update_thresh [0.1 5]`). The cfg itself needs
+/// `mapfile`, `mapscale` and Player 2's `position` interface name to run.
+#[test]
+fn stage_amcl_sonar_cfg_options_are_read() {
+    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
+    let path = shared.join("stage-worlds/amcl-sonar.cfg");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        eprintln!(
+            "skipping: {} not found (set PLAYERSTAGE_SHARED)",
+            path.display()
+        );
+        return;
+    };
+    let cfgfile = CfgFile::parse(&path, &text, &LoadOptions::default()).unwrap();
+    let spec = cfgfile
+        .drivers
+        .iter()
+        .find(|d| d.name == "amcl")
+        .expect("an amcl block");
+    let block = DriverBlock {
+        name: spec.name.clone(),
+        options: spec.options.clone(),
+        ..DriverBlock::default()
+    };
+    let s = player_drivers::amcl::settings::Settings::from_block(&block).unwrap();
+    assert_eq!(s.update_dist, 0.1);
+    assert!((s.update_angle - 5f64.to_radians()).abs() < 1e-12);
+    let poses = s.sonar_poses.expect("scount 16 with spose[i]");
+    assert_eq!(poses.len(), 16);
+    assert_eq!((poses[0].x, poses[0].y), (0.075, 0.130));
+    assert!((poses[0].z - 90f64.to_radians()).abs() < 1e-12);
+    assert!((poses[11].z + 170f64.to_radians()).abs() < 1e-12);
+    // Untouched options keep 3.0.2's defaults.
+    assert_eq!(s.pf_max_samples, 10_000);
+}

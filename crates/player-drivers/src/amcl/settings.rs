@@ -173,6 +173,17 @@ impl Settings {
                 ))
             })?,
         };
+        // The beam models divide by these: zero or negative spreads make every weight NaN.
+        let spread = |key: &str, default: f64| -> Result<f64, DriverError> {
+            let v = float(key, default)?;
+            if v > 0.0 && v.is_finite() {
+                Ok(v)
+            } else {
+                Err(DriverError::new(format!(
+                    "option `{key}` must be a positive length, not {v}"
+                )))
+            }
+        };
         Ok(Settings {
             pf_min_samples,
             pf_max_samples,
@@ -185,11 +196,11 @@ impl Settings {
                 .map_or(d.update_angle, f64::to_radians),
             odom_drift,
             laser_max_beams: count(block, "laser_max_beams", d.laser_max_beams)?,
-            laser_range_var: float("laser_range_var", d.laser_range_var)?,
+            laser_range_var: spread("laser_range_var", d.laser_range_var)?,
             laser_range_bad: float("laser_range_bad", d.laser_range_bad)?,
             sonar_poses,
             sonar_range_max: float("sonar_range_max", d.sonar_range_max)?,
-            sonar_range_var: float("sonar_range_var", d.sonar_range_var)?,
+            sonar_range_var: spread("sonar_range_var", d.sonar_range_var)?,
             sonar_range_bad: float("sonar_range_bad", d.sonar_range_bad)?,
             seed,
         })
@@ -280,6 +291,8 @@ mod tests {
             (block(&[("scount", &["0"])]), "scount"),
             (block(&[("laser_max_beams", &["-1"])]), "laser_max_beams"),
             (block(&[("seed", &["-3"])]), "seed"),
+            (block(&[("laser_range_var", &["0"])]), "laser_range_var"),
+            (block(&[("sonar_range_var", &["-1"])]), "sonar_range_var"),
         ] {
             let e = Settings::from_block(&opts).unwrap_err().to_string();
             assert!(e.contains(needle), "{e}");

@@ -12,29 +12,38 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::Matrix3;
-use player_drivers::amcl::map::OccupancyMap;
-use player_drivers::amcl::models::{LaserModel, LaserScan, OdometryModel};
-use player_drivers::amcl::pf::{ParticleFilter, Population};
-use player_drivers::amcl::pose::{Pose, compose};
+use player_drivers::localization::amcl::map::OccupancyMap;
+use player_drivers::localization::amcl::models::{LaserModel, LaserScan, OdometryModel};
+use player_drivers::localization::amcl::pf::{ParticleFilter, Population};
+use player_drivers::localization::amcl::pose::{Pose, compose};
+use player_proto::Pose2d;
+use player_server::map::OccupancyGrid;
 
 const SCALE: f64 = 0.05;
 const SIZE: f64 = 20.0;
 
 /// Four 10 m rooms with doorways, walls 10 cm thick.
 fn map() -> OccupancyMap {
-    let n = (SIZE / SCALE) as usize;
-    let mut m = OccupancyMap::new(SCALE, n, n, (-SIZE / 2.0, -SIZE / 2.0)).unwrap();
-    for j in 0..n {
-        for i in 0..n {
+    let n = (SIZE / SCALE) as u32;
+    let origin = Pose2d {
+        px: -SIZE / 2.0,
+        py: -SIZE / 2.0,
+        pa: 0.0,
+    };
+    let mut g = OccupancyGrid::new(n, n, SCALE as f32, origin, OccupancyGrid::FREE).unwrap();
+    for j in 0..i64::from(n) {
+        for i in 0..i64::from(n) {
             let x = (i as f64 + 0.5) * SCALE - SIZE / 2.0;
             let y = (j as f64 + 0.5) * SCALE - SIZE / 2.0;
             let outer = x.abs() > 9.9 || y.abs() > 9.9;
             let inner = (x.abs() < 0.05 && (y - 5.0).abs() > 0.5 && (y + 5.0).abs() > 0.5)
                 || (y.abs() < 0.05 && (x - 5.0).abs() > 0.5 && (x + 5.0).abs() > 0.5);
-            m.set(i, j, if outer || inner { 1 } else { -1 });
+            if outer || inner {
+                g.set(i, j, OccupancyGrid::OCCUPIED);
+            }
         }
     }
-    m
+    OccupancyMap::new(g).unwrap()
 }
 
 fn scan(model: &LaserModel, robot: &Pose) -> LaserScan {

@@ -11,8 +11,8 @@
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
 //! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
 //!   `relay` (clients' opaque messages echoed to every subscriber);
-//! * [`amcl`] — adaptive Monte-Carlo localisation against a map, from odometry and laser or
-//!   sonar ranges.
+//! * [`localization`] — `amcl`: adaptive Monte-Carlo localisation against a map, from
+//!   odometry and laser or sonar ranges.
 //!
 //! These drivers use other devices through the server's bus ([`player_server::Context`]):
 //! they subscribe in `setup`, convert the DATA they receive, and answer a client's request by
@@ -20,10 +20,10 @@
 
 #![warn(missing_docs)]
 
-pub mod amcl;
 mod error;
 mod forward;
 pub mod laser;
+pub mod localization;
 pub mod map;
 mod options;
 pub mod position;
@@ -47,5 +47,5 @@ pub fn register_all(registry: &mut DriverRegistry) {
     map::mapfile::register(registry);
     map::transform::register(registry);
     position::vfh::register(registry);
-    amcl::register(registry);
+    localization::amcl::register(registry);
 }

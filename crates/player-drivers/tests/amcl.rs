@@ -525,7 +525,7 @@ fn stage_amcl_sonar_cfg_options_are_read() {
         options: spec.options.clone(),
         ..DriverBlock::default()
     };
-    let s = player_drivers::amcl::settings::Settings::from_block(&block).unwrap();
+    let s = player_drivers::localization::amcl::settings::Settings::from_block(&block).unwrap();
     assert_eq!(s.update_dist, 0.1);
     assert!((s.update_angle - 5f64.to_radians()).abs() < 1e-12);
     let poses = s.sonar_poses.expect("scount 16 with spose[i]");

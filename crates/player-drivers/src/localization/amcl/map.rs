@@ -9,12 +9,9 @@
 //! half-width), so with an even width cell centres fall half a cell off the tile centres.
 //! That half cell is what Player's amcl localises against, kept so estimates agree with it.
 
-use player_proto::MapInfo;
+use player_server::map::OccupancyGrid;
 
-use super::AmclError;
-
-/// Largest map accepted, in cells (a 16,384 x 16,384 grid; bigger is surely a bad request).
-pub const MAX_CELLS: usize = 1 << 28;
+use crate::error::Error;
 
 /// `x` rounded down, as `x.floor() as i64` but without the library call `floor` is on
 /// baseline x86-64 (ray casting does this once per cell visited).
@@ -23,100 +20,42 @@ fn floor(x: f64) -> i64 {
     if (t as f64) > x { t - 1 } else { t }
 }
 
-/// A grid of occupancy values with its placement.
+/// A map device's grid, placed as amcl places it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OccupancyMap {
+    grid: OccupancyGrid,
     centre_x: f64,
     centre_y: f64,
     scale: f64,
     width: i64,
     height: i64,
-    cells: Vec<i8>,
 }
 
 impl OccupancyMap {
-    /// A map of `width` x `height` cells of `scale` metres whose cell (0, 0) has its corner at
-    /// `origin` (as `player_map_info_t` places maps), all cells unknown.
-    pub fn new(
-        scale: f64,
-        width: usize,
-        height: usize,
-        origin: (f64, f64),
-    ) -> Result<OccupancyMap, AmclError> {
-        let n = width.checked_mul(height).filter(|&n| n <= MAX_CELLS);
-        let Some(n) = n else {
-            return Err(AmclError::MapTooLarge { width, height });
-        };
+    /// The map of `grid` (as fetched from a map device); a scale that is not a positive
+    /// length is an error.
+    pub fn new(grid: OccupancyGrid) -> Result<OccupancyMap, Error> {
+        let scale = f64::from(grid.scale());
         if !(scale > 0.0 && scale.is_finite()) {
-            return Err(AmclError::MapScale(scale));
+            return Err(Error::Map(format!(
+                "the map's scale {scale} is not a positive length"
+            )));
         }
+        let (width, height) = (grid.width(), grid.height());
+        let origin = grid.origin();
         Ok(OccupancyMap {
-            centre_x: origin.0 + scale * width as f64 / 2.0,
-            centre_y: origin.1 + scale * height as f64 / 2.0,
+            centre_x: origin.px + scale * f64::from(width) / 2.0,
+            centre_y: origin.py + scale * f64::from(height) / 2.0,
             scale,
-            width: width as i64,
-            height: height as i64,
-            cells: vec![0; n],
+            width: i64::from(width),
+            height: i64::from(height),
+            grid,
         })
     }
 
-    /// An all-unknown map shaped as a map device's GET_INFO answer describes.
-    pub fn from_info(info: &MapInfo) -> Result<OccupancyMap, AmclError> {
-        OccupancyMap::new(
-            f64::from(info.scale),
-            info.width as usize,
-            info.height as usize,
-            (info.origin.px, info.origin.py),
-        )
-    }
-
-    /// Width in cells.
-    pub fn width(&self) -> usize {
-        self.width as usize
-    }
-
-    /// Height in cells.
-    pub fn height(&self) -> usize {
-        self.height as usize
-    }
-
-    /// Metres per cell.
-    pub fn scale(&self) -> f64 {
-        self.scale
-    }
-
-    /// Copies a `w` x `h` tile of cells (rows first, as GET_DATA answers) to column `col`,
-    /// row `row`. A tile that does not fit, or whose cell count is not `w * h`, is an error.
-    pub fn set_tile(
-        &mut self,
-        col: usize,
-        row: usize,
-        w: usize,
-        h: usize,
-        data: &[i8],
-    ) -> Result<(), AmclError> {
-        let fits = col.checked_add(w).is_some_and(|e| e <= self.width())
-            && row.checked_add(h).is_some_and(|e| e <= self.height());
-        if !fits || data.len() != w * h {
-            return Err(AmclError::BadTile {
-                col,
-                row,
-                width: w,
-                height: h,
-                cells: data.len(),
-            });
-        }
-        for (j, line) in data.chunks_exact(w.max(1)).take(h).enumerate() {
-            let start = (row + j) * self.width() + col;
-            self.cells[start..start + w].copy_from_slice(line);
-        }
-        Ok(())
-    }
-
-    /// Sets one cell (for building maps by hand).
-    pub fn set(&mut self, i: usize, j: usize, value: i8) {
-        let w = self.width();
-        self.cells[j * w + i] = value;
+    /// The grid.
+    pub fn grid(&self) -> &OccupancyGrid {
+        &self.grid
     }
 
     /// The cell column of world x.
@@ -134,7 +73,7 @@ impl OccupancyMap {
         if i < 0 || j < 0 || i >= self.width || j >= self.height {
             return None;
         }
-        Some(self.cells[(j * self.width + i) as usize])
+        Some(self.grid.cells()[(j * self.width + i) as usize])
     }
 
     /// Whether a ray stops in cell (`i`, `j`): off the grid, unknown or occupied.
@@ -187,20 +126,31 @@ impl OccupancyMap {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use player_proto::Pose2d;
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
     /// A `size` x `size` m room of `scale` m cells centred on the origin: free inside, its
     /// outermost ring of cells occupied.
-    pub(crate) fn room(size: f64, scale: f64) -> OccupancyMap {
-        let n = (size / scale).round() as usize;
-        let mut m = OccupancyMap::new(scale, n, n, (-size / 2.0, -size / 2.0)).unwrap();
-        for j in 0..n {
-            for i in 0..n {
-                let rim = i == 0 || j == 0 || i == n - 1 || j == n - 1;
-                m.set(i, j, if rim { 1 } else { -1 });
+    pub(crate) fn room_grid(size: f64, scale: f64) -> OccupancyGrid {
+        let n = (size / scale).round() as u32;
+        let origin = Pose2d {
+            px: -size / 2.0,
+            py: -size / 2.0,
+            pa: 0.0,
+        };
+        let mut g = OccupancyGrid::new(n, n, scale as f32, origin, OccupancyGrid::FREE).unwrap();
+        for k in 0..i64::from(n) {
+            let last = i64::from(n) - 1;
+            for (i, j) in [(k, 0), (k, last), (0, k), (last, k)] {
+                g.set(i, j, OccupancyGrid::OCCUPIED);
             }
         }
-        m
+        g
+    }
+
+    /// [`room_grid`] as amcl's map.
+    pub(crate) fn room(size: f64, scale: f64) -> OccupancyMap {
+        OccupancyMap::new(room_grid(size, scale)).unwrap()
     }
 
     #[test]
@@ -213,7 +163,13 @@ pub(crate) mod tests {
     #[test]
     fn world_points_map_to_cells_as_upstream() {
         // 10 x 10 cells of 0.5 m from (-2.5, -2.5): centre (0, 0), half width 5.
-        let m = OccupancyMap::new(0.5, 10, 10, (-2.5, -2.5)).unwrap();
+        let origin = Pose2d {
+            px: -2.5,
+            py: -2.5,
+            pa: 0.0,
+        };
+        let grid = OccupancyGrid::new(10, 10, 0.5, origin, OccupancyGrid::UNKNOWN).unwrap();
+        let m = OccupancyMap::new(grid).unwrap();
         assert_eq!(m.column(0.0), 5);
         assert_eq!(m.column(0.24), 5);
         assert_eq!(m.column(0.26), 6);
@@ -241,26 +197,19 @@ pub(crate) mod tests {
 
     #[test]
     fn unknown_cells_stop_rays() {
-        let mut m = room(4.0, 0.1);
-        m.set(30, 20, 0);
+        let mut g = room_grid(4.0, 0.1);
+        g.set(30, 20, OccupancyGrid::UNKNOWN);
+        let m = OccupancyMap::new(g).unwrap();
         let r = m.calc_range(0.0, 0.0, 0.0, 10.0);
         assert!((r - 1.0).abs() < 0.11, "{r}");
     }
 
     #[test]
-    fn tiles_land_where_they_say_and_bad_ones_are_refused() {
-        let mut m = OccupancyMap::new(1.0, 4, 3, (0.0, 0.0)).unwrap();
-        m.set_tile(1, 1, 2, 2, &[1, 2, 3, 4]).unwrap();
-        assert_eq!(m.get(1, 1), Some(1));
-        assert_eq!(m.get(2, 1), Some(2));
-        assert_eq!(m.get(1, 2), Some(3));
-        assert_eq!(m.get(2, 2), Some(4));
-        assert!(
-            m.set_tile(3, 0, 2, 1, &[1, 1]).is_err(),
-            "past the right edge"
-        );
-        assert!(m.set_tile(0, 0, 2, 2, &[1, 1, 1]).is_err(), "wrong count");
-        assert!(OccupancyMap::new(1.0, 1 << 20, 1 << 20, (0.0, 0.0)).is_err());
-        assert!(OccupancyMap::new(0.0, 2, 2, (0.0, 0.0)).is_err());
+    fn a_map_without_a_positive_scale_is_refused() {
+        for scale in [0.0, -0.1, f32::NAN] {
+            let g = OccupancyGrid::new(2, 2, scale, Pose2d::default(), 0).unwrap();
+            let e = OccupancyMap::new(g).unwrap_err().to_string();
+            assert!(e.contains("scale"), "{e}");
+        }
     }
 }

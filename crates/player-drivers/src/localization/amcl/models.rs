@@ -183,9 +183,10 @@ impl SonarModel {
 
 #[cfg(test)]
 mod tests {
-    use super::super::map::tests::room;
+    use super::super::map::tests::room_grid;
     use super::super::pf::Population;
     use super::*;
+    use player_server::map::OccupancyGrid;
     use std::f64::consts::FRAC_PI_2;
 
     fn filter(n: usize) -> ParticleFilter {
@@ -239,25 +240,20 @@ mod tests {
     /// A 6 x 4 m room (not square, so headings are told apart) with a pillar, and a scan
     /// simulated on the same map from `truth`.
     fn scene(truth: Pose) -> (LaserModel, LaserScan) {
-        let mut map = room(6.0, 0.05);
-        // Close the room to 4 m in y: occupy rows outside |y| < 2.
-        for j in 0..map.height() {
-            for i in 0..map.width() {
-                let y = (j as f64 + 0.5) * 0.05 - 3.0;
-                if y.abs() >= 2.0 {
-                    map.set(i, j, 1);
+        let mut grid = room_grid(6.0, 0.05);
+        let n = i64::from(grid.width());
+        let centre = |k: i64| (k as f64 + 0.5) * 0.05 - 3.0;
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y) = (centre(i), centre(j));
+                // Close the room to 4 m in y, and put a 0.4 m pillar at (1.5, 0.5).
+                let pillar = (x - 1.5).abs() < 0.2 && (y - 0.5).abs() < 0.2;
+                if y.abs() >= 2.0 || pillar {
+                    grid.set(i, j, OccupancyGrid::OCCUPIED);
                 }
             }
         }
-        // A 0.4 m pillar at (1.5, 0.5).
-        for j in 0..map.height() {
-            for i in 0..map.width() {
-                let (x, y) = ((i as f64 + 0.5) * 0.05 - 3.0, (j as f64 + 0.5) * 0.05 - 3.0);
-                if (x - 1.5).abs() < 0.2 && (y - 0.5).abs() < 0.2 {
-                    map.set(i, j, 1);
-                }
-            }
-        }
+        let map = OccupancyMap::new(grid).unwrap();
         let model = LaserModel {
             map: Arc::new(map),
             laser_pose: Pose::new(0.1, 0.0, 0.0),

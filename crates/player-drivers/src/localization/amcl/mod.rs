@@ -46,6 +46,7 @@ use player_proto::{
     LocalizeReq, MapMsg, MapReq, MapTile, Message, Pose2d, Position2dData, Position2dDataState,
     Position2dGeom, Position2dMsg, Position2dReq, SonarData, SonarMsg, SonarReq,
 };
+use player_server::map::OccupancyGrid;
 use player_server::{
     Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply, RequestError,
     RequestTicket,
@@ -64,61 +65,6 @@ pub const NAME: &str = "amcl";
 /// Inputs allowed to wait for the filter before new data is dropped (upstream's queue size).
 pub const QUEUE_LIMIT: usize = 20_000;
 
-/// Largest map tile asked for at once, in cells per side (upstream's).
-pub const TILE: usize = 640;
-
-/// What can go wrong while the driver fetches its map and geometry.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum AmclError {
-    /// The map is bigger than [`map::MAX_CELLS`].
-    #[error("the map is {width} x {height} cells, more than this driver accepts")]
-    MapTooLarge {
-        /// Width in cells.
-        width: usize,
-        /// Height in cells.
-        height: usize,
-    },
-    /// The map's scale is not a positive number.
-    #[error("the map's scale {0} is not a positive length")]
-    MapScale(f64),
-    /// A GET_DATA answer does not fit the tile asked for.
-    #[error(
-        "a map tile at column {col}, row {row} of {width} x {height} cells came with {cells} cells"
-    )]
-    BadTile {
-        /// First column.
-        col: usize,
-        /// First row.
-        row: usize,
-        /// Tile width.
-        width: usize,
-        /// Tile height.
-        height: usize,
-        /// Cells received.
-        cells: usize,
-    },
-    /// A device did not answer a request the driver needs.
-    #[error("{what} from {device} failed: {source}")]
-    Request {
-        /// What was asked.
-        what: &'static str,
-        /// The device asked.
-        device: DeviceAddr,
-        /// Why it failed.
-        source: RequestError,
-    },
-    /// A device answered with something else than what was asked.
-    #[error("{what} from {device}: unexpected answer {got}")]
-    Unexpected {
-        /// What was asked.
-        what: &'static str,
-        /// The device asked.
-        device: DeviceAddr,
-        /// The answer's message name.
-        got: String,
-    },
-}
-
 /// A range sensor the filter uses, and the map it is compared with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct SensorDevices {
@@ -134,25 +80,20 @@ enum Which {
 }
 
 /// What a request the driver sent was for.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 enum Asked {
     MapInfo(Which),
-    MapTile {
-        which: Which,
-        col: usize,
-        row: usize,
-        width: usize,
-        height: usize,
-    },
+    /// A tile (as asked: its place and size, no cells).
+    MapTile(Which, MapTile),
     Geometry(Which),
 }
 
-/// A map being fetched.
+/// A map being fetched: the grid filled tile by tile, then amcl's map of it.
 #[derive(Debug, Default)]
 struct MapLoad {
-    map: Option<OccupancyMap>,
+    grid: Option<OccupancyGrid>,
     tiles_left: usize,
-    done: bool,
+    map: Option<OccupancyMap>,
 }
 
 /// The filter thread's side of the driver.
@@ -322,8 +263,10 @@ impl Amcl {
         if run.worker.is_some() || run.failed {
             return;
         }
-        let laser_ready = self.laser.is_none() || (run.laser_map.done && run.laser_pose.is_some());
-        let sonar_ready = self.sonar.is_none() || (run.sonar_map.done && run.sonar_poses.is_some());
+        let laser_ready =
+            self.laser.is_none() || (run.laser_map.map.is_some() && run.laser_pose.is_some());
+        let sonar_ready =
+            self.sonar.is_none() || (run.sonar_map.map.is_some() && run.sonar_poses.is_some());
         if !(laser_ready && sonar_ready) {
             return;
         }
@@ -380,7 +323,7 @@ impl Amcl {
     }
 
     /// Gives up on this run: logs why, and refuses the requests that were waiting.
-    fn fail(&mut self, ctx: &mut Context<'_>, error: AmclError) {
+    fn fail(&mut self, ctx: &mut Context<'_>, error: impl std::fmt::Display) {
         tracing::error!("amcl: {error}; the driver publishes nothing until restarted");
         let Some(run) = self.run.as_mut() else {
             return;
@@ -408,98 +351,109 @@ impl Amcl {
         })
     }
 
+    /// A map's GET_INFO answer: an unknown grid of that shape, and a GET_DATA per tile.
     fn map_info(
         &mut self,
         ctx: &mut Context<'_>,
         which: Which,
         device: DeviceAddr,
         reply: Message,
-    ) -> Result<(), AmclError> {
+    ) -> Result<(), String> {
         let info = match reply.body {
             Body::Map(MapMsg::Ack(MapReq::GetInfo(Some(info)))) => info,
             other => {
-                return Err(AmclError::Unexpected {
-                    what: "map info",
-                    device,
-                    got: other.constant().to_string(),
-                });
+                return Err(format!(
+                    "{device} answered GET_INFO with {}",
+                    other.constant()
+                ));
             }
         };
-        let map = OccupancyMap::from_info(&info)?;
+        let grid = OccupancyGrid::new(
+            info.width,
+            info.height,
+            info.scale,
+            info.origin,
+            OccupancyGrid::UNKNOWN,
+        )
+        .ok_or_else(|| {
+            format!(
+                "the map of {device} is {} x {} cells, more than can be held",
+                info.width, info.height
+            )
+        })?;
         tracing::debug!(
             "amcl: loading a {} x {} map of {} m cells from {device}",
-            map.width(),
-            map.height(),
-            map.scale()
+            info.width,
+            info.height,
+            info.scale
         );
-        let (w, h) = (map.width(), map.height());
-        let mut tiles = Vec::new();
-        let mut row = 0;
-        while row < h {
-            let mut col = 0;
-            while col < w {
-                tiles.push((col, row, TILE.min(w - col), TILE.min(h - row)));
-                col += TILE;
-            }
-            row += TILE;
-        }
-        for &(col, row, width, height) in &tiles {
-            let ticket = ctx.request(
-                device,
-                MapReq::GetData(Some(MapTile {
-                    col: col as u32,
-                    row: row as u32,
-                    width: width as u32,
-                    height: height as u32,
-                    data: Vec::new(),
-                })),
-            );
+        let mut tiles = 0;
+        for tile in info.tile_requests() {
+            let ticket = ctx.request(device, MapReq::GetData(Some(tile.clone())));
             if let Some(run) = self.run.as_mut() {
-                run.asked.insert(
-                    ticket,
-                    Asked::MapTile {
-                        which,
-                        col,
-                        row,
-                        width,
-                        height,
-                    },
-                );
+                run.asked.insert(ticket, Asked::MapTile(which, tile));
             }
+            tiles += 1;
         }
         if let Some(load) = self.map_load(which) {
-            load.tiles_left = tiles.len();
-            load.done = tiles.is_empty();
-            load.map = Some(map);
+            load.tiles_left = tiles;
+            load.grid = Some(grid);
+            if tiles == 0 {
+                Self::finish_map(load)?;
+            }
         }
         Ok(())
     }
 
+    /// A GET_DATA answer for the tile `asked`: its cells into the grid (exactly the cells of
+    /// the tile asked for: raw, as drivers in one server exchange them).
     fn map_tile(
         &mut self,
         which: Which,
         device: DeviceAddr,
-        (col, row, width, height): (usize, usize, usize, usize),
+        asked: &MapTile,
         reply: Message,
-    ) -> Result<(), AmclError> {
+    ) -> Result<(), String> {
         let tile = match reply.body {
             Body::Map(MapMsg::Ack(MapReq::GetData(Some(tile)))) => tile,
             other => {
-                return Err(AmclError::Unexpected {
-                    what: "map data",
-                    device,
-                    got: other.constant().to_string(),
-                });
+                return Err(format!(
+                    "{device} answered GET_DATA with {}",
+                    other.constant()
+                ));
             }
         };
         let Some(load) = self.map_load(which) else {
             return Ok(());
         };
-        if let Some(map) = load.map.as_mut() {
-            map.set_tile(col, row, width, height, &tile.data)?;
+        let Some(grid) = load.grid.as_mut() else {
+            return Ok(());
+        };
+        let expected = asked.width as usize * asked.height as usize;
+        if tile.data.len() != expected
+            || !grid.put_tile(asked.col, asked.row, asked.width, asked.height, &tile.data)
+        {
+            return Err(format!(
+                "{device} sent {} cells for the {} x {} tile at column {}, row {}",
+                tile.data.len(),
+                asked.width,
+                asked.height,
+                asked.col,
+                asked.row
+            ));
         }
         load.tiles_left = load.tiles_left.saturating_sub(1);
-        load.done = load.tiles_left == 0;
+        if load.tiles_left == 0 {
+            Self::finish_map(load)?;
+        }
+        Ok(())
+    }
+
+    /// Every tile is in: amcl's map of the grid.
+    fn finish_map(load: &mut MapLoad) -> Result<(), String> {
+        if let Some(grid) = load.grid.take() {
+            load.map = Some(OccupancyMap::new(grid).map_err(|e| e.to_string())?);
+        }
         Ok(())
     }
 
@@ -755,7 +709,7 @@ impl Driver for Amcl {
             return;
         };
         let which = match asked {
-            Asked::MapInfo(w) | Asked::MapTile { which: w, .. } | Asked::Geometry(w) => w,
+            Asked::MapInfo(w) | Asked::MapTile(w, _) | Asked::Geometry(w) => w,
         };
         let Some(devices) = self.sensor(which) else {
             return;
@@ -766,26 +720,13 @@ impl Driver for Amcl {
                 Ok(())
             }
             (Asked::MapInfo(_), Ok(msg)) => self.map_info(ctx, which, devices.map, msg),
-            (Asked::MapInfo(_), Err(source)) => Err(AmclError::Request {
-                what: "map info",
-                device: devices.map,
-                source,
-            }),
-            (
-                Asked::MapTile {
-                    col,
-                    row,
-                    width,
-                    height,
-                    ..
-                },
-                Ok(msg),
-            ) => self.map_tile(which, devices.map, (col, row, width, height), msg),
-            (Asked::MapTile { .. }, Err(source)) => Err(AmclError::Request {
-                what: "map data",
-                device: devices.map,
-                source,
-            }),
+            (Asked::MapInfo(_), Err(e)) => {
+                Err(format!("GET_INFO from {} failed: {e}", devices.map))
+            }
+            (Asked::MapTile(_, tile), Ok(msg)) => self.map_tile(which, devices.map, &tile, msg),
+            (Asked::MapTile(..), Err(e)) => {
+                Err(format!("GET_DATA from {} failed: {e}", devices.map))
+            }
         };
         match result {
             Ok(()) => self.start_if_ready(ctx),

@@ -832,3 +832,265 @@ mod tests {
         assert!(err(block(&[loc, pos], &[(Some("odometry"), pos)])).contains("self"));
     }
 }
+
+#[cfg(test)]
+mod driver_tests {
+    use super::tests_support::*;
+    use super::*;
+    use crate::testing::Harness;
+    use player_proto::{LaserGeom, Pose3d};
+    use player_server::Action;
+    use std::time::{Duration, Instant};
+
+    /// What the filter published, once it has: waits (calling `wake`, as the server does when
+    /// the filter thread signals) until `done` says enough arrived.
+    fn collect_until(
+        h: &mut Harness<Amcl>,
+        mut done: impl FnMut(&[Body], &[(player_server::PendingReply, Reply)]) -> bool,
+    ) -> (Vec<Body>, Vec<(player_server::PendingReply, Reply)>) {
+        let (mut bodies, mut answers) = (Vec::new(), Vec::new());
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while !done(&bodies, &answers) {
+            assert!(Instant::now() < deadline, "the filter produced {bodies:?}");
+            std::thread::sleep(Duration::from_millis(5));
+            let out = h.wake();
+            bodies.extend(out.bodies());
+            answers.extend(out.answers());
+        }
+        (bodies, answers)
+    }
+
+    #[test]
+    fn the_map_and_geometry_are_fetched_then_data_kept_meanwhile_reaches_the_filter() {
+        let mut b = laser_block();
+        for (k, v) in [
+            ("pf_min_samples", "50"),
+            ("pf_max_samples", "500"),
+            ("init_pose", "0.5 -0.3 10"),
+            ("init_pose_var", "0.1 0.1 5"),
+        ] {
+            b.options
+                .insert(k.into(), v.split(' ').map(str::to_string).collect());
+        }
+        let mut h = Harness::new(Amcl::from_block(&b).unwrap());
+        let out = h.setup();
+        assert_eq!(out.subscriptions(), [ODOM, LASER, MAP]);
+        let asked = out.requests();
+        assert_eq!(asked.len(), 2);
+        assert_eq!(asked[0].1, MAP);
+        assert_eq!(asked[1].1, LASER);
+
+        // Before the map is in, a GET_PARTICLES and data wait.
+        let (reply, token, _) = h.request(LOCALIZE, LocalizeReq::GetParticles(None));
+        assert_eq!(reply, Reply::Deferred);
+        let truth = Pose::new(0.5, -0.3, 10f64.to_radians());
+        let laser_pose = Pose::new(0.1, 0.0, 0.0);
+        let grid = room_grid();
+        let map = OccupancyMap::new(grid.clone()).unwrap();
+        h.data(ODOM, odometry(Pose::zeros()), 1.0);
+        h.data(LASER, scan(&map, &truth, &laser_pose), 1.0);
+
+        h.ack(
+            asked[1].0,
+            LASER,
+            Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(LaserGeom {
+                pose: Pose3d {
+                    px: laser_pose.x,
+                    ..Pose3d::default()
+                },
+                ..LaserGeom::default()
+            })))),
+        );
+        let out = h.ack(
+            asked[0].0,
+            MAP,
+            Body::Map(MapMsg::Ack(MapReq::GetInfo(Some(grid.info())))),
+        );
+        // One GET_DATA per tile, as libplayerc would fetch the map.
+        let tiles = out.requests();
+        assert_eq!(tiles.len(), grid.info().tile_requests().count());
+        let mut last = None;
+        for (ticket, to, body) in tiles {
+            assert_eq!(to, MAP);
+            let Body::Map(MapMsg::Req(MapReq::GetData(Some(t)))) = body else {
+                panic!("{body:?}");
+            };
+            let data = grid.tile(t.col, t.row, t.width, t.height).unwrap();
+            last = Some(h.ack(
+                ticket,
+                MAP,
+                Body::Map(MapMsg::Ack(MapReq::GetData(Some(MapTile { data, ..t })))),
+            ));
+        }
+        // The map is copied: amcl lets go of the map device.
+        assert!(last.unwrap().actions.contains(&Action::Unsubscribe(MAP)));
+
+        // The request that waited is answered with the initial particle set, then the kept
+        // odometry and scan make the first update.
+        let (bodies, answers) = collect_until(&mut h, |bodies, answers| {
+            !answers.is_empty()
+                && bodies
+                    .iter()
+                    .any(|b| matches!(b, Body::Localize(LocalizeMsg::Data(_))))
+        });
+        assert_eq!(answers[0].0, token);
+        let Reply::Ack(Some(Body::Localize(LocalizeMsg::Req(LocalizeReq::GetParticles(Some(p)))))) =
+            &answers[0].1
+        else {
+            panic!("{:?}", answers[0].1);
+        };
+        assert_eq!(p.particles.len(), 500);
+        let hyp = bodies
+            .iter()
+            .find_map(|b| match b {
+                Body::Localize(LocalizeMsg::Data(LocalizeData::Hypoths(h))) => Some(h),
+                _ => None,
+            })
+            .unwrap();
+        let best = &hyp.hypoths[0];
+        assert!(
+            (best.mean.px - truth.x).hypot(best.mean.py - truth.y) < 0.1,
+            "{best:?}"
+        );
+        // The position2d estimate comes with it, then follows odometry.
+        let out = h.data(ODOM, odometry(Pose::new(0.05, 0.0, 0.0)), 1.1);
+        let (bodies, _) = if out.bodies().is_empty() {
+            collect_until(&mut h, |b, _| {
+                b.iter()
+                    .any(|b| matches!(b, Body::Position2d(Position2dMsg::Data(_))))
+            })
+        } else {
+            (out.bodies(), Vec::new())
+        };
+        assert!(
+            bodies
+                .iter()
+                .any(|b| matches!(b, Body::Position2d(Position2dMsg::Data(_))))
+        );
+    }
+
+    #[test]
+    fn a_refused_map_refuses_the_waiting_requests() {
+        let mut h = Harness::new(Amcl::from_block(&laser_block()).unwrap());
+        let asked = h.setup().requests();
+        let (reply, token, _) = h.request(LOCALIZE, LocalizeReq::GetParticles(None));
+        assert_eq!(reply, Reply::Deferred);
+        let out = h.nack(asked[0].0);
+        assert_eq!(out.answers(), [(token, Reply::Nack)]);
+        let (reply, _, _) = h.request(LOCALIZE, LocalizeReq::GetParticles(None));
+        assert_eq!(reply, Reply::Nack);
+    }
+
+    #[test]
+    fn position_geometry_is_a_point_and_set_pose_is_acknowledged() {
+        let mut h = Harness::new(Amcl::from_block(&laser_block()).unwrap());
+        h.setup();
+        let (reply, _, _) = h.request(POSITION, Position2dReq::GetGeom(None));
+        let Reply::Ack(Some(Body::Position2d(Position2dMsg::Req(Position2dReq::GetGeom(Some(g)))))) =
+            reply
+        else {
+            panic!("{reply:?}");
+        };
+        assert_eq!((g.size.sl, g.size.sw), (0.01, 0.01));
+        let (reply, _, _) = h.request(
+            LOCALIZE,
+            LocalizeReq::SetPose(Some(player_proto::LocalizeSetPose::default())),
+        );
+        assert_eq!(reply, Reply::Ack(None));
+    }
+}
+
+/// Devices and data for the driver's unit tests.
+#[cfg(test)]
+mod tests_support {
+    use super::*;
+    use crate::testing;
+    use player_proto::{LaserData, LaserDataScan};
+    use player_server::RequiredDevice;
+
+    pub const LOCALIZE: DeviceAddr = dev(InterfaceCode::LOCALIZE, 0);
+    pub const POSITION: DeviceAddr = dev(InterfaceCode::POSITION2D, 1);
+    pub const ODOM: DeviceAddr = dev(InterfaceCode::POSITION2D, 0);
+    pub const LASER: DeviceAddr = dev(InterfaceCode::LASER, 0);
+    pub const MAP: DeviceAddr = dev(InterfaceCode::MAP, 0);
+
+    const fn dev(interf: InterfaceCode, index: u16) -> DeviceAddr {
+        DeviceAddr {
+            host: player_proto::constants::LOCALHOST_ADDR,
+            robot: 6665,
+            interf,
+            index,
+        }
+    }
+
+    /// amcl providing localize:0 and position2d:1, on odometry position2d:0, laser:0, map:0.
+    pub fn laser_block() -> DriverBlock {
+        let mut b = testing::block(NAME, &[LOCALIZE, POSITION], &[], &[]);
+        for (key, addr) in [
+            (Some("odometry"), ODOM),
+            (None, LASER),
+            (Some("laser"), MAP),
+        ] {
+            b.requires.push(RequiredDevice {
+                addr,
+                key: key.map(str::to_string),
+                origin: "test.cfg:3".into(),
+            });
+        }
+        b
+    }
+
+    /// A 3 x 4 m room of 5 cm cells around the origin with a pillar (asymmetric).
+    pub fn room_grid() -> OccupancyGrid {
+        let origin = Pose2d {
+            px: -1.5,
+            py: -2.0,
+            pa: 0.0,
+        };
+        let mut g = OccupancyGrid::new(60, 80, 0.05, origin, OccupancyGrid::FREE).unwrap();
+        for j in 0..80 {
+            for i in 0..60 {
+                let rim = i == 0 || j == 0 || i == 59 || j == 79;
+                let pillar = (40..46).contains(&i) && (50..56).contains(&j);
+                if rim || pillar {
+                    g.set(i, j, OccupancyGrid::OCCUPIED);
+                }
+            }
+        }
+        g
+    }
+
+    /// Odometry DATA at `p`.
+    pub fn odometry(p: Pose) -> Body {
+        Position2dData::State(Position2dDataState {
+            pos: Pose2d {
+                px: p.x,
+                py: p.y,
+                pa: p.z,
+            },
+            ..Position2dDataState::default()
+        })
+        .into()
+    }
+
+    /// A perfect 181-beam scan of `map` from a robot at `robot` with its laser at `laser`.
+    pub fn scan(map: &OccupancyMap, robot: &Pose, laser: &Pose) -> Body {
+        let l = pose::compose(robot, laser);
+        let res = std::f64::consts::PI / 180.0;
+        let ranges = (0..181)
+            .map(|k| {
+                let b = -std::f64::consts::FRAC_PI_2 + k as f64 * res;
+                map.calc_range(l.x, l.y, l.z + b, 8.0) as f32
+            })
+            .collect();
+        LaserData::Scan(LaserDataScan {
+            min_angle: -std::f32::consts::FRAC_PI_2,
+            max_angle: std::f32::consts::FRAC_PI_2,
+            resolution: res as f32,
+            max_range: 8.0,
+            ranges,
+            ..LaserDataScan::default()
+        })
+        .into()
+    }
+}

@@ -82,7 +82,6 @@ const EXPECTED: &[(&str, u32, &str, &str)] = &[
         "bad-address",
         "odometry:::position2d:0",
     ),
-    ("amcl-sonar.cfg", 44, "unknown-driver", "amcl"), // issue 16
     // Models named twice: "cbr4" is bound by two blocks and "cbb4" by six; every block after
     // the first finds its rangers and position already bound (Stage exits there too).
     ("autolab.cfg", 24, "no-unbound-model", "ranger:0"),
@@ -119,7 +118,6 @@ const EXPECTED: &[(&str, u32, &str, &str)] = &[
     // test.world is not in Stage's tree.
     ("test.cfg", 12, "world-does-not-load", "test.world"),
     // Its required devices on port 6665 are another server's: recorded, not problems.
-    ("wavefront-remote.cfg", 15, "unknown-driver", "amcl"), // issue 16
     ("wavefront-remote.cfg", 23, "unknown-driver", "wavefront"), // issue 16
     // wavefront.world is not in Stage's tree (its robot's devices are then not checked).
     ("wavefront.cfg", 5, "world-does-not-load", "wavefront.world"),
@@ -129,10 +127,8 @@ const EXPECTED: &[(&str, u32, &str, &str)] = &[
     ("wifi.cfg", 24, "unsupported-interface", "`wifi`"),
     ("wifi.cfg", 34, "unsupported-interface", "`wifi`"),
     ("wifi/commando.cfg", 22, "unsupported-interface", "`wifi`"),
-    ("wifi/commando.cfg", 33, "unknown-driver", "amcl"), // issue 16
     ("wifi/commando.cfg", 53, "unknown-driver", "wavefront"), // issue 16
     ("wifi/commando.cfg", 79, "unsupported-interface", "`wifi`"),
-    ("wifi/commando.cfg", 84, "unknown-driver", "amcl"), // issue 16
     ("wifi/commando.cfg", 104, "unknown-driver", "wavefront"), // issue 16
     ("wifi/hosp_wifi.cfg", 19, "unsupported-interface", "`wifi`"),
     ("wifi/hosp_wifi.cfg", 26, "unsupported-interface", "`wifi`"),

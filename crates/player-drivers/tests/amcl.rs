@@ -255,7 +255,14 @@ fn ms(t: f64) -> i64 {
 /// Runs the world until `until` simulated seconds, recording amcl's output and checking the
 /// true pose about every simulated second.
 fn run(dir: &Path, sensor: Sensor, until: f64) -> Run {
-    let handle = serve(dir, sensor, "", "");
+    observe(serve(dir, sensor, "", ""), "robot", START, until)
+}
+
+/// Watches the server of `handle` until `until` simulated seconds: amcl's output, the true
+/// pose of the model `robot` about every simulated second, and the odometry placed in the
+/// world by `odom_frame` (where the odometry's origin is, heading in degrees); then asks for
+/// the particles and sets a pose.
+fn observe(handle: ServerHandle, robot: &str, odom_frame: (f64, f64, f64), until: f64) -> Run {
     let port = handle.ports()[0];
     let client = PlayerClient::connect("localhost", port).unwrap();
     let localize = ClientProxy::subscribe(&client, InterfaceCode::LOCALIZE, 0).unwrap();
@@ -287,7 +294,7 @@ fn run(dir: &Path, sensor: Sensor, until: f64) -> Run {
         }
         let now = client.datatime();
         if now >= next_check {
-            let (p, simtime_us) = sim.get_pose3d("robot").unwrap();
+            let (p, simtime_us) = sim.get_pose3d(robot).unwrap();
             truths.push((
                 simtime_us / 1e6,
                 Pose2d {
@@ -299,7 +306,7 @@ fn run(dir: &Path, sensor: Sensor, until: f64) -> Run {
             next_check = now + 1.0;
             // Dead reckoning: the odometry (which starts at zero) placed at the start pose.
             let o = odom.pose();
-            let (sx, sy, sa) = (START.0, START.1, START.2.to_radians());
+            let (sx, sy, sa) = (odom_frame.0, odom_frame.1, odom_frame.2.to_radians());
             let (wx, wy) = (
                 sx + o.px * sa.cos() - o.py * sa.sin(),
                 sy + o.px * sa.sin() + o.py * sa.cos(),
@@ -499,8 +506,7 @@ fn a_broken_map_leaves_amcl_refusing_and_the_server_running() {
 }
 
 /// Stage's `amcl-sonar.cfg` (written for Player 2.0's amcl): its amcl block's options read as
-/// they mean (16 transducer poses in degrees, `update_thresh [0.1 5]`). The cfg itself needs
-/// `mapfile`, `mapscale` and Player 2's `position` interface name to run.
+/// they mean (16 transducer poses in degrees, `update_thresh [0.1 5]`). The next test runs it.
 #[test]
 fn stage_amcl_sonar_cfg_options_are_read() {
     let shared = std::env::var_os("PLAYERSTAGE_SHARED")
@@ -535,4 +541,85 @@ fn stage_amcl_sonar_cfg_options_are_read() {
     assert!((poses[11].z + 170f64.to_radians()).abs() < 1e-12);
     // Untouched options keep 3.0.2's defaults.
     assert_eq!(s.pf_max_samples, 10_000);
+}
+
+/// `shared/stage-worlds`, or `None` (after saying so).
+fn stage_worlds() -> Option<std::path::PathBuf> {
+    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
+    let p = shared.join("stage-worlds");
+    if p.is_dir() {
+        Some(p)
+    } else {
+        eprintln!(
+            "skipping: {} not found (set PLAYERSTAGE_SHARED)",
+            p.display()
+        );
+        None
+    }
+}
+
+/// Stage's `amcl-sonar.cfg` run: the Pioneer of `simple.world` wandering the cave, its 16
+/// sonars, the cave bitmap through `mapfile` (0.032 m) and `mapscale` (0.1 m), and the cfg's
+/// amcl block (`scount`, `spose[i]`, `update_thresh [0.1 5]`, Player 2.0's sonar defaults).
+/// The cfg predates Player 3 and Stage 4 and needs four fixes, each of which alone stops it
+/// from working: it names the model `robot1` (simple.world's robot is `r0`); it writes Player
+/// 1's `odometry::position:0` and `sonar::map:0`; it reads the bitmap with `negate 1`, which
+/// inverts a Stage 4 bitmap (walls become free space: every ray starts in a wall and the
+/// sonar tells the particles nothing); and amcl starts from the default estimate at the
+/// origin, 10 m from the robot, so an `init_pose` at the robot's start is added.
+#[test]
+fn stage_amcl_sonar_cfg_localises_in_the_cave() {
+    let Some(root) = stage_worlds() else {
+        return;
+    };
+    let text = std::fs::read_to_string(root.join("amcl-sonar.cfg")).unwrap();
+    let fixed = text
+        .replace("model \"robot1\"", "model \"r0\"")
+        .replace("negate 1", "negate 0")
+        .replace("\"position:0\" \"sonar:0\"", "\"0:position:0\" \"0:sonar:0\"")
+        .replace("\"simulation:0\"", "\"0:simulation:0\"")
+        .replace("\"map:1\"", "\"0:map:1\"")
+        .replace("\"map:0\"", "\"0:map:0\"")
+        .replace("\"localize:0\"", "\"0:localize:0\" \"0:position2d:1\"")
+        .replace(
+            "[\"odometry::position:0\" \"sonar:0\" \"sonar::map:0\"]",
+            "[\"odometry::0:position:0\" \"0:sonar:0\" \"sonar::0:map:0\"]\n  init_pose [-6.946 -6.947 45]\n  init_pose_var [0.3 0.3 10]",
+        );
+    assert!(
+        fixed.contains("init_pose ["),
+        "amcl-sonar.cfg changed: {fixed}"
+    );
+    let path = root.join("amcl-sonar-fixed.cfg");
+    let mut opts = LoadOptions::default();
+    opts.stage_path.push(root.clone());
+    let cfgfile = CfgFile::parse(&path, &fixed, &opts).unwrap_or_else(|e| panic!("{e}"));
+    let mut registry = common::registry();
+    let mut server = Server::new(ServerConfig {
+        pace: Pace::RealTime { speedup: 5.0 },
+        ..ServerConfig::default()
+    });
+    for block in cfg::driver_blocks(&cfgfile, 6665).unwrap() {
+        server
+            .add_block(&block, &mut registry)
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    server.resolve_requires().unwrap_or_else(|e| panic!("{e}"));
+    let handle = server.start().unwrap_or_else(|e| panic!("{e}"));
+    // simple.world reports odometry in world coordinates (localization "gps").
+    let r = observe(handle, "r0", (0.0, 0.0, 0.0), 40.0);
+    assert!(
+        r.travelled > 4.0,
+        "the robot only moved {:.2} m",
+        r.travelled
+    );
+    assert!(r.checks.len() >= 20, "only {} checks", r.checks.len());
+    for &(t, truth, est) in &r.checks {
+        let err = (truth.px - est.px).hypot(truth.py - est.py);
+        assert!(
+            err < 0.3,
+            "at {t:.1} s the estimate {est:?} is {err:.3} m from the true pose {truth:?}"
+        );
+    }
 }

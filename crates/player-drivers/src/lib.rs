@@ -5,11 +5,14 @@
 //! * [`ranger`] — `rangertolaser`, `lasertoranger`, `sonartoranger`: Player 3's ranger
 //!   interface to and from Player 2's laser and sonar;
 //! * [`laser`] — `laserposeinterpolator`: scans stamped with the pose they were taken from;
+//! * [`position`] — `vfh`, `nd` and `snd`: local navigation (Vector Field Histogram+,
+//!   Nearness Diagram, Smooth ND) over a base and a laser and/or sonar;
 //! * [`map`] — `mapfile` (a map read from an image), `mapscale` (resampled to another
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
-//! * [`position`] — `nd` and `snd`: (Smooth) Nearness Diagram navigation to position goals;
 //! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
-//!   `relay` (clients' opaque messages echoed to every subscriber).
+//!   `relay` (clients' opaque messages echoed to every subscriber);
+//! * [`localization`] — `amcl`: adaptive Monte-Carlo localisation against a map, from
+//!   odometry and laser or sonar ranges.
 //!
 //! These drivers use other devices through the server's bus ([`player_server::Context`]):
 //! they subscribe in `setup`, convert the DATA they receive, and answer a client's request by
@@ -20,6 +23,7 @@
 mod error;
 mod forward;
 pub mod laser;
+pub mod localization;
 pub mod map;
 mod options;
 pub mod position;
@@ -42,6 +46,8 @@ pub fn register_all(registry: &mut DriverRegistry) {
     laser::laserposeinterpolator::register(registry);
     map::mapfile::register(registry);
     map::transform::register(registry);
+    position::vfh::register(registry);
     position::nd::register(registry);
     position::snd::register(registry);
+    localization::amcl::register(registry);
 }

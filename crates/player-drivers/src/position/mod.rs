@@ -1,8 +1,11 @@
-//! Position drivers, as Player's `server/drivers/position/`: local navigation that drives a
-//! `position2d` base to goals among the obstacles its range sensors see.
+//! Player's `server/drivers/position/`: drivers that provide a `position2d` over another one,
+//! adding local navigation that drives the base to goals among the obstacles its range
+//! sensors see.
 //!
+//! * [`vfh`] — Vector Field Histogram+;
 //! * [`nd`] — Nearness Diagram navigation;
 //! * [`snd`] — Smooth Nearness-Diagram navigation (laser only, a round robot).
 
 pub mod nd;
 pub mod snd;
+pub mod vfh;

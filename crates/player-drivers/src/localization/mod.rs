@@ -1,0 +1,3 @@
+//! Localization drivers (Player's `server/drivers/localization/`): `amcl`.
+
+pub mod amcl;

@@ -195,3 +195,90 @@ fn nd_refuses_a_cfg_without_its_keyed_position_devices_or_a_range_sensor() {
     let err = common::build_cfg(&dir, "nd.cfg", &no_sensor, Pace::AsFastAsPossible).unwrap_err();
     assert!(err.contains("sonar or one laser"), "{err}");
 }
+
+/// Stage 4.1.1's own files, when the shared reference folder is there.
+fn stage_worlds() -> Option<std::path::PathBuf> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/stage-worlds");
+    dir.join("nd.cfg").is_file().then_some(dir)
+}
+
+/// simple.world as a Player user runs it under nd.cfg: without its `wander` controller (which
+/// would drive r0 too) and with the cave's walls solid, so that touching one stalls the base.
+fn simple_world(src: &std::path::Path, dir: &std::path::Path) {
+    for f in ["pioneer.inc", "map.inc", "sick.inc"] {
+        std::fs::copy(src.join(f), dir.join(f)).unwrap();
+    }
+    std::fs::create_dir_all(dir.join("bitmaps")).unwrap();
+    std::fs::copy(src.join("bitmaps/cave.png"), dir.join("bitmaps/cave.png")).unwrap();
+    let world = std::fs::read_to_string(src.join("simple.world")).unwrap();
+    let world: Vec<&str> = world
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("ctrl"))
+        .collect();
+    let cave = "bitmap \"bitmaps/cave.png\"";
+    let world = world.join("\n");
+    assert!(world.contains(cave));
+    let world = world.replace(cave, &format!("{cave}\n  obstacle_return 1"));
+    std::fs::write(dir.join("simple.world"), world).unwrap();
+}
+
+#[test]
+fn stages_nd_cfg_drives_r0_round_a_block_of_the_cave() {
+    let Some(src) = stage_worlds() else {
+        eprintln!("skipping: Stage's worlds are not in ../shared/stage-worlds");
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("nd-stage-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    simple_world(&src, &dir);
+    // Stage's nd.cfg as written (laser and sonar, wait_on_stall 1, its stuck times), its
+    // devices moved to OS-chosen ports.
+    let cfg = std::fs::read_to_string(src.join("nd.cfg"))
+        .unwrap()
+        .replace("\"simulation:", "\"0:simulation:")
+        .replace("\"position2d:", "\"0:position2d:")
+        .replace(":::position2d:", "::0:position2d:")
+        .replace("\"laser:", "\"0:laser:")
+        .replace("\"sonar:", "\"0:sonar:");
+    let handle = common::serve_cfg(&dir, "nd.cfg", &cfg, Pace::RealTime { speedup: 20.0 });
+    let client = PlayerClient::connect("localhost", handle.ports()[0]).unwrap();
+    let nav = Position2dProxy::new(&client, 1).unwrap();
+    let base = Position2dProxy::new(&client, 0).unwrap();
+    let wall = Instant::now();
+    while nav.state().is_none() {
+        assert!(wall.elapsed() < Duration::from_secs(10), "no odometry");
+        client.read().unwrap();
+    }
+    // r0 starts at (-6.95, -6.95) facing 45°; the straight line to (-3, 0) runs into the
+    // block at x -5.6..-3.9, y -3.4..-0.7.
+    let goal = (-3.0, 0.0, 90f64.to_radians());
+    nav.go_to(goal.0, goal.1, goal.2).unwrap();
+    loop {
+        client.read().unwrap();
+        let here = nav.pose();
+        assert!(!nav.stall(), "nd gave up at {here:?}");
+        assert!(!base.stall(), "r0 hit something at {here:?}");
+        assert!(
+            !((-5.6..-3.9).contains(&here.px) && (-3.4..-0.7).contains(&here.py)),
+            "drove through the block"
+        );
+        let off = (here.px - goal.0).hypot(here.py - goal.1);
+        let v = base.velocity();
+        if off < 0.3 && v.px == 0.0 && v.pa == 0.0 {
+            let heading = (here.pa - goal.2).sin().atan2((here.pa - goal.2).cos());
+            assert!(
+                heading.abs() < 15f64.to_radians(),
+                "heading off by {heading}"
+            );
+            break;
+        }
+        assert!(
+            wall.elapsed() < Duration::from_secs(60),
+            "no arrival; at {here:?}, {off:.2} m from the goal"
+        );
+    }
+    drop((nav, base));
+    drop(client);
+    handle.shutdown();
+    let _ = std::fs::remove_dir_all(&dir);
+}

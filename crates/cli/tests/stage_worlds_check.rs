@@ -112,7 +112,6 @@ const EXPECTED: &[(&str, u32, &str, &str)] = &[
     // mbicp.world's robot1 is a plain pioneer2dx: one ranger (the sonar ring, taken by
     // `laser:0`), none left for `sonar:0`.
     ("mbicp.cfg", 15, "no-unbound-model", "sonar:0"),
-    ("mbicp.cfg", 28, "unknown-driver", "mbicp"), // issue 16
     // test.world is not in Stage's tree.
     ("test.cfg", 12, "world-does-not-load", "test.world"),
     // Its required devices on port 6665 are another server's: recorded, not problems.

@@ -6,7 +6,8 @@
 //!   interface to and from Player 2's laser and sonar;
 //! * [`laser`] — `laserposeinterpolator`: scans stamped with the pose they were taken from;
 //! * [`position`] — `vfh`, `nd` and `snd`: local navigation (Vector Field Histogram+,
-//!   Nearness Diagram, Smooth ND) over a base and a laser and/or sonar;
+//!   Nearness Diagram, Smooth ND) over a base and a laser and/or sonar; `mbicp`: odometry
+//!   corrected by scan matching;
 //! * [`map`] — `mapfile` (a map read from an image), `mapscale` (resampled to another
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
 //! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
@@ -47,6 +48,7 @@ pub fn register_all(registry: &mut DriverRegistry) {
     map::mapfile::register(registry);
     map::transform::register(registry);
     position::vfh::register(registry);
+    position::mbicp::register(registry);
     position::nd::register(registry);
     position::snd::register(registry);
     localization::amcl::register(registry);

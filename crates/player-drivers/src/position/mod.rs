@@ -4,8 +4,11 @@
 //!
 //! * [`vfh`] — Vector Field Histogram+;
 //! * [`nd`] — Nearness Diagram navigation;
-//! * [`snd`] — Smooth Nearness-Diagram navigation (laser only, a round robot).
+//! * [`snd`] — Smooth Nearness-Diagram navigation (laser only, a round robot);
+//! * [`mbicp`] — not navigation: the base's odometry corrected by matching consecutive
+//!   laser scans (metric-based ICP).
 
+pub mod mbicp;
 pub mod nd;
 pub mod snd;
 pub mod vfh;

@@ -31,7 +31,8 @@ position
   pose [-2.5 -1.5 0 0]
   drive "diff"
   localization "odom"
-  odom_error [0.08 0.08 0 0.1]
+  # the heading factor is read as an angle (degrees): 5.73 is a 10% bias
+  odom_error [0.08 0.08 0 5.73]
   ranger ( sensor ( pose [0.15 0 0 0] size [0.1 0.1 0.1] range [0 8] fov 180 samples 361 ) )
 )
 "#;

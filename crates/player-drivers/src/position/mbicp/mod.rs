@@ -431,6 +431,91 @@ mod tests {
         assert!(e.contains('L'), "{e}");
     }
 
+    fn laser_scan(readings: &[Reading]) -> player_proto::LaserDataScan {
+        player_proto::LaserDataScan {
+            min_angle: readings[0].t as f32,
+            max_angle: readings[readings.len() - 1].t as f32,
+            resolution: (readings[1].t - readings[0].t) as f32,
+            max_range: 8.0,
+            ranges: readings.iter().map(|r| r.r as f32).collect(),
+            intensity: vec![0; readings.len()],
+            id: 0,
+        }
+    }
+
+    #[test]
+    fn the_driver_corrects_odometry_data_and_passes_the_rest_to_the_base() {
+        use crate::testing::{Harness, addr, block};
+        use player_proto::{Position2dDataState, Position2dGeom};
+        let (me, odom, laser) = (
+            addr(InterfaceCode::POSITION2D, 1),
+            addr(InterfaceCode::POSITION2D, 0),
+            addr(InterfaceCode::LASER, 1),
+        );
+        let b = block(NAME, &[me], &[odom, laser], &[("laserPose_x", "0")]);
+        let mut h = Harness::new(Mbicp::from_block(&b).unwrap());
+        assert_eq!(h.setup().subscriptions(), vec![odom, laser]);
+        let state = |f: Frame| Position2dDataState {
+            pos: pose(&f),
+            vel: Pose2d {
+                px: 0.2,
+                py: 0.0,
+                pa: 0.1,
+            },
+            stall: 0,
+        };
+        let published_pose = |out: crate::testing::Outcome| match &out.published[..] {
+            [p] if p.addr == me => match &p.body {
+                Body::Position2d(Position2dMsg::Data(Position2dData::State(s))) => {
+                    assert_eq!(s.vel.px, 0.2);
+                    frame(&s.pos)
+                }
+                other => panic!("{other:?}"),
+            },
+            other => panic!("{other:?}"),
+        };
+        // Before any scan, odometry passes unchanged.
+        let odo0 = Frame::new(-1.0, 0.2, 0.1);
+        assert_eq!(
+            published_pose(h.data(odom, Position2dData::State(state(odo0)), 1.0)),
+            odo0
+        );
+        // Two scans: the robot moved 10 cm, odometry says 15 cm.
+        let truth1 = odo0.compose(&Frame::new(0.1, 0.0, 0.0));
+        let odo1 = odo0.compose(&Frame::new(0.15, 0.0, 0.0));
+        for (at, odo) in [(odo0, odo0), (truth1, odo1)] {
+            let sp = LaserDataScanpose {
+                scan: laser_scan(&alg::tests::scan(at)),
+                pose: pose(&odo),
+            };
+            assert!(
+                h.data(laser, LaserData::ScanPose(sp), 1.1)
+                    .published
+                    .is_empty()
+            );
+        }
+        let c = published_pose(h.data(odom, Position2dData::State(state(odo1)), 1.2));
+        assert!(close(c, truth1, 0.01, 0.01), "{c:?} vs {truth1:?}");
+        // Geometry passes through; commands go to the base.
+        let geom = Position2dGeom::default();
+        let out = h.data(odom, Position2dData::Geom(geom.clone()), 1.3);
+        assert_eq!(out.published.len(), 1);
+        assert_eq!(out.published[0].addr, me);
+        let cmd = Position2dCmd::Vel(Position2dCmdVel {
+            vel: Pose2d {
+                px: 0.3,
+                py: 0.0,
+                pa: 0.0,
+            },
+            state: 1,
+        });
+        let out = h.command(me, cmd.clone());
+        assert!(matches!(
+            &out.actions[..],
+            [player_server::Action::Command(to, body)] if *to == odom && *body == Body::from(cmd)
+        ));
+    }
+
     #[test]
     fn bearings_come_from_the_scan_geometry() {
         let scan = player_proto::LaserDataScan {

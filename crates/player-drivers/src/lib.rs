@@ -7,6 +7,8 @@
 //! * [`laser`] — `laserposeinterpolator`: scans stamped with the pose they were taken from;
 //! * [`map`] — `mapfile` (a map read from an image), `mapscale` (resampled to another
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
+//! * [`planner`] — `wavefront`: global path planning over a map, driving a position2d
+//!   device waypoint by waypoint;
 //! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
 //!   `relay` (clients' opaque messages echoed to every subscriber).
 //!
@@ -21,6 +23,7 @@ mod forward;
 pub mod laser;
 pub mod map;
 mod options;
+pub mod planner;
 pub mod ranger;
 pub mod shell;
 #[cfg(test)]
@@ -40,4 +43,5 @@ pub fn register_all(registry: &mut DriverRegistry) {
     laser::laserposeinterpolator::register(registry);
     map::mapfile::register(registry);
     map::transform::register(registry);
+    planner::wavefront::register(registry);
 }

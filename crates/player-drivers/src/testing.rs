@@ -183,6 +183,11 @@ impl<D: Driver> Harness<D> {
         self.call(None, |d, ctx| d.handle_command(ctx, &msg)).1
     }
 
+    /// One update cycle.
+    pub fn update(&mut self) -> Outcome {
+        self.call(None, |d, ctx| d.update(ctx)).1
+    }
+
     /// The driver's wake-up.
     pub fn wake(&mut self) -> Outcome {
         self.call(None, |d, ctx| d.wake(ctx)).1

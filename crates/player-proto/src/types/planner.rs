@@ -41,3 +41,35 @@ xdr_struct! {
         state: u8,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::xdr::{Reader, Xdr};
+
+    #[test]
+    fn layouts_follow_the_def() {
+        // uint8_t members travel as 4-byte XDR words; the waypoint array as count + count + poses.
+        let data = PlannerData {
+            valid: 1,
+            waypoint_idx: -1,
+            waypoints_count: 3,
+            ..Default::default()
+        };
+        let mut out = Vec::new();
+        data.encode(&mut out).unwrap();
+        assert_eq!(out.len(), 4 + 4 + 3 * 24 + 4 + 4);
+        assert_eq!(&out[..8], &[0, 0, 0, 1, 0, 0, 0, 0]);
+        assert_eq!(&out[80..84], &[0xff; 4]);
+        let back = PlannerData::decode(&mut Reader::new(&out)).unwrap();
+        assert_eq!(back, data);
+
+        let req = PlannerWaypointsReq {
+            waypoints: vec![Pose2d::default(); 2],
+        };
+        let mut out = Vec::new();
+        req.encode(&mut out).unwrap();
+        assert_eq!(out.len(), 8 + 2 * 24);
+        assert_eq!(&out[..8], &[0, 0, 0, 2, 0, 0, 0, 2]);
+    }
+}

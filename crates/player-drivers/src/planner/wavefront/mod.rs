@@ -565,13 +565,13 @@ impl Driver for Wavefront {
                     self.control.set_localize(state.pos);
                 }
             }
+            // With request_map 0 the map is read when its device announces it.
             Body::Map(MapMsg::Data(MapData::Info(_)))
-                if data.header.addr.same_device(&self.map) =>
+                if data.header.addr.same_device(&self.map)
+                    && !self.opts.request_map
+                    && matches!(self.fetch, MapFetch::Idle) =>
             {
-                // With request_map 0 the map is read when its device announces it.
-                if !self.opts.request_map && matches!(self.fetch, MapFetch::Idle) {
-                    self.fetch_map(ctx);
-                }
+                self.fetch_map(ctx);
             }
             _ => {}
         }

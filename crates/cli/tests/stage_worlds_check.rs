@@ -117,11 +117,9 @@ const EXPECTED: &[(&str, u32, &str, &str)] = &[
     // Its required devices on port 6665 are another server's: recorded, not problems.
     ("wavefront-remote.cfg", 8, "unknown-driver", "vfh"), // issue 16
     ("wavefront-remote.cfg", 15, "unknown-driver", "amcl"), // issue 16
-    ("wavefront-remote.cfg", 23, "unknown-driver", "wavefront"), // issue 16
     // wavefront.world is not in Stage's tree (its robot's devices are then not checked).
     ("wavefront.cfg", 5, "world-does-not-load", "wavefront.world"),
     ("wavefront.cfg", 34, "unknown-driver", "vfh"), // issue 16
-    ("wavefront.cfg", 58, "unknown-driver", "wavefront"), // issue 16
     // Stage 3's wifi: the worlds load (the wifi models kept as data), the interface is not
     // served.
     ("wifi.cfg", 24, "unsupported-interface", "`wifi`"),
@@ -129,11 +127,9 @@ const EXPECTED: &[(&str, u32, &str, &str)] = &[
     ("wifi/commando.cfg", 22, "unsupported-interface", "`wifi`"),
     ("wifi/commando.cfg", 33, "unknown-driver", "amcl"), // issue 16
     ("wifi/commando.cfg", 41, "unknown-driver", "vfh"),  // issue 16
-    ("wifi/commando.cfg", 53, "unknown-driver", "wavefront"), // issue 16
     ("wifi/commando.cfg", 79, "unsupported-interface", "`wifi`"),
     ("wifi/commando.cfg", 84, "unknown-driver", "amcl"), // issue 16
     ("wifi/commando.cfg", 92, "unknown-driver", "vfh"),  // issue 16
-    ("wifi/commando.cfg", 104, "unknown-driver", "wavefront"), // issue 16
     ("wifi/hosp_wifi.cfg", 19, "unsupported-interface", "`wifi`"),
     ("wifi/hosp_wifi.cfg", 26, "unsupported-interface", "`wifi`"),
     (

@@ -12,7 +12,13 @@
 //! plans inside its own driver thread, which is the same thing).
 //!
 //! Not (yet) here: upstream's `velocity_control` mode (refused with an error) and its local
-//! planning around laser obstacles (`laser` requires are ignored with a warning).
+//! planning around laser obstacles (`laser` requires are ignored with a warning). Player
+//! 3.0.2 reads no `cspace_file` (its c-space cache is compiled out), and neither do we.
+//!
+//! Where this differs from upstream, on purpose: a new goal with no path clears the plan and
+//! stops the robot (upstream can keep stepping through the old plan's waypoints while it
+//! retries); `request_map 0` fetches the map when the map device publishes its DATA INFO
+//! (3.0.2 only notes the announcement, and then never loads a map).
 
 pub mod control;
 pub mod plan;

@@ -87,6 +87,16 @@ fn drives_around_an_obstacle_to_the_goal() {
     assert!(d.waypoints_count >= 3, "{d:?}");
 
     let waypoints = planner.request_waypoints().unwrap();
+    // The original Player 3.0.2 (wavefront + mapfile + Stage 4.1.1 on this world and cfg)
+    // answers GET_WAYPOINTS with exactly these.
+    let upstream = [(-3.0, -3.0), (-0.4, 2.9), (1.9, 1.6), (3.0, -3.0)];
+    assert_eq!(waypoints.len(), upstream.len(), "{waypoints:?}");
+    for (w, (x, y)) in waypoints.iter().zip(upstream) {
+        assert!(
+            (w.px - x).abs() < 1e-3 && (w.py - y).abs() < 1e-3 && w.pa == 0.0,
+            "{waypoints:?}"
+        );
+    }
     assert_eq!(waypoints.len(), d.waypoints_count as usize);
     let first = waypoints[0];
     let last = *waypoints.last().unwrap();

@@ -9,6 +9,8 @@
 //!   Nearness Diagram, Smooth ND) over a base and a laser and/or sonar;
 //! * [`map`] — `mapfile` (a map read from an image), `mapscale` (resampled to another
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
+//! * [`planner`] — `wavefront`: global path planning over a map, driving a position2d
+//!   device waypoint by waypoint;
 //! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
 //!   `relay` (clients' opaque messages echoed to every subscriber);
 //! * [`localization`] — `amcl`: adaptive Monte-Carlo localisation against a map, from
@@ -26,6 +28,7 @@ pub mod laser;
 pub mod localization;
 pub mod map;
 mod options;
+pub mod planner;
 pub mod position;
 pub mod ranger;
 pub mod shell;
@@ -50,4 +53,5 @@ pub fn register_all(registry: &mut DriverRegistry) {
     position::nd::register(registry);
     position::snd::register(registry);
     localization::amcl::register(registry);
+    planner::wavefront::register(registry);
 }

@@ -115,18 +115,14 @@ const EXPECTED: &[(&str, u32, &str, &str)] = &[
     // test.world is not in Stage's tree.
     ("test.cfg", 12, "world-does-not-load", "test.world"),
     // Its required devices on port 6665 are another server's: recorded, not problems.
-    ("wavefront-remote.cfg", 23, "unknown-driver", "wavefront"), // issue 16
     // wavefront.world is not in Stage's tree (its robot's devices are then not checked).
     ("wavefront.cfg", 5, "world-does-not-load", "wavefront.world"),
-    ("wavefront.cfg", 58, "unknown-driver", "wavefront"), // issue 16
     // Stage 3's wifi: the worlds load (the wifi models kept as data), the interface is not
     // served.
     ("wifi.cfg", 24, "unsupported-interface", "`wifi`"),
     ("wifi.cfg", 34, "unsupported-interface", "`wifi`"),
     ("wifi/commando.cfg", 22, "unsupported-interface", "`wifi`"),
-    ("wifi/commando.cfg", 53, "unknown-driver", "wavefront"), // issue 16
     ("wifi/commando.cfg", 79, "unsupported-interface", "`wifi`"),
-    ("wifi/commando.cfg", 104, "unknown-driver", "wavefront"), // issue 16
     ("wifi/hosp_wifi.cfg", 19, "unsupported-interface", "`wifi`"),
     ("wifi/hosp_wifi.cfg", 26, "unsupported-interface", "`wifi`"),
     (

@@ -379,6 +379,87 @@ impl Position2dProxy {
 }
 
 proxy!(
+    /// A path planner (`planner`), e.g. `wavefront`: give it a goal and it drives the robot
+    /// there; its state says whether a path exists and whether the robot has arrived.
+    PlannerProxy,
+    PLANNER
+);
+
+impl PlannerProxy {
+    /// The latest planner state.
+    pub fn data(&self) -> Option<PlannerData> {
+        match self.latest(PlannerDataMsg::STATE)? {
+            Body::Planner(PlannerMsg::Data(PlannerDataMsg::State(d))) => Some(d),
+            _ => None,
+        }
+    }
+
+    /// Where the robot is (m, m, rad; libplayerc's `px, py, pa`).
+    pub fn pos(&self) -> Pose2d {
+        self.data().map(|d| d.pos).unwrap_or_default()
+    }
+
+    /// The goal (libplayerc's `gx, gy, ga`).
+    pub fn goal(&self) -> Pose2d {
+        self.data().map(|d| d.goal).unwrap_or_default()
+    }
+
+    /// The waypoint being driven to (libplayerc's `wx, wy, wa`).
+    pub fn waypoint(&self) -> Pose2d {
+        self.data().map(|d| d.waypoint).unwrap_or_default()
+    }
+
+    /// Index of that waypoint; negative when there is no plan or it is done (libplayerc's
+    /// `curr_waypoint`).
+    pub fn waypoint_idx(&self) -> i32 {
+        self.data().map_or(-1, |d| d.waypoint_idx)
+    }
+
+    /// Number of waypoints in the plan (libplayerc's `waypoint_count`).
+    pub fn waypoints_count(&self) -> u32 {
+        self.data().map_or(0, |d| d.waypoints_count)
+    }
+
+    /// Whether the planner found a path (libplayerc's `path_valid`).
+    pub fn path_valid(&self) -> bool {
+        self.data().is_some_and(|d| d.valid != 0)
+    }
+
+    /// Whether the robot has arrived at the goal (libplayerc's `path_done`).
+    pub fn path_done(&self) -> bool {
+        self.data().is_some_and(|d| d.done != 0)
+    }
+
+    /// Sends a new goal (`playerc_planner_set_cmd_pose`, libplayerc++'s `SetGoalPose`).
+    pub fn set_goal(&self, gx: f64, gy: f64, ga: f64) -> Result<(), ClientError> {
+        self.command(PlannerCmdMsg::Goal(PlannerCmd {
+            goal: Pose2d {
+                px: gx,
+                py: gy,
+                pa: ga,
+            },
+        }))
+    }
+
+    /// The plan's waypoints (`playerc_planner_get_waypoints`).
+    pub fn request_waypoints(&self) -> Result<Vec<Pose2d>, ClientError> {
+        let reply = self.request(PlannerReq::GetWaypoints(None))?;
+        ack_body!(self, reply,
+            Body::Planner(PlannerMsg::Ack(PlannerReq::GetWaypoints(Some(w)))) => w.waypoints,
+            "planner GET_WAYPOINTS")
+    }
+
+    /// Allows or stops robot motion (`playerc_planner_enable`); disabled, the planner stops
+    /// the robot.
+    pub fn enable(&self, state: bool) -> Result<(), ClientError> {
+        self.request(PlannerReq::Enable(Some(PlannerEnableReq {
+            state: u8::from(state),
+        })))
+        .map(|_| ())
+    }
+}
+
+proxy!(
     /// A range sensor array (`ranger`): sonar rings, lasers.
     RangerProxy,
     RANGER

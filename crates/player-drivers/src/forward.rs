@@ -32,6 +32,25 @@ impl<K> Waiting<K> {
         self.by_ticket.insert(ticket, what);
     }
 
+    /// Sends `body` to `device` on behalf of the request being handled, which waits (the
+    /// returned [`Reply::Deferred`]) until `device` answers; its answer to the ticket then
+    /// finds `what(pending)` here. A NACK when there is no request to take (called outside
+    /// `handle_request`), in which case nothing is sent.
+    pub(crate) fn forward(
+        &mut self,
+        ctx: &mut Context<'_>,
+        device: player_proto::DeviceAddr,
+        body: impl Into<Body>,
+        what: impl FnOnce(PendingReply) -> K,
+    ) -> Reply {
+        let Some(pending) = ctx.defer() else {
+            return Reply::Nack;
+        };
+        let ticket = ctx.request(device, body);
+        self.insert(ticket, what(pending));
+        Reply::Deferred
+    }
+
     /// What the answer to `ticket` is for (once: a second answer finds nothing).
     pub(crate) fn take(&mut self, ticket: RequestTicket) -> Option<K> {
         self.by_ticket.remove(&ticket)
@@ -50,19 +69,6 @@ pub(crate) fn passed_on(reply: Result<Message, RequestError>) -> Reply {
             Reply::Nack
         }
     }
-}
-
-/// Sends `body` to `device` on behalf of the request being handled and takes that request to
-/// answer later; returns the ticket and the token to answer with. `None` when there is no
-/// request to take (called outside `handle_request`), in which case nothing is sent.
-pub(crate) fn forward(
-    ctx: &mut Context<'_>,
-    device: player_proto::DeviceAddr,
-    body: impl Into<Body>,
-) -> Option<(RequestTicket, PendingReply)> {
-    let pending = ctx.defer()?;
-    let ticket = ctx.request(device, body);
-    Some((ticket, pending))
 }
 
 /// Whether `body` is one of the property requests upstream's `ToRanger` / `FromRanger` base

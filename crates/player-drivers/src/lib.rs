@@ -10,6 +10,8 @@
 //!   corrected by scan matching;
 //! * [`map`] — `mapfile` (a map read from an image), `mapscale` (resampled to another
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
+//! * [`planner`] — `wavefront`: global path planning over a map, driving a position2d
+//!   device waypoint by waypoint;
 //! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
 //!   `relay` (clients' opaque messages echoed to every subscriber);
 //! * [`localization`] — `amcl`: adaptive Monte-Carlo localisation against a map, from
@@ -27,6 +29,7 @@ pub mod laser;
 pub mod localization;
 pub mod map;
 mod options;
+pub mod planner;
 pub mod position;
 pub mod ranger;
 pub mod shell;
@@ -52,4 +55,5 @@ pub fn register_all(registry: &mut DriverRegistry) {
     position::nd::register(registry);
     position::snd::register(registry);
     localization::amcl::register(registry);
+    planner::wavefront::register(registry);
 }

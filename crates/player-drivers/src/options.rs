@@ -45,6 +45,16 @@ pub fn int(block: &DriverBlock, key: &'static str) -> Result<Option<i64>, Error>
     element(block, key, 0, "an integer")
 }
 
+/// `ReadFloat(key)`: a plain number.
+pub fn float(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Error> {
+    element(block, key, 0, "a number")
+}
+
+/// `ReadAngle(key)`: written in degrees (Player's default `unit_angle`), returned in radians.
+pub fn angle(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Error> {
+    Ok(element::<f64>(block, key, 0, "an angle")?.map(f64::to_radians))
+}
+
 /// `ReadString(key)`.
 pub fn string<'a>(block: &'a DriverBlock, key: &str) -> Option<&'a str> {
     block.option(key)
@@ -76,6 +86,9 @@ pub(crate) mod tests {
         assert_eq!(length(&b, "r").unwrap(), Some(0.25));
         assert_eq!(length(&b, "none").unwrap(), None);
         assert_eq!(int(&b, "n").unwrap(), Some(3));
+        assert_eq!(float(&b, "r").unwrap(), Some(0.25));
+        assert_eq!(angle(&b, "n").unwrap(), Some(3f64.to_radians()));
+        assert!(angle(&b, "bad").is_err());
         assert_eq!(tuple_length(&b, "o", 1).unwrap(), Some(-2.5));
         assert_eq!(tuple_length(&b, "o", 3).unwrap(), None);
         assert_eq!(

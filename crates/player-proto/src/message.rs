@@ -301,6 +301,21 @@ message_table! {
         }
     }
 
+    /// Messages of the `planner` interface (44): goal in, execution state out, and the plan's
+    /// waypoints on request.
+    interface Planner (PlannerMsg) = PLANNER {
+        data PlannerDataMsg {
+            1 STATE State(PlannerData),
+        }
+        cmd PlannerCmdMsg {
+            1 GOAL Goal(PlannerCmd),
+        }
+        req PlannerReq {
+            1 GET_WAYPOINTS GetWaypoints(PlannerWaypointsReq),
+            2 ENABLE Enable(PlannerEnableReq),
+        }
+    }
+
     /// Messages of the `bumper` interface (14).
     interface Bumper (BumperMsg) = BUMPER {
         data BumperData {
@@ -604,7 +619,7 @@ mod tests {
     #[test]
     fn table_is_consistent() {
         let rows = message_rows();
-        // 9 universal rows + every row of the 21 interfaces.
+        // 9 universal rows + every row of the 22 interfaces.
         assert_eq!(rows.iter().filter(|r| r.interface.0 == 0).count(), 9);
         for (i, a) in rows.iter().enumerate() {
             assert!(a.interface.0 == 0 || a.interface.name().is_some());
@@ -626,7 +641,7 @@ mod tests {
         }
         let interfaces: std::collections::BTreeSet<u16> =
             rows.iter().map(|r| r.interface.0).collect();
-        assert_eq!(interfaces.len(), 23, "{interfaces:?}");
+        assert_eq!(interfaces.len(), 24, "{interfaces:?}");
     }
 
     #[test]

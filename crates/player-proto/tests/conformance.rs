@@ -239,24 +239,74 @@ fn table_matches_the_readme() {
         })
         .collect();
     // Interfaces the README's list does not cover, each row as its 3.0.2 `.def` file declares
-    // it (libplayerinterface/interfaces/051_opaque.def: DATA STATE, CMD DATA and REQ DATA, all
-    // carrying player_opaque_data_t).
+    // it: libplayerinterface/interfaces/051_opaque.def (DATA STATE, CMD DATA and REQ DATA, all
+    // carrying player_opaque_data_t) and 044_planner.def (DATA STATE player_planner_data_t, CMD
+    // GOAL player_planner_cmd_t, REQ GET_WAYPOINTS player_planner_waypoints_req_t, REQ ENABLE
+    // player_planner_enable_req_t).
     let beyond_the_readme = [
-        (51, MsgType::Data, 1, "PLAYER_OPAQUE_DATA_STATE"),
-        (51, MsgType::Cmd, 1, "PLAYER_OPAQUE_CMD_DATA"),
-        (51, MsgType::Req, 1, "PLAYER_OPAQUE_REQ_DATA"),
+        (
+            51,
+            MsgType::Data,
+            1,
+            "PLAYER_OPAQUE_DATA_STATE",
+            "player_opaque_data_t",
+        ),
+        (
+            51,
+            MsgType::Cmd,
+            1,
+            "PLAYER_OPAQUE_CMD_DATA",
+            "player_opaque_data_t",
+        ),
+        (
+            51,
+            MsgType::Req,
+            1,
+            "PLAYER_OPAQUE_REQ_DATA",
+            "player_opaque_data_t",
+        ),
+        (
+            44,
+            MsgType::Data,
+            1,
+            "PLAYER_PLANNER_DATA_STATE",
+            "player_planner_data_t",
+        ),
+        (
+            44,
+            MsgType::Cmd,
+            1,
+            "PLAYER_PLANNER_CMD_GOAL",
+            "player_planner_cmd_t",
+        ),
+        (
+            44,
+            MsgType::Req,
+            1,
+            "PLAYER_PLANNER_REQ_GET_WAYPOINTS",
+            "player_planner_waypoints_req_t",
+        ),
+        (
+            44,
+            MsgType::Req,
+            2,
+            "PLAYER_PLANNER_REQ_ENABLE",
+            "player_planner_enable_req_t",
+        ),
     ];
-    assert!(
-        !listed.iter().any(|r| r.0 == 51),
-        "the README now lists interface 51: drop it from beyond_the_readme"
-    );
-    for (code, t, sub, constant) in beyond_the_readme {
+    for code in [51, 44] {
+        assert!(
+            !listed.iter().any(|r| r.0 == code),
+            "the README now lists interface {code}: drop it from beyond_the_readme"
+        );
+    }
+    for (code, t, sub, constant, body) in beyond_the_readme {
         listed.insert((
             code,
             t.code(),
             sub,
             constant.to_owned(),
-            Some("player_opaque_data_t".to_owned()),
+            Some(body.to_owned()),
         ));
     }
     println!(

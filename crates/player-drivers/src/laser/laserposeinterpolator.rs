@@ -22,7 +22,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, forward, passed_on};
+use crate::forward::{Waiting, passed_on};
 
 /// The Player name of this driver.
 pub const NAME: &str = "laserposeinterpolator";
@@ -269,13 +269,8 @@ impl Driver for LaserPoseInterpolator {
     }
 
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        match forward(ctx, self.laser, request.body.clone()) {
-            Some((ticket, pending)) => {
-                self.waiting.insert(ticket, pending);
-                Reply::Deferred
-            }
-            None => Reply::Nack,
-        }
+        self.waiting
+            .forward(ctx, self.laser, request.body.clone(), |p| p)
     }
 
     fn handle_reply(

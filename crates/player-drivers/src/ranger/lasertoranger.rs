@@ -35,7 +35,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, capability_reply, forward, is_forwarded_property, passed_on};
+use crate::forward::{Waiting, capability_reply, is_forwarded_property, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "lasertoranger";
@@ -333,13 +333,7 @@ impl Driver for LaserToRanger {
                 _ => return Reply::NotHandled,
             }
         };
-        match forward(ctx, self.laser, to_laser) {
-            Some((ticket, pending)) => {
-                self.waiting.insert(ticket, asked(pending));
-                Reply::Deferred
-            }
-            None => Reply::Nack,
-        }
+        self.waiting.forward(ctx, self.laser, to_laser, asked)
     }
 
     fn handle_reply(

@@ -33,7 +33,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, capability_reply, forward, is_forwarded_property, passed_on};
+use crate::forward::{Waiting, capability_reply, is_forwarded_property, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "rangertolaser";
@@ -355,13 +355,7 @@ impl Driver for RangerToLaser {
                 _ => return Reply::NotHandled,
             }
         };
-        match forward(ctx, self.ranger, to_ranger) {
-            Some((ticket, pending)) => {
-                self.waiting.insert(ticket, asked(pending));
-                Reply::Deferred
-            }
-            None => Reply::Nack,
-        }
+        self.waiting.forward(ctx, self.ranger, to_ranger, asked)
     }
 
     fn handle_reply(

@@ -25,7 +25,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, capability_reply, forward, is_forwarded_property, passed_on};
+use crate::forward::{Waiting, capability_reply, is_forwarded_property, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "sonartoranger";
@@ -171,13 +171,7 @@ impl Driver for SonarToRanger {
                 _ => return Reply::NotHandled,
             }
         };
-        match forward(ctx, self.sonar, to_sonar) {
-            Some((ticket, pending)) => {
-                self.waiting.insert(ticket, asked(pending));
-                Reply::Deferred
-            }
-            None => Reply::Nack,
-        }
+        self.waiting.forward(ctx, self.sonar, to_sonar, asked)
     }
 
     fn handle_reply(

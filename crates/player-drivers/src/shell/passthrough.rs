@@ -26,7 +26,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, forward, passed_on};
+use crate::forward::{Waiting, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "passthrough";
@@ -114,13 +114,8 @@ impl Driver for Passthrough {
         let Some(required) = self.required_for(&request.header.addr) else {
             return Reply::NotHandled;
         };
-        match forward(ctx, required, request.body.clone()) {
-            Some((ticket, pending)) => {
-                self.waiting.insert(ticket, pending);
-                Reply::Deferred
-            }
-            None => Reply::Nack,
-        }
+        self.waiting
+            .forward(ctx, required, request.body.clone(), |p| p)
     }
 
     fn handle_reply(

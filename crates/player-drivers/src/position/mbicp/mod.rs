@@ -33,7 +33,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, forward, passed_on};
+use crate::forward::{Waiting, passed_on};
 use alg::{Frame, Outcome, Params, Reading};
 
 /// The Player name of this driver.
@@ -300,13 +300,8 @@ impl Driver for Mbicp {
     }
 
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        match forward(ctx, self.odom, request.body.clone()) {
-            Some((ticket, pending)) => {
-                self.waiting.insert(ticket, pending);
-                Reply::Deferred
-            }
-            None => Reply::Nack,
-        }
+        self.waiting
+            .forward(ctx, self.odom, request.body.clone(), |p| p)
     }
 
     fn handle_reply(

@@ -33,7 +33,7 @@ use player_server::{
 };
 
 use crate::error::Error;
-use crate::forward::{Waiting, forward, passed_on};
+use crate::forward::{Waiting, passed_on};
 use crate::options;
 
 use alg::{NdParams, Pose, Robot, Velocities};
@@ -675,13 +675,8 @@ impl Driver for Nd {
     }
 
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        match forward(ctx, self.output, request.body.clone()) {
-            Some((ticket, pending)) => {
-                self.asked.insert(ticket, Asked::Forwarded(pending));
-                Reply::Deferred
-            }
-            None => Reply::Nack,
-        }
+        self.asked
+            .forward(ctx, self.output, request.body.clone(), Asked::Forwarded)
     }
 
     fn handle_reply(

@@ -27,7 +27,7 @@ use player_server::{
 };
 
 use crate::error::Error;
-use crate::forward::{Waiting, forward, passed_on};
+use crate::forward::{Waiting, passed_on};
 use crate::options;
 
 use alg::{Command, Scan, SndParams};
@@ -252,13 +252,8 @@ impl Driver for Snd {
     }
 
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        match forward(ctx, self.output, request.body.clone()) {
-            Some((ticket, pending)) => {
-                self.waiting.insert(ticket, pending);
-                Reply::Deferred
-            }
-            None => Reply::Nack,
-        }
+        self.waiting
+            .forward(ctx, self.output, request.body.clone(), |p| p)
     }
 
     fn handle_reply(

@@ -44,7 +44,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, forward, passed_on};
+use crate::forward::{Waiting, passed_on};
 use algorithm::{Params, Vfh};
 use navigator::{GoalSettings, Navigator, Odometry};
 use ranges::HalfDegreeRanges;
@@ -398,13 +398,8 @@ impl Driver for VfhDriver {
     }
 
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        match forward(ctx, self.odom, request.body.clone()) {
-            Some((ticket, pending)) => {
-                self.waiting.insert(ticket, pending);
-                Reply::Deferred
-            }
-            None => Reply::Nack,
-        }
+        self.waiting
+            .forward(ctx, self.odom, request.body.clone(), |p| p)
     }
 
     fn handle_reply(

@@ -1,0 +1,3 @@
+//! Path planners: drivers that provide a `planner` device.
+
+pub mod wavefront;

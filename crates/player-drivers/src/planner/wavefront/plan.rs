@@ -1,0 +1,518 @@
+//! The wavefront planner's grid algorithms (Player's `plan.c`, `plan_plan.c`,
+//! `plan_waypoint.c`): configuration space from an occupancy grid, a wavefront (Dijkstra) from
+//! the goal with a penalty near obstacles, the path that follows it, and the few waypoints a
+//! robot can drive between in straight lines.
+//!
+//! Everything here is plain data and pure functions, so the driver can run it on a worker
+//! thread and the tests can run it on hand-made grids.
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Cost of a cell the wavefront has not reached (upstream's `PLAN_MAX_COST`).
+const MAX_COST: f32 = 1e9;
+
+/// How far along the path (in metres) a waypoint may always reach before straight-line
+/// reachability is tested (upstream's fixed 0.5 m in `plan_update_waypoints`).
+const WAYPOINT_FREE_RUN: f64 = 0.5;
+
+/// The planner's tuning, as the driver derives it from its options and the robot's size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanParams {
+    /// Cells nearer than this to an obstacle are impassable (robot radius + `safety_dist`).
+    pub abs_min_radius: f64,
+    /// Obstacles farther than this cost nothing extra (`max_radius`); also the reach of the
+    /// c-space distance computation.
+    pub max_radius: f64,
+    /// Extra cost per metre of intrusion within `max_radius` of an obstacle (`dist_penalty`).
+    pub dist_penalty: f64,
+}
+
+/// A map ready for planning: per cell the occupancy and the distance to the nearest obstacle
+/// (capped at `max_radius`). Cell (i, j) is centred at `origin + (i, j) * scale`, as upstream's
+/// `PLAN_WXGX`.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    size_x: usize,
+    size_y: usize,
+    origin: (f64, f64),
+    scale: f64,
+    params: PlanParams,
+    /// Upstream's `occ_dist`: metres to the nearest occupied (or unknown) cell.
+    occ_dist: Vec<f32>,
+}
+
+/// A grid cell index (column, row).
+pub type Cell = (usize, usize);
+
+/// The result of planning from a start to a goal.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlanResult {
+    /// Every cell from the start to the goal (empty when there is no path).
+    pub path: Vec<Cell>,
+    /// The waypoints in world coordinates (m), start first, goal last; empty when no path.
+    pub waypoints: Vec<(f64, f64)>,
+}
+
+impl Plan {
+    /// Builds the c-space of a `size_x` x `size_y` grid of Player map cells (row-major from
+    /// the lower left; -1 free, 0 unknown, +1 occupied). As upstream, unknown cells count as
+    /// obstacles: only cells known to be free can be driven through.
+    ///
+    /// `None` when `cells` does not hold `size_x * size_y` values or the scale is not positive.
+    pub fn new(
+        size_x: usize,
+        size_y: usize,
+        scale: f64,
+        origin: (f64, f64),
+        cells: &[i8],
+        params: PlanParams,
+    ) -> Option<Plan> {
+        if size_x.checked_mul(size_y)? != cells.len()
+            || scale.partial_cmp(&0.0)? != Ordering::Greater
+        {
+            return None;
+        }
+        let max = params.max_radius as f32;
+        let mut occ_dist: Vec<f32> = cells
+            .iter()
+            .map(|&c| if c >= 0 { 0.0 } else { max })
+            .collect();
+        // Grow every obstacle by a disc of radius max_radius (upstream's dist_kernel).
+        let half = (params.max_radius / scale).ceil().max(0.0) as i64;
+        let kernel: Vec<(i64, i64, f32)> = (-half..=half)
+            .flat_map(|dj| (-half..=half).map(move |di| (di, dj)))
+            .map(|(di, dj)| (di, dj, (((di * di + dj * dj) as f64).sqrt() * scale) as f32))
+            .collect();
+        for j in 0..size_y {
+            for i in 0..size_x {
+                if cells[i + j * size_x] < 0 {
+                    continue;
+                }
+                for &(di, dj, d) in &kernel {
+                    let (ni, nj) = (i as i64 + di, j as i64 + dj);
+                    if ni < 0 || nj < 0 || ni >= size_x as i64 || nj >= size_y as i64 {
+                        continue;
+                    }
+                    let k = ni as usize + nj as usize * size_x;
+                    if d < occ_dist[k] {
+                        occ_dist[k] = d;
+                    }
+                }
+            }
+        }
+        Some(Plan {
+            size_x,
+            size_y,
+            origin,
+            scale,
+            params,
+            occ_dist,
+        })
+    }
+
+    /// The parameters the c-space was built with.
+    pub fn params(&self) -> PlanParams {
+        self.params
+    }
+
+    /// The cell holding world point (x, y) (upstream's `PLAN_GXWX`: rounded to the nearest
+    /// cell centre), `None` off the grid.
+    pub fn cell_of(&self, x: f64, y: f64) -> Option<Cell> {
+        let i = ((x - self.origin.0) / self.scale + 0.5).floor();
+        let j = ((y - self.origin.1) / self.scale + 0.5).floor();
+        (i >= 0.0 && j >= 0.0 && i < self.size_x as f64 && j < self.size_y as f64)
+            .then_some((i as usize, j as usize))
+    }
+
+    /// The world position of a cell's centre (upstream's `PLAN_WXGX`, `PLAN_WYGY`).
+    pub fn world_of(&self, (i, j): Cell) -> (f64, f64) {
+        (
+            self.origin.0 + i as f64 * self.scale,
+            self.origin.1 + j as f64 * self.scale,
+        )
+    }
+
+    /// Distance (m) from a cell to the nearest obstacle, capped at `max_radius`.
+    pub fn occ_dist(&self, (i, j): Cell) -> f32 {
+        self.occ_dist[i + j * self.size_x]
+    }
+
+    /// Plans from world point `start` to `goal`: the wavefront, the path and its waypoints
+    /// (upstream's `plan_do_global` then `plan_update_waypoints`). An empty result means no
+    /// path: either point off the map, or the goal unreachable. The start cell itself is
+    /// treated as free, so a robot that has drifted close to a wall can still leave.
+    pub fn plan(&self, start: (f64, f64), goal: (f64, f64)) -> PlanResult {
+        let (Some(s), Some(g)) = (self.cell_of(start.0, start.1), self.cell_of(goal.0, goal.1))
+        else {
+            return PlanResult::default();
+        };
+        let Some(path) = self.wavefront_path(s, g) else {
+            return PlanResult::default();
+        };
+        let waypoints = self
+            .reduce_to_waypoints(&path)
+            .into_iter()
+            .map(|c| self.world_of(c))
+            .collect();
+        PlanResult { path, waypoints }
+    }
+
+    /// Runs the wavefront from `goal` and follows the cheapest neighbours from `start`.
+    ///
+    /// As upstream, a cell's cost is fixed when the cell is first reached (a reached cell is
+    /// never pushed again), stepping costs the step length, and a cell within `max_radius`
+    /// of an obstacle costs `dist_penalty * (max_radius - distance)` more.
+    fn wavefront_path(&self, start: Cell, goal: Cell) -> Option<Vec<Cell>> {
+        let n = self.size_x * self.size_y;
+        let idx = |(i, j): Cell| i + j * self.size_x;
+        let mut cost = vec![MAX_COST; n];
+        let mut next: Vec<Option<usize>> = vec![None; n];
+        let mut reached = vec![false; n];
+        let dist = |k: usize| {
+            if k == idx(start) {
+                self.params.max_radius as f32
+            } else {
+                self.occ_dist[k]
+            }
+        };
+        let g = idx(goal);
+        cost[g] = 0.0;
+        if start == goal {
+            return Some(vec![start]);
+        }
+        let mut heap = BinaryHeap::new();
+        let mut order = 0u64;
+        reached[g] = true;
+        heap.push(Queued {
+            cost: 0.0,
+            order,
+            cell: g,
+        });
+        let abs_min = self.params.abs_min_radius as f32;
+        let max_r = self.params.max_radius as f32;
+        let penalty = self.params.dist_penalty as f32;
+        while let Some(Queued { cell, .. }) = heap.pop() {
+            let (oi, oj) = (cell % self.size_x, cell / self.size_x);
+            for dj in -1i64..=1 {
+                for di in -1i64..=1 {
+                    if di == 0 && dj == 0 {
+                        continue;
+                    }
+                    let (ni, nj) = (oi as i64 + di, oj as i64 + dj);
+                    if ni < 0 || nj < 0 || ni >= self.size_x as i64 || nj >= self.size_y as i64 {
+                        continue;
+                    }
+                    let k = ni as usize + nj as usize * self.size_x;
+                    if reached[k] {
+                        continue;
+                    }
+                    let d = dist(k);
+                    if d < abs_min {
+                        continue;
+                    }
+                    let step = (((di * di + dj * dj) as f64).sqrt() * self.scale) as f32;
+                    let mut c = cost[cell] + step;
+                    if d < max_r {
+                        c += penalty * (max_r - d);
+                    }
+                    if c < cost[k] {
+                        cost[k] = c;
+                        next[k] = Some(cell);
+                        reached[k] = true;
+                        order += 1;
+                        heap.push(Queued {
+                            cost: c,
+                            order,
+                            cell: k,
+                        });
+                    }
+                }
+            }
+        }
+        next[idx(start)]?;
+        let mut path = vec![start];
+        let mut at = idx(start);
+        while let Some(k) = next[at] {
+            path.push((k % self.size_x, k / self.size_x));
+            at = k;
+        }
+        Some(path)
+    }
+
+    /// Reduces a path to waypoints (upstream's `plan_update_waypoints`): from each waypoint,
+    /// walk along the path while the next cell can be reached in a straight line (always for
+    /// the first `WAYPOINT_FREE_RUN` metres), and put the next waypoint where that stops.
+    pub fn reduce_to_waypoints(&self, path: &[Cell]) -> Vec<Cell> {
+        let mut out = Vec::new();
+        if path.is_empty() {
+            return out;
+        }
+        let last = path.len() - 1;
+        let mut at = 0;
+        loop {
+            out.push(path[at]);
+            if at == last {
+                break;
+            }
+            let mut run = 0.0;
+            let mut k = at;
+            while k < last {
+                if run > WAYPOINT_FREE_RUN && !self.reachable(path[at], path[k + 1]) {
+                    break;
+                }
+                run += self.scale;
+                k += 1;
+            }
+            if k == at {
+                break;
+            }
+            at = k;
+        }
+        out
+    }
+
+    /// Whether the straight line from cell `a` to cell `b` stays clear of the c-space
+    /// (upstream's `plan_test_reachable`: step along the line one cell length at a time and
+    /// test every cell entered against `abs_min_radius`).
+    pub fn reachable(&self, a: Cell, b: Cell) -> bool {
+        let (bi, bj) = (b.0 as i64, b.1 as i64);
+        let theta = ((bj - a.1 as i64) as f64).atan2((bi - a.0 as i64) as f64);
+        let (sin, cos) = theta.sin_cos();
+        let (mut i, mut j) = (a.0 as f64, a.1 as f64);
+        let (mut last_i, mut last_j) = (-1i64, -1i64);
+        // The walk ends within one step per cell of the longer side; the bound only guards
+        // against rounding keeping it from landing on `b`.
+        let limit = 2 * (self.size_x + self.size_y) + 4;
+        for _ in 0..limit {
+            if last_i == bi && last_j == bj {
+                return true;
+            }
+            let (fi, fj) = (i.floor() as i64, j.floor() as i64);
+            if fi != last_i || fj != last_j {
+                last_i = fi;
+                last_j = fj;
+                if fi < 0 || fj < 0 || fi >= self.size_x as i64 || fj >= self.size_y as i64 {
+                    return false;
+                }
+                if self.occ_dist((fi as usize, fj as usize)) < self.params.abs_min_radius as f32 {
+                    return false;
+                }
+            }
+            if last_i != bi {
+                i += cos;
+            }
+            if last_j != bj {
+                j += sin;
+            }
+        }
+        false
+    }
+}
+
+/// A cell waiting in the wavefront's queue: cheapest first, then first queued.
+#[derive(Debug)]
+struct Queued {
+    cost: f32,
+    order: u64,
+    cell: usize,
+}
+
+impl PartialEq for Queued {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+
+impl Eq for Queued {}
+
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Queued {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // BinaryHeap pops the greatest: reverse both keys.
+        other
+            .cost
+            .total_cmp(&self.cost)
+            .then_with(|| other.order.cmp(&self.order))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const FREE: i8 = -1;
+    const OCC: i8 = 1;
+
+    /// A grid from text rows, top row first: '#' occupied, '?' unknown, anything else free.
+    fn grid(rows: &[&str]) -> (usize, usize, Vec<i8>) {
+        let h = rows.len();
+        let w = rows[0].len();
+        let mut cells = vec![FREE; w * h];
+        for (r, row) in rows.iter().enumerate() {
+            let j = h - 1 - r;
+            for (i, ch) in row.chars().enumerate() {
+                cells[i + j * w] = match ch {
+                    '#' => OCC,
+                    '?' => 0,
+                    _ => FREE,
+                };
+            }
+        }
+        (w, h, cells)
+    }
+
+    fn params(abs_min: f64) -> PlanParams {
+        PlanParams {
+            abs_min_radius: abs_min,
+            max_radius: 1.0,
+            dist_penalty: 1.0,
+        }
+    }
+
+    fn plan_of(rows: &[&str], abs_min: f64) -> Plan {
+        let (w, h, cells) = grid(rows);
+        Plan::new(w, h, 1.0, (0.0, 0.0), &cells, params(abs_min)).unwrap()
+    }
+
+    const WALL: &[&str] = &[
+        "..........",
+        "..........",
+        "....#.....",
+        "....#.....",
+        "....#.....",
+        "....#.....",
+        "....#.....",
+        "..........",
+    ];
+
+    #[test]
+    fn cspace_measures_distance_to_the_nearest_obstacle() {
+        let p = plan_of(WALL, 0.5);
+        assert_eq!(p.occ_dist((4, 3)), 0.0);
+        assert_eq!(p.occ_dist((5, 3)), 1.0);
+        // Beyond max_radius the distance is capped.
+        assert_eq!(p.occ_dist((0, 0)), 1.0);
+        assert!((p.occ_dist((5, 6)) - 1.0).abs() < 1e-6);
+        let diag = p.occ_dist((3, 0));
+        assert!((diag - 1.0).abs() < 1e-6, "{diag}");
+    }
+
+    #[test]
+    fn path_goes_around_an_obstacle() {
+        let p = plan_of(WALL, 0.5);
+        let r = p.plan((1.0, 4.0), (8.0, 4.0));
+        assert_eq!(r.path.first(), Some(&(1, 4)));
+        assert_eq!(r.path.last(), Some(&(8, 4)));
+        // Never through the wall, and around one of its ends.
+        assert!(r.path.iter().all(|&c| p.occ_dist(c) >= 0.5));
+        assert!(r.path.iter().any(|&(_, j)| j == 0 || j >= 6));
+        // Consecutive cells are neighbours.
+        for w in r.path.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            assert!(a.0.abs_diff(b.0) <= 1 && a.1.abs_diff(b.1) <= 1);
+        }
+        assert_eq!(r.waypoints.first(), Some(&(1.0, 4.0)));
+        assert_eq!(r.waypoints.last(), Some(&(8.0, 4.0)));
+        // Straight lines between waypoints stay clear.
+        let cells: Vec<Cell> = r
+            .waypoints
+            .iter()
+            .map(|&(x, y)| p.cell_of(x, y).unwrap())
+            .collect();
+        // (Neighbouring waypoints may cut a corner diagonally, as the path itself does.)
+        for w in cells.windows(2) {
+            let near = w[0].0.abs_diff(w[1].0) <= 1 && w[0].1.abs_diff(w[1].1) <= 1;
+            assert!(near || p.reachable(w[0], w[1]), "{:?} -> {:?}", w[0], w[1]);
+        }
+        assert!(r.waypoints.len() >= 3 && r.waypoints.len() < r.path.len());
+    }
+
+    #[test]
+    fn no_path_when_the_goal_is_walled_off() {
+        let p = plan_of(
+            &[
+                "........", "....####", "....#...", "....#...", "....####", "........",
+            ],
+            0.5,
+        );
+        let r = p.plan((1.0, 2.0), (6.0, 2.0));
+        assert!(r.path.is_empty() && r.waypoints.is_empty());
+        // Off the map, too.
+        assert_eq!(p.plan((1.0, 2.0), (60.0, 2.0)), PlanResult::default());
+        assert_eq!(p.plan((-3.0, 2.0), (1.0, 1.0)), PlanResult::default());
+    }
+
+    #[test]
+    fn unknown_cells_block_like_obstacles() {
+        let p = plan_of(&["...?...", "...?...", "...?..."], 0.5);
+        assert!(p.plan((0.0, 1.0), (6.0, 1.0)).waypoints.is_empty());
+    }
+
+    #[test]
+    fn robot_radius_closes_narrow_gaps() {
+        let rows = &[
+            "#########",
+            "#...#...#",
+            "#.......#",
+            "#...#...#",
+            "#########",
+        ];
+        // A one-cell gap: passable for a point robot, not for one needing 1.5 cells.
+        assert!(
+            !plan_of(rows, 0.9)
+                .plan((2.0, 2.0), (6.0, 2.0))
+                .waypoints
+                .is_empty()
+        );
+        assert!(
+            plan_of(rows, 1.5)
+                .plan((2.0, 2.0), (6.0, 2.0))
+                .waypoints
+                .is_empty()
+        );
+    }
+
+    #[test]
+    fn open_ground_reduces_to_start_and_goal() {
+        let p = plan_of(&["............"; 6], 0.0);
+        let r = p.plan((0.0, 0.0), (11.0, 5.0));
+        assert!(r.path.len() >= 12);
+        assert_eq!(r.waypoints, vec![(0.0, 0.0), (11.0, 5.0)]);
+        assert_eq!(p.plan((3.0, 3.0), (3.2, 2.9)).waypoints, vec![(3.0, 3.0)]);
+    }
+
+    #[test]
+    fn waypoint_reduction_keeps_corners() {
+        // An L-shaped corridor: the corner must be a waypoint.
+        let p = plan_of(
+            &[
+                "#######", "#.....#", "#####.#", "#####.#", "#####.#", "#######",
+            ],
+            0.5,
+        );
+        let path: Vec<Cell> = (1..=5)
+            .map(|i| (i, 4))
+            .chain((1..=3).rev().map(|j| (5, j)))
+            .collect();
+        let w = p.reduce_to_waypoints(&path);
+        assert_eq!(w.first(), Some(&(1, 4)));
+        assert_eq!(w.last(), Some(&(5, 1)));
+        assert!(w.contains(&(5, 4)) || w.contains(&(4, 4)), "{w:?}");
+        for pair in w.windows(2) {
+            assert!(p.reachable(pair[0], pair[1]));
+        }
+        assert!(!p.reachable((1, 4), (5, 1)));
+    }
+
+    #[test]
+    fn bad_grids_are_refused() {
+        assert!(Plan::new(3, 3, 1.0, (0.0, 0.0), &[FREE; 8], params(0.1)).is_none());
+        assert!(Plan::new(3, 3, 0.0, (0.0, 0.0), &[FREE; 9], params(0.1)).is_none());
+    }
+}

@@ -197,12 +197,6 @@ fn vfh_drives_round_a_screen_to_a_goal_behind_it() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Stage 4.1.1's own files, when the shared reference folder is there.
-fn stage_worlds() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/stage-worlds");
-    dir.join("simple.world").is_file().then_some(dir)
-}
-
 /// Stage's own vfh.cfg, its devices moved to OS-chosen ports.
 fn stage_vfh_cfg(src: &Path) -> String {
     std::fs::read_to_string(src.join("vfh.cfg"))
@@ -210,32 +204,6 @@ fn stage_vfh_cfg(src: &Path) -> String {
         .replace("\"simulation:", "\"0:simulation:")
         .replace("\"position2d:", "\"0:position2d:")
         .replace("\"laser:", "\"0:laser:")
-}
-
-/// simple.world as Player users run it with vfh.cfg: without the `wander` controller (the
-/// world's comment says to drop it under Player; it would drive r0 too), and with the cave's
-/// walls solid (map.inc makes floorplans pass-through), so that touching one stalls the robot.
-fn simple_world_for_vfh(src: &Path, dir: &Path) {
-    for f in ["pioneer.inc", "map.inc", "sick.inc"] {
-        std::fs::copy(src.join(f), dir.join(f)).unwrap();
-    }
-    std::fs::create_dir_all(dir.join("bitmaps")).unwrap();
-    std::fs::copy(src.join("bitmaps/cave.png"), dir.join("bitmaps/cave.png")).unwrap();
-    let world = std::fs::read_to_string(src.join("simple.world")).unwrap();
-    let without_ctrl: Vec<&str> = world
-        .lines()
-        .filter(|l| !l.trim_start().starts_with("ctrl"))
-        .collect();
-    assert_eq!(
-        without_ctrl.len() + 1,
-        world.lines().count(),
-        "one ctrl line"
-    );
-    let cave = "bitmap \"bitmaps/cave.png\"";
-    let world = without_ctrl.join("\n");
-    assert!(world.contains(cave));
-    let world = world.replace(cave, &format!("{cave}\n  obstacle_return 1"));
-    std::fs::write(dir.join("simple.world"), world).unwrap();
 }
 
 /// The block r0 has to go round on its way to (-3, 0) in the cave.
@@ -246,12 +214,12 @@ fn assert_clear_of_the_block(trip: &Trip) {
 
 #[test]
 fn stages_vfh_cfg_drives_r0_round_a_block_of_the_cave() {
-    let Some(src) = stage_worlds() else {
+    let Some(src) = common::stage_worlds() else {
         eprintln!("skipping: Stage's worlds are not in ../shared/stage-worlds");
         return;
     };
     let dir = scratch("simple");
-    simple_world_for_vfh(&src, &dir);
+    common::simple_world_for_vfh(&src, &dir);
     let handle = common::serve_cfg(
         &dir,
         "vfh.cfg",
@@ -277,12 +245,12 @@ fn stages_vfh_cfg_drives_r0_round_a_block_of_the_cave() {
 
 #[test]
 fn with_the_sonar_ring_instead_of_the_laser_r0_goes_round_too() {
-    let Some(src) = stage_worlds() else {
+    let Some(src) = common::stage_worlds() else {
         eprintln!("skipping: Stage's worlds are not in ../shared/stage-worlds");
         return;
     };
     let dir = scratch("sonar");
-    simple_world_for_vfh(&src, &dir);
+    common::simple_world_for_vfh(&src, &dir);
     let cfg = stage_vfh_cfg(&src).replace("\"0:laser:0\"", "\"0:sonar:0\"");
     assert_eq!(cfg.matches("\"0:sonar:0\"").count(), 2);
     let handle = common::serve_cfg(&dir, "vfh.cfg", &cfg, Pace::RealTime { speedup: 20.0 });

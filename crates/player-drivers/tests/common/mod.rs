@@ -2,7 +2,7 @@
 
 #![allow(dead_code)] // each test binary uses a different subset
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use player_server::stage::{self, StageOptions};
 use player_server::{DriverRegistry, Pace, Server, ServerConfig, ServerHandle, cfg};
@@ -51,4 +51,36 @@ pub fn build_cfg(dir: &Path, name: &str, text: &str, pace: Pace) -> Result<Serve
     }
     server.resolve_requires().map_err(|e| e.to_string())?;
     Ok(server)
+}
+
+/// Stage 4.1.1's own files, when the shared reference folder is there.
+pub fn stage_worlds() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/stage-worlds");
+    dir.join("simple.world").is_file().then_some(dir)
+}
+
+/// simple.world as Player users run it with vfh.cfg: without the `wander` controller (the
+/// world's comment says to drop it under Player; it would drive r0 too), and with the cave's
+/// walls solid (map.inc makes floorplans pass-through), so that touching one stalls the robot.
+pub fn simple_world_for_vfh(src: &Path, dir: &Path) {
+    for f in ["pioneer.inc", "map.inc", "sick.inc"] {
+        std::fs::copy(src.join(f), dir.join(f)).unwrap();
+    }
+    std::fs::create_dir_all(dir.join("bitmaps")).unwrap();
+    std::fs::copy(src.join("bitmaps/cave.png"), dir.join("bitmaps/cave.png")).unwrap();
+    let world = std::fs::read_to_string(src.join("simple.world")).unwrap();
+    let without_ctrl: Vec<&str> = world
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("ctrl"))
+        .collect();
+    assert_eq!(
+        without_ctrl.len() + 1,
+        world.lines().count(),
+        "one ctrl line"
+    );
+    let cave = "bitmap \"bitmaps/cave.png\"";
+    let world = without_ctrl.join("\n");
+    assert!(world.contains(cave));
+    let world = world.replace(cave, &format!("{cave}\n  obstacle_return 1"));
+    std::fs::write(dir.join("simple.world"), world).unwrap();
 }

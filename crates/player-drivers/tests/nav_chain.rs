@@ -22,16 +22,38 @@ driver( name "stage" provides ["0:position2d:0" "0:laser:0"] model "r0" )
 driver( name "mapfile" provides ["0:map:0"] filename "bitmaps/cave.png" resolution 0.032 )
 "#;
 
-#[test]
-fn wavefront_remote_cfg_reaches_a_goal_across_the_cave() {
+/// wavefront-remote.cfg with its robot's devices on `robot_port`, its own on an OS-chosen port,
+/// and amcl told where r0 starts.
+fn stack_cfg(src: &std::path::Path, robot_port: &str) -> String {
+    std::fs::read_to_string(src.join("wavefront-remote.cfg"))
+        .unwrap()
+        .replace("6665:", &format!("{robot_port}:"))
+        .replace("7000:", "0:")
+        .replace(
+            "name \"amcl\"",
+            "name \"amcl\"\n  init_pose [-6.946 -6.947 45]\n  init_pose_var [0.2 0.2 10]",
+        )
+}
+
+/// A folder with simple.world ready for Player, or `None` (skip) without `../shared`.
+fn world_dir(tag: &str) -> Option<(std::path::PathBuf, std::path::PathBuf)> {
     let Some(src) = common::stage_worlds() else {
         eprintln!("SKIP: ../shared/stage-worlds not found");
-        return;
+        return None;
     };
-    let dir = std::env::temp_dir().join(format!("playerstage-navchain-{}", std::process::id()));
+    let dir =
+        std::env::temp_dir().join(format!("playerstage-navchain-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     common::simple_world_for_vfh(&src, &dir);
+    Some((src, dir))
+}
+
+#[test]
+fn wavefront_remote_cfg_reaches_a_goal_across_the_cave() {
+    let Some((src, dir)) = world_dir("two") else {
+        return;
+    };
     let a = common::serve_cfg(
         &dir,
         "robot.cfg",
@@ -39,17 +61,45 @@ fn wavefront_remote_cfg_reaches_a_goal_across_the_cave() {
         Pace::RealTime { speedup: 5.0 },
     );
     let pa = a.ports()[0];
-    let stack = std::fs::read_to_string(src.join("wavefront-remote.cfg"))
-        .unwrap()
-        .replace("6665:", &format!("{pa}:"))
-        .replace("7000:", "0:")
-        .replace(
-            "name \"amcl\"",
-            "name \"amcl\"\n  init_pose [-6.946 -6.947 45]\n  init_pose_var [0.2 0.2 10]",
-        );
+    let stack = stack_cfg(&src, &pa.to_string());
     let b = common::serve_cfg(&dir, "wavefront-remote.cfg", &stack, Pace::default());
-    let pb = b.ports()[0];
+    drive_across_the_cave(b.ports()[0], pa);
+    b.shutdown();
+    a.shutdown();
+    let _ = std::fs::remove_dir_all(&dir);
+}
 
+#[test]
+fn the_same_chain_on_one_server_and_port() {
+    let Some((src, dir)) = world_dir("one") else {
+        return;
+    };
+    // One port holds one map:0: the mapfile moves to map:5 and the passthrough relays it, so the
+    // rest of the stack reads the map exactly as it does from the other server.
+    let robot = ROBOT_AND_MAP.replace("\"0:map:0\"", "\"0:map:5\"");
+    let stack = stack_cfg(&src, "0").replace("requires [\"0:map:0\"]", "requires [\"0:map:5\"]");
+    assert!(stack.contains("\"0:map:5\""));
+    let cfg = format!("{robot}\n{stack}");
+    let server = common::serve_cfg(&dir, "one.cfg", &cfg, Pace::RealTime { speedup: 5.0 });
+    assert_eq!(server.ports().len(), 1);
+    let remote = server
+        .table()
+        .devices()
+        .iter()
+        .filter(|d| d.driver_name == "remote")
+        .count();
+    assert_eq!(remote, 0, "every device is local");
+    drive_across_the_cave(server.ports()[0], server.ports()[0]);
+    server.shutdown();
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Sends the planner on `stack_port` a goal across the cave's block and reads until it is done,
+/// checking the waypoints against the map and the arrival against the robot's true pose (r0's
+/// gps position2d:0 on `robot_port`).
+fn drive_across_the_cave(stack_port: u16, robot_port: u16) {
+    let pb = stack_port;
+    let pa = robot_port;
     let client = PlayerClient::connect("localhost", pb).unwrap();
     let planner = PlannerProxy::new(&client, 0).unwrap();
     let map = MapProxy::new(&client, 0).unwrap().get_map().unwrap();
@@ -92,7 +142,4 @@ fn wavefront_remote_cfg_reaches_a_goal_across_the_cave() {
     }
     drop((planner, truth));
     drop((client, truth_client));
-    b.shutdown();
-    a.shutdown();
-    let _ = std::fs::remove_dir_all(&dir);
 }

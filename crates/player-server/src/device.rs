@@ -110,7 +110,8 @@ impl DeviceTable {
     pub fn ports(&self) -> Vec<u32> {
         let mut ports = Vec::new();
         for d in &self.devices {
-            if d.driver_name != "remote" && !ports.contains(&d.addr.robot) {
+            if d.driver_name != crate::server::REMOTE_DRIVER_NAME && !ports.contains(&d.addr.robot)
+            {
                 ports.push(d.addr.robot);
             }
         }
@@ -221,7 +222,7 @@ mod tests {
     fn remote_devices_open_no_port() {
         let mut t = DeviceTable::new();
         let mut d = device(7000, InterfaceCode::MAP, 0, 0);
-        d.driver_name = "remote".into();
+        d.driver_name = crate::server::REMOTE_DRIVER_NAME.into();
         t.add(d).unwrap();
         t.add(device(6665, InterfaceCode::RANGER, 0, 1)).unwrap();
         assert_eq!(t.ports(), [6665]);

@@ -460,6 +460,52 @@ impl PlannerProxy {
 }
 
 proxy!(
+    /// A localisation filter (`localize`), e.g. `amcl`: its pose hypotheses with their
+    /// covariances, the particle set, and a way to tell it where the robot is.
+    LocalizeProxy,
+    LOCALIZE
+);
+
+impl LocalizeProxy {
+    /// The latest hypotheses (libplayerc's `hypoths`, `pending_count`, `pending_time`).
+    pub fn data(&self) -> Option<LocalizeDataHypoths> {
+        match self.latest(LocalizeData::HYPOTHS)? {
+            Body::Localize(LocalizeMsg::Data(LocalizeData::Hypoths(h))) => Some(h),
+            _ => None,
+        }
+    }
+
+    /// The hypotheses of the latest data, as libplayerc's `hypoths` array (empty before the
+    /// first).
+    pub fn hypotheses(&self) -> Vec<LocalizeHypoth> {
+        self.data().map(|d| d.hypoths).unwrap_or_default()
+    }
+
+    /// The most likely hypothesis: the one with the largest weight (libplayerc++'s
+    /// `GetHypoth(0)` after amcl's sorting; here chosen explicitly, whatever the order).
+    pub fn best(&self) -> Option<LocalizeHypoth> {
+        self.hypotheses()
+            .into_iter()
+            .max_by(|a, b| a.alpha.total_cmp(&b.alpha))
+    }
+
+    /// Tells the filter where the robot is: a mean pose and the variances of x, y and the
+    /// heading (`playerc_localize_set_pose`).
+    pub fn set_pose(&self, mean: Pose2d, cov: [f64; 3]) -> Result<(), ClientError> {
+        self.request(LocalizeReq::SetPose(Some(LocalizeSetPose { mean, cov })))
+            .map(|_| ())
+    }
+
+    /// The filter's particles, their mean and variance (`playerc_localize_get_particles`).
+    pub fn request_particles(&self) -> Result<LocalizeGetParticles, ClientError> {
+        let reply = self.request(LocalizeReq::GetParticles(None))?;
+        ack_body!(self, reply,
+            Body::Localize(LocalizeMsg::Ack(LocalizeReq::GetParticles(Some(p)))) => p,
+            "localize GET_PARTICLES")
+    }
+}
+
+proxy!(
     /// A range sensor array (`ranger`): sonar rings, lasers.
     RangerProxy,
     RANGER

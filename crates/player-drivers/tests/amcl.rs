@@ -193,12 +193,16 @@ driver(
   name "amcl"
   provides ["0:localize:0" "0:position2d:1"]
   requires ["odometry::0:position2d:0" "{required}"]
-  init_pose [-2.8 2.2 -10]
-  init_pose_var [0.3 0.3 10]
+  {init}
   alwayson 1
   {extra}
 )
-"#
+"#,
+        init = if extra.contains("init_pose") {
+            ""
+        } else {
+            "init_pose [-2.8 2.2 -10]\n  init_pose_var [0.3 0.3 10]"
+        }
     )
 }
 
@@ -450,6 +454,58 @@ fn amcl_follows_a_wandering_robot_and_repeats_exactly() {
     assert!(a.len() >= 5, "only {} hypotheses to compare", a.len());
     assert_eq!(a, b, "two runs published different hypotheses");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Lost at the start: amcl is told the robot is at the room's centre facing east, 3.6 m and
+/// 20° from the truth, with a spread (standard deviations 2 m, 2 m, 180°) that covers most of
+/// the room. The laser pulls the belief onto the true pose within 10 simulated seconds (the
+/// robot wanders at about 0.4 m/s, so amcl updates every half second or so), and it stays there
+/// for the rest of the drive.
+#[test]
+fn amcl_converges_from_a_wrong_pose_with_a_wide_spread() {
+    const CONVERGED_BY: f64 = 10.0;
+    let dir = std::env::temp_dir().join(format!("amcl-e2e-lost-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let handle = serve(
+        &dir,
+        Sensor::Laser,
+        "",
+        "init_pose [0 0 0]\n  init_pose_var [2 2 180]",
+    );
+    let r = observe(handle, "robot", START, 40.0);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(r.checks.len() >= 20, "only {} checks", r.checks.len());
+    let off = |truth: Pose2d, est: Pose2d| {
+        (
+            (truth.px - est.px).hypot(truth.py - est.py),
+            angle_diff(truth.pa, est.pa).abs(),
+        )
+    };
+    // The first estimate is the wrong pose it was given (or near it).
+    let (first_err, _) = off(r.checks[0].1, r.checks[0].2);
+    assert!(first_err > 1.0, "started only {first_err:.2} m off");
+    // From some time on, every check is within 0.3 m and 10°: that time is the convergence.
+    let converged_at = r
+        .checks
+        .iter()
+        .rposition(|&(_, truth, est)| {
+            let (d, a) = off(truth, est);
+            d >= 0.3 || a >= 10f64.to_radians()
+        })
+        .map_or(r.checks[0].0, |i| {
+            r.checks.get(i + 1).map_or(f64::INFINITY, |c| c.0)
+        });
+    eprintln!(
+        "lost amcl: {first_err:.2} m off at first, converged at {converged_at:.1} simulated s"
+    );
+    assert!(
+        converged_at <= CONVERGED_BY,
+        "converged only at {converged_at:.1} s: {:?}",
+        r.checks
+            .iter()
+            .map(|&(t, truth, est)| (t, off(truth, est)))
+            .collect::<Vec<_>>()
+    );
 }
 
 /// The sonar sensor (Player 2.0's options, transducer poses from the sonar's GET_GEOM):

@@ -8,12 +8,18 @@
 //! verbatim but for its ports (A's and an OS-chosen one) and amcl's `init_pose`: the cfg was
 //! written for a world (`wavefront.world`) that is not in Stage's tree, so it does not know
 //! where r0 starts. Skipped without `../shared`.
+//!
+//! Along the way the Rust client's `LocalizeProxy` follows amcl's hypotheses, and a real
+//! libplayerc program (`examples/c/nav.c`, built when `pkg-config` finds `playerc`) drives the
+//! same chain through libplayerc's planner, localize and map proxies.
 
 mod common;
 
 use std::time::{Duration, Instant};
 
-use player_client::{MapProxy, PlannerProxy, PlayerClient, Position2dProxy};
+use std::process::Command;
+
+use player_client::{LocalizeProxy, MapProxy, PlannerProxy, PlayerClient, Position2dProxy};
 use player_server::Pace;
 
 const ROBOT_AND_MAP: &str = r#"
@@ -33,6 +39,16 @@ fn stack_cfg(src: &std::path::Path, robot_port: &str) -> String {
             "name \"amcl\"",
             "name \"amcl\"\n  init_pose [-6.946 -6.947 45]\n  init_pose_var [0.2 0.2 10]",
         )
+}
+
+/// The robot, its map and the stack in one cfg on one port. One port holds one map:0: the
+/// mapfile moves to map:5 and the passthrough relays it, so the rest of the stack reads the map
+/// exactly as it does from the other server.
+fn one_port_cfg(src: &std::path::Path) -> String {
+    let robot = ROBOT_AND_MAP.replace("\"0:map:0\"", "\"0:map:5\"");
+    let stack = stack_cfg(src, "0").replace("requires [\"0:map:0\"]", "requires [\"0:map:5\"]");
+    assert!(stack.contains("\"0:map:5\""));
+    format!("{robot}\n{stack}")
 }
 
 /// A folder with simple.world ready for Player, or `None` (skip) without `../shared`.
@@ -74,13 +90,12 @@ fn the_same_chain_on_one_server_and_port() {
     let Some((src, dir)) = world_dir("one") else {
         return;
     };
-    // One port holds one map:0: the mapfile moves to map:5 and the passthrough relays it, so the
-    // rest of the stack reads the map exactly as it does from the other server.
-    let robot = ROBOT_AND_MAP.replace("\"0:map:0\"", "\"0:map:5\"");
-    let stack = stack_cfg(&src, "0").replace("requires [\"0:map:0\"]", "requires [\"0:map:5\"]");
-    assert!(stack.contains("\"0:map:5\""));
-    let cfg = format!("{robot}\n{stack}");
-    let server = common::serve_cfg(&dir, "one.cfg", &cfg, Pace::RealTime { speedup: 5.0 });
+    let server = common::serve_cfg(
+        &dir,
+        "one.cfg",
+        &one_port_cfg(&src),
+        Pace::RealTime { speedup: 5.0 },
+    );
     assert_eq!(server.ports().len(), 1);
     let remote = server
         .table()
@@ -103,6 +118,8 @@ fn drive_across_the_cave(stack_port: u16, robot_port: u16) {
     let client = PlayerClient::connect("localhost", pb).unwrap();
     let planner = PlannerProxy::new(&client, 0).unwrap();
     let map = MapProxy::new(&client, 0).unwrap().get_map().unwrap();
+    let localize = LocalizeProxy::new(&client, 0).unwrap();
+    assert_eq!(localize.driver_name(), "amcl");
     let truth_client = PlayerClient::connect("localhost", pa).unwrap();
     let truth = Position2dProxy::new(&truth_client, 0).unwrap();
 
@@ -131,6 +148,13 @@ fn drive_across_the_cave(stack_port: u16, robot_port: u16) {
         if planner.path_done() && checked_waypoints {
             // wavefront-remote.cfg's distance_epsilon is 0.5 m.
             assert!(off < 0.6, "done {off:.2} m from the goal, at {p:?}");
+            // amcl's best hypothesis is where the robot truly is.
+            let best = localize.best().expect("amcl published no hypotheses");
+            let miss = (best.mean.px - p.px).hypot(best.mean.py - p.py);
+            assert!(miss < 0.3, "amcl's best {best:?} is {miss:.2} m from {p:?}");
+            let particles = localize.request_particles().unwrap();
+            let weight: f64 = particles.particles.iter().map(|q| q.alpha).sum();
+            assert!(!particles.particles.is_empty() && (weight - 1.0).abs() < 1e-6);
             break;
         }
         assert!(
@@ -140,6 +164,77 @@ fn drive_across_the_cave(stack_port: u16, robot_port: u16) {
             planner.path_done()
         );
     }
-    drop((planner, truth));
+    drop((planner, localize, truth));
     drop((client, truth_client));
+}
+
+/// Whether `pkg-config` finds libplayerc (skips the real-client test with a message otherwise).
+fn have_libplayerc() -> bool {
+    let found = Command::new("pkg-config")
+        .args(["--exists", "playerc"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !found {
+        eprintln!(
+            "SKIP: pkg-config finds no playerc (set PKG_CONFIG_PATH to a Player 3.0.2 client \
+             install to run the libplayerc navigation test)"
+        );
+    }
+    found
+}
+
+/// libplayerc's planner, localize and map proxies on the one-port chain: `examples/c/nav.c`
+/// reads amcl's hypotheses and particles, sends wavefront the goal across the cave, checks
+/// the waypoints against the map, pauses the robot through the planner, waits for "done" and
+/// gives amcl a pose.
+#[test]
+fn libplayerc_drives_the_chain_through_its_planner_and_localize_proxies() {
+    if !have_libplayerc() {
+        return;
+    }
+    let Some((src, dir)) = world_dir("libplayerc") else {
+        return;
+    };
+    let examples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/c");
+    let status = Command::new("make")
+        .args(["-s", "-C"])
+        .arg(&examples)
+        .arg(format!("OUT={}", dir.display()))
+        .arg(dir.join("nav"))
+        .status()
+        .expect("running make");
+    assert!(status.success(), "building examples/c/nav.c");
+    let server = common::serve_cfg(
+        &dir,
+        "one.cfg",
+        &one_port_cfg(&src),
+        Pace::RealTime { speedup: 5.0 },
+    );
+    let mut child = Command::new(dir.join("nav"))
+        .args(["localhost", &server.ports()[0].to_string(), "-3", "0", "90"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().unwrap();
+    server.shutdown();
+    let _ = std::fs::remove_dir_all(&dir);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}");
+    assert!(
+        out.status.success(),
+        "nav failed: {stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("nav: map 500x500 at 0.032 m"), "{stdout}");
+    assert!(stdout.contains("all free cells"), "{stdout}");
+    assert!(stdout.contains("nav: ok"), "{stdout}");
 }

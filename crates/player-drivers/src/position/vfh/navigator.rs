@@ -75,6 +75,9 @@ pub struct Navigator {
     settings: GoalSettings,
     active_goal: bool,
     goal: Goal,
+    /// Whether a position command equal to `goal` is a repeat to ignore: true from setup and
+    /// from each new goal, false once a velocity command has cancelled the goal.
+    remembers_goal: bool,
     /// Motor state of the latest position command: 0 holds the robot still.
     cmd_state: u8,
     turning_in_place: bool,
@@ -94,6 +97,7 @@ impl Navigator {
         Navigator {
             settings,
             active_goal: false,
+            remembers_goal: true,
             goal: Goal::default(),
             cmd_state: 1,
             turning_in_place: false,
@@ -111,6 +115,7 @@ impl Navigator {
     pub fn reset(&mut self) {
         self.active_goal = false;
         self.goal = Goal::default();
+        self.remembers_goal = true;
         self.cmd_state = 1;
         self.turning_in_place = false;
         self.rotatedir = 1;
@@ -126,6 +131,11 @@ impl Navigator {
     /// A position command. It becomes the goal if it differs from the last one (in whole
     /// millimetres and degrees): repeating the goal just reached, or sending the origin right
     /// after setup, does nothing, as upstream. Its motor state applies either way.
+    ///
+    /// Unlike upstream, a goal cancelled by a velocity command is forgotten, so the same goal
+    /// sent again is pursued again. Upstream ignores it, which leaves a stack stuck after a
+    /// pause: wavefront's planner ENABLE 0 stops the robot with a velocity command, and on
+    /// ENABLE 1 re-sends the waypoint vfh was driving to.
     pub fn set_goal(&mut self, cmd: &Position2dCmdPos) {
         let goal = Goal {
             x: (cmd.pos.px * 1e3).round_ties_even() as i32,
@@ -133,8 +143,9 @@ impl Navigator {
             t: cmd.pos.pa.to_degrees().round_ties_even() as i32,
         };
         self.cmd_state = cmd.state;
-        if goal != self.goal {
+        if goal != self.goal || !self.remembers_goal {
             self.active_goal = true;
+            self.remembers_goal = true;
             self.turning_in_place = false;
             self.goal = goal;
         }
@@ -143,6 +154,7 @@ impl Navigator {
     /// A velocity command went straight to the base: position control ends.
     pub fn cancel_goal(&mut self) {
         self.active_goal = false;
+        self.remembers_goal = false;
     }
 
     /// The command that stops the robot (the driver's shutdown).
@@ -404,10 +416,19 @@ mod tests {
         );
         nav.set_goal(&goal(1.0, 0.0, 0.0));
         assert!(nav.active());
+        // Arrived: the goal is done, and sending it again does nothing.
+        let mut vfh = Vfh::new(params(), 250.0, 0.0);
+        let _ = nav.step(&mut vfh, &at(1.0, 0.0, 0.0), &OPEN, 0.1);
+        assert!(!nav.active(), "arrived");
+        nav.set_goal(&goal(1.0004, 0.0, 0.0));
+        assert!(!nav.active(), "same goal in whole millimetres");
+        nav.set_goal(&goal(1.0, 0.0, 0.0));
         nav.cancel_goal();
         assert!(!nav.active());
         nav.set_goal(&goal(1.0004, 0.0, 0.0));
-        assert!(!nav.active(), "same goal in whole millimetres");
+        assert!(nav.active(), "a cancelled goal sent again is pursued again");
+        nav.set_goal(&goal(1.0, 0.0, 0.0));
+        assert!(nav.active());
         nav.set_goal(&goal(1.0, 0.0, 0.02));
         assert!(nav.active(), "a new heading in whole degrees");
     }

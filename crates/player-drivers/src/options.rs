@@ -55,6 +55,16 @@ pub fn angle(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Erro
     Ok(element::<f64>(block, key, 0, "an angle")?.map(f64::to_radians))
 }
 
+/// `ReadTupleAngle(key, index)`: element `index` of a tuple of angles, written in degrees and
+/// returned in radians.
+pub fn tuple_angle(
+    block: &DriverBlock,
+    key: &'static str,
+    index: usize,
+) -> Result<Option<f64>, Error> {
+    Ok(element::<f64>(block, key, index, "an angle")?.map(f64::to_radians))
+}
+
 /// `ReadString(key)`.
 pub fn string<'a>(block: &'a DriverBlock, key: &str) -> Option<&'a str> {
     block.option(key)

@@ -19,7 +19,41 @@ pub struct ControlSettings {
     /// Turn on the spot before every waypoint that lies more than 45 degrees off the
     /// robot's heading; otherwise only before the first real one.
     pub always_rotate: bool,
+    /// Steer the robot with velocity commands towards a carrot on the plan, replanning every
+    /// cycle (`velocity_control 1`), instead of sending waypoints as position goals.
+    pub velocity: Option<VelocityGains>,
 }
+
+/// `velocity_control`'s gains (options `control_tv`, `control_av`, `control_a`), in m/s, rad/s
+/// and rad.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VelocityGains {
+    /// Translational speed at the nearest and at the farthest carrot (`control_tv`, default
+    /// [0.1 0.5]).
+    pub tv: (f64, f64),
+    /// Turn rate for no heading error and for a half-turn error (`control_av`, default
+    /// [10 90] degrees/s).
+    pub av: (f64, f64),
+    /// Largest heading error at which the robot still drives forward, for the nearest and the
+    /// farthest carrot (`control_a`, default [5 20] degrees).
+    pub a: (f64, f64),
+}
+
+impl Default for VelocityGains {
+    fn default() -> VelocityGains {
+        VelocityGains {
+            tv: (0.1, 0.5),
+            av: (10f64.to_radians(), 90f64.to_radians()),
+            a: (5f64.to_radians(), 20f64.to_radians()),
+        }
+    }
+}
+
+/// How far ahead on the plan the carrot is looked for (m), and how much a near carrot is
+/// penalised (upstream's fixed `maxd` and `distweight`).
+pub const CARROT_MAX_DIST: f64 = 2.0;
+/// See [`CARROT_MAX_DIST`].
+pub const CARROT_DIST_WEIGHT: f64 = 10.0;
 
 /// What the driver should send to the position device it drives.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +62,13 @@ pub enum Motion {
     Stop,
     /// A position command to this pose, in the output device's (odometric) frame.
     GoTo(Pose2d),
+    /// A velocity command: forward speed (m/s) and turn rate (rad/s) (velocity control).
+    Velocity {
+        /// Forward speed (m/s).
+        tv: f64,
+        /// Turn rate (rad/s).
+        av: f64,
+    },
 }
 
 /// Upstream's `angle_diff`: the signed difference `a - b`, in (-pi, pi].
@@ -80,6 +121,9 @@ pub struct Control {
     fresh_plan: bool,
     /// Counts goals, so a plan for an earlier goal that finishes late is not taken.
     goal_seq: u64,
+    /// Velocity control: which way the robot turns on the spot at the goal (0 not yet
+    /// chosen; upstream's `rotate_dir`).
+    rotate_dir: f64,
 }
 
 impl Control {
@@ -102,6 +146,7 @@ impl Control {
             last_replan: (0.0, 0.0, 0.0),
             goal_seq: 0,
             fresh_plan: false,
+            rotate_dir: 0.0,
         }
     }
 
@@ -155,7 +200,91 @@ impl Control {
             && s.replan_min_time >= 0.0
             && t - lt > s.replan_min_time
             && !self.at_goal;
-        self.new_goal || replan
+        // Velocity control plans every cycle until the goal is reached.
+        let steering = s.velocity.is_some() && !self.at_goal;
+        self.new_goal || replan || steering
+    }
+
+    /// Whether the next plan must be global (a new goal): otherwise a local plan may do.
+    pub fn new_goal(&self) -> bool {
+        self.new_goal
+    }
+
+    /// Velocity control between plans: once the goal is reached the robot is stopped (once);
+    /// otherwise the last command stands until the next plan.
+    pub fn steer_idle(&mut self) -> Option<Motion> {
+        if self.at_goal { self.stop() } else { None }
+    }
+
+    /// Velocity control's step after the plan made this cycle for goal `seq` (upstream's
+    /// `velocity_control` branch of `Wavefront::Main`): `global_ok` when a global plan was made
+    /// (or a local one from an existing global path), `has_path` when a global path exists,
+    /// `carrot` the point to steer for. At the goal (distance and heading) the robot stops
+    /// and the plan is done; on top of it, it turns on the spot; elsewhere it turns towards
+    /// the carrot and drives forward while the carrot lies within the allowed heading error,
+    /// faster for a farther carrot.
+    pub fn steer(
+        &mut self,
+        seq: u64,
+        global_ok: bool,
+        has_path: bool,
+        carrot: Option<(f64, f64)>,
+    ) -> Option<Motion> {
+        let g = self.settings.velocity?;
+        if seq != self.goal_seq {
+            return None;
+        }
+        if global_ok {
+            self.new_goal = false;
+        }
+        if !has_path || self.at_goal {
+            return self.stop();
+        }
+        let l = self.localize;
+        let goal_d = (l.px - self.target.px).hypot(l.py - self.target.py);
+        if goal_d < self.settings.dist_eps
+            && angle_diff(self.target.pa, l.pa).abs() < self.settings.ang_eps
+        {
+            self.new_goal = false;
+            self.curr_waypoint = -1;
+            self.at_goal = true;
+            return self.stop();
+        }
+        let Some((wx, wy)) = carrot else {
+            tracing::debug!("wavefront: failed to find a carrot");
+            return self.stop();
+        };
+        // For clients: the plan is the robot and the carrot.
+        self.curr_waypoint = 0;
+        self.waypoints = vec![(l.px, l.py), (wx, wy)];
+        self.waypoint = Pose2d {
+            px: wx,
+            py: wy,
+            pa: 0.0,
+        };
+        let d = (l.px - wx).hypot(l.py - wy);
+        let bearing = (wy - l.py).atan2(wx - l.px);
+        let max_error = g.a.0 + (d / CARROT_MAX_DIST) * (g.a.1 - g.a.0);
+        let ad = angle_diff(bearing, l.pa);
+        let turn = g.av.0 + (ad.abs() / std::f64::consts::PI) * (g.av.1 - g.av.0);
+        let (tv, av) = if goal_d < self.settings.dist_eps {
+            // On top of the goal: turn on the spot, always the same way (upstream turns by the
+            // carrot's bearing here, not the goal's heading).
+            if self.rotate_dir == 0.0 {
+                self.rotate_dir = if ad < 0.0 { -1.0 } else { 1.0 };
+            }
+            (0.0, self.rotate_dir * turn)
+        } else {
+            self.rotate_dir = 0.0;
+            let tv = if ad.abs() > max_error {
+                0.0
+            } else {
+                g.tv.0 + (d / CARROT_MAX_DIST) * (g.tv.1 - g.tv.0)
+            };
+            (tv, if ad < 0.0 { -turn } else { turn })
+        };
+        self.stopped = false;
+        Some(Motion::Velocity { tv, av })
     }
 
     /// A plan for goal number `seq` made from `from` (the map-frame position planning started
@@ -305,6 +434,7 @@ mod tests {
             replan_dist_thresh: 2.0,
             replan_min_time: 2.0,
             always_rotate: true,
+            velocity: None,
         }
     }
 
@@ -412,6 +542,56 @@ mod tests {
         let d = c.data();
         assert_eq!((d.valid, d.done, d.waypoint_idx), (0, 0, 0));
         assert_eq!(d.goal, pose(10.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn velocity_control_steers_for_the_carrot_and_stops_at_the_goal() {
+        let mut c = Control::new(ControlSettings {
+            velocity: Some(VelocityGains::default()),
+            ..settings()
+        });
+        c.set_goal(pose(3.0, 0.0, 0.0));
+        at(&mut c, pose(0.0, 0.0, 0.0));
+        assert!(c.wants_plan(0.0) && c.new_goal());
+        let seq = c.goal_seq();
+        // Straight ahead, 1 m: half way between the speed limits, the least turn.
+        let Some(Motion::Velocity { tv, av }) = c.steer(seq, true, true, Some((1.0, 0.0))) else {
+            panic!()
+        };
+        assert!((tv - 0.3).abs() < 1e-12 && (av - 10f64.to_radians()).abs() < 1e-12);
+        assert!(!c.new_goal(), "a global plan was made");
+        assert!(c.wants_plan(0.1), "plans every cycle until there");
+        // A carrot to the left, beyond the allowed heading error: turn on the spot.
+        let Some(Motion::Velocity { tv, av }) = c.steer(seq, false, true, Some((0.0, 1.0))) else {
+            panic!()
+        };
+        assert_eq!(tv, 0.0);
+        assert!(
+            (av - 50f64.to_radians()).abs() < 1e-12,
+            "{}",
+            av.to_degrees()
+        );
+        let d = c.data();
+        assert_eq!((d.valid, d.done, d.waypoints_count), (1, 0, 2));
+        assert_eq!((d.waypoint.px, d.waypoint.py), (0.0, 1.0));
+        // To the right, the turn is negative.
+        let Some(Motion::Velocity { av, .. }) = c.steer(seq, false, true, Some((0.0, -1.0))) else {
+            panic!()
+        };
+        assert!(av < 0.0);
+        // No carrot: stop. A plan for an older goal: nothing.
+        assert_eq!(c.steer(seq, false, true, None), Some(Motion::Stop));
+        assert_eq!(c.steer(seq - 1, false, true, Some((1.0, 0.0))), None);
+        // At the goal, heading within epsilon: stopped, done, no more plans.
+        at(&mut c, pose(2.8, 0.1, 0.05));
+        c.assume_moving();
+        assert_eq!(
+            c.steer(seq, false, true, Some((3.0, 0.0))),
+            Some(Motion::Stop)
+        );
+        assert_eq!(c.data().done, 1);
+        assert!(!c.wants_plan(10.0));
+        assert_eq!(c.steer_idle(), None, "already stopped");
     }
 
     #[test]

@@ -11,9 +11,17 @@
 //! plan are computed on a worker thread so that a large map never stalls the server (upstream
 //! plans inside its own driver thread, which is the same thing).
 //!
-//! Not (yet) here: upstream's `velocity_control` mode (refused with an error) and its local
-//! planning around laser obstacles (`laser` requires are ignored with a warning). Player
+//! With a `laser` in its requires it reads pose-stamped scans (DATA SCANPOSE, in the map
+//! frame: e.g. `laserposeinterpolator` on amcl's pose), keeps the last `laser_buffer_size`,
+//! and counts every hit nearer than `laser_maxrange` as an obstacle on top of the map; each
+//! replan is then first tried as a local plan within `laser_maxrange` of the robot along the
+//! global path, and made over the whole map only when that fails. With `velocity_control 1`
+//! it replans every cycle and steers the robot itself with velocity commands towards a
+//! "carrot" up to 2 m ahead on the plan (`control_tv`, `control_av`, `control_a`). Player
 //! 3.0.2 reads no `cspace_file` (its c-space cache is compiled out), and neither do we.
+//!
+//! Without a laser, upstream still tries its local plan, with an uninitialised window size;
+//! here every replan is global then.
 //!
 //! Where this differs from upstream, on purpose: a new goal with no path clears the plan and
 //! stops the robot (upstream can keep stepping through the old plan's waypoints while it
@@ -27,10 +35,10 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use player_proto::{
-    Body, DeviceAddr, InterfaceCode, MapData, MapInfo, MapMsg, MapReq, Message, PlannerCmd,
-    PlannerCmdMsg, PlannerDataMsg, PlannerEnableReq, PlannerMsg, PlannerReq, PlannerWaypointsReq,
-    Pose2d, Position2dCmd, Position2dCmdPos, Position2dCmdVel, Position2dData, Position2dMsg,
-    Position2dPowerConfig, Position2dReq,
+    Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScanpose, LaserMsg, MapData, MapInfo,
+    MapMsg, MapReq, Message, PlannerCmd, PlannerCmdMsg, PlannerDataMsg, PlannerEnableReq,
+    PlannerMsg, PlannerReq, PlannerWaypointsReq, Pose2d, Position2dCmd, Position2dCmdPos,
+    Position2dCmdVel, Position2dData, Position2dMsg, Position2dPowerConfig, Position2dReq,
 };
 use player_server::map::OccupancyGrid;
 use player_server::{
@@ -40,7 +48,7 @@ use player_server::{
 
 use crate::error::Error;
 use crate::options;
-use control::{Control, ControlSettings, Motion};
+use control::{Control, ControlSettings, Motion, VelocityGains};
 use plan::{Plan, PlanParams};
 
 /// The driver's cfg name.
@@ -75,6 +83,14 @@ pub struct WavefrontOptions {
     pub force_map_refresh: bool,
     /// Control cycles per second; default 10.
     pub update_rate: f64,
+    /// Steer with velocity commands (`velocity_control 1` and its gains), or `None` to send
+    /// waypoints as position goals (default).
+    pub velocity_control: Option<VelocityGains>,
+    /// Scans kept for obstacles (`laser_buffer_size`); default 10.
+    pub laser_buffer_size: usize,
+    /// Hits at or beyond this range are not obstacles, and local plans reach this far (m;
+    /// `laser_maxrange`); default 6.
+    pub laser_maxrange: f64,
 }
 
 impl Default for WavefrontOptions {
@@ -91,6 +107,9 @@ impl Default for WavefrontOptions {
             add_rotational_waypoints: true,
             force_map_refresh: false,
             update_rate: 10.0,
+            velocity_control: None,
+            laser_buffer_size: 10,
+            laser_maxrange: 6.0,
         }
     }
 }
@@ -116,6 +135,7 @@ impl WavefrontOptions {
             add_rotational_waypoints: flag("add_rotational_waypoints", d.add_rotational_waypoints)?,
             force_map_refresh: flag("force_map_refresh", d.force_map_refresh)?,
             update_rate: options::float(block, "update_rate")?.unwrap_or(d.update_rate),
+            ..d
         };
         if !(o.update_rate > 0.0 && o.update_rate.is_finite()) {
             return Err(Error::BadOption {
@@ -131,15 +151,33 @@ impl WavefrontOptions {
                 why: "must be positive".into(),
             });
         }
+        let mut o = o;
         if flag("velocity_control", false)? {
-            return Err(Error::BadOption {
-                option: "velocity_control",
-                value: "1".into(),
-                why: "direct velocity control is not supported yet; drive through position \
-                      commands (velocity_control 0) or pair wavefront with vfh"
-                    .into(),
+            let g = VelocityGains::default();
+            let pair =
+                |key: &'static str,
+                 read: fn(&DriverBlock, &'static str, usize) -> Result<Option<f64>, Error>,
+                 default: (f64, f64)|
+                 -> Result<(f64, f64), Error> {
+                    Ok((
+                        read(block, key, 0)?.unwrap_or(default.0),
+                        read(block, key, 1)?.unwrap_or(default.1),
+                    ))
+                };
+            o.velocity_control = Some(VelocityGains {
+                tv: pair("control_tv", options::tuple_length, g.tv)?,
+                av: pair("control_av", options::tuple_angle, g.av)?,
+                a: pair("control_a", options::tuple_angle, g.a)?,
             });
         }
+        if let Some(n) = options::int(block, "laser_buffer_size")? {
+            // Upstream warns and keeps one scan.
+            if n < 1 {
+                tracing::warn!("{}: must buffer at least one laser scan", block.origin);
+            }
+            o.laser_buffer_size = n.clamp(1, 1000) as usize;
+        }
+        o.laser_maxrange = options::length(block, "laser_maxrange")?.unwrap_or(d.laser_maxrange);
         Ok(o)
     }
 
@@ -150,6 +188,7 @@ impl WavefrontOptions {
             replan_dist_thresh: self.replan_dist_thresh,
             replan_min_time: self.replan_min_time,
             always_rotate: self.add_rotational_waypoints,
+            velocity: self.velocity_control,
         }
     }
 }
@@ -164,6 +203,12 @@ enum Job {
         goal: (f64, f64),
         started: f64,
         seq: u64,
+        /// Try a local plan of this half width first (not for a new goal).
+        local: Option<f64>,
+        /// The laser's obstacles, when they changed since the last job.
+        obstacles: Option<Vec<(f64, f64)>>,
+        /// Find the carrot to steer for (velocity control).
+        carrot: bool,
     },
 }
 
@@ -177,6 +222,12 @@ enum Done {
         started: f64,
         seq: u64,
         waypoints: Vec<(f64, f64)>,
+        /// A global plan was made and found a path.
+        global_ok: bool,
+        /// A global path exists (made now or earlier).
+        has_path: bool,
+        /// The carrot, when asked for and found.
+        carrot: Option<(f64, f64)>,
     },
 }
 
@@ -221,14 +272,55 @@ impl Worker {
                             goal,
                             started,
                             seq,
-                        } => Done::Plan {
-                            start,
-                            started,
-                            seq,
-                            waypoints: current
-                                .as_ref()
-                                .map(|p| p.plan(start, goal).waypoints)
-                                .unwrap_or_default(),
+                            local,
+                            obstacles,
+                            carrot,
+                        } => match current.as_mut() {
+                            Some(plan) => {
+                                if let Some(points) = obstacles {
+                                    plan.set_obstacles(&points);
+                                }
+                                let local_plan = match local {
+                                    Some(half) if plan.has_global_path() => {
+                                        plan.plan_local(start, half)
+                                    }
+                                    _ => None,
+                                };
+                                let (waypoints, global_ok) = match local_plan {
+                                    Some(r) => (r.waypoints, false),
+                                    None => {
+                                        let r = plan.plan(start, goal);
+                                        let ok = !r.waypoints.is_empty();
+                                        (r.waypoints, ok)
+                                    }
+                                };
+                                Done::Plan {
+                                    start,
+                                    started,
+                                    seq,
+                                    waypoints,
+                                    global_ok,
+                                    has_path: plan.has_global_path(),
+                                    carrot: carrot
+                                        .then(|| {
+                                            plan.carrot(
+                                                start,
+                                                control::CARROT_MAX_DIST,
+                                                control::CARROT_DIST_WEIGHT,
+                                            )
+                                        })
+                                        .flatten(),
+                                }
+                            }
+                            None => Done::Plan {
+                                start,
+                                started,
+                                seq,
+                                waypoints: Vec::new(),
+                                global_ok: false,
+                                has_path: false,
+                                carrot: None,
+                            },
                         },
                     };
                     if done_tx.send(out).is_err() {
@@ -265,6 +357,14 @@ pub struct Wavefront {
     output: DeviceAddr,
     input: DeviceAddr,
     map: DeviceAddr,
+    /// Pose-stamped scans for obstacles, when required.
+    laser: Option<DeviceAddr>,
+    /// The last `laser_buffer_size` scans, oldest first.
+    scans: std::collections::VecDeque<LaserDataScanpose>,
+    /// Scans came in since the obstacles were last handed to the planner.
+    scans_changed: bool,
+    /// A plain scan (no pose) was seen and warned about.
+    warned_plain_scan: bool,
     opts: WavefrontOptions,
     control: Control,
     worker: Option<Worker>,
@@ -311,22 +411,26 @@ impl Wavefront {
             .required(InterfaceCode::POSITION2D, Some("input"))?
             .addr;
         let map = block.required(InterfaceCode::MAP, None)?.addr;
-        if block
+        let laser = block
             .optional_required(InterfaceCode::LASER, None)?
-            .is_some()
-        {
+            .map(|r| r.addr);
+        let opts = WavefrontOptions::from_block(block)?;
+        if laser.is_none() && opts.velocity_control.is_some() {
             tracing::warn!(
-                "{}: wavefront's local planning around laser obstacles is not supported yet; \
-                 the laser is ignored",
+                "{}: wavefront doing direct velocity control, but without a laser for obstacle \
+                 detection; this is not safe!",
                 block.origin
             );
         }
-        let opts = WavefrontOptions::from_block(block)?;
         Ok(Wavefront {
             addr,
             output,
             input,
             map,
+            laser,
+            scans: std::collections::VecDeque::new(),
+            scans_changed: false,
+            warned_plain_scan: false,
             opts,
             control: Control::new(opts.control()),
             worker: None,
@@ -409,8 +513,8 @@ impl Wavefront {
         }
     }
 
-    /// Takes what the worker finished.
-    fn collect(&mut self) {
+    /// Takes what the worker finished (under velocity control, steering by it at once).
+    fn collect(&mut self, ctx: &mut Context<'_>) {
         let Some(worker) = &self.worker else { return };
         let done: Vec<Done> = worker.done.try_iter().collect();
         for d in done {
@@ -428,7 +532,21 @@ impl Wavefront {
                     started,
                     seq,
                     waypoints,
-                } => self.control.plan_ready(seq, started, start, waypoints),
+                    global_ok,
+                    has_path,
+                    carrot,
+                } => {
+                    if self.opts.velocity_control.is_some() {
+                        if !self.control.enabled {
+                            continue;
+                        }
+                        if let Some(m) = self.control.steer(seq, global_ok, has_path, carrot) {
+                            self.send_motion(ctx, m);
+                        }
+                    } else {
+                        self.control.plan_ready(seq, started, start, waypoints);
+                    }
+                }
             }
         }
         // A map that came in while the worker was busy.
@@ -446,8 +564,50 @@ impl Wavefront {
                 vel: Pose2d::default(),
                 state: 1,
             }),
+            Motion::Velocity { tv, av } => Position2dCmd::Vel(Position2dCmdVel {
+                vel: Pose2d {
+                    px: tv,
+                    py: 0.0,
+                    pa: av,
+                },
+                state: 1,
+            }),
         };
         ctx.command(self.output, cmd);
+    }
+
+    /// A pose-stamped scan: kept, the oldest dropped beyond `laser_buffer_size`.
+    fn take_scan(&mut self, scan: &LaserDataScanpose) {
+        if self.scans.len() >= self.opts.laser_buffer_size {
+            self.scans.pop_front();
+        }
+        self.scans.push_back(scan.clone());
+        self.scans_changed = true;
+    }
+
+    /// The obstacles the kept scans show, when they changed since last asked (upstream's
+    /// `ProcessLaserScan`): every hit nearer than `laser_maxrange` and the scan's own maximum,
+    /// placed by the scan's pose. The bearing is accumulated in single precision, as upstream
+    /// steps it.
+    fn fresh_obstacles(&mut self) -> Option<Vec<(f64, f64)>> {
+        if !std::mem::take(&mut self.scans_changed) {
+            return None;
+        }
+        let mut points = Vec::new();
+        for s in &self.scans {
+            let mut bearing = s.scan.min_angle;
+            for &r in &s.scan.ranges {
+                if f64::from(r) < self.opts.laser_maxrange && r < s.scan.max_range {
+                    let a = s.pose.pa + f64::from(bearing);
+                    points.push((
+                        s.pose.px + f64::from(r) * a.cos(),
+                        s.pose.py + f64::from(r) * a.sin(),
+                    ));
+                }
+                bearing += s.scan.resolution;
+            }
+        }
+        Some(points)
     }
 
     fn publish_state(&mut self, ctx: &mut Context<'_>) {
@@ -478,6 +638,11 @@ impl Driver for Wavefront {
             ctx.subscribe(self.input);
         }
         ctx.subscribe(self.map);
+        self.scans.clear();
+        self.scans_changed = false;
+        if let Some(laser) = self.laser {
+            ctx.subscribe(laser);
+        }
         // Upstream turns the motors on (a failure is only a warning) and needs the geometry.
         ctx.request(
             self.output,
@@ -571,6 +736,22 @@ impl Driver for Wavefront {
                     self.control.set_localize(state.pos);
                 }
             }
+            Body::Laser(LaserMsg::Data(LaserData::ScanPose(scan)))
+                if self.laser.is_some_and(|l| data.header.addr.same_device(&l)) =>
+            {
+                self.take_scan(scan);
+            }
+            Body::Laser(LaserMsg::Data(LaserData::Scan(_)))
+                if self.laser.is_some_and(|l| data.header.addr.same_device(&l))
+                    && !std::mem::replace(&mut self.warned_plain_scan, true) =>
+            {
+                tracing::warn!(
+                    "wavefront {}: {} sends scans without poses; wavefront takes pose-stamped \
+                     scans (DATA SCANPOSE, e.g. from laserposeinterpolator) and ignores these",
+                    self.addr,
+                    data.header.addr
+                );
+            }
             // With request_map 0 the map is read when its device announces it.
             Body::Map(MapMsg::Data(MapData::Info(_)))
                 if data.header.addr.same_device(&self.map)
@@ -662,12 +843,12 @@ impl Driver for Wavefront {
         }
     }
 
-    fn wake(&mut self, _ctx: &mut Context<'_>) {
-        self.collect();
+    fn wake(&mut self, ctx: &mut Context<'_>) {
+        self.collect(ctx);
     }
 
     fn update(&mut self, ctx: &mut Context<'_>) {
-        self.collect();
+        self.collect(ctx);
         if !self.have_map {
             return;
         }
@@ -683,23 +864,33 @@ impl Driver for Wavefront {
             return;
         }
         let now = ctx.now();
-        if self.control.wants_plan(now) {
+        if self.control.wants_plan(now) && self.worker.is_some() {
+            let l = self.control.localize();
+            let g = self.control.target();
+            let local = (self.laser.is_some() && !self.control.new_goal())
+                .then_some(self.opts.laser_maxrange);
+            let job = Job::Plan {
+                start: (l.px, l.py),
+                goal: (g.px, g.py),
+                started: now,
+                seq: self.control.goal_seq(),
+                local,
+                obstacles: self.fresh_obstacles(),
+                carrot: self.opts.velocity_control.is_some(),
+            };
             if let Some(worker) = &self.worker {
-                let l = self.control.localize();
-                let g = self.control.target();
-                let job = Job::Plan {
-                    start: (l.px, l.py),
-                    goal: (g.px, g.py),
-                    started: now,
-                    seq: self.control.goal_seq(),
-                };
                 if worker.jobs.send(job).is_ok() {
                     self.busy = true;
                     return;
                 }
             }
         }
-        if let Some(m) = self.control.drive() {
+        if self.opts.velocity_control.is_some() {
+            // Steering happens as each plan comes in; between goals the robot is held.
+            if let Some(m) = self.control.steer_idle() {
+                self.send_motion(ctx, m);
+            }
+        } else if let Some(m) = self.control.drive() {
             self.send_motion(ctx, m);
         }
     }
@@ -760,8 +951,26 @@ mod tests {
         assert!((o.angle_epsilon - 20f64.to_radians()).abs() < 1e-12);
         assert!(!o.add_rotational_waypoints);
         assert_eq!(o.replan_dist_thresh, -1.0);
-        for bad in [
+        assert_eq!(o.velocity_control, None);
+        assert_eq!((o.laser_buffer_size, o.laser_maxrange), (10, 6.0));
+        let o = WavefrontOptions::from_block(&wavefront_block(&[
             ("velocity_control", "1"),
+            ("control_tv", "0.2 0.6"),
+            ("control_a", "3"),
+            ("laser_buffer_size", "0"),
+            ("laser_maxrange", "4"),
+        ]))
+        .unwrap();
+        let g = o.velocity_control.unwrap();
+        assert_eq!(g.tv, (0.2, 0.6));
+        assert_eq!(g.av, VelocityGains::default().av);
+        assert!(
+            (g.a.0 - 3f64.to_radians()).abs() < 1e-12 && (g.a.1 - 20f64.to_radians()).abs() < 1e-12
+        );
+        // Upstream keeps at least one scan.
+        assert_eq!((o.laser_buffer_size, o.laser_maxrange), (1, 4.0));
+        for bad in [
+            ("laser_buffer_size", "many"),
             ("update_rate", "0"),
             ("safety_dist", "x"),
         ] {

@@ -29,7 +29,9 @@ pub struct PlanParams {
 }
 
 /// A map ready for planning: per cell the occupancy and the distance to the nearest obstacle
-/// (capped at `max_radius`). Cell (i, j) is centred at `origin + (i, j) * scale`, as upstream's
+/// (capped at `max_radius`), the laser's obstacles on top of it, and what the last plans left
+/// (upstream's `plan_t`: each cell's cost and next step towards the goal, the global path and
+/// the local path's marks). Cell (i, j) is centred at `origin + (i, j) * scale`, as upstream's
 /// `PLAN_WXGX`.
 #[derive(Clone, Debug)]
 pub struct Plan {
@@ -38,12 +40,36 @@ pub struct Plan {
     origin: (f64, f64),
     scale: f64,
     params: PlanParams,
-    /// Upstream's `occ_dist`: metres to the nearest occupied (or unknown) cell.
+    /// Upstream's `occ_dist`: metres to the nearest occupied (or unknown) cell of the map.
     occ_dist: Vec<f32>,
+    /// Upstream's `occ_dist_dyn`: the same with the laser's obstacles added; what planning
+    /// uses.
+    occ_dist_dyn: Vec<f32>,
+    /// Distances of the cells around an obstacle out to `max_radius` (`dist_kernel`): (di, dj,
+    /// metres).
+    kernel: Vec<(i64, i64, f32)>,
+    /// The region the last plan searched (`min_x, min_y, max_x, max_y`, inclusive).
+    bounds: Bounds,
+    /// Each cell's cost to the goal of the plan that last reached it (`plan_cost`).
+    cost: Vec<f32>,
+    /// Each cell's next step towards that goal (`plan_next`).
+    next: Vec<Option<usize>>,
+    /// The last global plan's path, start first (`path`); empty when it failed.
+    path: Vec<usize>,
+    /// Cells on the last local plan's path (`lpathmark`): stepping onto them again is cheaper,
+    /// so that successive local plans keep to one route.
+    lpath_mark: Vec<bool>,
 }
 
 /// A grid cell index (column, row).
 pub type Cell = (usize, usize);
+
+/// An inclusive rectangle of cells: (min_x, min_y, max_x, max_y).
+type Bounds = (usize, usize, usize, usize);
+
+/// How much cheaper a step onto the last local path is (the `hysteresis_factor` the driver
+/// gives `plan_alloc`).
+const HYSTERESIS_FACTOR: f64 = 0.5;
 
 /// The result of planning from a start to a goal.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -69,6 +95,7 @@ impl Plan {
         params: PlanParams,
     ) -> Option<Plan> {
         if size_x.checked_mul(size_y)? != cells.len()
+            || size_x == 0
             || scale.partial_cmp(&0.0)? != Ordering::Greater
         {
             return None;
@@ -101,13 +128,21 @@ impl Plan {
                 }
             }
         }
+        let n = cells.len();
         Some(Plan {
             size_x,
             size_y,
             origin,
             scale,
             params,
+            occ_dist_dyn: occ_dist.clone(),
             occ_dist,
+            kernel,
+            bounds: (0, 0, size_x - 1, size_y - 1),
+            cost: vec![MAX_COST; n],
+            next: vec![None; n],
+            path: Vec::new(),
+            lpath_mark: vec![false; n],
         })
     }
 
@@ -133,23 +168,162 @@ impl Plan {
         )
     }
 
-    /// Distance (m) from a cell to the nearest obstacle, capped at `max_radius`.
+    /// Distance (m) from a cell to the nearest obstacle of the map, capped at `max_radius`.
     pub fn occ_dist(&self, (i, j): Cell) -> f32 {
         self.occ_dist[i + j * self.size_x]
     }
 
-    /// Plans from world point `start` to `goal`: the wavefront, the path and its waypoints
-    /// (upstream's `plan_do_global` then `plan_update_waypoints`). An empty result means no
-    /// path: either point off the map, or the goal unreachable. The start cell itself is
-    /// treated as free, so a robot that has drifted close to a wall can still leave.
-    pub fn plan(&self, start: (f64, f64), goal: (f64, f64)) -> PlanResult {
+    /// The same with the laser's obstacles (see [`Plan::set_obstacles`]) counted.
+    pub fn occ_dist_dyn(&self, (i, j): Cell) -> f32 {
+        self.occ_dist_dyn[i + j * self.size_x]
+    }
+
+    fn index(&self, (i, j): Cell) -> usize {
+        i + j * self.size_x
+    }
+
+    fn cell_at(&self, k: usize) -> Cell {
+        (k % self.size_x, k / self.size_x)
+    }
+
+    /// Whether the last global plan found a path (upstream's `path_count > 0`), which local
+    /// plans follow.
+    pub fn has_global_path(&self) -> bool {
+        !self.path.is_empty()
+    }
+
+    /// Obstacles seen by the laser (world points, m): from now on each counts as an occupied
+    /// cell grown by `max_radius`, on top of the map (upstream's `plan_set_obstacles`; the
+    /// previous points are forgotten). As upstream, a point's growth stays inside the region
+    /// the last plan searched, and points off the map are dropped.
+    pub fn set_obstacles(&mut self, points: &[(f64, f64)]) {
+        self.occ_dist_dyn.copy_from_slice(&self.occ_dist);
+        let mut marked = vec![false; self.occ_dist.len()];
+        let (x0, y0, x1, y1) = self.bounds;
+        for &(x, y) in points {
+            let Some(c) = self.cell_of(x, y) else {
+                continue;
+            };
+            let k = self.index(c);
+            if std::mem::replace(&mut marked[k], true) {
+                continue;
+            }
+            self.occ_dist_dyn[k] = 0.0;
+            for &(di, dj, d) in &self.kernel {
+                let (ni, nj) = (c.0 as i64 + di, c.1 as i64 + dj);
+                if ni < x0 as i64 || nj < y0 as i64 || ni > x1 as i64 || nj > y1 as i64 {
+                    continue;
+                }
+                let nk = ni as usize + nj as usize * self.size_x;
+                if d < self.occ_dist_dyn[nk] {
+                    self.occ_dist_dyn[nk] = d;
+                }
+            }
+        }
+    }
+
+    /// Plans from world point `start` to `goal` over the whole map: the wavefront, the path
+    /// and its waypoints (upstream's `plan_do_global` then `plan_update_waypoints`). An empty
+    /// result means no path: either point off the map, or the goal unreachable. The start
+    /// cell itself is treated as free, so a robot that has drifted close to a wall can still
+    /// leave. The plan is kept: [`Plan::plan_local`] follows its path and [`Plan::carrot`]
+    /// its steps.
+    pub fn plan(&mut self, start: (f64, f64), goal: (f64, f64)) -> PlanResult {
+        self.path.clear();
+        self.bounds = (0, 0, self.size_x - 1, self.size_y - 1);
+        self.reset_costs();
         let (Some(s), Some(g)) = (self.cell_of(start.0, start.1), self.cell_of(goal.0, goal.1))
         else {
             return PlanResult::default();
         };
-        let Some(path) = self.wavefront_path(s, g) else {
+        if !self.wavefront(s, g) {
             return PlanResult::default();
+        }
+        self.path = self.follow(self.index(s));
+        self.result_from(s)
+    }
+
+    /// Plans from `start` to the farthest cell of the last global path that stays within
+    /// `half_width` metres (in x and in y) of it, searching only that square, and marks the
+    /// path as the local one (upstream's `plan_do_local`, which wavefront tries before each
+    /// replan, with the laser's range as the half width, so that obstacles the laser sees
+    /// are driven round without planning over the whole map). `None` when there is no global
+    /// path, the global path does not pass through the square, or the local goal cannot be
+    /// reached.
+    pub fn plan_local(&mut self, start: (f64, f64), half_width: f64) -> Option<PlanResult> {
+        let s = self.cell_of(start.0, start.1)?;
+        let grid = |v: f64, o: f64, max: usize| -> usize {
+            (((v - o) / self.scale + 0.5).floor().max(0.0) as usize).min(max)
         };
+        self.bounds = (
+            grid(start.0 - half_width, self.origin.0, self.size_x - 1),
+            grid(start.1 - half_width, self.origin.1, self.size_y - 1),
+            grid(start.0 + half_width, self.origin.0, self.size_x - 1),
+            grid(start.1 + half_width, self.origin.1, self.size_y - 1),
+        );
+        self.reset_costs();
+        let goal = self.local_goal(s)?;
+        if !self.wavefront(s, goal) {
+            tracing::debug!("wavefront: local plan update failed");
+            return None;
+        }
+        let lpath = self.follow(self.index(s));
+        self.lpath_mark.fill(false);
+        for &k in &lpath {
+            self.lpath_mark[k] = true;
+        }
+        Some(self.result_from(s))
+    }
+
+    /// Upstream's `_plan_find_local_goal`: the global path's cell nearest `s` (in cells), then
+    /// along the path to the last cell inside the current bounds.
+    fn local_goal(&self, s: Cell) -> Option<Cell> {
+        let sq = |k: usize| {
+            let (i, j) = self.cell_at(k);
+            let (di, dj) = (i as i64 - s.0 as i64, j as i64 - s.1 as i64);
+            di * di + dj * dj
+        };
+        let mut nearest = None;
+        for (c, &k) in self.path.iter().enumerate() {
+            if nearest.is_none_or(|(_, best)| sq(k) < best) {
+                nearest = Some((c, sq(k)));
+            }
+        }
+        let (c_min, _) = nearest?;
+        let (x0, y0, x1, y1) = self.bounds;
+        let inside = |k: usize| {
+            let (i, j) = self.cell_at(k);
+            (x0..=x1).contains(&i) && (y0..=y1).contains(&j)
+        };
+        let mut c = c_min;
+        while c < self.path.len() && inside(self.path[c]) {
+            c += 1;
+        }
+        if c == c_min {
+            tracing::debug!("wavefront: global path not in local region");
+            return None;
+        }
+        Some(self.cell_at(self.path[c - 1]))
+    }
+
+    /// The cells from `k` along the next steps to the goal.
+    fn follow(&self, k: usize) -> Vec<usize> {
+        let mut out = vec![k];
+        let mut at = k;
+        while let Some(n) = self.next[at] {
+            out.push(n);
+            at = n;
+        }
+        out
+    }
+
+    /// The result of the plan just made, as seen from `s`.
+    fn result_from(&self, s: Cell) -> PlanResult {
+        let path: Vec<Cell> = self
+            .follow(self.index(s))
+            .into_iter()
+            .map(|k| self.cell_at(k))
+            .collect();
         let waypoints = self
             .reduce_to_waypoints(&path)
             .into_iter()
@@ -158,29 +332,37 @@ impl Plan {
         PlanResult { path, waypoints }
     }
 
-    /// Runs the wavefront from `goal` and follows the cheapest neighbours from `start`.
+    /// Upstream's `plan_reset`: costs and next steps forgotten inside the current bounds.
+    fn reset_costs(&mut self) {
+        let (x0, y0, x1, y1) = self.bounds;
+        for j in y0..=y1 {
+            let row = j * self.size_x;
+            self.cost[row + x0..=row + x1].fill(MAX_COST);
+            self.next[row + x0..=row + x1].fill(None);
+        }
+    }
+
+    /// Runs the wavefront from `goal` inside the current bounds and tells whether it reached
+    /// `start` (upstream's `_plan_update_plan`).
     ///
     /// As upstream, a cell's cost is fixed when the cell is first reached (a reached cell is
-    /// never pushed again), stepping costs the step length, and a cell within `max_radius`
-    /// of an obstacle costs `dist_penalty * (max_radius - distance)` more.
-    fn wavefront_path(&self, start: Cell, goal: Cell) -> Option<Vec<Cell>> {
-        let n = self.size_x * self.size_y;
-        let idx = |(i, j): Cell| i + j * self.size_x;
-        let mut cost = vec![MAX_COST; n];
-        let mut next: Vec<Option<usize>> = vec![None; n];
-        let mut reached = vec![false; n];
-        let dist = |k: usize| {
-            if k == idx(start) {
-                self.params.max_radius as f32
-            } else {
-                self.occ_dist[k]
-            }
-        };
-        let g = idx(goal);
-        cost[g] = 0.0;
-        if start == goal {
-            return Some(vec![start]);
+    /// never pushed again), stepping costs the step length (half of it onto the last local
+    /// path), and a cell within `max_radius` of an obstacle costs
+    /// `dist_penalty * (max_radius - distance)` more.
+    fn wavefront(&mut self, start: Cell, goal: Cell) -> bool {
+        let (x0, y0, x1, y1) = self.bounds;
+        let in_bounds = |(i, j): Cell| (x0..=x1).contains(&i) && (y0..=y1).contains(&j);
+        if !in_bounds(goal) || !in_bounds(start) {
+            return false;
         }
+        let s = self.index(start);
+        let g = self.index(goal);
+        self.cost[g] = 0.0;
+        if s == g {
+            return true;
+        }
+        let n = self.size_x * self.size_y;
+        let mut reached = vec![false; n];
         let mut heap = BinaryHeap::new();
         let mut order = 0u64;
         reached[g] = true;
@@ -190,8 +372,8 @@ impl Plan {
             cell: g,
         });
         let abs_min = self.params.abs_min_radius as f32;
-        let max_r = self.params.max_radius as f32;
-        let penalty = self.params.dist_penalty as f32;
+        let max_r = self.params.max_radius;
+        let penalty = self.params.dist_penalty;
         while let Some(Queued { cell, .. }) = heap.pop() {
             let (oi, oj) = (cell % self.size_x, cell / self.size_x);
             for dj in -1i64..=1 {
@@ -200,25 +382,35 @@ impl Plan {
                         continue;
                     }
                     let (ni, nj) = (oi as i64 + di, oj as i64 + dj);
-                    if ni < 0 || nj < 0 || ni >= self.size_x as i64 || nj >= self.size_y as i64 {
+                    if ni < x0 as i64 || nj < y0 as i64 || ni > x1 as i64 || nj > y1 as i64 {
                         continue;
                     }
                     let k = ni as usize + nj as usize * self.size_x;
                     if reached[k] {
                         continue;
                     }
-                    let d = dist(k);
+                    // The start cell is free for this plan, whatever is near it.
+                    let d = if k == s {
+                        max_r as f32
+                    } else {
+                        self.occ_dist_dyn[k]
+                    };
                     if d < abs_min {
                         continue;
                     }
                     let step = (((di * di + dj * dj) as f64).sqrt() * self.scale) as f32;
-                    let mut c = cost[cell] + step;
-                    if d < max_r {
-                        c += penalty * (max_r - d);
+                    let mut c = self.cost[cell];
+                    if self.lpath_mark[k] {
+                        c += (f64::from(step) * HYSTERESIS_FACTOR) as f32;
+                    } else {
+                        c += step;
                     }
-                    if c < cost[k] {
-                        cost[k] = c;
-                        next[k] = Some(cell);
+                    if f64::from(d) < max_r {
+                        c += (penalty * (max_r - f64::from(d))) as f32;
+                    }
+                    if c < self.cost[k] {
+                        self.cost[k] = c;
+                        self.next[k] = Some(cell);
                         reached[k] = true;
                         order += 1;
                         heap.push(Queued {
@@ -230,14 +422,97 @@ impl Plan {
                 }
             }
         }
-        next[idx(start)]?;
-        let mut path = vec![start];
-        let mut at = idx(start);
-        while let Some(k) = next[at] {
-            path.push((k % self.size_x, k / self.size_x));
-            at = k;
+        self.next[s].is_some()
+    }
+
+    /// The point to steer for from world point `from` under direct velocity control
+    /// (upstream's `plan_get_carrot`): for each look-ahead from `max_dist` down to one cell,
+    /// the point that far along the last plan's steps; of those whose straight line from
+    /// `from` stays clear of the c-space, the one with the least obstacle cost plus
+    /// `dist_weight / look-ahead²`. `None` when none is clear (or `from` is off the map).
+    pub fn carrot(&self, from: (f64, f64), max_dist: f64, dist_weight: f64) -> Option<(f64, f64)> {
+        let s = self.cell_of(from.0, from.1)?;
+        let sk = self.index(s);
+        let mut best: Option<(f64, Cell)> = None;
+        let mut dist = max_dist;
+        while dist >= self.scale {
+            let mut at = sk;
+            let mut d = self.scale;
+            while let Some(n) = self.next[at] {
+                if d >= dist {
+                    break;
+                }
+                at = n;
+                d += self.scale;
+            }
+            let target = self.cell_at(at);
+            if let Some(obstacle_cost) = self.line_cost(s, target) {
+                let cost = obstacle_cost + dist_weight * (1.0 / (dist * dist));
+                if best.is_none_or(|(b, _)| cost < b) {
+                    best = Some((cost, target));
+                }
+            }
+            dist -= self.scale;
         }
-        Some(path)
+        best.map(|(_, c)| self.world_of(c))
+    }
+
+    /// Upstream's `_plan_check_path`: walks the Bresenham line from `a` to `b` (the robot's
+    /// cell `a` counting as free) and sums `dist_penalty * (max_radius - distance)`, truncated
+    /// per cell, over cells within `max_radius` of an obstacle; `None` if any cell is closer
+    /// than `abs_min_radius`.
+    fn line_cost(&self, a: Cell, b: Cell) -> Option<f64> {
+        let dist_of = |c: Cell| {
+            if c == a {
+                self.params.max_radius as f32
+            } else {
+                self.occ_dist_dyn[self.index(c)]
+            }
+        };
+        let cell_cost = |c: Cell| -> Option<i64> {
+            let d = dist_of(c);
+            if d < self.params.abs_min_radius as f32 {
+                None
+            } else if f64::from(d) < self.params.max_radius {
+                Some((self.params.dist_penalty * (self.params.max_radius - f64::from(d))) as i64)
+            } else {
+                Some(0)
+            }
+        };
+        let (mut x0, mut y0, mut x1, mut y1) = (a.0 as i64, a.1 as i64, b.0 as i64, b.1 as i64);
+        let steep = (y1 - y0).abs() > (x1 - x0).abs();
+        if steep {
+            std::mem::swap(&mut x0, &mut y0);
+            std::mem::swap(&mut x1, &mut y1);
+        }
+        let delta_x = (x1 - x0).abs();
+        let delta_y = (y1 - y0).abs();
+        let x_step = if x0 < x1 { 1 } else { -1 };
+        let y_step = if y0 < y1 { 1 } else { -1 };
+        let at = |x: i64, y: i64| -> Cell {
+            if steep {
+                (y as usize, x as usize)
+            } else {
+                (x as usize, y as usize)
+            }
+        };
+        let (mut x, mut y, mut error) = (x0, y0, 0i64);
+        let mut total = cell_cost(at(x, y))?;
+        while x != x1 + x_step {
+            x += x_step;
+            error += delta_y;
+            if 2 * error >= delta_x {
+                y += y_step;
+                error -= delta_x;
+            }
+            let c = at(x, y);
+            // Upstream walks one cell past `b`; that cell may lie off the grid.
+            if c.0 >= self.size_x || c.1 >= self.size_y || x < 0 || y < 0 {
+                return None;
+            }
+            total += cell_cost(c)?;
+        }
+        Some(total as f64)
     }
 
     /// Reduces a path to waypoints (upstream's `plan_update_waypoints`): from each waypoint,
@@ -405,7 +680,7 @@ mod tests {
 
     #[test]
     fn path_goes_around_an_obstacle() {
-        let p = plan_of(WALL, 0.5);
+        let mut p = plan_of(WALL, 0.5);
         let r = p.plan((1.0, 4.0), (8.0, 4.0));
         assert_eq!(r.path.first(), Some(&(1, 4)));
         assert_eq!(r.path.last(), Some(&(8, 4)));
@@ -435,7 +710,7 @@ mod tests {
 
     #[test]
     fn no_path_when_the_goal_is_walled_off() {
-        let p = plan_of(
+        let mut p = plan_of(
             &[
                 "........", "....####", "....#...", "....#...", "....####", "........",
             ],
@@ -450,7 +725,7 @@ mod tests {
 
     #[test]
     fn unknown_cells_block_like_obstacles() {
-        let p = plan_of(&["...?...", "...?...", "...?..."], 0.5);
+        let mut p = plan_of(&["...?...", "...?...", "...?..."], 0.5);
         assert!(p.plan((0.0, 1.0), (6.0, 1.0)).waypoints.is_empty());
     }
 
@@ -480,7 +755,7 @@ mod tests {
 
     #[test]
     fn open_ground_reduces_to_start_and_goal() {
-        let p = plan_of(&["............"; 6], 0.0);
+        let mut p = plan_of(&["............"; 6], 0.0);
         let r = p.plan((0.0, 0.0), (11.0, 5.0));
         assert!(r.path.len() >= 12);
         assert_eq!(r.waypoints, vec![(0.0, 0.0), (11.0, 5.0)]);
@@ -508,6 +783,102 @@ mod tests {
             assert!(p.reachable(pair[0], pair[1]));
         }
         assert!(!p.reachable((1, 4), (5, 1)));
+    }
+
+    /// A corridor 9 cells wide and 30 long, walls along both sides.
+    fn corridor() -> Plan {
+        let mut rows = vec!["##############################"];
+        rows.extend(std::iter::repeat_n("..............................", 9));
+        rows.push("##############################");
+        let (w, h, cells) = grid(&rows);
+        Plan::new(
+            w,
+            h,
+            1.0,
+            (0.0, 0.0),
+            &cells,
+            PlanParams {
+                abs_min_radius: 1.0,
+                max_radius: 2.0,
+                dist_penalty: 1.0,
+            },
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn laser_obstacles_block_like_the_map_and_are_replaced_by_the_next() {
+        let mut p = corridor();
+        let straight = p.plan((1.0, 5.0), (28.0, 5.0));
+        assert!(
+            straight.path.iter().all(|&(_, j)| j == 5),
+            "{:?}",
+            straight.path
+        );
+        // A wall of hits across the middle but for a gap near the top.
+        let wall: Vec<(f64, f64)> = (1..=6).map(|j| (15.0, f64::from(j))).collect();
+        p.set_obstacles(&wall);
+        assert_eq!(p.occ_dist_dyn((15, 3)), 0.0);
+        assert_eq!(p.occ_dist((15, 3)), 2.0, "the map itself is unchanged");
+        let round = p.plan((1.0, 5.0), (28.0, 5.0));
+        assert!(!round.waypoints.is_empty());
+        assert!(round.path.iter().all(|&c| p.occ_dist_dyn(c) >= 1.0));
+        assert!(
+            round.path.iter().any(|&(i, j)| i == 15 && j >= 8),
+            "{:?}",
+            round.path
+        );
+        // The next scan replaces the obstacles: the straight line is back.
+        p.set_obstacles(&[]);
+        assert_eq!(p.plan((1.0, 5.0), (28.0, 5.0)).path, straight.path);
+    }
+
+    #[test]
+    fn a_local_plan_follows_the_global_path_within_its_window() {
+        let mut p = corridor();
+        assert!(
+            p.plan_local((1.0, 5.0), 6.0).is_none(),
+            "no global path yet"
+        );
+        let global = p.plan((1.0, 5.0), (28.0, 5.0));
+        assert!(p.has_global_path());
+        // From a little off the path, a window of 6 m: the local goal is the last path cell
+        // inside it, at x = 3 + 6.
+        let local = p.plan_local((3.0, 4.0), 6.0).unwrap();
+        assert_eq!(local.path.first(), Some(&(3, 4)));
+        assert_eq!(local.path.last(), Some(&(9, 5)));
+        assert_eq!(local.waypoints.last(), Some(&(9.0, 5.0)));
+        // The global path is kept for the next local plan.
+        assert!(p.has_global_path());
+        // An obstacle the laser now sees inside the window is driven round locally.
+        p.set_obstacles(&[(6.0, 5.0), (6.0, 4.0), (6.0, 6.0)]);
+        let round = p.plan_local((3.0, 5.0), 6.0).unwrap();
+        assert!(round.path.iter().all(|&c| p.occ_dist_dyn(c) >= 1.0));
+        assert_eq!(round.path.last(), Some(&(9, 5)));
+        // Off the global path's region entirely: no local plan.
+        assert!(p.plan_local((27.0, 5.0), 0.4).is_some());
+        let _ = global;
+    }
+
+    #[test]
+    fn the_carrot_lies_ahead_on_the_plan_in_clear_sight() {
+        let mut p = corridor();
+        p.plan((1.0, 5.0), (28.0, 5.0));
+        // Up to 2 m ahead along a straight path: the farthest clear point wins (the distance
+        // term favours it). As upstream counts, a look-ahead of 2 cells lands 1 cell on.
+        assert_eq!(p.carrot((1.0, 5.0), 2.0, 10.0), Some((2.0, 5.0)));
+        assert_eq!(p.carrot((1.0, 5.0), 4.0, 10.0), Some((4.0, 5.0)));
+        // Near the goal the carrot is the goal.
+        p.plan((26.0, 5.0), (27.0, 5.0));
+        assert_eq!(p.carrot((26.0, 5.0), 2.0, 10.0), Some((27.0, 5.0)));
+        // Hemmed in by obstacles the laser sees all round: no clear line, no carrot.
+        p.plan((10.0, 5.0), (28.0, 5.0));
+        let ring: Vec<(f64, f64)> = (9..=11)
+            .flat_map(|i| (4..=6).map(move |j| (f64::from(i), f64::from(j))))
+            .filter(|&(x, y)| (x, y) != (10.0, 5.0))
+            .collect();
+        p.set_obstacles(&ring);
+        assert_eq!(p.carrot((10.0, 5.0), 2.0, 10.0), None);
     }
 
     #[test]

@@ -7,7 +7,9 @@ mod common;
 
 use viewer::View;
 use viewer::offscreen::{self, Pixels};
-use viewer::playerv::state::{DeviceData, DeviceKey, PlayervState, Pose2, Scan, Subscribed};
+use viewer::playerv::state::{
+    DeviceData, DeviceKey, Hypothesis, MapGrid, PlannerView, PlayervState, Pose2, Scan, Subscribed,
+};
 use viewer::scene::{Layer, Rgba8, Scene};
 use viewer::world_scene::{self, VisOptions};
 
@@ -260,6 +262,238 @@ fn playerv_view_of_a_known_scan_puts_rays_where_the_ranges_say() {
     let c = px.get(400 - 10 - 60, 10 + 30).unwrap();
     assert_eq!(rgb(c), [0, 255, 0], "camera image pixel");
     let _ = Rgba8::WHITE;
+}
+
+/// A navigation stack as playerv shows it: a 10 x 8 m map at 0.1 m (origin (-5, -4)) that is
+/// free but for a wall x ∈ [1, 1.5], y ∈ [-4, 2] and an unknown strip y ∈ [3.5, 4]; a plan from
+/// (-3, -2) over the top of the wall to (3, -2); amcl's hypothesis at (-3, -2) facing +x with
+/// a 0.5 m (x) by 0.25 m (y) standard deviation; a base there (odometry elsewhere: the
+/// localiser's pose is the one drawn); and a particle cloud.
+fn nav_state() -> PlayervState {
+    let mut st = PlayervState::new("localhost:6665", player_client::DataMode::Pull, 5.0);
+    let (w, h) = (100u32, 80u32);
+    let cells: Vec<i8> = (0..w * h)
+        .map(|k| {
+            let (i, j) = (k % w, k / w);
+            let (x, y) = (
+                -5.0 + (f64::from(i) + 0.5) * 0.1,
+                -4.0 + (f64::from(j) + 0.5) * 0.1,
+            );
+            if (1.0..1.5).contains(&x) && y < 2.0 {
+                1
+            } else if y > 3.5 {
+                0
+            } else {
+                -1
+            }
+        })
+        .collect();
+    let grid = MapGrid::new(w, h, 0.1, [-5.0, -4.0], &cells).unwrap();
+    let sub = |data| Subscribed {
+        driver: "test".into(),
+        data,
+        datatime: 1.0,
+    };
+    st.subscribed.insert(
+        DeviceKey::parse("map:0").unwrap(),
+        sub(DeviceData::Map(std::sync::Arc::new(grid))),
+    );
+    let robot = Pose2 {
+        x: -3.0,
+        y: -2.0,
+        a: 0.0,
+    };
+    st.subscribed.insert(
+        DeviceKey::parse("planner:0").unwrap(),
+        sub(DeviceData::Planner(PlannerView {
+            valid: true,
+            done: false,
+            pos: robot,
+            goal: Pose2 {
+                x: 3.0,
+                y: -2.0,
+                a: 0.0,
+            },
+            waypoint: Pose2 {
+                x: 1.25,
+                y: 3.0,
+                a: 0.0,
+            },
+            waypoint_idx: 1,
+            waypoints: vec![[-3.0, -2.0], [1.25, 3.0], [3.0, -2.0]],
+        })),
+    );
+    st.subscribed.insert(
+        DeviceKey::parse("localize:0").unwrap(),
+        sub(DeviceData::Localize {
+            hypotheses: vec![Hypothesis {
+                mean: robot,
+                cov: [0.25, 0.0625, 0.01],
+                weight: 1.0,
+            }],
+            particles: (0..5000)
+                .map(|k| {
+                    let t = f64::from(k) * 0.7;
+                    (
+                        Pose2 {
+                            x: 3.5 + 0.3 * t.cos(),
+                            y: 1.0 + 0.3 * t.sin(),
+                            a: 0.0,
+                        },
+                        1.0 / 5000.0,
+                    )
+                })
+                .collect(),
+        }),
+    );
+    st.subscribed.insert(
+        DeviceKey::parse("position2d:0").unwrap(),
+        sub(DeviceData::Position2d {
+            pose: Pose2 {
+                x: 40.0,
+                y: 40.0,
+                a: 1.0,
+            },
+            velocity: Pose2::default(),
+            stall: false,
+            size: [0.4, 0.4],
+        }),
+    );
+    st
+}
+
+#[test]
+fn playerv_draws_the_map_the_plan_and_the_hypotheses_where_they_are() {
+    let Some(mut gpu) = offscreen::for_tests() else {
+        return;
+    };
+    let st = nav_state();
+    assert_eq!(
+        st.robot_in_map(),
+        Some(Pose2 {
+            x: -3.0,
+            y: -2.0,
+            a: 0.0
+        })
+    );
+    let view = View {
+        center: [0.0, 0.0],
+        scale: 40.0,
+        yaw: 0.0,
+        size: [480.0, 400.0],
+    };
+    let mut scene = Scene::default();
+    viewer::playerv::scene::build(&st, None, &view, &mut scene);
+    let px = gpu.render(&scene, &view).expect("render");
+    dump(&px, "playerv-nav");
+    use viewer::playerv::scene::{
+        BACKGROUND, BASE, GOAL, HYPOTHESIS, MAP_FREE, MAP_OCCUPIED, MAP_UNKNOWN, PARTICLE, PATH,
+    };
+    let close = |c: [u8; 4], want: Rgba8| {
+        c.iter()
+            .zip(want.0)
+            .take(3)
+            .all(|(a, b)| (i32::from(*a) - i32::from(b)).abs() <= 40)
+    };
+    // The map: the wall, the unknown strip, free floor, and nothing outside the map.
+    assert_eq!(rgb(pixel_at(&px, &view, [1.25, -1.0])), rgb(MAP_OCCUPIED.0));
+    assert_eq!(rgb(pixel_at(&px, &view, [-1.0, 3.8])), rgb(MAP_UNKNOWN.0));
+    assert_eq!(rgb(pixel_at(&px, &view, [0.0, -3.0])), rgb(MAP_FREE.0));
+    assert_eq!(rgb(pixel_at(&px, &view, [5.5, 0.0])), rgb(BACKGROUND.0));
+    // The path: halfway along its first leg, and the waypoint being driven to.
+    assert!(
+        around(&px, &view, [-0.875, 0.5], 1)
+            .into_iter()
+            .any(|c| close(c, PATH))
+    );
+    assert!(
+        around(&px, &view, [2.125, 0.5], 1)
+            .into_iter()
+            .any(|c| close(c, PATH))
+    );
+    // The goal's ring, 8 pixels round (3, -2).
+    assert!(
+        around(&px, &view, [3.0 + 8.0 / 40.0, -2.0], 1)
+            .into_iter()
+            .any(|c| close(c, GOAL))
+    );
+    // The hypothesis ellipse: 2 standard deviations, 1 m along x and 0.5 m along y.
+    assert!(
+        around(&px, &view, [-2.0, -2.0], 1)
+            .into_iter()
+            .any(|c| close(c, HYPOTHESIS))
+    );
+    assert!(
+        around(&px, &view, [-3.0, -1.5], 1)
+            .into_iter()
+            .any(|c| close(c, HYPOTHESIS))
+    );
+    assert!(
+        !around(&px, &view, [-3.0, -1.2], 1)
+            .into_iter()
+            .any(|c| close(c, HYPOTHESIS))
+    );
+    // The robot is drawn at the hypothesis, not at its odometry.
+    assert_eq!(rgb(pixel_at(&px, &view, [-3.1, -2.1])), rgb(BASE.0));
+    // The particle cloud, a ring of 0.3 m round (3.5, 1).
+    assert!(
+        around(&px, &view, [3.8, 1.0], 2)
+            .into_iter()
+            .any(|c| close(c, PARTICLE))
+    );
+    assert_eq!(rgb(pixel_at(&px, &view, [3.5, 1.0])), rgb(MAP_FREE.0));
+    // The map stays in the static layer from frame to frame.
+    let before = scene.layer(Layer::Static).triangles.len();
+    assert!(before > 0);
+    viewer::playerv::scene::build(&st, None, &view, &mut scene);
+    assert_eq!(scene.layer(Layer::Static).triangles.len(), before);
+}
+
+/// A click on the canvas goes through the same function the mouse's does: a click at a map
+/// pixel asks the planner for a goal at that pixel's world point, facing away from the robot;
+/// a right drag gives the localiser a pose at its start facing along it.
+#[test]
+fn playernav_clicks_become_goals_and_poses_at_the_clicked_point() {
+    use viewer::playerv::worker::Request;
+    use viewer::playerv::{NavAction, SET_POSE_COV, nav_request};
+    let st = nav_state();
+    let view = View {
+        center: [0.0, 0.0],
+        scale: 40.0,
+        yaw: 0.0,
+        size: [480.0, 400.0],
+    };
+    let px = view.to_screen([2.0, 1.0]);
+    let Some(Request::SetGoal(k, g)) = nav_request(&st, &view, NavAction::Goal, px, px) else {
+        panic!("no goal");
+    };
+    assert_eq!(k, DeviceKey::parse("planner:0").unwrap());
+    assert!(
+        (g.x - 2.0).abs() < 1e-9 && (g.y - 1.0).abs() < 1e-9,
+        "{g:?}"
+    );
+    assert!(
+        (g.a - 3f64.atan2(5.0)).abs() < 1e-9,
+        "heading from the robot: {g:?}"
+    );
+    // A drag to the north sets the heading to 90°.
+    let up = view.to_screen([2.0, 2.0]);
+    let Some(Request::SetGoal(_, g)) = nav_request(&st, &view, NavAction::Goal, px, up) else {
+        panic!("no goal");
+    };
+    assert!((g.a - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+    let Some(Request::SetPose(k, p, cov)) = nav_request(&st, &view, NavAction::Pose, px, up) else {
+        panic!("no pose");
+    };
+    assert_eq!(k, DeviceKey::parse("localize:0").unwrap());
+    assert!((p.x - 2.0).abs() < 1e-9 && (p.y - 1.0).abs() < 1e-9);
+    assert!((p.a - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+    assert_eq!(cov, SET_POSE_COV);
+    // Outside the map frame there is nothing to click on.
+    let mut bare = st.clone();
+    bare.subscribed
+        .retain(|k, _| k.interf == player_proto::InterfaceCode::POSITION2D);
+    assert_eq!(nav_request(&bare, &view, NavAction::Goal, px, px), None);
 }
 
 /// The layer cache (grid and static models drawn once into a texture, then blitted) must not

@@ -7,6 +7,12 @@
 //! first subscribed position2d is commanded: off, velocity (the target's offset sets the
 //! speed and turn rate) or position (the target becomes a goal in the odometry frame). With a
 //! command mode on, left-drag places the target; otherwise left-drag pans; the wheel zooms.
+//!
+//! With a navigation stack (map, planner, localize devices) the view is the map's, and the
+//! canvas takes playernav's clicks ([`nav_request`]): a left click (or drag, for the heading)
+//! sends the planner a goal, a right drag tells the localiser where the robot is (SET_POSE
+//! with playernav's covariance); *Navigation* has Go and Stop (the planner's ENABLE) and shows
+//! the particle cloud on request. The middle button always pans.
 
 pub mod scene;
 pub mod state;
@@ -23,8 +29,70 @@ use crate::canvas;
 use crate::error::ViewerError;
 use crate::scene::Scene;
 use crate::view::View;
+use player_proto::InterfaceCode;
 use state::{CommandMode, DeviceKey, PlayervState, Pose2};
 use worker::{Request, Worker};
+
+/// What a click or drag on the map does (playernav's buttons).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NavAction {
+    /// Send the planner a goal.
+    Goal,
+    /// Tell the localiser where the robot is.
+    Pose,
+}
+
+/// The covariance playernav gives a pose set by hand: 0.5 m in x and y, 30° in heading (as
+/// variances).
+pub const SET_POSE_COV: [f64; 3] = [
+    0.25,
+    0.25,
+    (std::f64::consts::PI / 6.0) * (std::f64::consts::PI / 6.0),
+];
+
+/// Drags shorter than this (pixels) are clicks: no heading is read from them.
+const CLICK_SLOP: f64 = 5.0;
+
+/// The request a click or drag on the canvas makes, from where the button went down to where
+/// it came up (canvas pixels), as playernav reads them: the pose is where it went down, its
+/// heading the drag's direction. A click gives a goal the heading of the way from the robot to
+/// it, and a pose the robot's current heading. `None` without a planner (goal) or a localiser
+/// (pose), or outside the map frame.
+pub fn nav_request(
+    st: &PlayervState,
+    view: &View,
+    action: NavAction,
+    press: [f64; 2],
+    release: [f64; 2],
+) -> Option<Request> {
+    let robot = st.robot_in_map()?;
+    let at = view.to_world(press);
+    let to = view.to_world(release);
+    let dragged = (release[0] - press[0]).hypot(release[1] - press[1]) > CLICK_SLOP;
+    let heading = if dragged {
+        (to[1] - at[1]).atan2(to[0] - at[0])
+    } else {
+        match action {
+            NavAction::Goal => (at[1] - robot.y).atan2(at[0] - robot.x),
+            NavAction::Pose => robot.a,
+        }
+    };
+    let pose = Pose2 {
+        x: at[0],
+        y: at[1],
+        a: heading,
+    };
+    match action {
+        NavAction::Goal => {
+            let (k, _) = st.first(InterfaceCode::PLANNER)?;
+            Some(Request::SetGoal(k, pose))
+        }
+        NavAction::Pose => {
+            let (k, _) = st.first(InterfaceCode::LOCALIZE)?;
+            Some(Request::SetPose(k, pose, SET_POSE_COV))
+        }
+    }
+}
 
 /// What `playerv` starts with.
 #[derive(Clone, Debug)]
@@ -85,6 +153,10 @@ struct PlayervApp {
     command: CommandMode,
     target: Pose2,
     dragging_target: bool,
+    /// A playernav click or drag under way: what it does, and where it started and is now.
+    nav_drag: Option<(NavAction, [f64; 2], [f64; 2])>,
+    /// The view was placed over the map once it came.
+    fitted_map: bool,
     scene: Arc<Scene>,
     options: PlayervOptions,
     started: Instant,
@@ -109,6 +181,8 @@ impl PlayervApp {
             command: CommandMode::Off,
             target: Pose2::default(),
             dragging_target: false,
+            nav_drag: None,
+            fitted_map: false,
             scene: Arc::new(Scene::default()),
             options,
             started: Instant::now(),
@@ -152,6 +226,33 @@ impl PlayervApp {
                     .changed()
                 {
                     self.worker.send(Request::SetRate(rate));
+                }
+            });
+            ui.menu_button("Navigation", |ui| {
+                let planner = st.first(InterfaceCode::PLANNER).map(|(k, _)| k);
+                let localize = st.first(InterfaceCode::LOCALIZE).map(|(k, _)| k);
+                ui.label(match planner {
+                    Some(k) => format!("left click/drag: goal for {k}"),
+                    None => "no planner subscribed".into(),
+                });
+                ui.label(match localize {
+                    Some(k) => format!("right drag: pose for {k}"),
+                    None => "no localize subscribed".into(),
+                });
+                if let Some(k) = planner {
+                    if ui.button("Go").clicked() {
+                        self.worker.send(Request::PlannerEnable(k, true));
+                    }
+                    if ui.button("Stop").clicked() {
+                        self.worker.send(Request::PlannerEnable(k, false));
+                    }
+                }
+                let mut particles = st.particles;
+                if ui.checkbox(&mut particles, "Show particles").changed() {
+                    self.worker.send(Request::ShowParticles(particles));
+                }
+                if ui.button("Fit map").clicked() {
+                    self.fitted_map = false;
                 }
             });
             ui.menu_button("Position", |ui| {
@@ -227,6 +328,46 @@ impl PlayervApp {
                     .zoom_at(to_local(hover), (scroll as f64 / 200.0).exp());
             }
         }
+        // playernav's clicks, on the map frame and when no command mode takes the left button.
+        if st.map_frame() {
+            let left = self.command == CommandMode::Off;
+            let action = |b: PointerButton| match b {
+                PointerButton::Primary if left => Some(NavAction::Goal),
+                PointerButton::Secondary => Some(NavAction::Pose),
+                _ => None,
+            };
+            for b in [PointerButton::Primary, PointerButton::Secondary] {
+                if let (Some(a), Some(pos)) = (action(b), resp.interact_pointer_pos()) {
+                    if resp.drag_started_by(b) {
+                        self.nav_drag = Some((a, to_local(pos), to_local(pos)));
+                    } else if resp.clicked_by(b) {
+                        if let Some(r) =
+                            nav_request(st, &self.view, a, to_local(pos), to_local(pos))
+                        {
+                            self.worker.send(r);
+                        }
+                    }
+                }
+            }
+            if let (Some(d), Some(pos)) = (&mut self.nav_drag, resp.interact_pointer_pos()) {
+                d.2 = to_local(pos);
+            }
+            if resp.drag_stopped() {
+                if let Some((a, press, release)) = self.nav_drag.take() {
+                    if let Some(r) = nav_request(st, &self.view, a, press, release) {
+                        self.worker.send(r);
+                    }
+                }
+            }
+            if self.nav_drag.is_some() || resp.dragged_by(PointerButton::Secondary) {
+                return;
+            }
+            if resp.dragged_by(PointerButton::Middle) {
+                let d = resp.drag_delta();
+                self.view.pan_pixels(d.x as f64, d.y as f64);
+                return;
+            }
+        }
         let base = st.base().map(|(k, _)| k);
         if resp.drag_started_by(PointerButton::Primary) || resp.clicked() {
             self.dragging_target = self.command != CommandMode::Off && base.is_some();
@@ -234,11 +375,17 @@ impl PlayervApp {
         if let Some(pos) = resp.interact_pointer_pos() {
             if self.dragging_target && (resp.dragged_by(PointerButton::Primary) || resp.clicked()) {
                 let w = self.view.to_world(to_local(pos));
-                self.target = Pose2 {
-                    x: w[0],
-                    y: w[1],
-                    a: 0.0,
-                };
+                // The target is kept in the robot's frame, whatever frame the view is in.
+                let frame = st.robot_in_map().unwrap_or_default();
+                let t = scene::relative(
+                    frame,
+                    Pose2 {
+                        x: w[0],
+                        y: w[1],
+                        a: frame.a,
+                    },
+                );
+                self.target = Pose2 { a: 0.0, ..t };
                 if let Some(k) = base {
                     self.worker.send(Request::Drive {
                         device: k,
@@ -292,6 +439,39 @@ fn describe(d: &state::DeviceData) -> String {
             format!("{s}, beams {beams:#b}")
         }
         Camera { width, height, .. } => format!("{width}×{height} image"),
+        Map(m) => format!("{}×{} cells of {:.3} m", m.width, m.height, m.scale),
+        Planner(p) => format!(
+            "{}, goal ({:.2}, {:.2}), {} waypoint(s)",
+            if p.done {
+                "done"
+            } else if p.valid {
+                "driving"
+            } else {
+                "no path"
+            },
+            p.goal.x,
+            p.goal.y,
+            p.waypoints.len()
+        ),
+        Localize {
+            hypotheses,
+            particles,
+        } => match hypotheses.first() {
+            Some(h) => format!(
+                "{} hypothes{}, best ({:.2}, {:.2}, {:.0}°){}",
+                hypotheses.len(),
+                if hypotheses.len() == 1 { "is" } else { "es" },
+                h.mean.x,
+                h.mean.y,
+                h.mean.a.to_degrees(),
+                if particles.is_empty() {
+                    String::new()
+                } else {
+                    format!(", {} particles", particles.len())
+                }
+            ),
+            None => "no hypotheses yet".into(),
+        },
         Other => "no data drawn".into(),
     }
 }
@@ -308,9 +488,31 @@ impl eframe::App for PlayervApp {
             let (rect, resp) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
             self.view.size = [rect.width() as f64, rect.height() as f64];
             self.interact(ui, &resp, &st);
+            if !self.fitted_map {
+                if let Some(m) = st.subscribed.values().find_map(|s| match &s.data {
+                    state::DeviceData::Map(m) => Some(m.clone()),
+                    _ => None,
+                }) {
+                    self.view.fit(m.origin, m.far_corner());
+                    self.fitted_map = true;
+                }
+            }
             let mut scene = std::mem::take(&mut self.scene);
             let target = (self.command != CommandMode::Off).then_some((self.command, self.target));
             scene::build(&st, target, &self.view, Arc::make_mut(&mut scene));
+            if let Some((action, press, now)) = self.nav_drag {
+                let c = match action {
+                    NavAction::Goal => scene::GOAL,
+                    NavAction::Pose => scene::HYPOTHESIS,
+                };
+                Arc::make_mut(&mut scene).line(
+                    crate::scene::Layer::Overlay,
+                    self.view.to_world(press),
+                    self.view.to_world(now),
+                    2.0,
+                    c,
+                );
+            }
             canvas::paint(ui, rect, scene.clone(), &self.view);
             self.scene = scene;
         });

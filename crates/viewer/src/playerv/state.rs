@@ -120,8 +120,112 @@ pub enum DeviceData {
         /// `width * height * 4` bytes.
         rgba: Vec<u8>,
     },
+    /// An occupancy grid, fetched once when subscribed.
+    Map(std::sync::Arc<MapGrid>),
+    /// A planner's state and its plan.
+    Planner(PlannerView),
+    /// A localiser's hypotheses (and its particles, when asked for).
+    Localize {
+        /// Hypotheses, heaviest first.
+        hypotheses: Vec<Hypothesis>,
+        /// Particles (map frame) with their weights; empty unless particles are shown.
+        particles: Vec<(Pose2, f64)>,
+    },
     /// A device subscribed to but not drawn (or no data yet).
     Other,
+}
+
+/// A map device's occupancy grid, with its cells grouped into runs for drawing (a
+/// 1,000 x 1,000 map is a few thousand runs, not a million cells).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapGrid {
+    /// Cells across (x) and up (y).
+    pub width: u32,
+    /// Cells up.
+    pub height: u32,
+    /// Cell size (m).
+    pub scale: f64,
+    /// World position of the lower-left corner of cell (0, 0) (m).
+    pub origin: [f64; 2],
+    /// Runs of equal non-free cells along each row: (row, first column, length, value: 0
+    /// unknown, +1 occupied). Free cells (-1) are not listed.
+    pub runs: Vec<(u32, u32, u32, i8)>,
+}
+
+impl MapGrid {
+    /// Groups a Player map's cells (row-major from the lower left; -1 free, 0 unknown, +1
+    /// occupied) into runs; `None` when the cell count does not match the size.
+    pub fn new(
+        width: u32,
+        height: u32,
+        scale: f64,
+        origin: [f64; 2],
+        cells: &[i8],
+    ) -> Option<MapGrid> {
+        if (width as usize).checked_mul(height as usize)? != cells.len() {
+            return None;
+        }
+        let mut runs = Vec::new();
+        for j in 0..height {
+            let row = &cells[(j * width) as usize..((j + 1) * width) as usize];
+            let mut i = 0usize;
+            while i < row.len() {
+                let v = row[i].signum();
+                let start = i;
+                while i < row.len() && row[i].signum() == v {
+                    i += 1;
+                }
+                if v >= 0 {
+                    runs.push((j, start as u32, (i - start) as u32, v));
+                }
+            }
+        }
+        Some(MapGrid {
+            width,
+            height,
+            scale,
+            origin,
+            runs,
+        })
+    }
+
+    /// The world point of the upper-right corner of the map.
+    pub fn far_corner(&self) -> [f64; 2] {
+        [
+            self.origin[0] + f64::from(self.width) * self.scale,
+            self.origin[1] + f64::from(self.height) * self.scale,
+        ]
+    }
+}
+
+/// What a planner device shows: its state and the waypoints of its plan (map frame).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlannerView {
+    /// A path was found.
+    pub valid: bool,
+    /// The robot has arrived.
+    pub done: bool,
+    /// The robot's pose as the planner knows it.
+    pub pos: Pose2,
+    /// The goal.
+    pub goal: Pose2,
+    /// The waypoint being driven to.
+    pub waypoint: Pose2,
+    /// Its index, negative when none.
+    pub waypoint_idx: i32,
+    /// The plan's waypoints (GET_WAYPOINTS, fetched when the plan changes).
+    pub waypoints: Vec<[f64; 2]>,
+}
+
+/// One localisation hypothesis: a mean pose with the variances of x, y and the heading.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Hypothesis {
+    /// Mean pose (map frame).
+    pub mean: Pose2,
+    /// Variances of x (m²), y (m²) and heading (rad²).
+    pub cov: [f64; 3],
+    /// Weight.
+    pub weight: f64,
 }
 
 /// One subscribed device.
@@ -168,6 +272,8 @@ pub struct PlayervState {
     pub datatime: f64,
     /// Recent messages (errors, refused subscriptions), newest last.
     pub log: Vec<String>,
+    /// Whether localize devices' particles are fetched (GET_PARTICLES about once a second).
+    pub particles: bool,
 }
 
 impl PlayervState {
@@ -183,6 +289,7 @@ impl PlayervState {
             rate_hz,
             datatime: 0.0,
             log: Vec::new(),
+            particles: false,
         }
     }
 
@@ -194,6 +301,59 @@ impl PlayervState {
         if self.log.len() > 50 {
             self.log.remove(0);
         }
+    }
+
+    /// Whether any subscribed device lives in a map frame (map, planner, localize): the view
+    /// is then the map's, with the robot placed where it is believed to be.
+    pub fn map_frame(&self) -> bool {
+        self.subscribed.values().any(|s| {
+            matches!(
+                s.data,
+                DeviceData::Map(_) | DeviceData::Planner(_) | DeviceData::Localize { .. }
+            )
+        })
+    }
+
+    /// Where the robot is believed to be in the map frame: the heaviest localize hypothesis,
+    /// else the planner's pose, else the base's odometry; `None` outside the map frame (the
+    /// view is then the robot's own, the robot at the origin).
+    pub fn robot_in_map(&self) -> Option<Pose2> {
+        if !self.map_frame() {
+            return None;
+        }
+        let from_localize = self.subscribed.values().find_map(|s| match &s.data {
+            DeviceData::Localize { hypotheses, .. } => hypotheses
+                .iter()
+                .max_by(|a, b| a.weight.total_cmp(&b.weight))
+                .map(|h| h.mean),
+            _ => None,
+        });
+        let from_planner = || {
+            self.subscribed.values().find_map(|s| match &s.data {
+                DeviceData::Planner(p) if s.datatime > 0.0 => Some(p.pos),
+                _ => None,
+            })
+        };
+        let from_odometry = || {
+            self.base().and_then(|(_, s)| match &s.data {
+                DeviceData::Position2d { pose, .. } => Some(*pose),
+                _ => None,
+            })
+        };
+        Some(
+            from_localize
+                .or_else(from_planner)
+                .or_else(from_odometry)
+                .unwrap_or_default(),
+        )
+    }
+
+    /// The first subscribed device of `interf`.
+    pub fn first(&self, interf: InterfaceCode) -> Option<(DeviceKey, &Subscribed)> {
+        self.subscribed
+            .iter()
+            .find(|(k, _)| k.interf == interf)
+            .map(|(k, s)| (*k, s))
     }
 
     /// The first subscribed position2d device: the robot everything is drawn around.
@@ -264,6 +424,18 @@ mod tests {
         );
         assert_eq!(DeviceKey::parse("nosuch:0"), None);
         assert_eq!(DeviceKey::parse("ranger:x"), None);
+    }
+
+    #[test]
+    fn map_cells_group_into_runs_of_unknown_and_occupied() {
+        // 4 x 2, row 0 at the bottom: free, occ, occ, unknown / unknown, unknown, free, occ.
+        let g = MapGrid::new(4, 2, 0.5, [-1.0, -0.5], &[-1, 1, 1, 0, 0, 0, -1, 100]).unwrap();
+        assert_eq!(
+            g.runs,
+            vec![(0, 1, 2, 1), (0, 3, 1, 0), (1, 0, 2, 0), (1, 3, 1, 1)]
+        );
+        assert_eq!(g.far_corner(), [1.0, 0.5]);
+        assert!(MapGrid::new(4, 2, 0.5, [0.0, 0.0], &[0; 7]).is_none());
     }
 
     #[test]

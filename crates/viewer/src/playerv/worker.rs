@@ -10,7 +10,8 @@ use std::time::{Duration, Instant};
 
 use player_client::{
     BlobfinderProxy, CameraProxy, ClientError, ClientProxy, DataMode, FiducialProxy, GripperProxy,
-    LaserProxy, PlayerClient, Position2dProxy, RangerProxy, SonarProxy,
+    LaserProxy, LocalizeProxy, MapProxy, PlannerProxy, PlayerClient, Position2dProxy, RangerProxy,
+    SonarProxy,
 };
 use player_proto::{
     FiducialGeom, GripperGeom, InterfaceCode, LaserGeom, Pose3d, RangerConfig, RangerGeom,
@@ -18,7 +19,8 @@ use player_proto::{
 };
 
 use super::state::{
-    CommandMode, DeviceData, DeviceKey, PlayervState, Pose2, Scan, Subscribed, camera_rgba,
+    CommandMode, DeviceData, DeviceKey, Hypothesis, MapGrid, PlannerView, PlayervState, Pose2,
+    Scan, Subscribed, camera_rgba,
 };
 
 /// What the UI asks the client thread to do.
@@ -45,6 +47,15 @@ pub enum Request {
     Stop(DeviceKey),
     /// Motor power on or off.
     MotorPower(DeviceKey, bool),
+    /// A goal for a planner (map frame), as playernav's left-drag sends it.
+    SetGoal(DeviceKey, Pose2),
+    /// A pose for a localiser (map frame) with the variances of x, y and heading, as
+    /// playernav's right-drag sends it.
+    SetPose(DeviceKey, Pose2, [f64; 3]),
+    /// Allow or stop a planner's motion (playernav's Go and Stop).
+    PlannerEnable(DeviceKey, bool),
+    /// Fetch localize devices' particles (or stop fetching them).
+    ShowParticles(bool),
     /// End the thread.
     Quit,
 }
@@ -81,8 +92,20 @@ enum Proxy {
     Fiducial(FiducialProxy, Option<FiducialGeom>),
     Gripper(GripperProxy, Option<GripperGeom>),
     Camera(CameraProxy),
+    Map(MapProxy, Option<Arc<MapGrid>>),
+    /// The planner, its last fetched waypoints and the state they were fetched for.
+    Planner(PlannerProxy, Vec<[f64; 2]>, Option<PlanKey>),
+    /// The localiser and its last fetched particles, and when.
+    Localize(LocalizeProxy, Vec<(Pose2, f64)>, Option<Instant>),
     Other(ClientProxy),
 }
+
+/// What identifies a plan: the goal and the number of waypoints (a new plan for the same goal
+/// usually differs in them too), and whether it is valid.
+type PlanKey = (bool, u32, [u64; 3]);
+
+/// How often particles are fetched while shown.
+const PARTICLE_PERIOD: Duration = Duration::from_secs(1);
 
 impl Proxy {
     fn driver(&self) -> &str {
@@ -95,6 +118,9 @@ impl Proxy {
             Proxy::Fiducial(p, _) => p.driver_name(),
             Proxy::Gripper(p, _) => p.driver_name(),
             Proxy::Camera(p) => p.driver_name(),
+            Proxy::Map(p, _) => p.driver_name(),
+            Proxy::Planner(p, ..) => p.driver_name(),
+            Proxy::Localize(p, ..) => p.driver_name(),
             Proxy::Other(p) => p.driver_name(),
         }
     }
@@ -109,6 +135,9 @@ impl Proxy {
             Proxy::Fiducial(p, _) => p.datatime(),
             Proxy::Gripper(p, _) => p.datatime(),
             Proxy::Camera(p) => p.datatime(),
+            Proxy::Map(p, _) => p.datatime(),
+            Proxy::Planner(p, ..) => p.datatime(),
+            Proxy::Localize(p, ..) => p.datatime(),
             Proxy::Other(p) => p.datatime(),
         }
     }
@@ -155,6 +184,25 @@ fn subscribe(client: &PlayerClient, key: DeviceKey) -> Result<Proxy, ClientError
             Proxy::Gripper(p, g)
         }
         InterfaceCode::CAMERA => Proxy::Camera(CameraProxy::new(client, i)?),
+        InterfaceCode::MAP => {
+            // The grid is fetched once, as playerv does; a map that cannot be read is drawn
+            // as nothing, the subscription kept.
+            let p = MapProxy::new(client, i)?;
+            let grid = p.get_map().ok().and_then(|m| {
+                MapGrid::new(
+                    m.info.width,
+                    m.info.height,
+                    f64::from(m.info.scale),
+                    [m.info.origin.px, m.info.origin.py],
+                    &m.cells,
+                )
+            });
+            Proxy::Map(p, grid.map(Arc::new))
+        }
+        InterfaceCode::PLANNER => Proxy::Planner(PlannerProxy::new(client, i)?, Vec::new(), None),
+        InterfaceCode::LOCALIZE => {
+            Proxy::Localize(LocalizeProxy::new(client, i)?, Vec::new(), None)
+        }
         other => Proxy::Other(ClientProxy::subscribe(client, other, i)?),
     })
 }
@@ -228,6 +276,60 @@ pub fn ranger_scans(
         max_range,
         cone: 0.0,
     }]
+}
+
+fn pose_of(p: &player_proto::Pose2d) -> Pose2 {
+    Pose2 {
+        x: p.px,
+        y: p.py,
+        a: p.pa,
+    }
+}
+
+/// Requests what a device's data alone does not carry, when it changed: a planner's waypoints
+/// once per new plan, a localiser's particles about once a second while they are shown.
+fn refresh(p: &mut Proxy, particles: bool) -> Result<(), ClientError> {
+    match p {
+        Proxy::Planner(p, waypoints, fetched) => {
+            let Some(d) = p.data() else { return Ok(()) };
+            let key = (
+                d.valid != 0,
+                d.waypoints_count,
+                [
+                    d.goal.px.to_bits(),
+                    d.goal.py.to_bits(),
+                    d.goal.pa.to_bits(),
+                ],
+            );
+            if *fetched != Some(key) {
+                *waypoints = if d.valid != 0 {
+                    p.request_waypoints()?
+                        .iter()
+                        .map(|w| [w.px, w.py])
+                        .collect()
+                } else {
+                    Vec::new()
+                };
+                *fetched = Some(key);
+            }
+        }
+        Proxy::Localize(p, shown, fetched) => {
+            if !particles {
+                shown.clear();
+                *fetched = None;
+            } else if fetched.is_none_or(|t| t.elapsed() >= PARTICLE_PERIOD) {
+                *shown = p
+                    .request_particles()?
+                    .particles
+                    .iter()
+                    .map(|q| (pose_of(&q.pose), q.alpha))
+                    .collect();
+                *fetched = Some(Instant::now());
+            }
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 fn snapshot(p: &Proxy) -> DeviceData {
@@ -336,6 +438,38 @@ fn snapshot(p: &Proxy) -> DeviceData {
             },
             None => DeviceData::Other,
         },
+        Proxy::Map(_, grid) => match grid {
+            Some(g) => DeviceData::Map(g.clone()),
+            None => DeviceData::Other,
+        },
+        Proxy::Planner(p, waypoints, _) => match p.data() {
+            Some(d) => DeviceData::Planner(PlannerView {
+                valid: d.valid != 0,
+                done: d.done != 0,
+                pos: pose_of(&d.pos),
+                goal: pose_of(&d.goal),
+                waypoint: pose_of(&d.waypoint),
+                waypoint_idx: d.waypoint_idx,
+                waypoints: waypoints.clone(),
+            }),
+            None => DeviceData::Other,
+        },
+        Proxy::Localize(p, particles, _) => {
+            let mut hypotheses: Vec<Hypothesis> = p
+                .hypotheses()
+                .iter()
+                .map(|h| Hypothesis {
+                    mean: pose_of(&h.mean),
+                    cov: h.cov,
+                    weight: h.alpha,
+                })
+                .collect();
+            hypotheses.sort_by(|a, b| b.weight.total_cmp(&a.weight));
+            DeviceData::Localize {
+                hypotheses,
+                particles: particles.clone(),
+            }
+        }
         Proxy::Other(_) => DeviceData::Other,
     }
 }
@@ -561,6 +695,47 @@ fn handle(
                 p.set_motor_enable(on)?;
             }
         }
+        Request::SetGoal(device, goal) => {
+            if let Some(Proxy::Planner(p, ..)) =
+                session.as_ref().and_then(|s| s.proxies.get(&device))
+            {
+                p.set_goal(goal.x, goal.y, goal.a)?;
+                lock(st).note(format!(
+                    "goal ({:.2}, {:.2}, {:.0}°) sent to {device}",
+                    goal.x,
+                    goal.y,
+                    goal.a.to_degrees()
+                ));
+            }
+        }
+        Request::SetPose(device, mean, cov) => {
+            if let Some(Proxy::Localize(p, ..)) =
+                session.as_ref().and_then(|s| s.proxies.get(&device))
+            {
+                p.set_pose(
+                    player_proto::Pose2d {
+                        px: mean.x,
+                        py: mean.y,
+                        pa: mean.a,
+                    },
+                    cov,
+                )?;
+                lock(st).note(format!(
+                    "pose ({:.2}, {:.2}, {:.0}°) given to {device}",
+                    mean.x,
+                    mean.y,
+                    mean.a.to_degrees()
+                ));
+            }
+        }
+        Request::PlannerEnable(device, on) => {
+            if let Some(Proxy::Planner(p, ..)) =
+                session.as_ref().and_then(|s| s.proxies.get(&device))
+            {
+                p.enable(on)?;
+            }
+        }
+        Request::ShowParticles(on) => lock(st).particles = on,
         Request::Quit => {}
     }
     Ok(())
@@ -660,7 +835,13 @@ fn run(
                 }
                 Some(e) => lock(&st).note(format!("read: {e}")),
             }
-            if let Some(s) = &session {
+            if let Some(s) = &mut session {
+                let particles = lock(&st).particles;
+                for (k, p) in s.proxies.iter_mut() {
+                    if let Err(e) = refresh(p, particles) {
+                        lock(&st).note(format!("{k}: {e}"));
+                    }
+                }
                 publish(s, &st);
             }
             repaint();

@@ -54,6 +54,20 @@ struct Shared {
     paused: Arc<AtomicBool>,
     quit: AtomicBool,
     readers_waiting: AtomicUsize,
+    estimates: Mutex<Vec<Estimate>>,
+}
+
+/// A localiser's belief about a robot, shown by the world window beside the robot's true pose
+/// (the window knows the truth; a client only sees the belief).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// What it is (e.g. `localize:0 (amcl)`).
+    pub label: String,
+    /// Mean pose in the map frame, which Stage's worlds share with the world's frame: x, y
+    /// (m) and heading (rad).
+    pub pose: [f64; 3],
+    /// Variances of x, y (m²) and heading (rad²).
+    pub cov: [f64; 3],
 }
 
 /// A world shared between the thread that steps it and the world window. Cheap to clone.
@@ -139,8 +153,27 @@ impl WorldHandle {
                 paused,
                 quit: AtomicBool::new(false),
                 readers_waiting: AtomicUsize::new(0),
+                estimates: Mutex::new(Vec::new()),
             }),
         }
+    }
+
+    /// Replaces the localisation estimates the window can show (see [`Estimate`]).
+    pub fn set_estimates(&self, estimates: Vec<Estimate>) {
+        *self
+            .shared
+            .estimates
+            .lock()
+            .unwrap_or_else(|p| p.into_inner()) = estimates;
+    }
+
+    /// The localisation estimates last set.
+    pub fn estimates(&self) -> Vec<Estimate> {
+        self.shared
+            .estimates
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
     }
 
     /// The world's lock (the same `Arc` the owner holds in shared mode).

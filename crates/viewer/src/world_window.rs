@@ -140,6 +140,8 @@ enum Drag {
 
 struct WorldApp {
     handle: WorldHandle,
+    /// Draw the localisers' estimates ([`WorldHandle::set_estimates`]).
+    show_estimates: bool,
     view: View,
     vis: VisOptions,
     selected: Option<ModelId>,
@@ -154,6 +156,24 @@ struct WorldApp {
     started: Instant,
     shot_requested: bool,
     result: Arc<Mutex<Option<Result<(), ViewerError>>>>,
+}
+
+/// Each estimate as playerv draws a hypothesis (its covariance ellipse, heading and label),
+/// over the world, where the robot it belongs to is drawn at its true pose.
+fn draw_estimates(estimates: &[crate::handle::Estimate], view: &View, scene: &mut Scene) {
+    use crate::playerv::{scene::draw_hypothesis, state::Hypothesis, state::Pose2};
+    for e in estimates {
+        let h = Hypothesis {
+            mean: Pose2 {
+                x: e.pose[0],
+                y: e.pose[1],
+                a: e.pose[2],
+            },
+            cov: e.cov,
+            weight: 1.0,
+        };
+        draw_hypothesis(scene, &h, Some(e.label.clone()), view.pixel());
+    }
 }
 
 /// Stage's clock format (`[Stage: 0m 01s 300msec]` without the brackets).
@@ -182,6 +202,7 @@ impl WorldApp {
         let w = handle.window().clone();
         let fit = w == worldfile::WindowSpec::default();
         WorldApp {
+            show_estimates: true,
             vis: VisOptions::from_window(&w),
             interval: Duration::from_millis(w.interval.clamp(1, 1000) as u64),
             handle,
@@ -251,6 +272,10 @@ impl WorldApp {
                 ui.checkbox(&mut v.camera, "Camera frustums");
                 ui.checkbox(&mut v.blinken, "Blinkenlights");
                 ui.checkbox(&mut v.position_coords, "Position coordinates");
+                ui.checkbox(
+                    &mut self.show_estimates,
+                    "Localisation estimates (beside the true pose)",
+                );
                 ui.separator();
                 if ui.button("Fit world (F)").clicked() {
                     self.fit_pending = true;
@@ -472,6 +497,9 @@ impl eframe::App for WorldApp {
                 let s = Arc::make_mut(&mut scene);
                 let sel: Vec<ModelId> = self.selected.into_iter().collect();
                 world_scene::build(&world, self.handle.gui(), &self.vis, &self.view, &sel, s);
+                if self.show_estimates {
+                    draw_estimates(&self.handle.estimates(), &self.view, s);
+                }
                 canvas::paint(ui, rect, scene.clone(), &self.view);
                 self.scene = scene;
             });

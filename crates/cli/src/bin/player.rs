@@ -243,7 +243,23 @@ fn world_window(server: &player_server::ServerHandle, stage: &StageHandle) {
         return;
     }
     let shared = WorldHandle::from_shared(world, &spec, stage.paused());
+    // The localisers this server runs (amcl, ...): the window shows their beliefs beside the
+    // true poses, read as any client reads them.
+    let localizers: Vec<player_proto::DeviceAddr> = server
+        .table()
+        .devices()
+        .iter()
+        .filter(|d| {
+            d.addr.interf == player_proto::InterfaceCode::LOCALIZE
+                && d.driver_name != player_server::REMOTE_DRIVER_NAME
+        })
+        .map(|d| d.addr)
+        .collect();
     std::thread::scope(|scope| {
+        if !localizers.is_empty() {
+            let shared = shared.clone();
+            scope.spawn(move || feed_estimates(&shared, &localizers));
+        }
         // the window closes when the server stops (signal) and the server stops when it closes
         scope.spawn(|| {
             server.wait();
@@ -256,6 +272,59 @@ fn world_window(server: &player_server::ServerHandle, stage: &StageHandle) {
         }
         server.stop();
     });
+}
+
+/// Reads the localisers' hypotheses over TCP (one client per port, PUSH) and hands the best
+/// of each to the world window until the window closes or the server goes away.
+fn feed_estimates(window: &WorldHandle, localizers: &[player_proto::DeviceAddr]) {
+    use player_client::{DataMode, LocalizeProxy, PlayerClient};
+    let mut ports: Vec<u16> = localizers.iter().map(|a| a.robot as u16).collect();
+    ports.sort_unstable();
+    ports.dedup();
+    let mut links = Vec::new();
+    for port in ports {
+        let Ok(client) = PlayerClient::connect("127.0.0.1", port) else {
+            tracing::warn!("world window: cannot read the localisers on port {port}");
+            continue;
+        };
+        client.set_read_timeout(Some(std::time::Duration::from_millis(200)));
+        if client.set_datamode(DataMode::Push).is_err() {
+            continue;
+        }
+        let proxies: Vec<(String, LocalizeProxy)> = localizers
+            .iter()
+            .filter(|a| a.robot as u16 == port)
+            .filter_map(|a| {
+                let p = LocalizeProxy::new(&client, a.index).ok()?;
+                Some((
+                    format!("{port}:localize:{} ({})", a.index, p.driver_name()),
+                    p,
+                ))
+            })
+            .collect();
+        links.push((client, proxies));
+    }
+    while !window.quit_requested() && !links.is_empty() {
+        links.retain(|(client, _)| {
+            !matches!(
+                client.read(),
+                Err(player_client::ClientError::Closed | player_client::ClientError::Io(_))
+            )
+        });
+        let estimates = links
+            .iter()
+            .flat_map(|(_, proxies)| proxies.iter())
+            .filter_map(|(label, p)| {
+                let h = p.best()?;
+                Some(viewer::handle::Estimate {
+                    label: label.clone(),
+                    pose: [h.mean.px, h.mean.py, h.mean.pa],
+                    cov: h.cov,
+                })
+            })
+            .collect();
+        window.set_estimates(estimates);
+    }
 }
 
 fn main() -> anyhow::Result<()> {

@@ -1,6 +1,9 @@
 //! The `playerv` binary: Player's device viewer. Connects to a Player server, lists its
 //! devices, subscribes the ones named on the command line (`--ranger:0`, `--position2d:0`, …)
-//! and draws them; more can be (un)subscribed from the Devices menu.
+//! and draws them; more can be (un)subscribed from the Devices menu. As playernav, it takes
+//! `HOST:PORT` arguments for a navigation stack per robot: `playerv --map:0 --planner:0
+//! --localize:0 localhost:6665 localhost:6666` shows both robots on the first one's map, and
+//! clicks send goals to (and set poses of) the robot chosen in the Robot menu.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -30,15 +33,34 @@ struct Args {
     /// Reads per second.
     #[arg(long, value_name = "HZ", default_value_t = 5.0)]
     rate: f64,
+    /// Draw localisers' particle clouds from the start (also in the Navigation menu).
+    #[arg(long)]
+    particles: bool,
     /// Save a PNG of the window after `--screenshot-after` seconds, then quit.
     #[arg(long, value_name = "FILE.png")]
     screenshot: Option<PathBuf>,
     /// Wall seconds before `--screenshot` is taken.
     #[arg(long, value_name = "SECONDS", default_value_t = 2.0)]
     screenshot_after: f64,
+    /// Servers as playernav names them (`HOST:PORT`, one robot each); when given, they
+    /// replace `-h`/`-p`.
+    #[arg(value_name = "HOST:PORT", value_parser = parse_server)]
+    servers: Vec<(String, u16)>,
     /// Print help.
     #[arg(long, action = clap::ArgAction::Help)]
     help: Option<bool>,
+}
+
+/// `host:port` (the port defaulting to 6665 when only a host is given).
+fn parse_server(s: &str) -> Result<(String, u16), String> {
+    match s.rsplit_once(':') {
+        Some((host, port)) if !host.is_empty() => port
+            .parse()
+            .map(|p| (host.to_string(), p))
+            .map_err(|_| format!("\"{port}\" is not a port number")),
+        Some(_) => Err(format!("\"{s}\" names no host")),
+        None => Ok((s.to_string(), 6665)),
+    }
 }
 
 /// Takes playerv's device flags (`--ranger:0`, `--laser`) out of the arguments: clap cannot
@@ -70,9 +92,16 @@ fn main() -> anyhow::Result<()> {
     if !(args.screenshot_after.is_finite() && args.screenshot_after >= 0.0) {
         bail!("--screenshot-after must be >= 0");
     }
+    let (host, port) = args
+        .servers
+        .first()
+        .cloned()
+        .unwrap_or((args.host.clone(), args.port));
     let options = PlayervOptions {
-        host: args.host.clone(),
-        port: args.port,
+        host: host.clone(),
+        port,
+        more_servers: args.servers.iter().skip(1).cloned().collect(),
+        particles: args.particles,
         devices,
         mode: if args.pull {
             DataMode::Pull
@@ -83,7 +112,7 @@ fn main() -> anyhow::Result<()> {
         screenshot: args.screenshot.clone(),
         screenshot_after: Duration::from_secs_f64(args.screenshot_after),
     };
-    playerv::run(options).with_context(|| format!("playerv on {}:{}", args.host, args.port))?;
+    playerv::run(options).with_context(|| format!("playerv on {host}:{port}"))?;
     if let Some(p) = &args.screenshot {
         println!("screenshot saved to {}", p.display());
     }
@@ -123,5 +152,21 @@ mod tests {
             Args::try_parse_from(rest).is_err(),
             "unknown flags are errors"
         );
+    }
+
+    #[test]
+    fn servers_are_taken_as_playernav_takes_them() {
+        let args =
+            Args::try_parse_from(["playerv", "localhost:6665", "robot2:7000", "robot3"]).unwrap();
+        assert_eq!(
+            args.servers,
+            vec![
+                ("localhost".to_string(), 6665),
+                ("robot2".to_string(), 7000),
+                ("robot3".to_string(), 6665)
+            ]
+        );
+        assert!(Args::try_parse_from(["playerv", "host:port"]).is_err());
+        assert!(Args::try_parse_from(["playerv", ":6665"]).is_err());
     }
 }

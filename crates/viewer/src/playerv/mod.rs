@@ -111,6 +111,11 @@ pub struct PlayervOptions {
     pub screenshot: Option<PathBuf>,
     /// Wall time before the screenshot.
     pub screenshot_after: Duration,
+    /// More servers shown on the same canvas (playernav's `host:port` arguments: one robot
+    /// each, subscribed to the same devices).
+    pub more_servers: Vec<(String, u16)>,
+    /// Fetch and draw localisers' particles from the start.
+    pub particles: bool,
 }
 
 /// Opens the playerv window (on the calling thread) and runs until it is closed.
@@ -130,16 +135,28 @@ pub fn run(options: PlayervOptions) -> Result<(), ViewerError> {
                 .as_ref()
                 .ok_or("eframe started without wgpu")?;
             canvas::install(rs);
-            let ctx = cc.egui_ctx.clone();
-            let worker = Worker::spawn(
-                &options.host,
-                options.port,
-                options.mode,
-                options.rate_hz,
-                options.devices.clone(),
-                move || ctx.request_repaint(),
-            );
-            Ok(Box::new(PlayervApp::new(worker, options, res2)))
+            let servers = std::iter::once((options.host.clone(), options.port))
+                .chain(options.more_servers.clone());
+            let workers = servers
+                .map(|(host, port)| {
+                    let ctx = cc.egui_ctx.clone();
+                    Worker::spawn(
+                        &host,
+                        port,
+                        options.mode,
+                        options.rate_hz,
+                        options.devices.clone(),
+                        move || ctx.request_repaint(),
+                    )
+                })
+                .collect();
+            let workers: Vec<Worker> = workers;
+            if options.particles {
+                for w in &workers {
+                    w.send(Request::ShowParticles(true));
+                }
+            }
+            Ok(Box::new(PlayervApp::new(workers, options, res2)))
         }),
     )
     .map_err(|e| ViewerError::Window(e.to_string()))?;
@@ -148,7 +165,10 @@ pub fn run(options: PlayervOptions) -> Result<(), ViewerError> {
 }
 
 struct PlayervApp {
-    worker: Worker,
+    /// One client per server, the first one's first.
+    workers: Vec<Worker>,
+    /// The server whose robot the menus, commands and clicks address.
+    selected: usize,
     view: View,
     command: CommandMode,
     target: Pose2,
@@ -166,12 +186,13 @@ struct PlayervApp {
 
 impl PlayervApp {
     fn new(
-        worker: Worker,
+        workers: Vec<Worker>,
         options: PlayervOptions,
         result: Arc<Mutex<Option<Result<(), ViewerError>>>>,
     ) -> Self {
         PlayervApp {
-            worker,
+            workers,
+            selected: 0,
             view: View {
                 center: [1.5, 0.0],
                 scale: 60.0,
@@ -191,13 +212,32 @@ impl PlayervApp {
         }
     }
 
-    fn menus(&mut self, ui: &mut egui::Ui, st: &PlayervState) {
+    /// The client of the selected server.
+    fn worker(&self) -> &Worker {
+        &self.workers[self.selected.min(self.workers.len() - 1)]
+    }
+
+    /// Sends `r` to every server's client (data mode, rate, particles).
+    fn to_all(&self, r: Request) {
+        for w in &self.workers {
+            w.send(r.clone());
+        }
+    }
+
+    fn menus(&mut self, ui: &mut egui::Ui, st: &PlayervState, servers: &[String]) {
         egui::MenuBar::new().ui(ui, |ui| {
             ui.menu_button("File", |ui| {
                 if ui.button("Quit").clicked() {
                     ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
                 }
             });
+            if servers.len() > 1 {
+                ui.menu_button("Robot", |ui| {
+                    for (i, name) in servers.iter().enumerate() {
+                        ui.radio_value(&mut self.selected, i, name);
+                    }
+                });
+            }
             ui.menu_button("Devices", |ui| {
                 if st.devices.is_empty() {
                     ui.label("(no devices)");
@@ -205,7 +245,7 @@ impl PlayervApp {
                 for (key, driver) in &st.devices {
                     let mut on = st.subscribed.contains_key(key);
                     if ui.checkbox(&mut on, format!("{key} ({driver})")).changed() {
-                        self.worker.send(if on {
+                        self.worker().send(if on {
                             Request::Subscribe(*key)
                         } else {
                             Request::Unsubscribe(*key)
@@ -218,14 +258,14 @@ impl PlayervApp {
                 ui.radio_value(&mut mode, DataMode::Pull, "PULL (one round per read)");
                 ui.radio_value(&mut mode, DataMode::Push, "PUSH (everything as published)");
                 if mode != st.mode {
-                    self.worker.send(Request::SetMode(mode));
+                    self.to_all(Request::SetMode(mode));
                 }
                 let mut rate = st.rate_hz;
                 if ui
                     .add(egui::Slider::new(&mut rate, 0.5..=30.0).text("reads/s"))
                     .changed()
                 {
-                    self.worker.send(Request::SetRate(rate));
+                    self.to_all(Request::SetRate(rate));
                 }
             });
             ui.menu_button("Navigation", |ui| {
@@ -241,15 +281,15 @@ impl PlayervApp {
                 });
                 if let Some(k) = planner {
                     if ui.button("Go").clicked() {
-                        self.worker.send(Request::PlannerEnable(k, true));
+                        self.worker().send(Request::PlannerEnable(k, true));
                     }
                     if ui.button("Stop").clicked() {
-                        self.worker.send(Request::PlannerEnable(k, false));
+                        self.worker().send(Request::PlannerEnable(k, false));
                     }
                 }
                 let mut particles = st.particles;
                 if ui.checkbox(&mut particles, "Show particles").changed() {
-                    self.worker.send(Request::ShowParticles(particles));
+                    self.to_all(Request::ShowParticles(particles));
                 }
                 if ui.button("Fit map").clicked() {
                     self.fitted_map = false;
@@ -267,13 +307,13 @@ impl PlayervApp {
                 if let Some(k) = base {
                     if ui.button("Stop").clicked() {
                         self.target = Pose2::default();
-                        self.worker.send(Request::Stop(k));
+                        self.worker().send(Request::Stop(k));
                     }
                     if ui.button("Enable motors").clicked() {
-                        self.worker.send(Request::MotorPower(k, true));
+                        self.worker().send(Request::MotorPower(k, true));
                     }
                     if ui.button("Disable motors").clicked() {
-                        self.worker.send(Request::MotorPower(k, false));
+                        self.worker().send(Request::MotorPower(k, false));
                     }
                 }
             });
@@ -344,7 +384,7 @@ impl PlayervApp {
                         if let Some(r) =
                             nav_request(st, &self.view, a, to_local(pos), to_local(pos))
                         {
-                            self.worker.send(r);
+                            self.worker().send(r);
                         }
                     }
                 }
@@ -355,7 +395,7 @@ impl PlayervApp {
             if resp.drag_stopped() {
                 if let Some((a, press, release)) = self.nav_drag.take() {
                     if let Some(r) = nav_request(st, &self.view, a, press, release) {
-                        self.worker.send(r);
+                        self.worker().send(r);
                     }
                 }
             }
@@ -387,7 +427,7 @@ impl PlayervApp {
                 );
                 self.target = Pose2 { a: 0.0, ..t };
                 if let Some(k) = base {
-                    self.worker.send(Request::Drive {
+                    self.worker().send(Request::Drive {
                         device: k,
                         mode: self.command,
                         target: self.target,
@@ -479,8 +519,10 @@ fn describe(d: &state::DeviceData) -> String {
 impl eframe::App for PlayervApp {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
-        let st = self.worker.state();
-        egui::Panel::top("menu").show(ui, |ui| self.menus(ui, &st));
+        let states: Vec<PlayervState> = self.workers.iter().map(Worker::state).collect();
+        let servers: Vec<String> = states.iter().map(|s| s.server.clone()).collect();
+        let st = states[self.selected.min(states.len() - 1)].clone();
+        egui::Panel::top("menu").show(ui, |ui| self.menus(ui, &st, &servers));
         egui::Panel::left("devices")
             .default_size(260.0)
             .show(ui, |ui| self.side(ui, &st));
@@ -488,18 +530,33 @@ impl eframe::App for PlayervApp {
             let (rect, resp) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
             self.view.size = [rect.width() as f64, rect.height() as f64];
             self.interact(ui, &resp, &st);
-            if !self.fitted_map {
-                if let Some(m) = st.subscribed.values().find_map(|s| match &s.data {
+            // The server with the map draws it; every other robot goes on top.
+            let has_map = |s: &PlayervState| {
+                s.subscribed.values().find_map(|d| match &d.data {
                     state::DeviceData::Map(m) => Some(m.clone()),
                     _ => None,
-                }) {
+                })
+            };
+            let first = states
+                .iter()
+                .position(|s| has_map(s).is_some())
+                .unwrap_or(self.selected);
+            if !self.fitted_map {
+                if let Some(m) = states.get(first).and_then(has_map) {
                     self.view.fit(m.origin, m.far_corner());
                     self.fitted_map = true;
                 }
             }
             let mut scene = std::mem::take(&mut self.scene);
             let target = (self.command != CommandMode::Off).then_some((self.command, self.target));
-            scene::build(&st, target, &self.view, Arc::make_mut(&mut scene));
+            let mine = |i: usize| if i == self.selected { target } else { None };
+            let sc = Arc::make_mut(&mut scene);
+            let mut inset = scene::build(&states[first], mine(first), &self.view, sc);
+            for (i, other) in states.iter().enumerate() {
+                if i != first {
+                    inset = scene::add_robot(other, mine(i), &self.view, sc, inset);
+                }
+            }
             if let Some((action, press, now)) = self.nav_drag {
                 let c = match action {
                     NavAction::Goal => scene::GOAL,

@@ -125,6 +125,36 @@ fn draw_planner(key: &str, p: &PlannerView, px: f64, scene: &mut Scene) {
     scene.label(at(p.goal, 0.0, -14.0 * px), format!("{key}: {state}"), GOAL);
 }
 
+/// One hypothesis: its ellipse of [`ELLIPSE_SIGMAS`] standard deviations (axis-aligned: Player's
+/// localize covariance is diagonal), a heading line and an optional label; `px` is the size of
+/// a pixel (m).
+pub fn draw_hypothesis(scene: &mut Scene, h: &Hypothesis, label: Option<String>, px: f64) {
+    let c = [h.mean.x, h.mean.y];
+    let rx = ELLIPSE_SIGMAS * h.cov[0].max(0.0).sqrt();
+    let ry = ELLIPSE_SIGMAS * h.cov[1].max(0.0).sqrt();
+    let ring: Vec<[f64; 2]> = (0..48)
+        .map(|k| {
+            let t = std::f64::consts::TAU * f64::from(k) / 48.0;
+            [c[0] + rx.max(px) * t.cos(), c[1] + ry.max(px) * t.sin()]
+        })
+        .collect();
+    scene.outline(Layer::Overlay, &ring, 2.0, HYPOTHESIS);
+    scene.line(
+        Layer::Overlay,
+        c,
+        at(h.mean, (rx.max(ry) + 10.0 * px).max(0.3), 0.0),
+        2.0,
+        HYPOTHESIS,
+    );
+    if let Some(text) = label {
+        scene.label(
+            [c[0] + rx + 4.0 * px, c[1] + ry + 4.0 * px],
+            text,
+            HYPOTHESIS,
+        );
+    }
+}
+
 /// Hypotheses as ellipses of [`ELLIPSE_SIGMAS`] standard deviations (Player's localize
 /// covariance is diagonal: x and y variances, so the ellipse is axis-aligned) with a heading
 /// line, the heaviest labelled; particles as small squares.
@@ -145,47 +175,28 @@ fn draw_localize(
         );
     }
     for (i, h) in hypotheses.iter().enumerate() {
-        let c = [h.mean.x, h.mean.y];
-        let rx = ELLIPSE_SIGMAS * h.cov[0].max(0.0).sqrt();
-        let ry = ELLIPSE_SIGMAS * h.cov[1].max(0.0).sqrt();
-        let ring: Vec<[f64; 2]> = (0..48)
-            .map(|k| {
-                let t = std::f64::consts::TAU * f64::from(k) / 48.0;
-                [c[0] + rx.max(px) * t.cos(), c[1] + ry.max(px) * t.sin()]
-            })
-            .collect();
-        scene.outline(Layer::Overlay, &ring, 2.0, HYPOTHESIS);
-        scene.line(
-            Layer::Overlay,
-            c,
-            at(h.mean, (rx.max(ry) + 10.0 * px).max(0.3), 0.0),
-            2.0,
-            HYPOTHESIS,
-        );
-        if i == 0 {
-            scene.label(
-                [c[0] + rx + 4.0 * px, c[1] + ry + 4.0 * px],
-                format!(
-                    "{key}: ({:.2}, {:.2}, {:.0}°) w {:.2}",
-                    h.mean.x,
-                    h.mean.y,
-                    h.mean.a.to_degrees(),
-                    h.weight
-                ),
-                HYPOTHESIS,
-            );
-        }
+        let label = (i == 0).then(|| {
+            format!(
+                "{key}: ({:.2}, {:.2}, {:.0}°) w {:.2}",
+                h.mean.x,
+                h.mean.y,
+                h.mean.a.to_degrees(),
+                h.weight
+            )
+        });
+        draw_hypothesis(scene, h, label, px);
     }
 }
 
 /// Builds the playerv scene into `scene` (cleared first). `target` is the bull's-eye position
-/// in the robot's frame when position control is on.
+/// in the robot's frame when position control is on. Returns where the next image inset goes
+/// (for [`add_robot`]).
 pub fn build(
     state: &PlayervState,
     target: Option<(CommandMode, Pose2)>,
     view: &View,
     scene: &mut Scene,
-) {
+) -> f64 {
     let map = state.subscribed.values().find_map(|s| match &s.data {
         DeviceData::Map(m) => Some(m.clone()),
         _ => None,
@@ -199,10 +210,6 @@ pub fn build(
         }
     }
     scene.background = BACKGROUND;
-    let px = view.pixel();
-    // Where the robot's own frame sits in the scene: the origin, or its pose on the map.
-    let frame = state.robot_in_map().unwrap_or_default();
-    let tf = |x: f64, y: f64| at(frame, x, y);
     // grid over the visible area, 1 m (10 m when zoomed far out)
     let (min, max) = view.visible_world();
     let mut step = 1.0;
@@ -221,7 +228,36 @@ pub fn build(
         scene.line(Layer::Grid, [min[0], y], [max[0], y], 1.0, c);
         y += step;
     }
-    let mut inset_y = 10.0;
+    draw_devices(state, target, view, scene, 10.0)
+}
+
+/// Adds the devices of another server (another robot on the same map, as playernav takes
+/// several `host:port`s) to a scene [`build`] made; its map, if it has one, is not drawn again.
+/// `inset_y` is where its image insets start (below those already drawn); the next free place
+/// is returned.
+pub fn add_robot(
+    state: &PlayervState,
+    target: Option<(CommandMode, Pose2)>,
+    view: &View,
+    scene: &mut Scene,
+    inset_y: f64,
+) -> f64 {
+    draw_devices(state, target, view, scene, inset_y)
+}
+
+/// Every subscribed device of `state` but its map, in the robot's frame placed at its believed
+/// pose; returns where the next image inset would go.
+fn draw_devices(
+    state: &PlayervState,
+    target: Option<(CommandMode, Pose2)>,
+    view: &View,
+    scene: &mut Scene,
+    mut inset_y: f64,
+) -> f64 {
+    let px = view.pixel();
+    // Where the robot's own frame sits in the scene: the origin, or its pose on the map.
+    let frame = state.robot_in_map().unwrap_or_default();
+    let tf = |x: f64, y: f64| at(frame, x, y);
     for (key, sub) in &state.subscribed {
         match &sub.data {
             DeviceData::Position2d {
@@ -427,4 +463,5 @@ pub fn build(
             scene.line(Layer::Overlay, tf(0.0, 0.0), c, 1.0, TARGET.with_alpha(120));
         }
     }
+    inset_y
 }

@@ -366,6 +366,17 @@ message_table! {
         }
     }
 
+    /// Messages of the `log` interface (45): recording and replay control.
+    interface Log (LogMsg) = LOG {
+        req LogReq {
+            1 SET_WRITE_STATE SetWriteState(LogSetWriteState),
+            2 SET_READ_STATE SetReadState(LogSetReadState),
+            3 GET_STATE GetState(LogGetState),
+            4 SET_READ_REWIND SetReadRewind,
+            5 SET_FILENAME SetFilename(LogSetFilename),
+        }
+    }
+
     /// Messages of the `blinkenlight` interface (33).
     interface Blinkenlight (BlinkenlightMsg) = BLINKENLIGHT {
         data BlinkenlightData {

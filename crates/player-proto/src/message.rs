@@ -630,7 +630,7 @@ mod tests {
     #[test]
     fn table_is_consistent() {
         let rows = message_rows();
-        // 9 universal rows + every row of the 22 interfaces.
+        // 9 universal rows + every row of the 23 interfaces.
         assert_eq!(rows.iter().filter(|r| r.interface.0 == 0).count(), 9);
         for (i, a) in rows.iter().enumerate() {
             assert!(a.interface.0 == 0 || a.interface.name().is_some());
@@ -652,7 +652,7 @@ mod tests {
         }
         let interfaces: std::collections::BTreeSet<u16> =
             rows.iter().map(|r| r.interface.0).collect();
-        assert_eq!(interfaces.len(), 24, "{interfaces:?}");
+        assert_eq!(interfaces.len(), 25, "{interfaces:?}");
     }
 
     #[test]

@@ -69,7 +69,9 @@ mod tests {
         .unwrap();
         assert_eq!(
             out,
-            [0, 0, 0, 6, 0, 0, 0, 6, b'a', b'.', b'l', b'o', b'g', 0, 0, 0]
+            [
+                0, 0, 0, 6, 0, 0, 0, 6, b'a', b'.', b'l', b'o', b'g', 0, 0, 0
+            ]
         );
         let decoded = LogSetFilename::decode(&mut crate::xdr::Reader::new(&out)).unwrap();
         assert_eq!(decoded.filename.to_str_lossy(), "a.log");
@@ -95,7 +97,11 @@ mod tests {
                     "PLAYER_LOG_REQ_SET_READ_STATE",
                     Some("player_log_set_read_state_t")
                 ),
-                (3, "PLAYER_LOG_REQ_GET_STATE", Some("player_log_get_state_t")),
+                (
+                    3,
+                    "PLAYER_LOG_REQ_GET_STATE",
+                    Some("player_log_get_state_t")
+                ),
                 (4, "PLAYER_LOG_REQ_SET_READ_REWIND", None),
                 (
                     5,

@@ -385,3 +385,46 @@ fn the_log_devices_start_stop_and_rewind() {
     replay.shutdown();
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_rust_log_proxy_drives_recording_and_replay() {
+    use player_client::LogProxy;
+    let dir = std::env::temp_dir().join(format!("log-proxy-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let first = dir.join("first.log");
+    let second = dir.join("second.log");
+    let server = common::serve_cfg(
+        &common::worlds(),
+        "rec.cfg",
+        &record_cfg(&first).replace("alwayson 1", "alwayson 1 autorecord 0"),
+        Pace::RealTime { speedup: 2.0 },
+    );
+    let client = PlayerClient::connect("localhost", server.ports()[0]).unwrap();
+    let log = LogProxy::new(&client, 0).unwrap();
+    let st = log.get_state().unwrap();
+    assert_eq!((st.log_type, st.state), (2, false));
+    log.set_write_state(true).unwrap();
+    assert!(log.get_state().unwrap().state);
+    assert!(
+        log.set_filename(second.to_str().unwrap()).is_err(),
+        "no new file while recording"
+    );
+    log.set_write_state(false).unwrap();
+    log.set_filename(second.to_str().unwrap()).unwrap();
+    log.set_write_state(true).unwrap();
+    std::thread::sleep(Duration::from_millis(500));
+    log.set_write_state(false).unwrap();
+    assert!(log.rewind().is_err(), "writelog refuses a rewind");
+    drop(log);
+    drop(client);
+    server.shutdown();
+    let text = std::fs::read_to_string(&second).unwrap();
+    assert!(
+        text.lines()
+            .filter(|l| l.contains(" position2d 00 001 001 "))
+            .count()
+            >= 3,
+        "{text}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1138,3 +1138,240 @@ where
 {
     Body::from(req)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use player_proto::constants::LOCALHOST_ADDR;
+
+    /// Lines the original Player 3.0.2 `writelog` wrote on Stage's simple.cfg (position2d
+    /// geometry, ranger geometry and config, then position2d state, ranges and intensities).
+    const UPSTREAM_LINES: [&str; 6] = [
+        "0000000000.100 16777343 7001 position2d 00 004 001 -00.040 +00.000 +0.000 +00.440 +00.380",
+        "0000000000.300 16777343 7001 ranger 00 004 005 -0.130900 0.130900 0.261799 0.000000 5.000000 0.020000 10.000000 ",
+        "0000000000.400 16777343 7001 ranger 01 004 001 +00.000 +00.000 +00.000 +00.000 +00.000 +00.000 +00.155 +00.156 +00.000 0001 +00.000 +00.000 +00.100 +00.000 +00.000 +00.000 0001 +00.020 +00.020 +00.020 ",
+        "0000000016.500 16777343 7001 position2d 00 001 001 -02.077 -04.546 -0.065 +00.050 +00.000 -00.500 0",
+        "0000000016.500 16777343 7001 ranger 00 001 001 0016 5.000 1.081 0.828 5.000 5.000 5.000 3.986 3.338 3.364 4.871 5.000 5.000 5.000 1.928 2.864 5.000 ",
+        "0000000016.500 16777343 7001 ranger 00 001 003 0016 0.000 0.500 0.500 0.000 0.000 0.000 0.500 0.500 0.500 0.500 0.000 0.000 0.000 0.500 0.500 0.000 ",
+    ];
+
+    fn round_trip(line: &str) -> String {
+        let Line::Message(h, body) = parse_line(line).unwrap() else {
+            panic!("{line}")
+        };
+        let (text, result) =
+            encode_line(h.time, &h.addr, h.msg_type, &body, WriteOptions::default());
+        result.unwrap();
+        text.trim_end_matches('\n').to_string()
+    }
+
+    #[test]
+    fn upstream_lines_read_and_write_back_byte_for_byte() {
+        for line in UPSTREAM_LINES {
+            assert_eq!(round_trip(line), line);
+        }
+    }
+
+    #[test]
+    fn c_number_formats() {
+        let mut s = String::new();
+        cf(&mut s, -0.04, true, true, 7, 3);
+        s.push('|');
+        cf(&mut s, 12.5, false, true, 14, 3);
+        s.push('|');
+        cf(&mut s, 0.1, true, false, 7, 3);
+        s.push('|');
+        cf(&mut s, f64::INFINITY, true, true, 7, 3);
+        s.push('|');
+        cf(&mut s, f64::NAN, false, false, 0, 3);
+        assert_eq!(s, "-00.040|0000000012.500| +0.100|   +inf|nan");
+    }
+
+    #[test]
+    fn every_format_reads_back_what_it_wrote() {
+        let addr = |i| DeviceAddr::new(LOCALHOST_ADDR, 6665, i, 2);
+        let bodies: Vec<(InterfaceCode, u8, Body)> = vec![
+            (
+                InterfaceCode::LASER,
+                1,
+                LaserData::ScanPose(LaserDataScanpose {
+                    scan: LaserDataScan {
+                        min_angle: -1.5,
+                        max_angle: 1.5,
+                        resolution: 0.25,
+                        max_range: 8.0,
+                        ranges: vec![1.0, 2.0],
+                        intensity: vec![1, 0],
+                        id: 3,
+                    },
+                    pose: Pose2d {
+                        px: 1.0,
+                        py: 2.0,
+                        pa: 0.5,
+                    },
+                })
+                .into(),
+            ),
+            (
+                InterfaceCode::SONAR,
+                1,
+                SonarData::Ranges(SonarDataRanges {
+                    ranges: vec![0.5, 1.25],
+                })
+                .into(),
+            ),
+            (
+                InterfaceCode::LOCALIZE,
+                1,
+                LocalizeData::Hypoths(LocalizeDataHypoths {
+                    pending_count: 2,
+                    pending_time: 1.5,
+                    hypoths: vec![LocalizeHypoth {
+                        mean: Pose2d {
+                            px: 1.0,
+                            py: -1.0,
+                            pa: 0.25,
+                        },
+                        cov: [0.5, 0.25, 0.125],
+                        alpha: 0.75,
+                    }],
+                })
+                .into(),
+            ),
+            (
+                InterfaceCode::BLOBFINDER,
+                1,
+                BlobfinderData::Blobs(BlobfinderDataBlobs {
+                    width: 80,
+                    height: 60,
+                    blobs: vec![BlobfinderBlob {
+                        id: 1,
+                        color: 0xff0000,
+                        area: 12,
+                        x: 3,
+                        y: 4,
+                        left: 1,
+                        right: 5,
+                        top: 2,
+                        bottom: 6,
+                        range: 2.5,
+                    }],
+                })
+                .into(),
+            ),
+            (
+                InterfaceCode::FIDUCIAL,
+                1,
+                FiducialData::Scan(FiducialDataScan {
+                    fiducials: vec![FiducialItem {
+                        id: 7,
+                        pose: Pose3d {
+                            px: 1.0,
+                            py: 0.5,
+                            pyaw: 0.25,
+                            ..Default::default()
+                        },
+                        upose: Pose3d::default(),
+                    }],
+                })
+                .into(),
+            ),
+            (
+                InterfaceCode::CAMERA,
+                1,
+                CameraData::State(CameraDataState {
+                    width: 2,
+                    height: 1,
+                    bpp: 24,
+                    format: 5,
+                    fdiv: 0,
+                    compression: 0,
+                    image: vec![0, 0x7f, 0xff, 1, 2, 0xab],
+                })
+                .into(),
+            ),
+            (
+                InterfaceCode::RANGER,
+                1,
+                RangerData::RangeStamped(RangerDataRangestamped {
+                    data: RangerDataRange {
+                        ranges: vec![1.0, 2.0],
+                    },
+                    have_geom: 1,
+                    geom: RangerGeom {
+                        element_poses: vec![Pose3d::default()],
+                        element_sizes: vec![Bbox3d {
+                            sw: 0.5,
+                            sl: 0.25,
+                            sh: 0.0,
+                        }],
+                        ..Default::default()
+                    },
+                    have_config: 1,
+                    config: RangerConfig {
+                        max_range: 5.0,
+                        frequency: 10.0,
+                        ..Default::default()
+                    },
+                })
+                .into(),
+            ),
+            (
+                InterfaceCode::ACTARRAY,
+                1,
+                ActarrayData::State(ActarrayDataState {
+                    actuators: vec![ActarrayActuator {
+                        position: 0.5,
+                        speed: 0.25,
+                        acceleration: 0.0,
+                        current: 1.5,
+                        state: 2,
+                    }],
+                    motor_state: 1,
+                })
+                .into(),
+            ),
+        ];
+        for (interf, msg_type, body) in bodies {
+            let (line, result) =
+                encode_line(4.5, &addr(interf), msg_type, &body, WriteOptions::default());
+            result.unwrap();
+            let Line::Message(h, back) = parse_line(&line).unwrap() else {
+                panic!()
+            };
+            assert_eq!(
+                (h.time, h.addr, h.subtype),
+                (4.5, addr(interf), body.subtype())
+            );
+            assert_eq!(back, body, "{line}");
+        }
+        // A camera line without image bytes (camera_log_images 0) is incomplete to a reader.
+        let cam = CameraData::State(CameraDataState {
+            image: vec![1, 2],
+            ..Default::default()
+        });
+        let (line, _) = encode_line(
+            0.0,
+            &addr(InterfaceCode::CAMERA),
+            1,
+            &cam.into(),
+            WriteOptions {
+                camera_images: false,
+            },
+        );
+        assert!(
+            matches!(parse_line(&line), Err(LineError::Incomplete { .. })),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn messages_without_a_format_are_written_as_bare_headers() {
+        let addr = DeviceAddr::new(LOCALHOST_ADDR, 6665, InterfaceCode::GRIPPER, 0);
+        let body: Body = player_proto::GripperData::State(Default::default()).into();
+        let (line, result) = encode_line(1.0, &addr, 1, &body, WriteOptions::default());
+        assert_eq!(line, "0000000001.000 16777343 6665 gripper 00 001 001 \n");
+        assert!(result.is_err());
+        assert!(matches!(parse_line(&line), Err(LineError::NoFormat { .. })));
+    }
+}

@@ -165,6 +165,14 @@ impl Shared {
     }
 }
 
+/// What `player --fast` does to a cfg's `readlog` blocks: replay without waiting between
+/// messages (speed infinite), in recorded order.
+pub fn replay_fast(blocks: &mut [DriverBlock]) {
+    for b in blocks.iter_mut().filter(|b| b.name == NAME) {
+        b.options.insert("speed".into(), vec!["inf".into()]);
+    }
+}
+
 /// The driver. See the module docs.
 pub struct ReadLog {
     path: PathBuf,

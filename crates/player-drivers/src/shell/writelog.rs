@@ -111,6 +111,60 @@ pub fn timestamp_text(secs: u64) -> String {
     )
 }
 
+/// The `writelog` block `player --record FILE` adds to a cfg: recording, from the start,
+/// every device the other blocks provide whose interface has a log format (see
+/// [`logformat::has_format`]), to `file`, with a log device of its own on `port` (the
+/// first free `log` index). `None` when nothing can be recorded.
+pub fn recording_block(blocks: &[DriverBlock], file: &Path, port: u16) -> Option<DriverBlock> {
+    let provided: Vec<&player_server::ProvidedDevice> =
+        blocks.iter().flat_map(|b| b.provides.iter()).collect();
+    let requires: Vec<player_server::RequiredDevice> = provided
+        .iter()
+        .filter(|p| logformat::has_format(p.addr.interf))
+        .map(|p| player_server::RequiredDevice {
+            addr: p.addr,
+            key: None,
+            origin: p.origin.clone(),
+        })
+        .collect();
+    if requires.is_empty() {
+        return None;
+    }
+    let index = (0..=u16::MAX)
+        .find(|i| {
+            !provided.iter().any(|p| {
+                p.addr.interf == InterfaceCode::LOG
+                    && p.addr.index == *i
+                    && p.addr.robot == u32::from(port)
+            })
+        })
+        .unwrap_or(0);
+    let origin = "--record".to_string();
+    Some(DriverBlock {
+        name: NAME.into(),
+        origin: origin.clone(),
+        cfg_path: None,
+        provides: vec![player_server::ProvidedDevice {
+            addr: DeviceAddr::new(
+                player_proto::constants::LOCALHOST_ADDR,
+                u32::from(port),
+                InterfaceCode::LOG,
+                index,
+            ),
+            key: None,
+            origin,
+        }],
+        requires,
+        alwayson: Some(true),
+        options: [
+            ("filename".to_string(), vec![file.display().to_string()]),
+            ("autorecord".to_string(), vec!["1".to_string()]),
+        ]
+        .into_iter()
+        .collect(),
+    })
+}
+
 /// The driver. See the module docs.
 pub struct WriteLog {
     log_addr: DeviceAddr,
@@ -451,6 +505,36 @@ mod tests {
 
     fn log0() -> DeviceAddr {
         addr(InterfaceCode::LOG, 0)
+    }
+
+    #[test]
+    fn record_flag_block_records_every_loggable_device() {
+        let stage = block(
+            "stage",
+            &[
+                addr(InterfaceCode::SIMULATION, 0),
+                addr(InterfaceCode::POSITION2D, 0),
+                addr(InterfaceCode::RANGER, 1),
+                addr(InterfaceCode::LOG, 0),
+            ],
+            &[],
+            &[],
+        );
+        let b = recording_block(&[stage], Path::new("/tmp/r.log"), 6665).unwrap();
+        let req: Vec<_> = b.requires.iter().map(|r| r.addr).collect();
+        assert_eq!(
+            req,
+            vec![
+                addr(InterfaceCode::POSITION2D, 0),
+                addr(InterfaceCode::RANGER, 1)
+            ]
+        );
+        assert_eq!(b.provides[0].addr, addr(InterfaceCode::LOG, 1));
+        assert_eq!(b.option("filename"), Some("/tmp/r.log"));
+        assert_eq!(b.alwayson, Some(true));
+        assert!(WriteLog::from_block(&b).unwrap().enabled());
+        let sim = block("stage", &[addr(InterfaceCode::SIMULATION, 0)], &[], &[]);
+        assert!(recording_block(&[sim], Path::new("x.log"), 6665).is_none());
     }
 
     #[test]

@@ -428,3 +428,87 @@ fn the_rust_log_proxy_drives_recording_and_replay() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// libplayerc's own log proxy (`examples/c/log_control.c`, built with its Makefile) drives a
+/// writelog and then a readlog device of our server. Skipped, with a message, when
+/// `pkg-config` finds no `playerc`.
+#[test]
+fn libplayerc_log_proxy_drives_recording_and_replay() {
+    use std::process::Command;
+    let found = Command::new("pkg-config")
+        .args(["--exists", "playerc"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !found {
+        eprintln!(
+            "SKIP: pkg-config finds no playerc (set PKG_CONFIG_PATH to a Player 3.0.2 client \
+             install to run the libplayerc log proxy test)"
+        );
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("log-libplayerc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/c");
+    let status = Command::new("make")
+        .arg("-s")
+        .arg("-C")
+        .arg(&examples)
+        .arg(format!("OUT={}", dir.display()))
+        .status()
+        .expect("running make");
+    assert!(status.success(), "building examples/c");
+    let program = dir.join("log_control");
+    let run = |port: u16, args: &[&str]| {
+        let out = Command::new(&program)
+            .arg("localhost")
+            .arg(port.to_string())
+            .args(args)
+            .output()
+            .unwrap();
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            out.status.success() && text.contains("log_control: ok"),
+            "{text}"
+        );
+        text
+    };
+
+    let first = dir.join("first.log");
+    let second = dir.join("second.log");
+    let server = common::serve_cfg(
+        &common::worlds(),
+        "rec.cfg",
+        &record_cfg(&first).replace("alwayson 1", "alwayson 1 autorecord 0"),
+        Pace::RealTime { speedup: 2.0 },
+    );
+    let port = server.ports()[0];
+    run(port, &["write", second.to_str().unwrap()]);
+    server.shutdown();
+    let text = std::fs::read_to_string(&second).unwrap();
+    assert!(
+        text.lines()
+            .filter(|l| l.contains(" position2d 00 001 001 "))
+            .count()
+            >= 3,
+        "{text}"
+    );
+
+    let replay_cfg = format!(
+        r#"driver( name "readlog" filename "{}" autorewind 1 provides ["{port}:position2d:0" "{port}:log:0"] )"#,
+        second.display()
+    );
+    let replay = common::serve_cfg(
+        &dir,
+        "replay.cfg",
+        &replay_cfg,
+        Pace::RealTime { speedup: 1.0 },
+    );
+    let out = run(port, &["read"]);
+    assert!(out.contains("replayed pose"), "{out}");
+    replay.shutdown();
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -8,7 +8,8 @@
 //! `extension` (`.log`)), `log_directory` (`.`, created if missing) and `timestamp_directory`
 //! (0), `autorecord` (1: record from the start; upstream's code default, its documentation
 //! says 0), `camera_log_images` (1), `camera_save_images` (0: each camera frame also saved as
-//! `<stem>_camera_II_NNNNNN.pnm`). Usually `alwayson 1`.
+//! `<stem>_camera_II_NNNNNN.pnm`), `write_particles` (0: after each localize DATA, its
+//! GET_PARTICLES reply too). Usually `alwayson 1`.
 //!
 //! When the file opens (first subscription, or SET_FILENAME) the header is written and the
 //! geometry of each laser, sonar, ranger (and its config) and position2d device is requested
@@ -31,8 +32,8 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use flate2::Compression;
 use flate2::write::GzEncoder;
 use player_proto::{
-    Body, CameraData, CameraMsg, DeviceAddr, InterfaceCode, LaserReq, LogGetState, LogMsg, LogReq,
-    Message, MsgType, PLAYER_LOG_TYPE_WRITE, Position2dReq, RangerReq, SonarReq,
+    Body, CameraData, CameraMsg, DeviceAddr, InterfaceCode, LaserReq, LocalizeReq, LogGetState,
+    LogMsg, LogReq, Message, MsgType, PLAYER_LOG_TYPE_WRITE, Position2dReq, RangerReq, SonarReq,
 };
 use player_server::{
     Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply, RequestError, RequestTicket,
@@ -180,6 +181,9 @@ pub struct WriteLog {
     sink: Option<Sink>,
     /// Geometry requests not answered yet, and the device each asked.
     geometry_pending: HashMap<RequestTicket, DeviceAddr>,
+    /// Particle requests (`write_particles`) not answered yet, and the device each asked.
+    particles_pending: HashMap<RequestTicket, DeviceAddr>,
+    write_particles: bool,
     /// Data lines written while geometry requests are pending, in arrival order.
     held: Vec<String>,
     warned: BTreeSet<(u16, u8, u8)>,
@@ -261,6 +265,8 @@ impl WriteLog {
             camera_frames: HashMap::new(),
             sink: None,
             geometry_pending: HashMap::new(),
+            particles_pending: HashMap::new(),
+            write_particles: flag("write_particles", 0)?,
             held: Vec::new(),
             warned: BTreeSet::new(),
             lines_written: 0,
@@ -451,6 +457,19 @@ impl Driver for WriteLog {
         ticket: RequestTicket,
         reply: Result<Message, RequestError>,
     ) {
+        if let Some(device) = self.particles_pending.remove(&ticket) {
+            match reply {
+                Ok(msg) => self.record(
+                    &device,
+                    MsgType::RespAck.code(),
+                    &msg.body,
+                    msg.header.timestamp,
+                    true,
+                ),
+                Err(e) => tracing::warn!("{NAME}: unable to get the particles of {device}: {e}"),
+            }
+            return;
+        }
         let Some(device) = self.geometry_pending.remove(&ticket) else {
             return;
         };
@@ -469,7 +488,7 @@ impl Driver for WriteLog {
         }
     }
 
-    fn handle_data(&mut self, _ctx: &mut Context<'_>, data: &Message) {
+    fn handle_data(&mut self, ctx: &mut Context<'_>, data: &Message) {
         if !self.enabled || self.sink.is_none() {
             return;
         }
@@ -490,6 +509,11 @@ impl Driver for WriteLog {
         );
         if self.camera_save_images && device.interf == InterfaceCode::CAMERA {
             self.save_camera_image(&device, &data.body);
+        }
+        // Upstream's write_particles: after each localize DATA, its particle set.
+        if self.write_particles && device.interf == InterfaceCode::LOCALIZE {
+            let ticket = ctx.request(device, LocalizeReq::GetParticles(None));
+            self.particles_pending.insert(ticket, device);
         }
     }
 }
@@ -535,6 +559,50 @@ mod tests {
         assert!(WriteLog::from_block(&b).unwrap().enabled());
         let sim = block("stage", &[addr(InterfaceCode::SIMULATION, 0)], &[], &[]);
         assert!(recording_block(&[sim], Path::new("x.log"), 6665).is_none());
+    }
+
+    #[test]
+    fn write_particles_asks_for_the_particle_set_after_each_hypothesis() {
+        let dir = std::env::temp_dir().join(format!("writelog-amcl-{}", std::process::id()));
+        let loc = addr(InterfaceCode::LOCALIZE, 0);
+        let b = block(
+            NAME,
+            &[log0()],
+            &[loc],
+            &[
+                ("log_directory", dir.to_str().unwrap()),
+                ("filename", "p.log"),
+                ("write_particles", "1"),
+            ],
+        );
+        let mut h = Harness::new(WriteLog::from_block(&b).unwrap());
+        assert!(h.setup().requests().is_empty(), "no geometry for localize");
+        let out = h.data(
+            loc,
+            player_proto::LocalizeData::Hypoths(Default::default()),
+            2.0,
+        );
+        let reqs = out.requests();
+        assert_eq!(reqs.len(), 1);
+        assert_eq!(reqs[0].2, LocalizeReq::GetParticles(None).into());
+        h.ack(
+            reqs[0].0,
+            loc,
+            LocalizeReq::GetParticles(Some(player_proto::LocalizeGetParticles {
+                particles: vec![Default::default()],
+                ..Default::default()
+            })),
+        );
+        let text = std::fs::read_to_string(dir.join("p.log")).unwrap();
+        let lines: Vec<&str> = text.lines().filter(|l| !l.starts_with("##")).collect();
+        assert_eq!(
+            lines,
+            vec![
+                "0000000002.000 16777343 6665 localize 00 001 001          0 +00.000  0 ",
+                "0000000001.000 16777343 6665 localize 00 004 002  +0.000  +0.000   0.000   0.000          1  +0.000  +0.000   0.000   0.000 ",
+            ]
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

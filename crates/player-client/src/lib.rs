@@ -29,6 +29,6 @@ pub use client::{DEFAULT_PORT, DEFAULT_REQUEST_TIMEOUT, DataMode, DeviceInfo, Pl
 pub use error::ClientError;
 pub use proxy::{
     ActArrayProxy, BlobfinderProxy, CameraProxy, ClientProxy, FiducialProxy, Graphics2dProxy,
-    GripperProxy, LaserProxy, LocalizeProxy, MapProxy, OccupancyMap, PlannerProxy, Position2dProxy,
-    RangerProxy, SimulationProxy, SonarProxy, SpeechProxy,
+    GripperProxy, LaserProxy, LocalizeProxy, LogProxy, LogState, MapProxy, OccupancyMap,
+    PlannerProxy, Position2dProxy, RangerProxy, SimulationProxy, SonarProxy, SpeechProxy,
 };

@@ -1068,3 +1068,68 @@ mod tests {
         assert_eq!(m.cell(0, 2), None);
     }
 }
+
+proxy!(
+    /// A log device (`log`) of `writelog` (recording) or `readlog` (replay), as libplayerc's
+    /// `playerc_log_t` and `playervcr` drive it: start and stop, rewind a replay, and name the
+    /// file a recording goes to.
+    LogProxy,
+    LOG
+);
+
+/// What a log device is and does, from [`LogProxy::get_state`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LogState {
+    /// `PLAYER_LOG_TYPE_READ` (1, readlog) or `PLAYER_LOG_TYPE_WRITE` (2, writelog).
+    pub log_type: u8,
+    /// Whether it is recording or replaying.
+    pub state: bool,
+}
+
+impl LogProxy {
+    /// Starts (`true`) or stops recording (`playerc_log_set_write_state`).
+    pub fn set_write_state(&self, state: bool) -> Result<(), ClientError> {
+        self.request(LogReq::SetWriteState(Some(LogSetWriteState {
+            state: u8::from(state),
+        })))?;
+        Ok(())
+    }
+
+    /// Starts (`true`) or pauses replay (`playerc_log_set_read_state`).
+    pub fn set_read_state(&self, state: bool) -> Result<(), ClientError> {
+        self.request(LogReq::SetReadState(Some(LogSetReadState {
+            state: u8::from(state),
+        })))?;
+        Ok(())
+    }
+
+    /// The device's kind and whether it runs (`playerc_log_get_state`).
+    pub fn get_state(&self) -> Result<LogState, ClientError> {
+        let reply = self.request(LogReq::GetState(None))?;
+        ack_body!(self, reply,
+            Body::Log(LogMsg::Ack(LogReq::GetState(Some(s)))) => LogState {
+                log_type: s.log_type,
+                state: s.state != 0,
+            },
+            "log GET_STATE")
+    }
+
+    /// Rewinds a replay to the start of its file (`playerc_log_set_read_rewind`); whether it
+    /// plays is unchanged.
+    pub fn rewind(&self) -> Result<(), ClientError> {
+        self.request(LogReq::SetReadRewind)?;
+        Ok(())
+    }
+
+    /// Records to `filename` from now on (`playerc_log_set_filename`); the device refuses
+    /// while recording. The name is counted without a NUL, as libplayerc sends it.
+    pub fn set_filename(&self, filename: &str) -> Result<(), ClientError> {
+        if filename.len() >= PLAYER_LOG_FILENAME_MAX {
+            return Err(self.bad_reply("log SET_FILENAME: file name longer than 255 bytes"));
+        }
+        self.request(LogReq::SetFilename(Some(LogSetFilename {
+            filename: Text::from_bytes(filename.as_bytes().to_vec()),
+        })))?;
+        Ok(())
+    }
+}

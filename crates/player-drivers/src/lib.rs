@@ -12,8 +12,9 @@
 //!   resolution) and `mapcspace` (the configuration space of a round robot);
 //! * [`planner`] — `wavefront`: global path planning over a map, driving a position2d
 //!   device waypoint by waypoint;
-//! * [`shell`] — `passthrough` (devices served under another address, local or remote) and
-//!   `relay` (clients' opaque messages echoed to every subscriber);
+//! * [`shell`] — `passthrough` (devices served under another address, local or remote),
+//!   `relay` (clients' opaque messages echoed to every subscriber), and `writelog` /
+//!   `readlog` (runs recorded to and replayed from Player's text log format);
 //! * [`localization`] — `amcl`: adaptive Monte-Carlo localisation against a map, from
 //!   odometry and laser or sonar ranges.
 //!
@@ -47,6 +48,8 @@ pub fn register_all(registry: &mut DriverRegistry) {
     ranger::sonartoranger::register(registry);
     shell::passthrough::register(registry);
     shell::relay::register(registry);
+    shell::writelog::register(registry);
+    shell::readlog::register(registry);
     laser::laserposeinterpolator::register(registry);
     map::mapfile::register(registry);
     map::transform::register(registry);

@@ -366,6 +366,17 @@ message_table! {
         }
     }
 
+    /// Messages of the `log` interface (45): recording and replay control.
+    interface Log (LogMsg) = LOG {
+        req LogReq {
+            1 SET_WRITE_STATE SetWriteState(LogSetWriteState),
+            2 SET_READ_STATE SetReadState(LogSetReadState),
+            3 GET_STATE GetState(LogGetState),
+            4 SET_READ_REWIND SetReadRewind,
+            5 SET_FILENAME SetFilename(LogSetFilename),
+        }
+    }
+
     /// Messages of the `blinkenlight` interface (33).
     interface Blinkenlight (BlinkenlightMsg) = BLINKENLIGHT {
         data BlinkenlightData {
@@ -619,7 +630,7 @@ mod tests {
     #[test]
     fn table_is_consistent() {
         let rows = message_rows();
-        // 9 universal rows + every row of the 22 interfaces.
+        // 9 universal rows + every row of the 23 interfaces.
         assert_eq!(rows.iter().filter(|r| r.interface.0 == 0).count(), 9);
         for (i, a) in rows.iter().enumerate() {
             assert!(a.interface.0 == 0 || a.interface.name().is_some());
@@ -641,7 +652,7 @@ mod tests {
         }
         let interfaces: std::collections::BTreeSet<u16> =
             rows.iter().map(|r| r.interface.0).collect();
-        assert_eq!(interfaces.len(), 24, "{interfaces:?}");
+        assert_eq!(interfaces.len(), 25, "{interfaces:?}");
     }
 
     #[test]

@@ -242,59 +242,89 @@ fn table_matches_the_readme() {
     // it: libplayerinterface/interfaces/051_opaque.def (DATA STATE, CMD DATA and REQ DATA, all
     // carrying player_opaque_data_t) and 044_planner.def (DATA STATE player_planner_data_t, CMD
     // GOAL player_planner_cmd_t, REQ GET_WAYPOINTS player_planner_waypoints_req_t, REQ ENABLE
-    // player_planner_enable_req_t).
+    // player_planner_enable_req_t), and 045_log.def (REQ SET_WRITE_STATE, SET_READ_STATE,
+    // GET_STATE, SET_READ_REWIND without a body, SET_FILENAME).
     let beyond_the_readme = [
         (
             51,
             MsgType::Data,
             1,
             "PLAYER_OPAQUE_DATA_STATE",
-            "player_opaque_data_t",
+            Some("player_opaque_data_t"),
         ),
         (
             51,
             MsgType::Cmd,
             1,
             "PLAYER_OPAQUE_CMD_DATA",
-            "player_opaque_data_t",
+            Some("player_opaque_data_t"),
         ),
         (
             51,
             MsgType::Req,
             1,
             "PLAYER_OPAQUE_REQ_DATA",
-            "player_opaque_data_t",
+            Some("player_opaque_data_t"),
         ),
         (
             44,
             MsgType::Data,
             1,
             "PLAYER_PLANNER_DATA_STATE",
-            "player_planner_data_t",
+            Some("player_planner_data_t"),
         ),
         (
             44,
             MsgType::Cmd,
             1,
             "PLAYER_PLANNER_CMD_GOAL",
-            "player_planner_cmd_t",
+            Some("player_planner_cmd_t"),
         ),
         (
             44,
             MsgType::Req,
             1,
             "PLAYER_PLANNER_REQ_GET_WAYPOINTS",
-            "player_planner_waypoints_req_t",
+            Some("player_planner_waypoints_req_t"),
         ),
         (
             44,
             MsgType::Req,
             2,
             "PLAYER_PLANNER_REQ_ENABLE",
-            "player_planner_enable_req_t",
+            Some("player_planner_enable_req_t"),
+        ),
+        (
+            45,
+            MsgType::Req,
+            1,
+            "PLAYER_LOG_REQ_SET_WRITE_STATE",
+            Some("player_log_set_write_state_t"),
+        ),
+        (
+            45,
+            MsgType::Req,
+            2,
+            "PLAYER_LOG_REQ_SET_READ_STATE",
+            Some("player_log_set_read_state_t"),
+        ),
+        (
+            45,
+            MsgType::Req,
+            3,
+            "PLAYER_LOG_REQ_GET_STATE",
+            Some("player_log_get_state_t"),
+        ),
+        (45, MsgType::Req, 4, "PLAYER_LOG_REQ_SET_READ_REWIND", None),
+        (
+            45,
+            MsgType::Req,
+            5,
+            "PLAYER_LOG_REQ_SET_FILENAME",
+            Some("player_log_set_filename_t"),
         ),
     ];
-    for code in [51, 44] {
+    for code in [51, 44, 45] {
         assert!(
             !listed.iter().any(|r| r.0 == code),
             "the README now lists interface {code}: drop it from beyond_the_readme"
@@ -306,7 +336,7 @@ fn table_matches_the_readme() {
             t.code(),
             sub,
             constant.to_owned(),
-            Some(body.to_owned()),
+            body.map(str::to_owned),
         ));
     }
     println!(

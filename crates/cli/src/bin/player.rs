@@ -45,9 +45,15 @@ struct Args {
     /// Append log messages to this file instead of printing them.
     #[arg(short = 'l', long = "logfile")]
     logfile: Option<PathBuf>,
-    /// Step drivers (the simulation) as fast as they compute instead of in real time.
+    /// Step drivers (the simulation) as fast as they compute instead of in real time, and
+    /// replay `readlog` logs without waiting between messages.
     #[arg(long, conflicts_with = "speedup")]
     fast: bool,
+    /// Record every device the cfg provides (that Player's log format covers) to this log
+    /// file, as a `writelog` block would, without editing the cfg (an addition to Player's
+    /// flags). A name ending in `.gz` is written gzip-compressed.
+    #[arg(long, value_name = "FILE")]
+    record: Option<PathBuf>,
     /// Run the simulation this many times faster than real time.
     #[arg(long, value_name = "FACTOR")]
     speedup: Option<f64>,
@@ -204,8 +210,24 @@ fn serve(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
         ..ServerConfig::default()
     });
     let (mut registry, stage_handle) = registry(args);
-    let blocks = player_server::cfg::driver_blocks(&cfg, args.port)
+    let mut blocks = player_server::cfg::driver_blocks(&cfg, args.port)
         .map_err(|e| anyhow::anyhow!("failed to parse config file {cfgname} driver blocks: {e}"))?;
+    if args.fast {
+        player_drivers::shell::readlog::replay_fast(&mut blocks);
+    }
+    if let Some(file) = &args.record {
+        match player_drivers::shell::writelog::recording_block(&blocks, file, args.port) {
+            Some(block) => {
+                println!(
+                    "Recording {} devices to {}",
+                    block.requires.len(),
+                    file.display()
+                );
+                blocks.push(block);
+            }
+            None => bail!("--record: {cfgname} provides no device Player's log format covers"),
+        }
+    }
     for block in &blocks {
         server.add_block(block, &mut registry).map_err(|e| {
             anyhow::anyhow!("failed to parse config file {cfgname} driver blocks: {e}")

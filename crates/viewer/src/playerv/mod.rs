@@ -349,6 +349,25 @@ impl PlayervApp {
         ui.separator();
         for (key, s) in &st.subscribed {
             ui.label(format!("{key}: {}", describe(&s.data)));
+            // playervcr's buttons for a log device
+            if let state::DeviceData::Log { reading, active } = s.data {
+                ui.horizontal(|ui| {
+                    let (start, stop) = if reading {
+                        ("Play", "Pause")
+                    } else {
+                        ("Record", "Stop")
+                    };
+                    if ui.add_enabled(!active, egui::Button::new(start)).clicked() {
+                        self.worker().send(Request::LogActive(*key, true));
+                    }
+                    if ui.add_enabled(active, egui::Button::new(stop)).clicked() {
+                        self.worker().send(Request::LogActive(*key, false));
+                    }
+                    if reading && ui.button("Rewind").clicked() {
+                        self.worker().send(Request::LogRewind(*key));
+                    }
+                });
+            }
         }
         ui.separator();
         egui::ScrollArea::vertical().show(ui, |ui| {
@@ -511,6 +530,12 @@ fn describe(d: &state::DeviceData) -> String {
                 }
             ),
             None => "no hypotheses yet".into(),
+        },
+        Log { reading, active } => match (reading, active) {
+            (true, true) => "replaying".into(),
+            (true, false) => "replay paused".into(),
+            (false, true) => "recording".into(),
+            (false, false) => "not recording".into(),
         },
         Other => "no data drawn".into(),
     }

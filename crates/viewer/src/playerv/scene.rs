@@ -445,7 +445,7 @@ fn draw_devices(
                 hypotheses,
                 particles,
             } => draw_localize(&key.to_string(), hypotheses, particles, px, scene),
-            DeviceData::Map(_) | DeviceData::Other => {}
+            DeviceData::Map(_) | DeviceData::Log { .. } | DeviceData::Other => {}
         }
     }
     if let Some((mode, t)) = target {

@@ -131,6 +131,14 @@ pub enum DeviceData {
         /// Particles (map frame) with their weights; empty unless particles are shown.
         particles: Vec<(Pose2, f64)>,
     },
+    /// A log device (writelog or readlog): whether it records or replays, and whether it is
+    /// doing so now (GET_STATE, polled about once a second: the log interface has no data).
+    Log {
+        /// `true` for a replay (readlog), `false` for a recording (writelog).
+        reading: bool,
+        /// Recording or replaying now.
+        active: bool,
+    },
     /// A device subscribed to but not drawn (or no data yet).
     Other,
 }

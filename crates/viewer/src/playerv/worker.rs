@@ -10,8 +10,8 @@ use std::time::{Duration, Instant};
 
 use player_client::{
     BlobfinderProxy, CameraProxy, ClientError, ClientProxy, DataMode, FiducialProxy, GripperProxy,
-    LaserProxy, LocalizeProxy, MapProxy, PlannerProxy, PlayerClient, Position2dProxy, RangerProxy,
-    SonarProxy,
+    LaserProxy, LocalizeProxy, LogProxy, LogState, MapProxy, PlannerProxy, PlayerClient,
+    Position2dProxy, RangerProxy, SonarProxy,
 };
 use player_proto::{
     FiducialGeom, GripperGeom, InterfaceCode, LaserGeom, Pose3d, RangerConfig, RangerGeom,
@@ -56,6 +56,11 @@ pub enum Request {
     PlannerEnable(DeviceKey, bool),
     /// Fetch localize devices' particles (or stop fetching them).
     ShowParticles(bool),
+    /// Start (`true`) or stop a log device: recording for writelog, replay for readlog
+    /// (playervcr's buttons).
+    LogActive(DeviceKey, bool),
+    /// Rewind a readlog to the start of its file.
+    LogRewind(DeviceKey),
     /// End the thread.
     Quit,
 }
@@ -97,6 +102,8 @@ enum Proxy {
     Planner(PlannerProxy, Vec<[f64; 2]>, Option<PlanKey>),
     /// The localiser and its last fetched particles, and when.
     Localize(LocalizeProxy, Vec<(Pose2, f64)>, Option<Instant>),
+    /// A log device, its last state and when it was asked.
+    Log(LogProxy, Option<LogState>, Option<Instant>),
     Other(ClientProxy),
 }
 
@@ -121,6 +128,7 @@ impl Proxy {
             Proxy::Map(p, _) => p.driver_name(),
             Proxy::Planner(p, ..) => p.driver_name(),
             Proxy::Localize(p, ..) => p.driver_name(),
+            Proxy::Log(p, ..) => p.driver_name(),
             Proxy::Other(p) => p.driver_name(),
         }
     }
@@ -138,6 +146,7 @@ impl Proxy {
             Proxy::Map(p, _) => p.datatime(),
             Proxy::Planner(p, ..) => p.datatime(),
             Proxy::Localize(p, ..) => p.datatime(),
+            Proxy::Log(p, ..) => p.datatime(),
             Proxy::Other(p) => p.datatime(),
         }
     }
@@ -203,6 +212,7 @@ fn subscribe(client: &PlayerClient, key: DeviceKey) -> Result<Proxy, ClientError
         InterfaceCode::LOCALIZE => {
             Proxy::Localize(LocalizeProxy::new(client, i)?, Vec::new(), None)
         }
+        InterfaceCode::LOG => Proxy::Log(LogProxy::new(client, i)?, None, None),
         other => Proxy::Other(ClientProxy::subscribe(client, other, i)?),
     })
 }
@@ -325,6 +335,12 @@ fn refresh(p: &mut Proxy, particles: bool) -> Result<(), ClientError> {
                     .map(|q| (pose_of(&q.pose), q.alpha))
                     .collect();
                 *fetched = Some(Instant::now());
+            }
+        }
+        Proxy::Log(p, state, asked) => {
+            if asked.is_none_or(|t| t.elapsed() >= PARTICLE_PERIOD) {
+                *asked = Some(Instant::now());
+                *state = Some(p.get_state()?);
             }
         }
         _ => {}
@@ -470,6 +486,13 @@ fn snapshot(p: &Proxy) -> DeviceData {
                 particles: particles.clone(),
             }
         }
+        Proxy::Log(_, state, _) => match state {
+            Some(s) => DeviceData::Log {
+                reading: s.log_type == player_proto::PLAYER_LOG_TYPE_READ,
+                active: s.state,
+            },
+            None => DeviceData::Other,
+        },
         Proxy::Other(_) => DeviceData::Other,
     }
 }
@@ -736,6 +759,28 @@ fn handle(
             }
         }
         Request::ShowParticles(on) => lock(st).particles = on,
+        Request::LogActive(device, on) => {
+            if let Some(Proxy::Log(p, state, asked)) =
+                session.as_mut().and_then(|s| s.proxies.get_mut(&device))
+            {
+                match state {
+                    Some(s) if s.log_type == player_proto::PLAYER_LOG_TYPE_READ => {
+                        p.set_read_state(on)?
+                    }
+                    _ => p.set_write_state(on)?,
+                }
+                // ask again at once, so the buttons show what the device now does
+                *asked = None;
+            }
+        }
+        Request::LogRewind(device) => {
+            if let Some(Proxy::Log(p, _, asked)) =
+                session.as_mut().and_then(|s| s.proxies.get_mut(&device))
+            {
+                p.rewind()?;
+                *asked = None;
+            }
+        }
         Request::Quit => {}
     }
     Ok(())

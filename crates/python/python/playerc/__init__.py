@@ -422,6 +422,14 @@ class playerc_position2d(_device):
         self.pose = [0.0, 0.0, 0.0]
         self.size = [0.0, 0.0]
 
+    def _apply(self, fields):
+        fields = dict(fields)
+        pose, size = fields.pop("pose", None), fields.pop("size", None)
+        self.__dict__.update(fields)
+        if pose is not None:  # a GEOM data message: libplayerc's [x, y, yaw] and [l, w]
+            self.pose = [pose[0], pose[1], pose[5]]
+            self.size = [size[1], size[0]]
+
     def enable(self, enable):
         return self._call(self._conn().position2d_enable, self.index, bool(enable))
 

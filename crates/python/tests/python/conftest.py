@@ -18,6 +18,10 @@ from pathlib import Path
 
 import pytest
 
+# The SWIG-style scripts are programs run by test_swig_scripts.py, not test modules (their
+# `test_position2d(client, index)` functions would look like tests to pytest).
+collect_ignore = ["swig_scripts"]
+
 REPO = Path(__file__).resolve().parents[4]
 WORLDS = REPO / "worlds"
 BITMAPS = REPO / "bitmaps"

@@ -90,9 +90,21 @@ PLAYER_CAMERA_COMPRESS_RAW = 0
 PLAYER_CAMERA_COMPRESS_JPEG = 1
 
 # Interface codes, from the native module (the workspace's one table of them).
-for _name in dir(_native):
-    if _name.startswith("PLAYER_") and _name.endswith("_CODE"):
-        globals()[_name] = getattr(_native, _name)
+PLAYER_PLAYER_CODE = _native.PLAYER_PLAYER_CODE
+PLAYER_POSITION2D_CODE = _native.PLAYER_POSITION2D_CODE
+PLAYER_RANGER_CODE = _native.PLAYER_RANGER_CODE
+PLAYER_LASER_CODE = _native.PLAYER_LASER_CODE
+PLAYER_SONAR_CODE = _native.PLAYER_SONAR_CODE
+PLAYER_BLOBFINDER_CODE = _native.PLAYER_BLOBFINDER_CODE
+PLAYER_FIDUCIAL_CODE = _native.PLAYER_FIDUCIAL_CODE
+PLAYER_GRIPPER_CODE = _native.PLAYER_GRIPPER_CODE
+PLAYER_SIMULATION_CODE = _native.PLAYER_SIMULATION_CODE
+PLAYER_SPEECH_CODE = _native.PLAYER_SPEECH_CODE
+PLAYER_GRAPHICS2D_CODE = _native.PLAYER_GRAPHICS2D_CODE
+PLAYER_CAMERA_CODE = _native.PLAYER_CAMERA_CODE
+PLAYER_MAP_CODE = _native.PLAYER_MAP_CODE
+PLAYER_PLANNER_CODE = _native.PLAYER_PLANNER_CODE
+PLAYER_LOCALIZE_CODE = _native.PLAYER_LOCALIZE_CODE
 
 
 
@@ -413,7 +425,7 @@ class _device:
 class playerc_position2d(_device):
     """``playerc_position2d_t``: px py pa (odometry), vx vy va, stall, pose/size (geometry)."""
 
-    _code = PLAYER_POSITION2D_CODE  # noqa: F821 - set from the native module above
+    _code = PLAYER_POSITION2D_CODE
 
     def _defaults(self):
         self.px = self.py = self.pa = 0.0
@@ -476,7 +488,7 @@ class playerc_ranger(_device):
     """``playerc_ranger_t``: ranges/ranges_count, intensities, bearings, points, geometry
     (element_count, device_pose, element_poses, ...) and configuration."""
 
-    _code = PLAYER_RANGER_CODE  # noqa: F821
+    _code = PLAYER_RANGER_CODE
 
     def _defaults(self):
         self.element_count = 0
@@ -585,7 +597,7 @@ class playerc_laser(_device):
     """``playerc_laser_t``: scan_count, scan[i] = [range, bearing], ranges, intensity,
     point[i] = [x, y], min/max_angle, scan_res, max_range, robot_pose, pose/size."""
 
-    _code = PLAYER_LASER_CODE  # noqa: F821
+    _code = PLAYER_LASER_CODE
 
     def _defaults(self):
         self.pose = [0.0, 0.0, 0.0]
@@ -657,7 +669,7 @@ class playerc_laser(_device):
 class playerc_sonar(_device):
     """``playerc_sonar_t``: scan_count/scan (ranges), pose_count/poses (geometry)."""
 
-    _code = PLAYER_SONAR_CODE  # noqa: F821
+    _code = PLAYER_SONAR_CODE
 
     def _defaults(self):
         self.pose_count = 0
@@ -677,7 +689,7 @@ class playerc_blobfinder(_device):
     """``playerc_blobfinder_t``: width, height, blobs_count, blobs[i] (id, color, area, x, y,
     left, right, top, bottom, range)."""
 
-    _code = PLAYER_BLOBFINDER_CODE  # noqa: F821
+    _code = PLAYER_BLOBFINDER_CODE
 
     def _defaults(self):
         self.width = self.height = 0
@@ -696,7 +708,7 @@ class playerc_fiducial(_device):
     """``playerc_fiducial_t``: fiducials_count, fiducials[i] (id, pose, upose), fiducial_geom
     (pose, size, fiducial_size)."""
 
-    _code = PLAYER_FIDUCIAL_CODE  # noqa: F821
+    _code = PLAYER_FIDUCIAL_CODE
 
     def _defaults(self):
         self.fiducials_count = 0
@@ -730,7 +742,7 @@ class playerc_gripper(_device):
     """``playerc_gripper_t``: state, beams, stored; pose, outer_size, inner_size, num_beams,
     capacity (geometry)."""
 
-    _code = PLAYER_GRIPPER_CODE  # noqa: F821
+    _code = PLAYER_GRIPPER_CODE
 
     def _defaults(self):
         self.pose = player_pose3d_t()
@@ -780,7 +792,7 @@ class playerc_gripper(_device):
 class playerc_simulation(_device):
     """``playerc_simulation_t``: model poses and properties by name."""
 
-    _code = PLAYER_SIMULATION_CODE  # noqa: F821
+    _code = PLAYER_SIMULATION_CODE
 
     def set_pose2d(self, name, gx, gy, ga):
         return self._call(self._conn().simulation_set_pose2d, self.index, name, [gx, gy, ga])
@@ -836,7 +848,7 @@ class playerc_simulation(_device):
 class playerc_speech(_device):
     """``playerc_speech_t``: ``say(text)``."""
 
-    _code = PLAYER_SPEECH_CODE  # noqa: F821
+    _code = PLAYER_SPEECH_CODE
 
     def say(self, text):
         return self._call(self._conn().speech_say, self.index, str(text))
@@ -869,7 +881,7 @@ class playerc_graphics2d(_device):
     ``draw_polygon``, ``clear``; colours are ``(alpha, red, green, blue)`` tuples, points
     lists of ``(x, y)`` tuples, as the SWIG typemaps take them."""
 
-    _code = PLAYER_GRAPHICS2D_CODE  # noqa: F821
+    _code = PLAYER_GRAPHICS2D_CODE
 
     def _defaults(self):
         self.color = (0, 0, 0, 0)
@@ -907,7 +919,7 @@ class playerc_camera(_device):
     """``playerc_camera_t``: width, height, bpp, format, fdiv, compression, image_count,
     image (bytes)."""
 
-    _code = PLAYER_CAMERA_CODE  # noqa: F821
+    _code = PLAYER_CAMERA_CODE
 
     def _defaults(self):
         self.width = self.height = self.bpp = self.format = self.fdiv = 0
@@ -937,7 +949,7 @@ class playerc_map(_device):
     (one signed value per cell: -1 free, 0 unknown, +1 occupied); ``get_vector()`` fills
     segments."""
 
-    _code = PLAYER_MAP_CODE  # noqa: F821
+    _code = PLAYER_MAP_CODE
 
     def _defaults(self):
         self.resolution = 0.0
@@ -969,7 +981,7 @@ class playerc_planner(_device):
     """``playerc_planner_t``: path_valid, path_done, px py pa, gx gy ga, wx wy wa,
     curr_waypoint, waypoint_count, waypoints."""
 
-    _code = PLAYER_PLANNER_CODE  # noqa: F821
+    _code = PLAYER_PLANNER_CODE
 
     def _defaults(self):
         self.path_valid = self.path_done = 0
@@ -999,7 +1011,7 @@ class playerc_localize(_device):
     """``playerc_localize_t``: pending_count, pending_time, hypoth_count, hypoths[i] (mean,
     cov, alpha), mean/variance/particles after ``get_particles()``."""
 
-    _code = PLAYER_LOCALIZE_CODE  # noqa: F821
+    _code = PLAYER_LOCALIZE_CODE
 
     def _defaults(self):
         self.pending_count = 0

@@ -7,7 +7,7 @@ Loaded lazily by ``playerstage/__init__.py`` (it imports ``playerc``, which impo
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, List, Optional
 
 import playerc as _pc

@@ -7,7 +7,6 @@ import pytest
 from conftest import wait_until
 
 from playerc import *  # noqa: F401,F403 - the way old scripts use it
-import playerc
 
 
 def connect(port):

@@ -1,9 +1,7 @@
 """The Pythonic layer: `playerstage.Client` against a real `player`, and the in-process
 `playerstage.World`."""
 
-import math
 import threading
-from pathlib import Path
 
 import pytest
 from conftest import REPO, wait_until

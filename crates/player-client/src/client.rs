@@ -93,6 +93,8 @@ pub(crate) struct Inner {
     overflow: u32,
     datatime: f64,
     pub(crate) devices: HashMap<(InterfaceCode, u16), DeviceData>,
+    /// Subscribed devices that received DATA since the last [`PlayerClient::take_updated`].
+    updated: Vec<(InterfaceCode, u16)>,
     scratch: Vec<u8>,
 }
 
@@ -169,6 +171,7 @@ impl PlayerClient {
             overflow: 0,
             datatime: 0.0,
             devices: HashMap::new(),
+            updated: Vec::new(),
             scratch: vec![0; 64 * 1024],
         };
         let client = PlayerClient {
@@ -359,6 +362,23 @@ impl PlayerClient {
         self.lock().read()
     }
 
+    /// The subscribed devices that received DATA since the previous call, in the order of
+    /// their first message, with their latest timestamps. Bindings that keep their proxies'
+    /// state themselves (the Python `playerc` module) learn from it which proxies a
+    /// [`PlayerClient::read`] updated, as `playerc_client_read` reports the proxy it
+    /// dispatched to. Proxies' freshness flags are not touched.
+    pub fn take_updated(&self) -> Vec<(InterfaceCode, u16, f64)> {
+        let mut inner = self.lock();
+        let updated = std::mem::take(&mut inner.updated);
+        updated
+            .into_iter()
+            .map(|key| {
+                let t = inner.devices.get(&key).map_or(0.0, |d| d.datatime);
+                (key.0, key.1, t)
+            })
+            .collect()
+    }
+
     /// The latest DATA body of (`interf`, `index`, `subtype`).
     pub fn latest(&self, interf: InterfaceCode, index: u16, subtype: u8) -> Option<Body> {
         self.lock()
@@ -501,6 +521,9 @@ impl Inner {
                 }
                 d.datatime = ts;
                 d.latest.insert(m.header.subtype, body);
+                if !self.updated.contains(&key) {
+                    self.updated.push(key);
+                }
             }
             None => tracing::debug!("data for {}:{} that no proxy reads", key.0, key.1),
         }

@@ -1,0 +1,1055 @@
+"""Drop-in replacement for Player 3.0.2's SWIG ``playerc`` module, on Python 3.
+
+Scripts written for the old bindings run unchanged::
+
+    from playerc import *
+    c = playerc_client(None, 'localhost', 6665)
+    if c.connect() != 0:
+        raise Exception(playerc_error_str())
+    p = playerc_position2d(c, 0)
+    if p.subscribe(PLAYERC_OPEN_MODE) != 0:
+        raise Exception(playerc_error_str())
+    while True:
+        if c.read() is None:
+            raise Exception(playerc_error_str())
+        print(p.px, p.py, p.pa)
+        p.set_cmd_vel(0.1, 0.0, 0.2, 1)
+
+The conventions are libplayerc's, as SWIG exposed them: functions that return ``int`` in C
+return 0 on success and -1 on failure (the message is then in ``playerc_error_str()``),
+``client.read()`` returns an id (the client's own ``id`` in PULL mode, the updated proxy's
+``info.id`` in PUSH mode) or ``None`` on error, proxies are created unsubscribed and carry
+libplayerc's field names (``px``, ``ranges``, ``ranges_count``, ``scan``, ``blobs``, ...),
+and ``playerc_simulation.get_pose2d`` returns ``[result, x, y, a]`` as SWIG's OUTPUT typemap
+does.
+
+Everything here is pure Python over ``playerstage._native.Connection``: the codec and the
+session rules are the workspace's Rust ``player-client``.
+"""
+
+from playerstage import _native
+
+__all__ = []  # filled at the end: every public name, for `from playerc import *`
+
+# --- constants (values of player.h / player_interfaces.h / playerc.h) -------------------------
+
+PLAYER_OPEN_MODE = 1
+PLAYER_CLOSE_MODE = 2
+PLAYER_ERROR_MODE = 3
+PLAYERC_OPEN_MODE = PLAYER_OPEN_MODE
+PLAYERC_CLOSE_MODE = PLAYER_CLOSE_MODE
+PLAYERC_ERROR_MODE = PLAYER_ERROR_MODE
+
+PLAYER_DATAMODE_PUSH = 1
+PLAYER_DATAMODE_PULL = 2
+
+PLAYER_MSGTYPE_DATA = 1
+PLAYER_MSGTYPE_CMD = 2
+PLAYER_MSGTYPE_REQ = 3
+PLAYER_MSGTYPE_RESP_ACK = 4
+PLAYER_MSGTYPE_SYNCH = 5
+PLAYER_MSGTYPE_RESP_NACK = 6
+
+PLAYER_PLAYER_MSG_REPLACE_RULE_ACCEPT = 0
+PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE = 1
+PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE = 2
+
+PLAYER_GRIPPER_STATE_OPEN = 1
+PLAYER_GRIPPER_STATE_CLOSED = 2
+PLAYER_GRIPPER_STATE_MOVING = 3
+PLAYER_GRIPPER_STATE_ERROR = 4
+
+PLAYER_POSITION2D_DATA_STATE = 1
+PLAYER_POSITION2D_DATA_GEOM = 2
+PLAYER_POSITION2D_CMD_VEL = 1
+PLAYER_POSITION2D_CMD_POS = 2
+PLAYER_POSITION2D_CMD_CAR = 3
+PLAYER_POSITION2D_CMD_VEL_HEAD = 4
+PLAYER_RANGER_DATA_RANGE = 1
+PLAYER_RANGER_DATA_RANGESTAMPED = 2
+PLAYER_RANGER_DATA_INTNS = 3
+PLAYER_RANGER_DATA_INTNSSTAMPED = 4
+PLAYER_RANGER_DATA_GEOM = 5
+PLAYER_LASER_DATA_SCAN = 1
+PLAYER_LASER_DATA_SCANPOSE = 2
+PLAYER_LASER_DATA_SCANANGLE = 3
+PLAYER_SONAR_DATA_RANGES = 1
+PLAYER_SONAR_DATA_GEOM = 2
+PLAYER_BLOBFINDER_DATA_BLOBS = 1
+PLAYER_FIDUCIAL_DATA_SCAN = 1
+PLAYER_GRIPPER_DATA_STATE = 1
+PLAYER_CAMERA_DATA_STATE = 1
+PLAYER_PLANNER_DATA_STATE = 1
+PLAYER_LOCALIZE_DATA_HYPOTHS = 1
+
+PLAYER_CAMERA_FORMAT_MONO8 = 1
+PLAYER_CAMERA_FORMAT_MONO16 = 2
+PLAYER_CAMERA_FORMAT_RGB565 = 4
+PLAYER_CAMERA_FORMAT_RGB888 = 5
+PLAYER_CAMERA_COMPRESS_RAW = 0
+PLAYER_CAMERA_COMPRESS_JPEG = 1
+
+# Interface codes, from the native module (the workspace's one table of them).
+PLAYER_PLAYER_CODE = _native.PLAYER_PLAYER_CODE
+PLAYER_POSITION2D_CODE = _native.PLAYER_POSITION2D_CODE
+PLAYER_RANGER_CODE = _native.PLAYER_RANGER_CODE
+PLAYER_LASER_CODE = _native.PLAYER_LASER_CODE
+PLAYER_SONAR_CODE = _native.PLAYER_SONAR_CODE
+PLAYER_BLOBFINDER_CODE = _native.PLAYER_BLOBFINDER_CODE
+PLAYER_FIDUCIAL_CODE = _native.PLAYER_FIDUCIAL_CODE
+PLAYER_GRIPPER_CODE = _native.PLAYER_GRIPPER_CODE
+PLAYER_SIMULATION_CODE = _native.PLAYER_SIMULATION_CODE
+PLAYER_SPEECH_CODE = _native.PLAYER_SPEECH_CODE
+PLAYER_GRAPHICS2D_CODE = _native.PLAYER_GRAPHICS2D_CODE
+PLAYER_CAMERA_CODE = _native.PLAYER_CAMERA_CODE
+PLAYER_MAP_CODE = _native.PLAYER_MAP_CODE
+PLAYER_PLANNER_CODE = _native.PLAYER_PLANNER_CODE
+PLAYER_LOCALIZE_CODE = _native.PLAYER_LOCALIZE_CODE
+
+
+
+def PLAYERC_MAP_INDEX(map, i, j):
+    """Index of cell (i, j) in ``map.cells``."""
+    return map.width * j + i
+
+
+_NAMES = {
+    getattr(_native, n): n[len("PLAYER_"):-len("_CODE")].lower()
+    for n in dir(_native)
+    if n.startswith("PLAYER_") and n.endswith("_CODE")
+}
+
+
+def playerc_lookup_name(code):
+    """The interface name of a code (``playerc_lookup_name``), e.g. 4 -> ``position2d``."""
+    return _NAMES.get(code, "unknown")
+
+
+def playerc_lookup_code(name):
+    """The code of an interface name (``playerc_lookup_code``); -1 when unknown."""
+    for code, n in _NAMES.items():
+        if n == name:
+            return code
+    return -1
+
+
+# --- errors -------------------------------------------------------------------------------------
+
+_last_error = ""
+_last_exception = None
+
+
+def _fail(err):
+    """Records an error for ``playerc_error_str()`` and returns libplayerc's -1. The
+    exception itself is kept for ``playerstage``, which raises it."""
+    global _last_error, _last_exception
+    _last_error = str(err)
+    _last_exception = err if isinstance(err, Exception) else _native.PlayerError(str(err))
+    return -1
+
+
+def playerc_error_str():
+    """The message of the last failed call (libplayerc's ``playerc_error_str``)."""
+    return _last_error
+
+
+# --- plain structs ------------------------------------------------------------------------------
+
+
+class _Struct:
+    """A C struct as SWIG shows it: fields as attributes."""
+
+    def __init__(self, **fields):
+        self.__dict__.update(fields)
+
+    def __repr__(self):
+        inner = ", ".join(f"{k}={v!r}" for k, v in self.__dict__.items())
+        return f"{type(self).__name__}({inner})"
+
+    def __eq__(self, other):
+        return type(self) is type(other) and self.__dict__ == other.__dict__
+
+
+class player_pose2d_t(_Struct):
+    """``player_pose2d_t``: px, py, pa."""
+
+    def __init__(self, px=0.0, py=0.0, pa=0.0):
+        super().__init__(px=px, py=py, pa=pa)
+
+
+class player_pose3d_t(_Struct):
+    """``player_pose3d_t``: px, py, pz, proll, ppitch, pyaw."""
+
+    def __init__(self, px=0.0, py=0.0, pz=0.0, proll=0.0, ppitch=0.0, pyaw=0.0):
+        super().__init__(px=px, py=py, pz=pz, proll=proll, ppitch=ppitch, pyaw=pyaw)
+
+
+class player_bbox3d_t(_Struct):
+    """``player_bbox3d_t``: sw, sl, sh."""
+
+    def __init__(self, sw=0.0, sl=0.0, sh=0.0):
+        super().__init__(sw=sw, sl=sl, sh=sh)
+
+
+class player_point_2d_t(_Struct):
+    """``player_point_2d_t``: px, py."""
+
+    def __init__(self, px=0.0, py=0.0):
+        super().__init__(px=px, py=py)
+
+
+class player_color_t(_Struct):
+    """``player_color_t``: alpha, red, green, blue."""
+
+    def __init__(self, alpha=0, red=0, green=0, blue=0):
+        super().__init__(alpha=alpha, red=red, green=green, blue=blue)
+
+
+class playerc_blobfinder_blob_t(_Struct):
+    """One blob: id, color, area, x, y, left, right, top, bottom, range."""
+
+
+class player_fiducial_item_t(_Struct):
+    """One fiducial: id, pose and upose (``player_pose3d_t``)."""
+
+
+class player_localize_hypoth_t(_Struct):
+    """One pose hypothesis: mean (``player_pose2d_t``), cov (3 doubles), alpha."""
+
+
+def _pose3d(v):
+    return player_pose3d_t(*v)
+
+
+def _bbox3d(v):
+    return player_bbox3d_t(*v)
+
+
+# --- the client ---------------------------------------------------------------------------------
+
+
+class playerc_device_info:
+    """A proxy's ``info`` (``playerc_device_t``): ``id`` (what ``client.read()`` returns in
+    PUSH mode for this proxy), ``datatime``, ``lasttime``, ``fresh``, ``subscribed``,
+    ``drivername``, ``addr``."""
+
+    def __init__(self, proxy, code, index):
+        self.id = id(proxy)
+        self.datatime = 0.0
+        self.lasttime = 0.0
+        self.fresh = 0
+        self.freshgeom = 0
+        self.subscribed = 0
+        self.drivername = ""
+        self.addr = _Struct(host=0, robot=0, interf=code, index=index)
+
+
+class playerc_device_t(_Struct):
+    """One entry of ``client.devinfos`` after ``get_devlist()``."""
+
+
+class playerc_client:
+    """``playerc_client_t``: ``playerc_client(None, host, port)``; the first argument (an
+    mclient) is accepted and ignored."""
+
+    def __init__(self, mclient, host, port):
+        self.host = host
+        self.port = int(port)
+        self.id = id(self)
+        self.mode = PLAYER_DATAMODE_PULL
+        self.datatime = 0.0
+        self.lasttime = 0.0
+        self.devinfos = []
+        self.devinfo_count = 0
+        self.request_timeout = 5.0
+        self._conn = None
+        self._proxies = {}  # (code, index) -> [proxy, ...] subscribed through this client
+
+    def _connection(self):
+        if self._conn is None:
+            raise _native.ConnectionLost(f"not connected to {self.host}:{self.port}")
+        return self._conn
+
+    def connect(self):
+        """Connects (PULL mode, as libplayerc). 0 on success, -1 on failure."""
+        try:
+            self._conn = _native.Connection(self.host, self.port)
+            self._conn.set_request_timeout(self.request_timeout)
+            self.mode = PLAYER_DATAMODE_PULL
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def disconnect(self):
+        """Closes the connection. 0 on success, -1 when not connected."""
+        if self._conn is None:
+            return _fail("not connected")
+        self._conn.disconnect()
+        self._conn = None
+        for proxies in self._proxies.values():
+            for p in proxies:
+                p.info.subscribed = 0
+        self._proxies.clear()
+        return 0
+
+    def datamode(self, mode):
+        """``PLAYER_DATAMODE_PUSH`` or ``PLAYER_DATAMODE_PULL``. 0 / -1."""
+        if mode not in (PLAYER_DATAMODE_PUSH, PLAYER_DATAMODE_PULL):
+            return _fail(f"unknown data mode {mode}")
+        try:
+            self._connection().set_pull(mode == PLAYER_DATAMODE_PULL)
+            self.mode = mode
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def set_replace_rule(self, interf, index, type, subtype, replace):
+        """``playerc_client_set_replace_rule``: -1 is a wildcard; ``replace`` 0 accept,
+        1 replace, 2 ignore. 0 / -1."""
+        try:
+            self._connection().set_replace_rule(interf, index, type, subtype, replace)
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def set_request_timeout(self, seconds):
+        """How long requests wait for their reply (libplayerc's default, 5 s)."""
+        self.request_timeout = float(seconds)
+        if self._conn is not None:
+            self._conn.set_request_timeout(self.request_timeout)
+
+    def get_devlist(self):
+        """Fills ``devinfos`` / ``devinfo_count``. 0 / -1."""
+        try:
+            devs = self._connection().device_list()
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.devinfos = [
+            playerc_device_t(
+                addr=_Struct(host=0, robot=self.port, interf=code, index=index),
+                drivername=driver,
+            )
+            for code, index, driver in devs
+        ]
+        self.devinfo_count = len(self.devinfos)
+        return 0
+
+    def read(self):
+        """One read: a PULL round or one PUSH message. Returns ``self.id`` (PULL) or the
+        updated proxy's ``info.id`` (PUSH); ``None`` on error (see ``playerc_error_str``).
+        A dropped connection is an error, never a hang."""
+        try:
+            updates = self._connection().read()
+        except _native.PlayerError as e:
+            _fail(e)
+            return None
+        last = None
+        for code, index, t, fields in updates:
+            self.lasttime, self.datatime = self.datatime, t
+            for p in self._proxies.get((code, index), ()):
+                p._update(t, fields)
+                last = p
+        if self.mode == PLAYER_DATAMODE_PULL or last is None:
+            return self.id
+        return last.info.id
+
+    def _add(self, proxy):
+        self._proxies.setdefault((proxy._code, proxy.index), []).append(proxy)
+
+    def _remove(self, proxy):
+        lst = self._proxies.get((proxy._code, proxy.index), [])
+        if proxy in lst:
+            lst.remove(proxy)
+
+
+# --- proxies ------------------------------------------------------------------------------------
+
+
+class _device:
+    """What every proxy shares (``playerc_device_t``): subscribe/unsubscribe and ``info``."""
+
+    _code = None
+
+    def __init__(self, client, index):
+        self.client = client
+        self.index = int(index)
+        self.info = playerc_device_info(self, self._code, self.index)
+        self._defaults()
+
+    def _defaults(self):
+        pass
+
+    def _conn(self):
+        return self.client._connection()
+
+    def subscribe(self, access):
+        """Subscribes (``PLAYERC_OPEN_MODE``). 0 / -1 (no such device: -1)."""
+        if access != PLAYERC_OPEN_MODE:
+            return _fail(f"unsupported access mode {access}")
+        try:
+            self.info.drivername = self._conn().subscribe(self._code, self.index)
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.info.subscribed = 1
+        self.client._add(self)
+        return 0
+
+    def unsubscribe(self):
+        """Ends the subscription. 0 / -1."""
+        self.client._remove(self)
+        self.info.subscribed = 0
+        try:
+            self._conn().unsubscribe(self._code, self.index)
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def _call(self, fn, *args):
+        """Runs a request; 0, or -1 with the error recorded."""
+        try:
+            fn(*args)
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def _update(self, t, fields):
+        self.info.lasttime = self.info.datatime
+        self.info.datatime = t
+        self.info.fresh = 1
+        self._apply(fields)
+
+    def _apply(self, fields):
+        self.__dict__.update(fields)
+
+
+class playerc_position2d(_device):
+    """``playerc_position2d_t``: px py pa (odometry), vx vy va, stall, pose/size (geometry)."""
+
+    _code = PLAYER_POSITION2D_CODE
+
+    def _defaults(self):
+        self.px = self.py = self.pa = 0.0
+        self.vx = self.vy = self.va = 0.0
+        self.stall = 0
+        self.pose = [0.0, 0.0, 0.0]
+        self.size = [0.0, 0.0]
+
+    def _apply(self, fields):
+        fields = dict(fields)
+        pose, size = fields.pop("pose", None), fields.pop("size", None)
+        self.__dict__.update(fields)
+        if pose is not None:  # a GEOM data message: libplayerc's [x, y, yaw] and [l, w]
+            self.pose = [pose[0], pose[1], pose[5]]
+            self.size = [size[1], size[0]]
+
+    def enable(self, enable):
+        return self._call(self._conn().position2d_enable, self.index, bool(enable))
+
+    def get_geom(self):
+        try:
+            g = self._conn().position2d_get_geom(self.index)
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.pose = [g["pose"][0], g["pose"][1], g["pose"][5]]
+        self.size = [g["size"][1], g["size"][0]]
+        self.info.freshgeom = 1
+        return 0
+
+    def set_cmd_vel(self, vx, vy, va, state=1):
+        return self._call(self._conn().position2d_set_cmd_vel, self.index, vx, vy, va, state)
+
+    def set_cmd_vel_head(self, vx, vy, pa, state=1):
+        return self._call(self._conn().position2d_set_cmd_vel_head, self.index, vx, pa)
+
+    def set_cmd_pose_with_vel(self, pos, vel, state=1):
+        pos = [pos.px, pos.py, pos.pa] if hasattr(pos, "px") else list(pos)
+        vel = [vel.px, vel.py, vel.pa] if hasattr(vel, "px") else list(vel)
+        return self._call(
+            self._conn().position2d_set_cmd_pose_with_vel, self.index, pos, vel, state
+        )
+
+    def set_cmd_pose(self, gx, gy, ga, state=1):
+        return self._call(
+            self._conn().position2d_set_cmd_pose_with_vel,
+            self.index,
+            [gx, gy, ga],
+            [0.0, 0.0, 0.0],
+            state,
+        )
+
+    def set_cmd_car(self, vx, a):
+        return self._call(self._conn().position2d_set_cmd_car, self.index, vx, a)
+
+    def set_odom(self, ox, oy, oa):
+        return self._call(self._conn().position2d_set_odom, self.index, [ox, oy, oa])
+
+
+class playerc_ranger(_device):
+    """``playerc_ranger_t``: ranges/ranges_count, intensities, bearings, points, geometry
+    (element_count, device_pose, element_poses, ...) and configuration."""
+
+    _code = PLAYER_RANGER_CODE
+
+    def _defaults(self):
+        self.element_count = 0
+        self.device_pose = player_pose3d_t()
+        self.device_size = player_bbox3d_t()
+        self.element_poses = []
+        self.element_sizes = []
+        self.min_angle = self.max_angle = self.angular_res = 0.0
+        self.min_range = self.max_range = self.range_res = self.frequency = 0.0
+        self.ranges_count = 0
+        self.ranges = []
+        self.intensities_count = 0
+        self.intensities = []
+        self.bearings_count = 0
+        self.bearings = []
+        self.points_count = 0
+        self.points = []
+
+    def _apply(self, fields):
+        geom = "device_pose" in fields
+        self.__dict__.update(fields)
+        if geom:
+            self._geom(fields)
+        self._derive()
+
+    def _geom(self, g):
+        self.element_count = g["element_count"]
+        self.device_pose = _pose3d(g["device_pose"])
+        self.device_size = _bbox3d(g["device_size"])
+        self.element_poses = [_pose3d(p) for p in g["element_poses"]]
+        self.element_sizes = [_bbox3d(s) for s in g["element_sizes"]]
+        self.info.freshgeom = 1
+
+    def _derive(self):
+        """Bearings and points as libplayerc computes them from the configuration."""
+        import math
+
+        n = len(self.ranges)
+        if n == 0:
+            return
+        step = self.angular_res
+        if n > 1 and step == 0.0:
+            step = (self.max_angle - self.min_angle) / (n - 1)
+        self.bearings = [self.min_angle + i * step for i in range(n)]
+        self.bearings_count = n
+        self.points = [
+            player_point_2d_t(r * math.cos(b), r * math.sin(b))
+            for r, b in zip(self.ranges, self.bearings)
+        ]
+        self.points_count = n
+
+    def get_geom(self):
+        try:
+            self._geom(self._conn().ranger_get_geom(self.index))
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def get_config(self):
+        """Fetches the configuration into the proxy's fields; returns
+        ``[0, min_angle, max_angle, angular_res, min_range, max_range, range_res,
+        frequency]`` as SWIG's OUTPUT typemap would (``[-1]`` on failure)."""
+        try:
+            c = self._conn().ranger_get_config(self.index)
+        except _native.PlayerError as e:
+            return [_fail(e)]
+        self.__dict__.update(c)
+        return [
+            0,
+            c["min_angle"],
+            c["max_angle"],
+            c["angular_res"],
+            c["min_range"],
+            c["max_range"],
+            c["range_res"],
+            c["frequency"],
+        ]
+
+    def set_config(
+        self, min_angle, max_angle, angular_res, min_range, max_range, range_res, frequency
+    ):
+        try:
+            c = self._conn().ranger_set_config(
+                self.index,
+                min_angle,
+                max_angle,
+                angular_res,
+                min_range,
+                max_range,
+                range_res,
+                frequency,
+            )
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.__dict__.update(c)
+        return 0
+
+    def power_config(self, value):
+        return self._call(self._conn().ranger_power_config, self.index, int(value))
+
+    def intns_config(self, value):
+        return self._call(self._conn().ranger_intns_config, self.index, int(value))
+
+
+class playerc_laser(_device):
+    """``playerc_laser_t``: scan_count, scan[i] = [range, bearing], ranges, intensity,
+    point[i] = [x, y], min/max_angle, scan_res, max_range, robot_pose, pose/size."""
+
+    _code = PLAYER_LASER_CODE
+
+    def _defaults(self):
+        self.pose = [0.0, 0.0, 0.0]
+        self.size = [0.15, 0.15]
+        self.robot_pose = [0.0, 0.0, 0.0]
+        self.intensity_on = 0
+        self.scan_count = 0
+        self.scan_start = self.scan_res = self.range_res = 0.0
+        self.min_angle = self.max_angle = self.max_range = 0.0
+        self.scanning_frequency = 0.0
+        self.ranges = []
+        self.scan = []
+        self.point = []
+        self.intensity = []
+        self.scan_id = 0
+        self.laser_id = 0
+
+    def _apply(self, fields):
+        self.__dict__.update(fields)
+        if "min_angle" in fields:
+            self.scan_start = self.min_angle
+
+    def get_geom(self):
+        try:
+            g = self._conn().laser_get_geom(self.index)
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.pose = [g["pose"][0], g["pose"][1], g["pose"][5]]
+        self.size = [g["size"][1], g["size"][0]]
+        return 0
+
+    def get_config(self):
+        """``[0, min_angle, max_angle, resolution, range_res, intensity,
+        scanning_frequency]`` (``[-1]`` on failure), as SWIG's OUTPUT typemap."""
+        try:
+            c = self._conn().laser_get_config(self.index)
+        except _native.PlayerError as e:
+            return [_fail(e)]
+        self.__dict__.update(c)
+        return [
+            0,
+            c["min_angle"],
+            c["max_angle"],
+            c["scan_res"],
+            c["range_res"],
+            c["intensity_on"],
+            c["scanning_frequency"],
+        ]
+
+    def set_config(
+        self, min_angle, max_angle, resolution, range_res, intensity, scanning_frequency
+    ):
+        try:
+            c = self._conn().laser_set_config(
+                self.index,
+                min_angle,
+                max_angle,
+                resolution,
+                range_res,
+                int(intensity),
+                scanning_frequency,
+            )
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.__dict__.update(c)
+        return 0
+
+
+class playerc_sonar(_device):
+    """``playerc_sonar_t``: scan_count/scan (ranges), pose_count/poses (geometry)."""
+
+    _code = PLAYER_SONAR_CODE
+
+    def _defaults(self):
+        self.pose_count = 0
+        self.poses = []
+        self.scan_count = 0
+        self.scan = []
+
+    def get_geom(self):
+        try:
+            self.__dict__.update(self._conn().sonar_get_geom(self.index))
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+
+class playerc_blobfinder(_device):
+    """``playerc_blobfinder_t``: width, height, blobs_count, blobs[i] (id, color, area, x, y,
+    left, right, top, bottom, range)."""
+
+    _code = PLAYER_BLOBFINDER_CODE
+
+    def _defaults(self):
+        self.width = self.height = 0
+        self.blobs_count = 0
+        self.blobs = []
+
+    def _apply(self, fields):
+        self.width = fields.get("width", self.width)
+        self.height = fields.get("height", self.height)
+        if "blobs" in fields:
+            self.blobs = [playerc_blobfinder_blob_t(**b) for b in fields["blobs"]]
+            self.blobs_count = len(self.blobs)
+
+
+class playerc_fiducial(_device):
+    """``playerc_fiducial_t``: fiducials_count, fiducials[i] (id, pose, upose), fiducial_geom
+    (pose, size, fiducial_size)."""
+
+    _code = PLAYER_FIDUCIAL_CODE
+
+    def _defaults(self):
+        self.fiducials_count = 0
+        self.fiducials = []
+        self.fiducial_geom = _Struct(
+            pose=player_pose3d_t(), size=player_bbox3d_t(), fiducial_size=[0.0, 0.0]
+        )
+
+    def _apply(self, fields):
+        if "fiducials" in fields:
+            self.fiducials = [
+                player_fiducial_item_t(
+                    id=f["id"], pose=_pose3d(f["pose"]), upose=_pose3d(f["upose"])
+                )
+                for f in fields["fiducials"]
+            ]
+            self.fiducials_count = len(self.fiducials)
+
+    def get_geom(self):
+        try:
+            g = self._conn().fiducial_get_geom(self.index)
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.fiducial_geom = _Struct(
+            pose=_pose3d(g["pose"]), size=_bbox3d(g["size"]), fiducial_size=g["fiducial_size"]
+        )
+        return 0
+
+
+class playerc_gripper(_device):
+    """``playerc_gripper_t``: state, beams, stored; pose, outer_size, inner_size, num_beams,
+    capacity (geometry)."""
+
+    _code = PLAYER_GRIPPER_CODE
+
+    def _defaults(self):
+        self.pose = player_pose3d_t()
+        self.outer_size = player_bbox3d_t()
+        self.inner_size = player_bbox3d_t()
+        self.num_beams = 0
+        self.capacity = 0
+        self.state = 0
+        self.beams = 0
+        self.stored = 0
+
+    def open_cmd(self):
+        return self._call(self._conn().gripper_cmd, self.index, "open")
+
+    def close_cmd(self):
+        return self._call(self._conn().gripper_cmd, self.index, "close")
+
+    def stop_cmd(self):
+        return self._call(self._conn().gripper_cmd, self.index, "stop")
+
+    def store_cmd(self):
+        return self._call(self._conn().gripper_cmd, self.index, "store")
+
+    def retrieve_cmd(self):
+        return self._call(self._conn().gripper_cmd, self.index, "retrieve")
+
+    def get_geom(self):
+        try:
+            g = self._conn().gripper_get_geom(self.index)
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.pose = _pose3d(g["pose"])
+        self.outer_size = _bbox3d(g["outer_size"])
+        self.inner_size = _bbox3d(g["inner_size"])
+        self.num_beams = g["num_beams"]
+        self.capacity = g["capacity"]
+        return 0
+
+    def printout(self, prefix=""):
+        names = {1: "OPEN", 2: "CLOSED", 3: "MOVING", 4: "ERROR"}
+        print(
+            f"{prefix}[{self.info.datatime:14.3f}] state[{names.get(self.state, '?')}] "
+            f"beams[{self.beams:32X}] stored[{self.stored}]"
+        )
+
+
+class playerc_simulation(_device):
+    """``playerc_simulation_t``: model poses and properties by name."""
+
+    _code = PLAYER_SIMULATION_CODE
+
+    def set_pose2d(self, name, gx, gy, ga):
+        return self._call(self._conn().simulation_set_pose2d, self.index, name, [gx, gy, ga])
+
+    def get_pose2d(self, name):
+        """``[result, x, y, a]``: the C function's int and its three OUTPUT doubles."""
+        try:
+            x, y, a = self._conn().simulation_get_pose2d(self.index, name)
+            return [0, x, y, a]
+        except _native.PlayerError as e:
+            return [_fail(e), 0.0, 0.0, 0.0]
+
+    def set_pose3d(self, name, gx, gy, gz, groll, gpitch, gyaw):
+        return self._call(
+            self._conn().simulation_set_pose3d,
+            self.index,
+            name,
+            [gx, gy, gz, groll, gpitch, gyaw],
+        )
+
+    def get_pose3d(self, name):
+        """``[result, x, y, z, roll, pitch, yaw, time]``."""
+        try:
+            p, t = self._conn().simulation_get_pose3d(self.index, name)
+            return [0, *p, t]
+        except _native.PlayerError as e:
+            return [_fail(e)] + [0.0] * 7
+
+    def set_property(self, name, property, value):
+        """``value``: bytes of the property's C value."""
+        return self._call(
+            self._conn().simulation_set_property, self.index, name, property, bytes(value)
+        )
+
+    def get_property(self, name, property, value_len=16):
+        """``[result, bytes]``."""
+        try:
+            v = self._conn().simulation_get_property(self.index, name, property, value_len)
+            return [0, v]
+        except _native.PlayerError as e:
+            return [_fail(e), b""]
+
+    def pause(self):
+        return self._call(self._conn().simulation_cmd, self.index, "pause")
+
+    def reset(self):
+        return self._call(self._conn().simulation_cmd, self.index, "reset")
+
+    def save(self):
+        return self._call(self._conn().simulation_cmd, self.index, "save")
+
+
+class playerc_speech(_device):
+    """``playerc_speech_t``: ``say(text)``."""
+
+    _code = PLAYER_SPEECH_CODE
+
+    def say(self, text):
+        return self._call(self._conn().speech_say, self.index, str(text))
+
+
+def _color_tuple(c):
+    if isinstance(c, player_color_t):
+        return (c.alpha, c.red, c.green, c.blue)
+    if isinstance(c, tuple) and len(c) == 4:
+        return tuple(int(v) for v in c)
+    raise TypeError("a colour is a tuple (alpha, red, green, blue) or a player_color_t")
+
+
+def _points(pts, count=None):
+    if not isinstance(pts, list):
+        raise TypeError("not a list")
+    out = []
+    for p in pts[: count if count is not None else len(pts)]:
+        if isinstance(p, player_point_2d_t):
+            out.append((p.px, p.py))
+        elif isinstance(p, tuple) and len(p) == 2:
+            out.append((float(p[0]), float(p[1])))
+        else:
+            raise TypeError("list must contain (x, y) tuples")
+    return out
+
+
+class playerc_graphics2d(_device):
+    """``playerc_graphics2d_t``: ``setcolor``, ``draw_points``, ``draw_polyline``,
+    ``draw_polygon``, ``clear``; colours are ``(alpha, red, green, blue)`` tuples, points
+    lists of ``(x, y)`` tuples, as the SWIG typemaps take them."""
+
+    _code = PLAYER_GRAPHICS2D_CODE
+
+    def _defaults(self):
+        self.color = (0, 0, 0, 0)
+
+    def setcolor(self, col):
+        try:
+            self.color = _color_tuple(col)
+            return 0
+        except TypeError as e:
+            return _fail(e)
+
+    def draw_points(self, pts, count=None):
+        return self._call(self._conn().graphics2d_points, self.index, _points(pts, count), self.color)
+
+    def draw_polyline(self, pts, count=None):
+        return self._call(
+            self._conn().graphics2d_polyline, self.index, _points(pts, count), self.color
+        )
+
+    def draw_polygon(self, pts, count=None, filled=0, fill_color=(0, 0, 0, 0)):
+        return self._call(
+            self._conn().graphics2d_polygon,
+            self.index,
+            _points(pts, count),
+            self.color,
+            bool(filled),
+            _color_tuple(fill_color),
+        )
+
+    def clear(self):
+        return self._call(self._conn().graphics2d_clear, self.index)
+
+
+class playerc_camera(_device):
+    """``playerc_camera_t``: width, height, bpp, format, fdiv, compression, image_count,
+    image (bytes)."""
+
+    _code = PLAYER_CAMERA_CODE
+
+    def _defaults(self):
+        self.width = self.height = self.bpp = self.format = self.fdiv = 0
+        self.compression = 0
+        self.image_count = 0
+        self.image = b""
+
+    def decompress(self):
+        """Images are sent raw by the simulator; JPEG images are left as they are."""
+        return None
+
+    def save(self, filename):
+        """Writes the image as a binary PPM (RGB888) or PGM (MONO8)."""
+        if self.format == PLAYER_CAMERA_FORMAT_RGB888:
+            head = b"P6\n%d %d\n255\n" % (self.width, self.height)
+        elif self.format == PLAYER_CAMERA_FORMAT_MONO8:
+            head = b"P5\n%d %d\n255\n" % (self.width, self.height)
+        else:
+            return _fail(f"cannot save camera format {self.format}")
+        with open(filename, "wb") as f:
+            f.write(head + bytes(self.image))
+        return 0
+
+
+class playerc_map(_device):
+    """``playerc_map_t``: ``get_map()`` fills resolution, width, height, origin and cells
+    (one signed value per cell: -1 free, 0 unknown, +1 occupied); ``get_vector()`` fills
+    segments."""
+
+    _code = PLAYER_MAP_CODE
+
+    def _defaults(self):
+        self.resolution = 0.0
+        self.width = self.height = 0
+        self.origin = [0.0, 0.0]
+        self.cells = []
+        self.vminx = self.vmaxx = self.vminy = self.vmaxy = 0.0
+        self.num_segments = 0
+        self.segments = []
+
+    def get_map(self):
+        try:
+            info, cells = self._conn().map_get_map(self.index)
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.__dict__.update(info)
+        self.cells = [c - 256 if c > 127 else c for c in cells]
+        return 0
+
+    def get_vector(self):
+        try:
+            self.__dict__.update(self._conn().map_get_vector(self.index))
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+
+class playerc_planner(_device):
+    """``playerc_planner_t``: path_valid, path_done, px py pa, gx gy ga, wx wy wa,
+    curr_waypoint, waypoint_count, waypoints."""
+
+    _code = PLAYER_PLANNER_CODE
+
+    def _defaults(self):
+        self.path_valid = self.path_done = 0
+        self.px = self.py = self.pa = 0.0
+        self.gx = self.gy = self.ga = 0.0
+        self.wx = self.wy = self.wa = 0.0
+        self.curr_waypoint = -1
+        self.waypoint_count = 0
+        self.waypoints = []
+
+    def set_cmd_pose(self, gx, gy, ga):
+        return self._call(self._conn().planner_set_cmd_pose, self.index, [gx, gy, ga])
+
+    def get_waypoints(self):
+        try:
+            self.waypoints = self._conn().planner_get_waypoints(self.index)
+            self.waypoint_count = len(self.waypoints)
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def enable(self, state):
+        return self._call(self._conn().planner_enable, self.index, bool(state))
+
+
+class playerc_localize(_device):
+    """``playerc_localize_t``: pending_count, pending_time, hypoth_count, hypoths[i] (mean,
+    cov, alpha), mean/variance/particles after ``get_particles()``."""
+
+    _code = PLAYER_LOCALIZE_CODE
+
+    def _defaults(self):
+        self.pending_count = 0
+        self.pending_time = 0.0
+        self.hypoth_count = 0
+        self.hypoths = []
+        self.mean = [0.0, 0.0, 0.0]
+        self.variance = 0.0
+        self.num_particles = 0
+        self.particles = []
+
+    def _apply(self, fields):
+        self.pending_count = fields.get("pending_count", self.pending_count)
+        self.pending_time = fields.get("pending_time", self.pending_time)
+        if "hypoths" in fields:
+            self.hypoths = [
+                player_localize_hypoth_t(
+                    mean=player_pose2d_t(*h["mean"]), cov=list(h["cov"]), alpha=h["alpha"]
+                )
+                for h in fields["hypoths"]
+            ]
+            self.hypoth_count = len(self.hypoths)
+
+    def set_pose(self, pose, cov):
+        return self._call(self._conn().localize_set_pose, self.index, list(pose), list(cov))
+
+    def get_particles(self):
+        try:
+            d = self._conn().localize_get_particles(self.index)
+        except _native.PlayerError as e:
+            return _fail(e)
+        self.mean = d["mean"]
+        self.variance = d["variance"]
+        self.num_particles = d["num_particles"]
+        self.particles = [
+            _Struct(pose=player_pose2d_t(*p), alpha=a) for p, a in d["particles"]
+        ]
+        return 0
+
+
+__all__ = [n for n in dir() if not n.startswith("_") and n != "_native"]

@@ -1,0 +1,733 @@
+"""Drop-in replacement for Player 3.0.2's SWIG ``playercpp`` module (libplayerc++'s names).
+
+Scripts written for the old bindings run unchanged::
+
+    from playercpp import *
+    robot = PlayerClient("localhost", 6665)
+    pp = Position2dProxy(robot, 0)
+    rp = RangerProxy(robot, 0)
+    while True:
+        robot.Read()
+        if rp.GetRangeCount() > 0 and rp.GetRange(0) < 0.5:
+            pp.SetSpeed(0.0, 0.5)
+        else:
+            pp.SetSpeed(0.3, 0.0)
+
+As in libplayerc++, proxies subscribe when constructed and errors raise ``PlayerError``
+(with ``GetErrorStr()``, as the C++ exception). Methods with C++ output references return
+their values instead: ``SimulationProxy.GetPose2d(name)`` returns ``(x, y, a)``. Built on
+the ``playerc`` module, as libplayerc++ is on libplayerc.
+"""
+
+import playerc as _pc
+from playerstage import _native
+
+from playerc import (  # noqa: F401 - re-exported constants, as the SWIG module includes player.h
+    PLAYER_DATAMODE_PULL,
+    PLAYER_DATAMODE_PUSH,
+    PLAYER_GRIPPER_STATE_CLOSED,
+    PLAYER_GRIPPER_STATE_MOVING,
+    PLAYER_GRIPPER_STATE_OPEN,
+    PLAYER_GRIPPER_STATE_ERROR,
+    PLAYER_MSGTYPE_CMD,
+    PLAYER_MSGTYPE_DATA,
+    PLAYER_MSGTYPE_REQ,
+    PLAYER_OPEN_MODE,
+    PLAYER_CLOSE_MODE,
+    player_color_t,
+    player_point_2d_t,
+    player_pose2d_t,
+)
+
+for _name in dir(_pc):
+    if _name.startswith("PLAYER_") and _name.endswith("_CODE"):
+        globals()[_name] = getattr(_pc, _name)
+
+PLAYER_PORTNUM = 6665
+PLAYER_HOSTNAME = "localhost"
+
+
+class PlayerError(_native.PlayerError):
+    """libplayerc++'s ``PlayerCc::PlayerError``: ``GetErrorStr()``, ``GetErrorFun()``."""
+
+    def __init__(self, fun, msg):
+        super().__init__(msg)
+        self._fun = fun
+        self._msg = msg
+
+    def GetErrorStr(self):
+        return self._msg
+
+    def GetErrorFun(self):
+        return self._fun
+
+    def GetErrorCode(self):
+        return -1
+
+
+def _check(fun, ret):
+    if ret != 0:
+        raise PlayerError(fun, _pc.playerc_error_str())
+
+
+class PlayerClient:
+    """``PlayerCc::PlayerClient(host, port)``: connects at once (raises on failure)."""
+
+    def __init__(self, aHostname=PLAYER_HOSTNAME, aPort=PLAYER_PORTNUM, aTransport=None):
+        self._pc = _pc.playerc_client(None, aHostname, aPort)
+        _check("PlayerClient::Connect", self._pc.connect())
+
+    def Read(self):
+        """One read (a PULL round by default); raises on a dropped connection."""
+        if self._pc.read() is None:
+            raise PlayerError("PlayerClient::Read", _pc.playerc_error_str())
+
+    def ReadIfWaiting(self):
+        self.Read()
+
+    def Peek(self, timeout=0):
+        """True: libplayerc++ clients call ``Read`` next, which waits for data."""
+        return True
+
+    def SetDataMode(self, aMode):
+        _check("PlayerClient::SetDataMode", self._pc.datamode(aMode))
+
+    def SetReplaceRule(self, aReplace, aType=-1, aSubtype=-1, aInterf=-1):
+        _check(
+            "PlayerClient::SetReplaceRule",
+            self._pc.set_replace_rule(aInterf, -1, aType, aSubtype, 1 if aReplace else 0),
+        )
+
+    def SetRequestTimeout(self, aTimeout):
+        self._pc.set_request_timeout(aTimeout)
+
+    def Connected(self):
+        return self._pc._conn is not None
+
+    def GetHostname(self):
+        return self._pc.host
+
+    def GetPort(self):
+        return self._pc.port
+
+    def Disconnect(self):
+        if self._pc._conn is not None:
+            self._pc.disconnect()
+
+    def RequestDeviceList(self):
+        _check("PlayerClient::RequestDeviceList", self._pc.get_devlist())
+
+    def GetDeviceList(self):
+        return list(self._pc.devinfos)
+
+
+class ClientProxy:
+    """``PlayerCc::ClientProxy``: subscribes on construction."""
+
+    _playerc = None
+
+    def __init__(self, aPc, aIndex=0):
+        self._client = aPc
+        self._dev = self._playerc(aPc._pc, aIndex)
+        _check(f"{type(self).__name__}::Subscribe", self._dev.subscribe(_pc.PLAYERC_OPEN_MODE))
+
+    def _ok(self, what, ret):
+        _check(f"{type(self).__name__}::{what}", ret)
+
+    def GetIndex(self):
+        return self._dev.index
+
+    def GetInterface(self):
+        return self._dev._code
+
+    def GetDriverName(self):
+        return self._dev.info.drivername
+
+    def GetDataTime(self):
+        return self._dev.info.datatime
+
+    def IsValid(self):
+        return self._dev.info.datatime > 0
+
+    def IsFresh(self):
+        return bool(self._dev.info.fresh)
+
+    def NotFresh(self):
+        self._dev.info.fresh = 0
+
+    def SetReplaceRule(self, aReplace, aType=-1, aSubtype=-1):
+        self._ok(
+            "SetReplaceRule",
+            self._client._pc.set_replace_rule(
+                self._dev._code, self._dev.index, aType, aSubtype, 1 if aReplace else 0
+            ),
+        )
+
+    def Unsubscribe(self):
+        if self._dev.info.subscribed:
+            self._ok("Unsubscribe", self._dev.unsubscribe())
+
+
+class Position2dProxy(ClientProxy):
+    """``PlayerCc::Position2dProxy``."""
+
+    _playerc = _pc.playerc_position2d
+
+    def SetSpeed(self, *args):
+        """``SetSpeed(x, yaw)``, ``SetSpeed(x, y, yaw)`` or ``SetSpeed(player_pose2d_t)``."""
+        if len(args) == 1:
+            v = args[0]
+            x, y, a = v.px, v.py, v.pa
+        elif len(args) == 2:
+            (x, a), y = args, 0.0
+        else:
+            x, y, a = args
+        self._ok("SetSpeed", self._dev.set_cmd_vel(x, y, a, 1))
+
+    def SetVelHead(self, *args):
+        if len(args) == 2:
+            (x, h), y = args, 0.0
+        else:
+            x, y, h = args
+        self._ok("SetVelHead", self._dev.set_cmd_vel_head(x, y, h, 1))
+
+    def GoTo(self, *args):
+        if len(args) == 3:
+            self._ok("GoTo", self._dev.set_cmd_pose(*args, 1))
+        elif len(args) == 2:
+            self._ok("GoTo", self._dev.set_cmd_pose_with_vel(args[0], args[1], 1))
+        else:
+            p = args[0]
+            self._ok("GoTo", self._dev.set_cmd_pose(p.px, p.py, p.pa, 1))
+
+    def SetCarlike(self, aXSpeed, aDriveAngle):
+        self._ok("SetCarlike", self._dev.set_cmd_car(aXSpeed, aDriveAngle))
+
+    def RequestGeom(self):
+        self._ok("RequestGeom", self._dev.get_geom())
+
+    def GetSize(self):
+        return _pc.player_bbox3d_t(self._dev.size[1], self._dev.size[0], 0.0)
+
+    def GetPose(self):
+        return _pc.player_pose3d_t(self._dev.pose[0], self._dev.pose[1], 0, 0, 0, self._dev.pose[2])
+
+    def SetMotorEnable(self, enable):
+        self._ok("SetMotorEnable", self._dev.enable(enable))
+
+    def ResetOdometry(self):
+        self._ok("ResetOdometry", self._dev.set_odom(0.0, 0.0, 0.0))
+
+    def SetOdometry(self, aX, aY, aYaw):
+        self._ok("SetOdometry", self._dev.set_odom(aX, aY, aYaw))
+
+    def GetXPos(self):
+        return self._dev.px
+
+    def GetYPos(self):
+        return self._dev.py
+
+    def GetYaw(self):
+        return self._dev.pa
+
+    def GetXSpeed(self):
+        return self._dev.vx
+
+    def GetYSpeed(self):
+        return self._dev.vy
+
+    def GetYawSpeed(self):
+        return self._dev.va
+
+    def GetStall(self):
+        return bool(self._dev.stall)
+
+
+class RangerProxy(ClientProxy):
+    """``PlayerCc::RangerProxy``; ``rp[i]`` is ``GetRange(i)`` as C++'s ``operator[]``."""
+
+    _playerc = _pc.playerc_ranger
+
+    def GetElementCount(self):
+        return self._dev.element_count
+
+    def GetDevicePose(self):
+        return self._dev.device_pose
+
+    def GetDeviceSize(self):
+        return self._dev.device_size
+
+    def GetElementPose(self, aIndex):
+        return self._dev.element_poses[aIndex]
+
+    def GetElementSize(self, aIndex):
+        return self._dev.element_sizes[aIndex]
+
+    def GetRangeCount(self):
+        return self._dev.ranges_count
+
+    def GetRange(self, aIndex):
+        return self._dev.ranges[aIndex]
+
+    def __getitem__(self, aIndex):
+        return self.GetRange(aIndex)
+
+    def GetIntensityCount(self):
+        return self._dev.intensities_count
+
+    def GetIntensity(self, aIndex):
+        return self._dev.intensities[aIndex]
+
+    def SetPower(self, aEnable):
+        self._ok("SetPower", self._dev.power_config(1 if aEnable else 0))
+
+    def SetIntensityData(self, aEnable):
+        self._ok("SetIntensityData", self._dev.intns_config(1 if aEnable else 0))
+
+    def RequestGeom(self):
+        self._ok("RequestGeom", self._dev.get_geom())
+
+    def Configure(self, aMinAngle, aMaxAngle, aAngularRes, aMinRange, aMaxRange, aRangeRes,
+                  aFrequency):
+        self._ok(
+            "Configure",
+            self._dev.set_config(aMinAngle, aMaxAngle, aAngularRes, aMinRange, aMaxRange,
+                                 aRangeRes, aFrequency),
+        )
+
+    def RequestConfigure(self):
+        self._ok("RequestConfigure", self._dev.get_config()[0])
+
+    def GetMinAngle(self):
+        return self._dev.min_angle
+
+    def GetMaxAngle(self):
+        return self._dev.max_angle
+
+    def GetAngularRes(self):
+        return self._dev.angular_res
+
+    def GetMinRange(self):
+        return self._dev.min_range
+
+    def GetMaxRange(self):
+        return self._dev.max_range
+
+    def GetRangeRes(self):
+        return self._dev.range_res
+
+    def GetFrequency(self):
+        return self._dev.frequency
+
+
+class LaserProxy(ClientProxy):
+    """``PlayerCc::LaserProxy``."""
+
+    _playerc = _pc.playerc_laser
+
+    def GetCount(self):
+        return self._dev.scan_count
+
+    def GetRange(self, aIndex):
+        return self._dev.scan[aIndex][0]
+
+    def GetBearing(self, aIndex):
+        return self._dev.scan[aIndex][1]
+
+    def __getitem__(self, aIndex):
+        return self.GetRange(aIndex)
+
+    def GetIntensity(self, aIndex):
+        return self._dev.intensity[aIndex]
+
+    def GetPoint(self, aIndex):
+        x, y = self._dev.point[aIndex]
+        return player_point_2d_t(x, y)
+
+    def GetMaxRange(self):
+        return self._dev.max_range
+
+    def GetScanRes(self):
+        return self._dev.scan_res
+
+    def GetRangeRes(self):
+        return self._dev.range_res
+
+    def GetScanningFrequency(self):
+        return self._dev.scanning_frequency
+
+    def GetMinAngle(self):
+        return self._dev.min_angle
+
+    def GetMaxAngle(self):
+        return self._dev.max_angle
+
+    def GetID(self):
+        return self._dev.laser_id
+
+    def RequestGeom(self):
+        self._ok("RequestGeom", self._dev.get_geom())
+
+    def RequestConfigure(self):
+        self._ok("RequestConfigure", self._dev.get_config()[0])
+
+    def Configure(self, aMinAngle, aMaxAngle, aScanRes, aRangeRes, aIntensity, aScanningFrequency):
+        self._ok(
+            "Configure",
+            self._dev.set_config(aMinAngle, aMaxAngle, aScanRes, aRangeRes, aIntensity,
+                                 aScanningFrequency),
+        )
+
+    def GetMinLeft(self):
+        n = self._dev.scan_count
+        return min((r for r, _ in self._dev.scan[n // 2:]), default=self._dev.max_range)
+
+    def GetMinRight(self):
+        n = self._dev.scan_count
+        return min((r for r, _ in self._dev.scan[: n // 2]), default=self._dev.max_range)
+
+
+class SonarProxy(ClientProxy):
+    """``PlayerCc::SonarProxy``."""
+
+    _playerc = _pc.playerc_sonar
+
+    def GetCount(self):
+        return self._dev.scan_count
+
+    def GetScan(self, aIndex):
+        return self._dev.scan[aIndex]
+
+    def __getitem__(self, aIndex):
+        return self.GetScan(aIndex)
+
+    def GetPoseCount(self):
+        return self._dev.pose_count
+
+    def GetPose(self, aIndex):
+        x, y, a = self._dev.poses[aIndex]
+        return _pc.player_pose3d_t(x, y, 0.0, 0.0, 0.0, a)
+
+    def RequestGeom(self):
+        self._ok("RequestGeom", self._dev.get_geom())
+
+
+class BlobfinderProxy(ClientProxy):
+    """``PlayerCc::BlobfinderProxy``."""
+
+    _playerc = _pc.playerc_blobfinder
+
+    def GetCount(self):
+        return self._dev.blobs_count
+
+    def GetBlob(self, aIndex):
+        return self._dev.blobs[aIndex]
+
+    def __getitem__(self, aIndex):
+        return self.GetBlob(aIndex)
+
+    def GetWidth(self):
+        return self._dev.width
+
+    def GetHeight(self):
+        return self._dev.height
+
+
+class FiducialProxy(ClientProxy):
+    """``PlayerCc::FiducialProxy``."""
+
+    _playerc = _pc.playerc_fiducial
+
+    def GetCount(self):
+        return self._dev.fiducials_count
+
+    def GetFiducialItem(self, aIndex):
+        return self._dev.fiducials[aIndex]
+
+    def __getitem__(self, aIndex):
+        return self.GetFiducialItem(aIndex)
+
+    def GetSensorPose(self):
+        return self._dev.fiducial_geom.pose
+
+    def GetSensorSize(self):
+        return self._dev.fiducial_geom.size
+
+    def RequestGeometry(self):
+        self._ok("RequestGeometry", self._dev.get_geom())
+
+
+class GripperProxy(ClientProxy):
+    """``PlayerCc::GripperProxy``."""
+
+    _playerc = _pc.playerc_gripper
+
+    def GetState(self):
+        return self._dev.state
+
+    def GetBeams(self):
+        return self._dev.beams
+
+    def GetStored(self):
+        return self._dev.stored
+
+    def GetCapacity(self):
+        return self._dev.capacity
+
+    def GetNumBeams(self):
+        return self._dev.num_beams
+
+    def GetPose(self):
+        return self._dev.pose
+
+    def GetOuterSize(self):
+        return self._dev.outer_size
+
+    def GetInnerSize(self):
+        return self._dev.inner_size
+
+    def RequestGeometry(self):
+        self._ok("RequestGeometry", self._dev.get_geom())
+
+    def Open(self):
+        self._ok("Open", self._dev.open_cmd())
+
+    def Close(self):
+        self._ok("Close", self._dev.close_cmd())
+
+    def Stop(self):
+        self._ok("Stop", self._dev.stop_cmd())
+
+    def Store(self):
+        self._ok("Store", self._dev.store_cmd())
+
+    def Retrieve(self):
+        self._ok("Retrieve", self._dev.retrieve_cmd())
+
+
+class SimulationProxy(ClientProxy):
+    """``PlayerCc::SimulationProxy``."""
+
+    _playerc = _pc.playerc_simulation
+
+    def SetPose2d(self, identifier, x, y, a):
+        self._ok("SetPose2d", self._dev.set_pose2d(identifier, x, y, a))
+
+    def GetPose2d(self, identifier, *ignored_refs):
+        """``(x, y, a)``: Python has no output references."""
+        res = self._dev.get_pose2d(identifier)
+        self._ok("GetPose2d", res[0])
+        return tuple(res[1:])
+
+    def GetProperty(self, identifier, name, value_len=16):
+        res = self._dev.get_property(identifier, name, value_len)
+        self._ok("GetProperty", res[0])
+        return res[1]
+
+    def SetProperty(self, identifier, name, value, value_len=None):
+        self._ok("SetProperty", self._dev.set_property(identifier, name, value))
+
+
+class SpeechProxy(ClientProxy):
+    """``PlayerCc::SpeechProxy``."""
+
+    _playerc = _pc.playerc_speech
+
+    def Say(self, aStr):
+        self._ok("Say", self._dev.say(aStr))
+
+
+class Graphics2dProxy(ClientProxy):
+    """``PlayerCc::Graphics2dProxy``."""
+
+    _playerc = _pc.playerc_graphics2d
+
+    def Color(self, *args):
+        """``Color(player_color_t)`` or ``Color(red, green, blue, alpha)``."""
+        if len(args) == 1:
+            self._ok("Color", self._dev.setcolor(args[0]))
+        else:
+            r, g, b, a = args
+            self._ok("Color", self._dev.setcolor((a, r, g, b)))
+
+    def Clear(self):
+        self._ok("Clear", self._dev.clear())
+
+    def DrawPoints(self, pts, count=None):
+        self._ok("DrawPoints", self._dev.draw_points(_pts(pts), count))
+
+    def DrawPolyline(self, pts, count=None):
+        self._ok("DrawPolyline", self._dev.draw_polyline(_pts(pts), count))
+
+    def DrawPolygon(self, pts, count=None, filled=False, fill_color=None):
+        fill = fill_color if fill_color is not None else (0, 0, 0, 0)
+        self._ok("DrawPolygon", self._dev.draw_polygon(_pts(pts), count, filled, fill))
+
+
+def _pts(pts):
+    return [(p.px, p.py) if hasattr(p, "px") else tuple(p) for p in pts]
+
+
+class CameraProxy(ClientProxy):
+    """``PlayerCc::CameraProxy``."""
+
+    _playerc = _pc.playerc_camera
+
+    def GetWidth(self):
+        return self._dev.width
+
+    def GetHeight(self):
+        return self._dev.height
+
+    def GetDepth(self):
+        return self._dev.bpp
+
+    def GetFormat(self):
+        return self._dev.format
+
+    def GetCompression(self):
+        return self._dev.compression
+
+    def GetImageSize(self):
+        return self._dev.image_count
+
+    def GetImage(self):
+        """The image bytes (C++ copies them into a caller's buffer)."""
+        return bytes(self._dev.image)
+
+    def Decompress(self):
+        self._dev.decompress()
+
+    def SaveFrame(self, aPrefix, aWidth=4):
+        self._frame = getattr(self, "_frame", -1) + 1
+        self._dev.save(f"{aPrefix}{self._frame:0{aWidth}d}.ppm")
+
+
+class MapProxy(ClientProxy):
+    """``PlayerCc::MapProxy``."""
+
+    _playerc = _pc.playerc_map
+
+    def RequestMap(self):
+        self._ok("RequestMap", self._dev.get_map())
+
+    def GetCellIndex(self, x, y):
+        return y * self._dev.width + x
+
+    def GetCell(self, x, y):
+        return self._dev.cells[self.GetCellIndex(x, y)]
+
+    def GetResolution(self):
+        return self._dev.resolution
+
+    def GetWidth(self):
+        return self._dev.width
+
+    def GetHeight(self):
+        return self._dev.height
+
+    def GetOriginX(self):
+        return self._dev.origin[0]
+
+    def GetOriginY(self):
+        return self._dev.origin[1]
+
+    def GetMap(self):
+        return list(self._dev.cells)
+
+
+class PlannerProxy(ClientProxy):
+    """``PlayerCc::PlannerProxy``."""
+
+    _playerc = _pc.playerc_planner
+
+    def SetGoalPose(self, aGx, aGy, aGa):
+        self._ok("SetGoalPose", self._dev.set_cmd_pose(aGx, aGy, aGa))
+
+    def RequestWaypoints(self):
+        self._ok("RequestWaypoints", self._dev.get_waypoints())
+
+    def SetEnable(self, aEnable):
+        self._ok("SetEnable", self._dev.enable(aEnable))
+
+    def GetPathValid(self):
+        return self._dev.path_valid
+
+    def GetPathDone(self):
+        return self._dev.path_done
+
+    def GetPx(self):
+        return self._dev.px
+
+    def GetPy(self):
+        return self._dev.py
+
+    def GetPa(self):
+        return self._dev.pa
+
+    def GetGx(self):
+        return self._dev.gx
+
+    def GetGy(self):
+        return self._dev.gy
+
+    def GetGa(self):
+        return self._dev.ga
+
+    def GetWx(self):
+        return self._dev.wx
+
+    def GetWy(self):
+        return self._dev.wy
+
+    def GetWa(self):
+        return self._dev.wa
+
+    def GetIx(self, i):
+        return self._dev.waypoints[i][0]
+
+    def GetIy(self, i):
+        return self._dev.waypoints[i][1]
+
+    def GetIa(self, i):
+        return self._dev.waypoints[i][2]
+
+    def GetCurrentWaypointId(self):
+        return self._dev.curr_waypoint
+
+    def GetWaypointCount(self):
+        return self._dev.waypoint_count
+
+
+class LocalizeProxy(ClientProxy):
+    """``PlayerCc::LocalizeProxy``."""
+
+    _playerc = _pc.playerc_localize
+
+    def GetPendingCount(self):
+        return self._dev.pending_count
+
+    def GetPendingTime(self):
+        return self._dev.pending_time
+
+    def GetHypothCount(self):
+        return self._dev.hypoth_count
+
+    def GetHypoth(self, aIndex):
+        return self._dev.hypoths[aIndex]
+
+    def GetParticles(self):
+        self._ok("GetParticles", self._dev.get_particles())
+        return 0
+
+    def GetParticlePose(self, index):
+        return self._dev.particles[index].pose
+
+    def GetNumParticles(self):
+        return self._dev.num_particles
+
+    def SetPose(self, pose, cov):
+        self._ok("SetPose", self._dev.set_pose(pose, cov))
+
+
+__all__ = [n for n in dir() if not n.startswith("_")]

@@ -1,0 +1,866 @@
+//! `Connection`: one `player-client` session to a Player server, for Python.
+//!
+//! The Python proxies (`playerc.playerc_position2d`, `playercpp.Position2dProxy`,
+//! `playerstage.Client`) keep their own state and call these methods; each request or command
+//! is built here from the workspace's message types and sent through `player-client`, which
+//! owns the socket, the PULL/PUSH rules and the reply matching. Blocking calls release the GIL,
+//! so other Python threads run while one waits for the server.
+
+use std::time::Duration;
+
+use player_client::{ClientError, DataMode, MapProxy, PlayerClient};
+use player_proto::*;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict, PyList};
+
+use crate::convert;
+use crate::errors::{ConnectionLost, PlayerError, client_err};
+
+/// A connection to a Player server (`host`, `port`), in PULL mode after connecting as
+/// libplayerc's. `disconnect()` closes it; any call after that raises `ConnectionLost`.
+#[pyclass(module = "playerstage._native")]
+pub struct Connection {
+    client: Option<PlayerClient>,
+}
+
+/// The bodies `read()` hands back: (interface code, index, timestamp, fields or None).
+type Updates = Vec<(u16, u16, f64, Vec<Body>)>;
+
+fn pose(p: [f64; 3]) -> Pose2d {
+    Pose2d {
+        px: p[0],
+        py: p[1],
+        pa: p[2],
+    }
+}
+
+fn pose3(p: [f64; 6]) -> Pose3d {
+    Pose3d {
+        px: p[0],
+        py: p[1],
+        pz: p[2],
+        proll: p[3],
+        ppitch: p[4],
+        pyaw: p[5],
+    }
+}
+
+fn color(c: (u8, u8, u8, u8)) -> Color {
+    Color {
+        alpha: c.0,
+        red: c.1,
+        green: c.2,
+        blue: c.3,
+    }
+}
+
+fn points(pts: Vec<(f64, f64)>) -> Vec<Point2d> {
+    pts.into_iter().map(|(px, py)| Point2d { px, py }).collect()
+}
+
+fn bad_reply(what: &str) -> PyErr {
+    PlayerError::new_err(format!("unexpected reply to {what}"))
+}
+
+impl Connection {
+    fn client(&self) -> PyResult<PlayerClient> {
+        self.client
+            .clone()
+            .ok_or_else(|| ConnectionLost::new_err("not connected (disconnect() was called)"))
+    }
+
+    /// Sends a request with the GIL released; the ACK's body.
+    fn request(
+        &self,
+        py: Python<'_>,
+        interf: InterfaceCode,
+        index: u16,
+        body: impl Into<Body> + Send,
+    ) -> PyResult<Option<Body>> {
+        let client = self.client()?;
+        py.allow_threads(move || client.request(interf, index, body))
+            .map_err(client_err)
+    }
+
+    /// Sends a command (never answered).
+    fn command(&self, interf: InterfaceCode, index: u16, body: impl Into<Body>) -> PyResult<()> {
+        self.client()?
+            .command(interf, index, body)
+            .map_err(client_err)
+    }
+}
+
+#[pymethods]
+impl Connection {
+    /// Connects to `host:port` (reads the banner, switches to PULL mode).
+    #[new]
+    fn new(py: Python<'_>, host: String, port: u16) -> PyResult<Self> {
+        let client = py
+            .allow_threads(move || PlayerClient::connect(&host, port))
+            .map_err(client_err)?;
+        Ok(Connection {
+            client: Some(client),
+        })
+    }
+
+    /// Closes the connection (the server ends this client's subscriptions).
+    fn disconnect(&mut self) {
+        self.client = None;
+    }
+
+    /// True until `disconnect()`.
+    #[getter]
+    fn connected(&self) -> bool {
+        self.client.is_some()
+    }
+
+    /// The server's banner (`Player v.3.0.2`).
+    #[getter]
+    fn banner(&self) -> PyResult<String> {
+        Ok(self.client()?.banner())
+    }
+
+    /// Timestamp of the latest DATA received (server time).
+    #[getter]
+    fn datatime(&self) -> PyResult<f64> {
+        Ok(self.client()?.datatime())
+    }
+
+    /// True in PULL mode, False in PUSH mode.
+    #[getter]
+    fn pull(&self) -> PyResult<bool> {
+        Ok(self.client()?.datamode() == DataMode::Pull)
+    }
+
+    /// Switches PULL (True) / PUSH (False) (`PLAYER_PLAYER_REQ_DATAMODE`).
+    fn set_pull(&self, py: Python<'_>, pull: bool) -> PyResult<()> {
+        let client = self.client()?;
+        let mode = if pull { DataMode::Pull } else { DataMode::Push };
+        py.allow_threads(move || client.set_datamode(mode))
+            .map_err(client_err)
+    }
+
+    /// How long requests wait for their reply, in seconds (default 5).
+    fn set_request_timeout(&self, seconds: f64) -> PyResult<()> {
+        let t = Duration::try_from_secs_f64(seconds)
+            .map_err(|e| PlayerError::new_err(format!("request timeout {seconds}: {e}")))?;
+        self.client()?.set_request_timeout(t);
+        Ok(())
+    }
+
+    /// How long `read()` waits for data, in seconds (`None`: as long as it takes).
+    #[pyo3(signature = (seconds=None))]
+    fn set_read_timeout(&self, seconds: Option<f64>) -> PyResult<()> {
+        let t = seconds
+            .map(Duration::try_from_secs_f64)
+            .transpose()
+            .map_err(|e| PlayerError::new_err(format!("read timeout {seconds:?}: {e}")))?;
+        self.client()?.set_read_timeout(t);
+        Ok(())
+    }
+
+    /// `playerc_client_set_replace_rule`: -1 matches any interface/index/type/subtype;
+    /// `action` 0 accept, 1 replace, 2 ignore.
+    fn set_replace_rule(
+        &self,
+        py: Python<'_>,
+        interf: i32,
+        index: i32,
+        msg_type: i32,
+        subtype: i32,
+        action: i32,
+    ) -> PyResult<()> {
+        let client = self.client()?;
+        py.allow_threads(move || client.add_replace_rule(interf, index, msg_type, subtype, action))
+            .map_err(client_err)
+    }
+
+    /// The server's devices: `(interface code, index, driver name)` each.
+    fn device_list(&self, py: Python<'_>) -> PyResult<Vec<(u16, u16, String)>> {
+        let client = self.client()?;
+        let list = py
+            .allow_threads(move || client.device_list())
+            .map_err(client_err)?;
+        Ok(list
+            .into_iter()
+            .map(|d| (d.addr.interf.0, d.addr.index, d.driver_name))
+            .collect())
+    }
+
+    /// Subscribes to (`interf`, `index`); returns the driver name. A missing device raises
+    /// `RequestRefused`.
+    fn subscribe(&self, py: Python<'_>, interf: u16, index: u16) -> PyResult<String> {
+        let client = self.client()?;
+        py.allow_threads(move || client.subscribe(InterfaceCode(interf), index))
+            .map_err(client_err)
+    }
+
+    /// Ends one subscription.
+    fn unsubscribe(&self, py: Python<'_>, interf: u16, index: u16) -> PyResult<()> {
+        let client = self.client()?;
+        py.allow_threads(move || client.unsubscribe(InterfaceCode(interf), index))
+            .map_err(client_err)
+    }
+
+    /// One `playerc_client_read`: a PULL round, or one PUSH message. Returns the devices that
+    /// received data as `(interface code, index, timestamp, fields)`, where `fields` is one
+    /// dict merging the latest DATA of every subtype (libplayerc's field names). The server's
+    /// overflow reports (messages it dropped for a slow client) are not errors, as in
+    /// libplayerc.
+    fn read<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let client = self.client()?;
+        let updates: Updates = py
+            .allow_threads(move || -> Result<Updates, ClientError> {
+                match client.read() {
+                    // libplayerc counts the server's overflow reports and goes on: the round
+                    // still holds the newest data of every device.
+                    Ok(()) | Err(ClientError::Overflow { .. }) => {}
+                    Err(e) => return Err(e),
+                }
+                Ok(client
+                    .take_updated()
+                    .into_iter()
+                    .map(|(interf, index, t)| {
+                        let bodies = (0u8..=8)
+                            .filter_map(|s| client.latest(interf, index, s))
+                            .collect();
+                        (interf.0, index, t, bodies)
+                    })
+                    .collect())
+            })
+            .map_err(client_err)?;
+        let out = PyList::empty(py);
+        for (interf, index, t, bodies) in updates {
+            let fields = PyDict::new(py);
+            for b in &bodies {
+                if let Some(d) = convert::data(py, b)? {
+                    fields.update(d.as_mapping())?;
+                }
+            }
+            out.append((interf, index, t, fields))?;
+        }
+        Ok(out)
+    }
+
+    // --- position2d -------------------------------------------------------------------
+
+    /// `playerc_position2d_set_cmd_vel`.
+    fn position2d_set_cmd_vel(
+        &self,
+        index: u16,
+        vx: f64,
+        vy: f64,
+        va: f64,
+        state: u8,
+    ) -> PyResult<()> {
+        self.command(
+            InterfaceCode::POSITION2D,
+            index,
+            Position2dCmd::Vel(Position2dCmdVel {
+                vel: pose([vx, vy, va]),
+                state,
+            }),
+        )
+    }
+
+    /// `playerc_position2d_set_cmd_pose_with_vel`.
+    fn position2d_set_cmd_pose_with_vel(
+        &self,
+        index: u16,
+        pos: [f64; 3],
+        vel: [f64; 3],
+        state: u8,
+    ) -> PyResult<()> {
+        self.command(
+            InterfaceCode::POSITION2D,
+            index,
+            Position2dCmd::Pos(Position2dCmdPos {
+                pos: pose(pos),
+                vel: pose(vel),
+                state,
+            }),
+        )
+    }
+
+    /// `playerc_position2d_set_cmd_vel_head`: forward speed and absolute heading.
+    fn position2d_set_cmd_vel_head(&self, index: u16, vx: f64, pa: f64) -> PyResult<()> {
+        self.command(
+            InterfaceCode::POSITION2D,
+            index,
+            Position2dCmd::VelHead(Position2dCmdVelHead {
+                velocity: vx,
+                angle: pa,
+            }),
+        )
+    }
+
+    /// `playerc_position2d_set_cmd_car`.
+    fn position2d_set_cmd_car(&self, index: u16, vx: f64, a: f64) -> PyResult<()> {
+        self.command(
+            InterfaceCode::POSITION2D,
+            index,
+            Position2dCmd::Car(Position2dCmdCar {
+                velocity: vx,
+                angle: a,
+            }),
+        )
+    }
+
+    /// `playerc_position2d_enable` (motor power).
+    fn position2d_enable(&self, py: Python<'_>, index: u16, enable: bool) -> PyResult<()> {
+        let req = Position2dReq::MotorPower(Some(Position2dPowerConfig {
+            state: u8::from(enable),
+        }));
+        self.request(py, InterfaceCode::POSITION2D, index, req)
+            .map(|_| ())
+    }
+
+    /// `playerc_position2d_set_odom`.
+    fn position2d_set_odom(&self, py: Python<'_>, index: u16, p: [f64; 3]) -> PyResult<()> {
+        let req = Position2dReq::SetOdom(Some(Position2dSetOdomReq { pose: pose(p) }));
+        self.request(py, InterfaceCode::POSITION2D, index, req)
+            .map(|_| ())
+    }
+
+    /// RESET_ODOM.
+    fn position2d_reset_odom(&self, py: Python<'_>, index: u16) -> PyResult<()> {
+        self.request(
+            py,
+            InterfaceCode::POSITION2D,
+            index,
+            Position2dReq::ResetOdom,
+        )
+        .map(|_| ())
+    }
+
+    /// `playerc_position2d_get_geom`: `{pose: [6], size: [3]}`.
+    fn position2d_get_geom<'py>(
+        &self,
+        py: Python<'py>,
+        index: u16,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(
+            py,
+            InterfaceCode::POSITION2D,
+            index,
+            Position2dReq::GetGeom(None),
+        )? {
+            Some(Body::Position2d(Position2dMsg::Ack(Position2dReq::GetGeom(Some(g))))) => {
+                let d = PyDict::new(py);
+                d.set_item("pose", convert::pose3d(&g.pose))?;
+                d.set_item("size", convert::bbox3d(&g.size))?;
+                Ok(d)
+            }
+            _ => Err(bad_reply("position2d GET_GEOM")),
+        }
+    }
+
+    // --- ranger -----------------------------------------------------------------------
+
+    /// `playerc_ranger_get_geom`.
+    fn ranger_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(py, InterfaceCode::RANGER, index, RangerReq::GetGeom(None))? {
+            Some(Body::Ranger(RangerMsg::Ack(RangerReq::GetGeom(Some(g))))) => {
+                convert::ranger_geom(py, &g)
+            }
+            _ => Err(bad_reply("ranger GET_GEOM")),
+        }
+    }
+
+    /// `playerc_ranger_get_config`.
+    fn ranger_get_config<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(py, InterfaceCode::RANGER, index, RangerReq::GetConfig(None))? {
+            Some(Body::Ranger(RangerMsg::Ack(RangerReq::GetConfig(Some(c))))) => {
+                convert::ranger_config(py, &c)
+            }
+            _ => Err(bad_reply("ranger GET_CONFIG")),
+        }
+    }
+
+    /// `playerc_ranger_set_config`: the seven values in libplayerc's order; returns the
+    /// configuration the device applied.
+    #[allow(clippy::too_many_arguments)]
+    fn ranger_set_config<'py>(
+        &self,
+        py: Python<'py>,
+        index: u16,
+        min_angle: f64,
+        max_angle: f64,
+        angular_res: f64,
+        min_range: f64,
+        max_range: f64,
+        range_res: f64,
+        frequency: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let cfg = RangerConfig {
+            min_angle,
+            max_angle,
+            angular_res,
+            min_range,
+            max_range,
+            range_res,
+            frequency,
+        };
+        match self.request(
+            py,
+            InterfaceCode::RANGER,
+            index,
+            RangerReq::SetConfig(Some(cfg.clone())),
+        )? {
+            Some(Body::Ranger(RangerMsg::Ack(RangerReq::SetConfig(Some(c))))) => {
+                convert::ranger_config(py, &c)
+            }
+            None => convert::ranger_config(py, &cfg),
+            _ => Err(bad_reply("ranger SET_CONFIG")),
+        }
+    }
+
+    /// `playerc_ranger_power_config`.
+    fn ranger_power_config(&self, py: Python<'_>, index: u16, state: u8) -> PyResult<()> {
+        let req = RangerReq::Power(Some(RangerPowerConfig { state }));
+        self.request(py, InterfaceCode::RANGER, index, req)
+            .map(|_| ())
+    }
+
+    /// `playerc_ranger_intns_config`.
+    fn ranger_intns_config(&self, py: Python<'_>, index: u16, state: u8) -> PyResult<()> {
+        let req = RangerReq::Intns(Some(RangerIntnsConfig { state }));
+        self.request(py, InterfaceCode::RANGER, index, req)
+            .map(|_| ())
+    }
+
+    // --- laser, sonar -----------------------------------------------------------------
+
+    /// `playerc_laser_get_geom`: `{pose: [6], size: [3]}`.
+    fn laser_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(py, InterfaceCode::LASER, index, LaserReq::GetGeom(None))? {
+            Some(Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(g))))) => {
+                let d = PyDict::new(py);
+                d.set_item("pose", convert::pose3d(&g.pose))?;
+                d.set_item("size", convert::bbox3d(&g.size))?;
+                Ok(d)
+            }
+            _ => Err(bad_reply("laser GET_GEOM")),
+        }
+    }
+
+    /// `playerc_laser_get_config`.
+    fn laser_get_config<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(py, InterfaceCode::LASER, index, LaserReq::GetConfig(None))? {
+            Some(Body::Laser(LaserMsg::Ack(LaserReq::GetConfig(Some(c))))) => {
+                convert::laser_config(py, &c)
+            }
+            _ => Err(bad_reply("laser GET_CONFIG")),
+        }
+    }
+
+    /// `playerc_laser_set_config`; returns the configuration the device applied.
+    #[allow(clippy::too_many_arguments)]
+    fn laser_set_config<'py>(
+        &self,
+        py: Python<'py>,
+        index: u16,
+        min_angle: f32,
+        max_angle: f32,
+        resolution: f32,
+        range_res: f32,
+        intensity: u8,
+        scanning_frequency: f32,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let cfg = LaserConfig {
+            min_angle,
+            max_angle,
+            resolution,
+            max_range: 0.0,
+            range_res,
+            intensity,
+            scanning_frequency,
+        };
+        match self.request(
+            py,
+            InterfaceCode::LASER,
+            index,
+            LaserReq::SetConfig(Some(cfg)),
+        )? {
+            Some(Body::Laser(LaserMsg::Ack(LaserReq::SetConfig(Some(c))))) => {
+                convert::laser_config(py, &c)
+            }
+            _ => Err(bad_reply("laser SET_CONFIG")),
+        }
+    }
+
+    /// `playerc_sonar_get_geom`: `{pose_count, poses}`.
+    fn sonar_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(py, InterfaceCode::SONAR, index, SonarReq::GetGeom(None))? {
+            Some(Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g))))) => {
+                let d = PyDict::new(py);
+                convert::sonar_geom(&d, &g)?;
+                Ok(d)
+            }
+            _ => Err(bad_reply("sonar GET_GEOM")),
+        }
+    }
+
+    // --- fiducial, gripper ------------------------------------------------------------
+
+    /// `playerc_fiducial_get_geom`: `{pose: [6], size: [3], fiducial_size: [2]}`.
+    fn fiducial_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(
+            py,
+            InterfaceCode::FIDUCIAL,
+            index,
+            FiducialReq::GetGeom(None),
+        )? {
+            Some(Body::Fiducial(FiducialMsg::Ack(FiducialReq::GetGeom(Some(g))))) => {
+                let d = PyDict::new(py);
+                d.set_item("pose", convert::pose3d(&g.pose))?;
+                d.set_item("size", convert::bbox3d(&g.size))?;
+                d.set_item("fiducial_size", [g.fiducial_size.sw, g.fiducial_size.sl])?;
+                Ok(d)
+            }
+            _ => Err(bad_reply("fiducial GET_GEOM")),
+        }
+    }
+
+    /// A gripper command: `open`, `close`, `stop`, `store` or `retrieve`.
+    fn gripper_cmd(&self, index: u16, what: &str) -> PyResult<()> {
+        let cmd = match what {
+            "open" => GripperCmd::Open,
+            "close" => GripperCmd::Close,
+            "stop" => GripperCmd::Stop,
+            "store" => GripperCmd::Store,
+            "retrieve" => GripperCmd::Retrieve,
+            other => {
+                return Err(PlayerError::new_err(format!(
+                    "unknown gripper command `{other}`"
+                )));
+            }
+        };
+        self.command(InterfaceCode::GRIPPER, index, cmd)
+    }
+
+    /// `playerc_gripper_get_geom`.
+    fn gripper_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(py, InterfaceCode::GRIPPER, index, GripperReq::GetGeom(None))? {
+            Some(Body::Gripper(GripperMsg::Ack(GripperReq::GetGeom(Some(g))))) => {
+                let d = PyDict::new(py);
+                d.set_item("pose", convert::pose3d(&g.pose))?;
+                d.set_item("outer_size", convert::bbox3d(&g.outer_size))?;
+                d.set_item("inner_size", convert::bbox3d(&g.inner_size))?;
+                d.set_item("num_beams", g.num_beams)?;
+                d.set_item("capacity", g.capacity)?;
+                Ok(d)
+            }
+            _ => Err(bad_reply("gripper GET_GEOM")),
+        }
+    }
+
+    // --- simulation -------------------------------------------------------------------
+
+    /// `playerc_simulation_get_pose2d`: `(x, y, a)`.
+    fn simulation_get_pose2d(&self, py: Python<'_>, index: u16, name: &str) -> PyResult<[f64; 3]> {
+        let req = SimulationReq::GetPose2d(Some(SimulationPose2dReq {
+            name: Text::new(name),
+            pose: Pose2d::default(),
+        }));
+        match self.request(py, InterfaceCode::SIMULATION, index, req)? {
+            Some(Body::Simulation(SimulationMsg::Ack(SimulationReq::GetPose2d(Some(r))))) => {
+                Ok(convert::pose2d(&r.pose))
+            }
+            _ => Err(bad_reply("simulation GET_POSE2D")),
+        }
+    }
+
+    /// `playerc_simulation_set_pose2d`.
+    fn simulation_set_pose2d(
+        &self,
+        py: Python<'_>,
+        index: u16,
+        name: &str,
+        p: [f64; 3],
+    ) -> PyResult<()> {
+        let req = SimulationReq::SetPose2d(Some(SimulationPose2dReq {
+            name: Text::new(name),
+            pose: pose(p),
+        }));
+        self.request(py, InterfaceCode::SIMULATION, index, req)
+            .map(|_| ())
+    }
+
+    /// `playerc_simulation_get_pose3d`: `([x, y, z, roll, pitch, yaw], simtime)`.
+    fn simulation_get_pose3d(
+        &self,
+        py: Python<'_>,
+        index: u16,
+        name: &str,
+    ) -> PyResult<([f64; 6], f64)> {
+        let req = SimulationReq::GetPose3d(Some(SimulationPose3dReq {
+            name: Text::new(name),
+            ..SimulationPose3dReq::default()
+        }));
+        match self.request(py, InterfaceCode::SIMULATION, index, req)? {
+            Some(Body::Simulation(SimulationMsg::Ack(SimulationReq::GetPose3d(Some(r))))) => {
+                Ok((convert::pose3d(&r.pose), r.simtime))
+            }
+            _ => Err(bad_reply("simulation GET_POSE3D")),
+        }
+    }
+
+    /// `playerc_simulation_set_pose3d`.
+    fn simulation_set_pose3d(
+        &self,
+        py: Python<'_>,
+        index: u16,
+        name: &str,
+        p: [f64; 6],
+    ) -> PyResult<()> {
+        let req = SimulationReq::SetPose3d(Some(SimulationPose3dReq {
+            name: Text::new(name),
+            pose: pose3(p),
+            simtime: 0.0,
+        }));
+        self.request(py, InterfaceCode::SIMULATION, index, req)
+            .map(|_| ())
+    }
+
+    /// `playerc_simulation_get_property`: the value's raw bytes (`size` of them asked for).
+    fn simulation_get_property<'py>(
+        &self,
+        py: Python<'py>,
+        index: u16,
+        name: &str,
+        prop: &str,
+        size: usize,
+    ) -> PyResult<Bound<'py, PyBytes>> {
+        let req = SimulationReq::GetProperty(Some(SimulationPropertyReq {
+            name: Text::new(name),
+            prop: Text::new(prop),
+            index: 0,
+            value: vec![0; size],
+        }));
+        match self.request(py, InterfaceCode::SIMULATION, index, req)? {
+            Some(Body::Simulation(SimulationMsg::Ack(SimulationReq::GetProperty(Some(r))))) => {
+                Ok(PyBytes::new(py, &r.value))
+            }
+            _ => Err(bad_reply("simulation GET_PROPERTY")),
+        }
+    }
+
+    /// `playerc_simulation_set_property` from raw value bytes.
+    fn simulation_set_property(
+        &self,
+        py: Python<'_>,
+        index: u16,
+        name: &str,
+        prop: &str,
+        value: Vec<u8>,
+    ) -> PyResult<()> {
+        let req = SimulationReq::SetProperty(Some(SimulationPropertyReq {
+            name: Text::new(name),
+            prop: Text::new(prop),
+            index: 0,
+            value,
+        }));
+        self.request(py, InterfaceCode::SIMULATION, index, req)
+            .map(|_| ())
+    }
+
+    /// `playerc_simulation_pause` / `reset` / `save`: the command by name.
+    fn simulation_cmd(&self, index: u16, what: &str) -> PyResult<()> {
+        let cmd = match what {
+            "pause" => SimulationCmd::Pause,
+            "reset" => SimulationCmd::Reset,
+            "save" => SimulationCmd::Save,
+            other => {
+                return Err(PlayerError::new_err(format!(
+                    "unknown simulation command `{other}`"
+                )));
+            }
+        };
+        self.command(InterfaceCode::SIMULATION, index, cmd)
+    }
+
+    // --- speech, graphics2d -----------------------------------------------------------
+
+    /// `playerc_speech_say`.
+    fn speech_say(&self, index: u16, text: &str) -> PyResult<()> {
+        self.command(
+            InterfaceCode::SPEECH,
+            index,
+            SpeechCmd::Say(SpeechCmdSay {
+                string: Text::new(text),
+            }),
+        )
+    }
+
+    /// `playerc_graphics2d_clear`.
+    fn graphics2d_clear(&self, index: u16) -> PyResult<()> {
+        self.command(InterfaceCode::GRAPHICS2D, index, Graphics2dCmd::Clear)
+    }
+
+    /// `playerc_graphics2d_draw_points`; `color` is `(alpha, red, green, blue)`.
+    fn graphics2d_points(
+        &self,
+        index: u16,
+        pts: Vec<(f64, f64)>,
+        rgba: (u8, u8, u8, u8),
+    ) -> PyResult<()> {
+        let cmd = Graphics2dCmd::Points(Graphics2dCmdPoints {
+            points: points(pts),
+            color: color(rgba),
+        });
+        self.command(InterfaceCode::GRAPHICS2D, index, cmd)
+    }
+
+    /// `playerc_graphics2d_draw_polyline`.
+    fn graphics2d_polyline(
+        &self,
+        index: u16,
+        pts: Vec<(f64, f64)>,
+        rgba: (u8, u8, u8, u8),
+    ) -> PyResult<()> {
+        let cmd = Graphics2dCmd::Polyline(Graphics2dCmdPolyline {
+            points: points(pts),
+            color: color(rgba),
+        });
+        self.command(InterfaceCode::GRAPHICS2D, index, cmd)
+    }
+
+    /// `playerc_graphics2d_draw_polygon`.
+    fn graphics2d_polygon(
+        &self,
+        index: u16,
+        pts: Vec<(f64, f64)>,
+        rgba: (u8, u8, u8, u8),
+        filled: bool,
+        fill: (u8, u8, u8, u8),
+    ) -> PyResult<()> {
+        let cmd = Graphics2dCmd::Polygon(Graphics2dCmdPolygon {
+            points: points(pts),
+            color: color(rgba),
+            fill_color: color(fill),
+            filled: u8::from(filled),
+        });
+        self.command(InterfaceCode::GRAPHICS2D, index, cmd)
+    }
+
+    // --- map, planner, localize -------------------------------------------------------
+
+    /// `playerc_map_get_map`: `(info dict, cells bytes)`, cells row by row from the lowest
+    /// row, -1 free / 0 unknown / +1 occupied as signed bytes. Fetched tile by tile as
+    /// libplayerc does (through `player-client`'s map proxy, a subscription of its own).
+    fn map_get_map<'py>(
+        &self,
+        py: Python<'py>,
+        index: u16,
+    ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyBytes>)> {
+        let client = self.client()?;
+        let map = py
+            .allow_threads(move || MapProxy::new(&client, index)?.get_map())
+            .map_err(client_err)?;
+        let d = PyDict::new(py);
+        convert::map_info(&d, &map.info)?;
+        let cells: Vec<u8> = map.cells.iter().map(|&c| c as u8).collect();
+        Ok((d, PyBytes::new(py, &cells)))
+    }
+
+    /// `playerc_map_get_vector`: `{minx, maxx, miny, maxy, segments: [(x0, y0, x1, y1)]}`.
+    fn map_get_vector<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(py, InterfaceCode::MAP, index, MapReq::GetVector(None))? {
+            Some(Body::Map(MapMsg::Ack(MapReq::GetVector(Some(v))))) => {
+                let d = PyDict::new(py);
+                d.set_item("vminx", v.minx)?;
+                d.set_item("vmaxx", v.maxx)?;
+                d.set_item("vminy", v.miny)?;
+                d.set_item("vmaxy", v.maxy)?;
+                let segs: Vec<[f64; 4]> = v
+                    .segments
+                    .iter()
+                    .map(|s| [s.x0, s.y0, s.x1, s.y1])
+                    .collect();
+                d.set_item("num_segments", segs.len())?;
+                d.set_item("segments", segs)?;
+                Ok(d)
+            }
+            _ => Err(bad_reply("map GET_VECTOR")),
+        }
+    }
+
+    /// `playerc_planner_set_cmd_pose`.
+    fn planner_set_cmd_pose(&self, index: u16, g: [f64; 3]) -> PyResult<()> {
+        self.command(
+            InterfaceCode::PLANNER,
+            index,
+            PlannerCmdMsg::Goal(PlannerCmd { goal: pose(g) }),
+        )
+    }
+
+    /// `playerc_planner_get_waypoints`: `[[x, y, a], ...]`.
+    fn planner_get_waypoints(&self, py: Python<'_>, index: u16) -> PyResult<Vec<[f64; 3]>> {
+        match self.request(
+            py,
+            InterfaceCode::PLANNER,
+            index,
+            PlannerReq::GetWaypoints(None),
+        )? {
+            Some(Body::Planner(PlannerMsg::Ack(PlannerReq::GetWaypoints(Some(w))))) => {
+                Ok(w.waypoints.iter().map(convert::pose2d).collect())
+            }
+            _ => Err(bad_reply("planner GET_WAYPOINTS")),
+        }
+    }
+
+    /// `playerc_planner_enable`.
+    fn planner_enable(&self, py: Python<'_>, index: u16, state: bool) -> PyResult<()> {
+        let req = PlannerReq::Enable(Some(PlannerEnableReq {
+            state: u8::from(state),
+        }));
+        self.request(py, InterfaceCode::PLANNER, index, req)
+            .map(|_| ())
+    }
+
+    /// `playerc_localize_set_pose`: mean `[x, y, a]`, covariance `[xx, yy, aa]`.
+    fn localize_set_pose(
+        &self,
+        py: Python<'_>,
+        index: u16,
+        mean: [f64; 3],
+        cov: [f64; 3],
+    ) -> PyResult<()> {
+        let req = LocalizeReq::SetPose(Some(LocalizeSetPose {
+            mean: pose(mean),
+            cov,
+        }));
+        self.request(py, InterfaceCode::LOCALIZE, index, req)
+            .map(|_| ())
+    }
+
+    /// `playerc_localize_get_particles`: `{mean: [3], variance, particles: [([3], alpha)]}`.
+    fn localize_get_particles<'py>(
+        &self,
+        py: Python<'py>,
+        index: u16,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        match self.request(
+            py,
+            InterfaceCode::LOCALIZE,
+            index,
+            LocalizeReq::GetParticles(None),
+        )? {
+            Some(Body::Localize(LocalizeMsg::Ack(LocalizeReq::GetParticles(Some(p))))) => {
+                let d = PyDict::new(py);
+                d.set_item("mean", convert::pose2d(&p.mean))?;
+                d.set_item("variance", p.variance)?;
+                let parts: Vec<([f64; 3], f64)> = p
+                    .particles
+                    .iter()
+                    .map(|q| (convert::pose2d(&q.pose), q.alpha))
+                    .collect();
+                d.set_item("num_particles", parts.len())?;
+                d.set_item("particles", parts)?;
+                Ok(d)
+            }
+            _ => Err(bad_reply("localize GET_PARTICLES")),
+        }
+    }
+}

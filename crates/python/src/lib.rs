@@ -1,0 +1,29 @@
+//! The native half of the Python 3 package `playerstage` (built by maturin as
+//! `playerstage._native`).
+//!
+//! It is deliberately thin: [`client::Connection`] is the workspace's `player-client` (one
+//! codec, libplayerc's session rules) with one method per Player request or command the Python
+//! modules need, and [`world::World`] is `stage-sim` stepped in-process. Everything
+//! user-facing — the drop-in `playerc` / `playercpp` modules and the Pythonic
+//! `playerstage.Client` — is pure Python over these two classes, so the wire format and the
+//! simulation exist once, in Rust.
+
+use pyo3::prelude::*;
+
+pub mod client;
+pub mod convert;
+pub mod errors;
+pub mod world;
+
+/// The module's contents: the two classes, the exception hierarchy and the interface codes
+/// the Python side addresses devices with.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<client::Connection>()?;
+    m.add_class::<world::World>()?;
+    errors::register(m)?;
+    for (name, code) in convert::INTERFACES {
+        m.add(*name, code.0)?;
+    }
+    Ok(())
+}

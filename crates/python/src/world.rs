@@ -1,0 +1,335 @@
+//! `World`: a Stage world simulated in-process, for batch experiments and learning loops.
+//!
+//! It is `stage-sim` itself (the engine the `player` server's stage driver runs), loaded from a
+//! worldfile and stepped on demand: no server, no sockets, no clock. Models are addressed by
+//! name; every position and sensor model except cameras (costly ray fans) is subscribed at
+//! load so it updates from the first step, as if a client had subscribed to each.
+
+use std::path::PathBuf;
+
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict, PyList};
+use stage_sim::{GripperCmd, ModelId, Pose, on_sim_threads};
+
+use crate::errors::WorldError;
+
+/// A loaded world: `World(path, seed=0)`.
+#[pyclass(module = "playerstage._native")]
+pub struct World {
+    world: stage_sim::World,
+    path: PathBuf,
+}
+
+fn sim_err(e: stage_sim::Error) -> PyErr {
+    WorldError::new_err(e.to_string())
+}
+
+fn pose_list(p: &Pose) -> [f64; 3] {
+    [p.x, p.y, p.a]
+}
+
+impl World {
+    fn model(&self, name: &str) -> PyResult<ModelId> {
+        self.world.model_by_name(name).ok_or_else(|| {
+            WorldError::new_err(format!("{}: no model named `{name}`", self.path.display()))
+        })
+    }
+
+    fn wrong_type(&self, name: &str, want: &str) -> PyErr {
+        WorldError::new_err(format!(
+            "{}: model `{name}` is not a {want}",
+            self.path.display()
+        ))
+    }
+}
+
+#[pymethods]
+impl World {
+    /// Loads `path` (Stage's `STAGEPATH` honoured for includes and bitmaps) with `seed` for
+    /// every random choice: the same file, seed and commands give the same run. A bad file
+    /// raises `WorldError` naming file:line.
+    #[new]
+    #[pyo3(signature = (path, seed=0))]
+    fn new(py: Python<'_>, path: PathBuf, seed: u64) -> PyResult<Self> {
+        let load_path = path.clone();
+        let (mut world, _spec) = py
+            .allow_threads(move || stage_sim::World::load(&load_path, seed))
+            .map_err(sim_err)?;
+        let models: Vec<ModelId> = world.models().collect();
+        for m in models {
+            match world.type_name(m) {
+                "position" | "ranger" | "blobfinder" | "fiducial" | "gripper" | "actuator" => {
+                    world.subscribe(m)
+                }
+                _ => {}
+            }
+        }
+        Ok(World { world, path })
+    }
+
+    /// Advances `n` steps of `interval_sim` each (GIL released); returns False once the
+    /// world's `quit_time` is reached.
+    #[pyo3(signature = (n=1))]
+    fn step(&mut self, py: Python<'_>, n: u64) -> bool {
+        let world = &mut self.world;
+        py.allow_threads(|| {
+            on_sim_threads(|| {
+                let mut running = true;
+                for _ in 0..n {
+                    running = world.step();
+                    if !running {
+                        break;
+                    }
+                }
+                running
+            })
+        })
+    }
+
+    /// Simulated time in seconds.
+    #[getter]
+    fn time(&self) -> f64 {
+        self.world.sim_time() as f64 / 1e6
+    }
+
+    /// Simulated time in microseconds.
+    #[getter]
+    fn time_us(&self) -> u64 {
+        self.world.sim_time()
+    }
+
+    /// Steps taken so far.
+    #[getter]
+    fn steps(&self) -> u64 {
+        self.world.updates()
+    }
+
+    /// Simulated seconds per step (`interval_sim`).
+    #[getter]
+    fn interval(&self) -> f64 {
+        self.world.config().interval_sim_us as f64 / 1e6
+    }
+
+    /// The world's `quit_time` in seconds (0: never); `step` stops there.
+    #[getter]
+    fn get_quit_time(&self) -> f64 {
+        self.world.config().quit_time_us as f64 / 1e6
+    }
+
+    /// Overrides `quit_time` (seconds; 0 = never), e.g. for runs longer than the file's.
+    #[setter]
+    fn set_quit_time(&mut self, seconds: f64) -> PyResult<()> {
+        if !(seconds >= 0.0 && seconds.is_finite()) {
+            return Err(WorldError::new_err(format!(
+                "quit_time {seconds}: not a finite number of seconds >= 0"
+            )));
+        }
+        self.world.set_quit_time_us((seconds * 1e6).round() as u64);
+        Ok(())
+    }
+
+    /// The seed the world was loaded with.
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.world.seed()
+    }
+
+    /// A digest of every model's state: equal digests mean identical runs.
+    fn digest(&self) -> u64 {
+        self.world.state_digest()
+    }
+
+    /// The models as `(name, type)` pairs, in creation order.
+    fn models(&self) -> Vec<(String, &'static str)> {
+        self.world
+            .models()
+            .map(|m| (self.world.name(m).to_string(), self.world.type_name(m)))
+            .collect()
+    }
+
+    /// Starts updating a model that is not updated by default (a camera).
+    fn subscribe(&mut self, name: &str) -> PyResult<()> {
+        let m = self.model(name)?;
+        self.world.subscribe(m);
+        Ok(())
+    }
+
+    /// The model's pose in its parent's frame, `[x, y, a]`.
+    fn pose(&self, name: &str) -> PyResult<[f64; 3]> {
+        Ok(pose_list(&self.world.pose(self.model(name)?)))
+    }
+
+    /// The model's pose in the world frame, `[x, y, a]`.
+    fn global_pose(&self, name: &str) -> PyResult<[f64; 3]> {
+        Ok(pose_list(&self.world.global_pose(self.model(name)?)))
+    }
+
+    /// Moves the model (parent frame, no collision test), as the simulation interface's
+    /// SET_POSE2D does.
+    fn set_pose(&mut self, name: &str, x: f64, y: f64, a: f64) -> PyResult<()> {
+        let m = self.model(name)?;
+        let z = self.world.pose(m).z;
+        self.world.set_pose(m, Pose { x, y, z, a });
+        Ok(())
+    }
+
+    /// Velocity command for a position model (m/s, m/s, rad/s).
+    fn set_velocity(&mut self, name: &str, vx: f64, vy: f64, va: f64) -> PyResult<()> {
+        let m = self.model(name)?;
+        self.world.position_cmd_vel(m, vx, vy, va).map_err(sim_err)
+    }
+
+    /// Position command for a position model (its odometry frame).
+    fn set_goal(&mut self, name: &str, x: f64, y: f64, a: f64) -> PyResult<()> {
+        let m = self.model(name)?;
+        self.world.position_cmd_pos(m, x, y, a).map_err(sim_err)
+    }
+
+    /// A position model's data: `{px, py, pa, vx, vy, va, stall, time}` (odometry frame, as
+    /// Player's position2d), or None before its first update.
+    fn position<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let m = self.model(name)?;
+        if self.world.position_model(m).is_none() {
+            return Err(self.wrong_type(name, "position model"));
+        }
+        let Some(s) = self.world.position_state(m) else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("px", s.pose.x)?;
+        d.set_item("py", s.pose.y)?;
+        d.set_item("pa", s.pose.a)?;
+        d.set_item("vx", s.velocity.x)?;
+        d.set_item("vy", s.velocity.y)?;
+        d.set_item("va", s.velocity.a)?;
+        d.set_item("stall", s.stall)?;
+        d.set_item("time", s.time_us as f64 / 1e6)?;
+        Ok(Some(d))
+    }
+
+    /// A ranger's data as Player publishes it: `{ranges, intensities, bearings, time}`
+    /// (one sensor: all its samples; several: the first sample of each).
+    fn ranger<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
+        let m = self.model(name)?;
+        let r = self
+            .world
+            .ranger_scans(m)
+            .ok_or_else(|| self.wrong_type(name, "ranger"))?;
+        let d = PyDict::new(py);
+        d.set_item("ranges", r.player_ranges())?;
+        d.set_item("intensities", r.player_intensities())?;
+        let bearings: Vec<f64> = r.scans.iter().flat_map(|s| s.bearings.clone()).collect();
+        d.set_item("bearings", bearings)?;
+        d.set_item("time", r.time_us as f64 / 1e6)?;
+        Ok(d)
+    }
+
+    /// A blobfinder's data: `{width, height, blobs: [{color, x, y, left, right, top, bottom,
+    /// range, area}], time}` with Player's blob fields.
+    fn blobfinder<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
+        let m = self.model(name)?;
+        let b = self
+            .world
+            .blobfinder_blobs(m)
+            .ok_or_else(|| self.wrong_type(name, "blobfinder"))?;
+        let d = PyDict::new(py);
+        d.set_item("width", b.width)?;
+        d.set_item("height", b.height)?;
+        let blobs = PyList::empty(py);
+        for blob in &b.blobs {
+            let e = PyDict::new(py);
+            e.set_item("color", blob.color.packed_rgb())?;
+            e.set_item("x", blob.x())?;
+            e.set_item("y", blob.y())?;
+            e.set_item("left", blob.left)?;
+            e.set_item("right", blob.right)?;
+            e.set_item("top", blob.top)?;
+            e.set_item("bottom", blob.bottom)?;
+            e.set_item("range", blob.range)?;
+            e.set_item("area", blob.player_area())?;
+            blobs.append(e)?;
+        }
+        d.set_item("blobs", blobs)?;
+        d.set_item("time", b.time_us as f64 / 1e6)?;
+        Ok(d)
+    }
+
+    /// A fiducial finder's detections: `[{id, range, bearing, heading}]`.
+    fn fiducials<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyList>> {
+        let m = self.model(name)?;
+        let f = self
+            .world
+            .fiducials(m)
+            .ok_or_else(|| self.wrong_type(name, "fiducial finder"))?;
+        let out = PyList::empty(py);
+        for item in &f.fiducials {
+            let e = PyDict::new(py);
+            e.set_item("id", item.id)?;
+            e.set_item("range", item.range)?;
+            e.set_item("bearing", item.bearing)?;
+            e.set_item("heading", item.heading)?;
+            out.append(e)?;
+        }
+        Ok(out)
+    }
+
+    /// A gripper's state: `{paddles, lift, beams, holding}` (paddle/lift states by name,
+    /// `beams` how many break beams see an object).
+    fn gripper<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
+        let m = self.model(name)?;
+        let g = self
+            .world
+            .gripper_state(m)
+            .ok_or_else(|| self.wrong_type(name, "gripper"))?;
+        let d = PyDict::new(py);
+        d.set_item("paddles", format!("{:?}", g.paddles).to_lowercase())?;
+        d.set_item("lift", format!("{:?}", g.lift).to_lowercase())?;
+        d.set_item("beams", g.beams.iter().filter(|b| b.is_some()).count())?;
+        d.set_item("time", g.time_us as f64 / 1e6)?;
+        Ok(d)
+    }
+
+    /// Gripper command: `open`, `close`, `up` or `down`.
+    fn gripper_cmd(&mut self, name: &str, what: &str) -> PyResult<()> {
+        let m = self.model(name)?;
+        let cmd = match what {
+            "open" => GripperCmd::Open,
+            "close" => GripperCmd::Close,
+            "up" => GripperCmd::Up,
+            "down" => GripperCmd::Down,
+            other => {
+                return Err(WorldError::new_err(format!(
+                    "unknown gripper command `{other}` (open, close, up, down)"
+                )));
+            }
+        };
+        self.world.gripper_cmd(m, cmd).map_err(sim_err)
+    }
+
+    /// A camera's latest image: `(width, height, rgba bytes)`, or None before its first
+    /// update (call `subscribe(name)` first: cameras are not updated by default).
+    fn camera<'py>(
+        &self,
+        py: Python<'py>,
+        name: &str,
+    ) -> PyResult<Option<(u32, u32, Bound<'py, PyBytes>)>> {
+        let m = self.model(name)?;
+        Ok(self
+            .world
+            .camera_image(m)
+            .filter(|c| c.width > 0)
+            .map(|c| (c.width, c.height, PyBytes::new(py, &c.rgba))))
+    }
+
+    /// What the model says (its speech bubble).
+    fn said(&self, name: &str) -> PyResult<String> {
+        Ok(self.world.said(self.model(name)?).to_string())
+    }
+
+    /// Sets the model's speech bubble text.
+    fn say(&mut self, name: &str, text: &str) -> PyResult<()> {
+        let m = self.model(name)?;
+        self.world.say(m, text);
+        Ok(())
+    }
+}

@@ -157,7 +157,7 @@ pub fn draw_hypothesis(scene: &mut Scene, h: &Hypothesis, label: Option<String>,
 
 /// Hypotheses as ellipses of [`ELLIPSE_SIGMAS`] standard deviations (Player's localize
 /// covariance is diagonal: x and y variances, so the ellipse is axis-aligned) with a heading
-/// line, the heaviest labelled; particles as small squares.
+/// line, the heaviest labelled; particles as small squares over the sensor data.
 fn draw_localize(
     key: &str,
     hypotheses: &[Hypothesis],
@@ -168,7 +168,7 @@ fn draw_localize(
     let half = 1.5 * px;
     for (p, _) in particles {
         scene.fill_rect(
-            Layer::Data,
+            Layer::Overlay,
             [p.x - half, p.y - half],
             [p.x + half, p.y + half],
             PARTICLE,

@@ -337,11 +337,9 @@ fn refresh(p: &mut Proxy, particles: bool) -> Result<(), ClientError> {
                 *fetched = Some(Instant::now());
             }
         }
-        Proxy::Log(p, state, asked) => {
-            if asked.is_none_or(|t| t.elapsed() >= PARTICLE_PERIOD) {
-                *asked = Some(Instant::now());
-                *state = Some(p.get_state()?);
-            }
+        Proxy::Log(p, state, asked) if asked.is_none_or(|t| t.elapsed() >= PARTICLE_PERIOD) => {
+            *asked = Some(Instant::now());
+            *state = Some(p.get_state()?);
         }
         _ => {}
     }

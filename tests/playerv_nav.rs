@@ -158,7 +158,10 @@ fn playerv_shows_the_stack_and_its_clicks_reach_the_planner_and_amcl() {
             DeviceData::Planner(p) if p.valid && (p.goal.x - goal.x).abs() < 1e-9
                 && (p.goal.y - goal.y).abs() < 1e-9 && !p.waypoints.is_empty())
     });
-    assert!((goal.x + 3.0).abs() < 0.02 && goal.y.abs() < 0.02, "{goal:?}");
+    assert!(
+        (goal.x + 3.0).abs() < 0.02 && goal.y.abs() < 0.02,
+        "{goal:?}"
+    );
     let DeviceData::Planner(plan) = &st.subscribed[&key("planner:0")].data else {
         unreachable!()
     };
@@ -180,11 +183,7 @@ fn playerv_shows_the_stack_and_its_clicks_reach_the_planner_and_amcl() {
                 if hypotheses.first().is_some_and(|h| (h.mean.x + 6.0).hypot(h.mean.y + 6.0) < 0.6))
     });
     let st = worker.state();
-    assert!(
-        !st.log.iter().any(|l| l.contains("failed")),
-        "{:?}",
-        st.log
-    );
+    assert!(!st.log.iter().any(|l| l.contains("failed")), "{:?}", st.log);
     drop(worker);
     server.shutdown();
     let _ = std::fs::remove_dir_all(&dir);

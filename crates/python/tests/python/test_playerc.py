@@ -216,4 +216,8 @@ def test_a_dropped_connection_raises_and_never_hangs(fresh_server):
     t.join(10)
     assert not t.is_alive(), "read() hung on a dead server"
     assert result and result[0] != "kept reading"
-    assert p.set_cmd_vel(0.1, 0, 0, 1) == -1
+    # A request needs an answer, so it fails at once; a command is only written, and the first
+    # write to a socket whose peer has just closed may still be accepted by the kernel, so
+    # commands are given a few tries.
+    assert p.get_geom() == -1
+    assert any(p.set_cmd_vel(0.1, 0, 0, 1) == -1 for _ in range(20))

@@ -6,7 +6,7 @@
 //! Everything here is plain data and pure functions, so the driver can run it on a worker
 //! thread and the tests can run it on hand-made grids.
 
-use std::cmp::Ordering;
+use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
 
 /// Cost of a cell the wavefront has not reached (upstream's `PLAN_MAX_COST`).
@@ -69,38 +69,12 @@ impl Plan {
         params: PlanParams,
     ) -> Option<Plan> {
         if size_x.checked_mul(size_y)? != cells.len()
+            || cells.len() >= u32::MAX as usize
             || scale.partial_cmp(&0.0)? != Ordering::Greater
         {
             return None;
         }
-        let max = params.max_radius as f32;
-        let mut occ_dist: Vec<f32> = cells
-            .iter()
-            .map(|&c| if c >= 0 { 0.0 } else { max })
-            .collect();
-        // Grow every obstacle by a disc of radius max_radius (upstream's dist_kernel).
-        let half = (params.max_radius / scale).ceil().max(0.0) as i64;
-        let kernel: Vec<(i64, i64, f32)> = (-half..=half)
-            .flat_map(|dj| (-half..=half).map(move |di| (di, dj)))
-            .map(|(di, dj)| (di, dj, (((di * di + dj * dj) as f64).sqrt() * scale) as f32))
-            .collect();
-        for j in 0..size_y {
-            for i in 0..size_x {
-                if cells[i + j * size_x] < 0 {
-                    continue;
-                }
-                for &(di, dj, d) in &kernel {
-                    let (ni, nj) = (i as i64 + di, j as i64 + dj);
-                    if ni < 0 || nj < 0 || ni >= size_x as i64 || nj >= size_y as i64 {
-                        continue;
-                    }
-                    let k = ni as usize + nj as usize * size_x;
-                    if d < occ_dist[k] {
-                        occ_dist[k] = d;
-                    }
-                }
-            }
-        }
+        let occ_dist = obstacle_distances(size_x, size_y, scale, cells, params.max_radius);
         Some(Plan {
             size_x,
             size_y,
@@ -162,80 +136,91 @@ impl Plan {
     ///
     /// As upstream, a cell's cost is fixed when the cell is first reached (a reached cell is
     /// never pushed again), stepping costs the step length, and a cell within `max_radius`
-    /// of an obstacle costs `dist_penalty * (max_radius - distance)` more.
+    /// of an obstacle costs `dist_penalty * (max_radius - distance)` more. Because nothing
+    /// about a reached cell changes afterwards, the path from the start (each cell's link to
+    /// the cell it was reached from) is final as soon as the start is reached, and the
+    /// wavefront stops there instead of flooding the rest of the map as upstream does: the
+    /// same path, found sooner.
     fn wavefront_path(&self, start: Cell, goal: Cell) -> Option<Vec<Cell>> {
+        /// No next cell (the goal, or a cell not reached).
+        const NO_NEXT: u32 = u32::MAX;
         let n = self.size_x * self.size_y;
         let idx = |(i, j): Cell| i + j * self.size_x;
-        let mut cost = vec![MAX_COST; n];
-        let mut next: Vec<Option<usize>> = vec![None; n];
-        let mut reached = vec![false; n];
-        let dist = |k: usize| {
-            if k == idx(start) {
-                self.params.max_radius as f32
-            } else {
-                self.occ_dist[k]
-            }
-        };
         let g = idx(goal);
-        cost[g] = 0.0;
         if start == goal {
             return Some(vec![start]);
         }
+        let (size_x, size_y) = (self.size_x as i64, self.size_y as i64);
+        let start_k = idx(start);
+        // A cell is reached once its cost is below MAX_COST (every cost assigned is).
+        let mut cost = vec![MAX_COST; n];
+        let mut next = vec![NO_NEXT; n];
+        cost[g] = 0.0;
+        // The queue holds (cost, order) packed in one key (see `queue_key`) and the cell.
         let mut heap = BinaryHeap::new();
-        let mut order = 0u64;
-        reached[g] = true;
-        heap.push(Queued {
-            cost: 0.0,
-            order,
-            cell: g,
-        });
+        let mut order = 0u32;
+        heap.push(Reverse((queue_key(0.0, order), g as u32)));
         let abs_min = self.params.abs_min_radius as f32;
         let max_r = self.params.max_radius as f32;
         let penalty = self.params.dist_penalty as f32;
-        while let Some(Queued { cell, .. }) = heap.pop() {
-            let (oi, oj) = (cell % self.size_x, cell / self.size_x);
+        // Step lengths, computed as upstream's 3x3 kernel computes them.
+        let straight = (1f64.sqrt() * self.scale) as f32;
+        let diagonal = (2f64.sqrt() * self.scale) as f32;
+        'flood: while let Some(Reverse((_, cell))) = heap.pop() {
+            let cell = cell as usize;
+            let (oi, oj) = ((cell % self.size_x) as i64, (cell / self.size_x) as i64);
             for dj in -1i64..=1 {
+                let nj = oj + dj;
+                if nj < 0 || nj >= size_y {
+                    continue;
+                }
                 for di in -1i64..=1 {
-                    if di == 0 && dj == 0 {
+                    let ni = oi + di;
+                    if (di == 0 && dj == 0) || ni < 0 || ni >= size_x {
                         continue;
                     }
-                    let (ni, nj) = (oi as i64 + di, oj as i64 + dj);
-                    if ni < 0 || nj < 0 || ni >= self.size_x as i64 || nj >= self.size_y as i64 {
+                    let k = (ni + nj * size_x) as usize;
+                    if cost[k] < MAX_COST {
                         continue;
                     }
-                    let k = ni as usize + nj as usize * self.size_x;
-                    if reached[k] {
-                        continue;
-                    }
-                    let d = dist(k);
+                    // The start cell counts as free, so a robot near a wall can leave.
+                    let d = if k == start_k {
+                        max_r
+                    } else {
+                        self.occ_dist[k]
+                    };
                     if d < abs_min {
                         continue;
                     }
-                    let step = (((di * di + dj * dj) as f64).sqrt() * self.scale) as f32;
+                    let step = if di != 0 && dj != 0 {
+                        diagonal
+                    } else {
+                        straight
+                    };
                     let mut c = cost[cell] + step;
                     if d < max_r {
                         c += penalty * (max_r - d);
                     }
                     if c < cost[k] {
                         cost[k] = c;
-                        next[k] = Some(cell);
-                        reached[k] = true;
+                        next[k] = cell as u32;
+                        if k == start_k {
+                            break 'flood;
+                        }
                         order += 1;
-                        heap.push(Queued {
-                            cost: c,
-                            order,
-                            cell: k,
-                        });
+                        heap.push(Reverse((queue_key(c, order), k as u32)));
                     }
                 }
             }
         }
-        next[idx(start)]?;
+        if next[start_k] == NO_NEXT {
+            return None;
+        }
         let mut path = vec![start];
-        let mut at = idx(start);
-        while let Some(k) = next[at] {
-            path.push((k % self.size_x, k / self.size_x));
-            at = k;
+        let mut at = start_k;
+        while next[at] != NO_NEXT {
+            at = next[at] as usize;
+            path.push((at % self.size_x, at / self.size_x));
         }
         Some(path)
     }
@@ -288,7 +273,7 @@ impl Plan {
             if last_i == bi && last_j == bj {
                 return true;
             }
-            let (fi, fj) = (i.floor() as i64, j.floor() as i64);
+            let (fi, fj) = (floor(i), floor(j));
             if fi != last_i || fj != last_j {
                 last_i = fi;
                 last_j = fj;
@@ -310,36 +295,150 @@ impl Plan {
     }
 }
 
-/// A cell waiting in the wavefront's queue: cheapest first, then first queued.
-#[derive(Debug)]
-struct Queued {
-    cost: f32,
-    order: u64,
-    cell: usize,
+/// Upstream's c-space distances (`plan_compute_cspace`): per cell the distance (m, as `f32`)
+/// to the nearest non-free cell, `max_radius` where none is nearer than that, 0 on obstacles.
+///
+/// Upstream stamps a square kernel of half-width `r = ceil(max_radius / scale)` cells around
+/// every obstacle cell and keeps the minimum of `f32(sqrt(di^2 + dj^2) * scale)`. The same
+/// values come from the exact Euclidean distance transform of the grid (Felzenszwalb and
+/// Huttenlocher's two passes: per column the distance to the nearest obstacle in that column,
+/// then per row the lower envelope of the parabolas `(i - i')^2 + g(i')^2`), which costs a few
+/// operations per cell instead of one per kernel entry per obstacle. The nearest obstacle
+/// gives the smallest kernel value (the value only grows with `di^2 + dj^2`) and lies within
+/// the kernel whenever that value is below `max_radius`; obstacles farther than `r` cells can
+/// only give values of at least `max_radius`, so columns whose nearest obstacle is farther
+/// than `r` are left out of the envelope. The result is the kernel's bit for bit.
+fn obstacle_distances(
+    size_x: usize,
+    size_y: usize,
+    scale: f64,
+    cells: &[i8],
+    max_radius: f64,
+) -> Vec<f32> {
+    const NONE: u32 = u32::MAX;
+    let max = max_radius as f32;
+    // Cells of reach: the kernel's half-width, and never more than the grid spans.
+    let reach = (max_radius / scale)
+        .ceil()
+        .clamp(0.0, (size_x + size_y) as f64) as u32;
+    // Vertical distance to the nearest obstacle in the same column (NONE beyond `reach`),
+    // swept up then down a row at a time, so both sweeps read memory in order.
+    let mut column = vec![NONE; size_x * size_y];
+    for j in 0..size_y {
+        for i in 0..size_x {
+            let k = i + j * size_x;
+            column[k] = if cells[k] >= 0 {
+                0
+            } else if j > 0 && column[k - size_x] < reach {
+                column[k - size_x] + 1
+            } else {
+                NONE
+            };
+        }
+    }
+    for j in (0..size_y.saturating_sub(1)).rev() {
+        for i in 0..size_x {
+            let k = i + j * size_x;
+            let above = column[k + size_x];
+            if above < reach && above + 1 < column[k] {
+                column[k] = above + 1;
+            }
+        }
+    }
+    let mut occ_dist = vec![max; size_x * size_y];
+    // Per row, the lower envelope of the parabolas rooted at the columns with a near
+    // obstacle. Each kept root starts to be the lowest at `numer / denom` (exact integers,
+    // compared by cross-multiplying; the first root starts at minus infinity, denom 0).
+    let mut roots: Vec<Root> = Vec::with_capacity(size_x);
+    for j in 0..size_y {
+        let row = &column[j * size_x..(j + 1) * size_x];
+        roots.clear();
+        for (q, &g) in row.iter().enumerate() {
+            if g == NONE {
+                continue;
+            }
+            let (q, fq) = (q as i128, i128::from(g) * i128::from(g));
+            let (mut numer, mut denom) = (0, 0);
+            while let Some(last) = roots.last() {
+                // The parabolas of the last root and q meet at
+                // (fq + q^2 - fp - p^2) / (2 (q - p)); if that is not after the last root's
+                // own start, q undercuts it everywhere it was lowest.
+                numer = fq + q * q - last.f - last.at * last.at;
+                denom = 2 * (q - last.at);
+                if last.denom != 0 && numer * last.denom <= last.numer * denom {
+                    roots.pop();
+                    (numer, denom) = (0, 0);
+                } else {
+                    break;
+                }
+            }
+            roots.push(Root {
+                at: q,
+                f: fq,
+                numer,
+                denom,
+            });
+        }
+        if roots.is_empty() {
+            continue;
+        }
+        let mut r = 0;
+        for q in 0..size_x {
+            let qq = q as i128;
+            while r + 1 < roots.len() && roots[r + 1].numer < qq * roots[r + 1].denom {
+                r += 1;
+            }
+            let k = q + j * size_x;
+            if cells[k] >= 0 {
+                occ_dist[k] = 0.0;
+                continue;
+            }
+            let root = &roots[r];
+            let squared = (qq - root.at) * (qq - root.at) + root.f;
+            let d = ((squared as f64).sqrt() * scale) as f32;
+            if d < max {
+                occ_dist[k] = d;
+            }
+        }
+    }
+    // Obstacle cells in rows without any root (reach 0) are still obstacles.
+    for (d, &c) in occ_dist.iter_mut().zip(cells) {
+        if c >= 0 {
+            *d = 0.0;
+        }
+    }
+    occ_dist
 }
 
-impl PartialEq for Queued {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == Ordering::Equal
-    }
+/// `x` rounded down, as `x.floor() as i64` but without the library call `floor` is on
+/// baseline x86-64 (the straight-line test does this twice per step).
+fn floor(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x { t - 1 } else { t }
 }
 
-impl Eq for Queued {}
-
-impl PartialOrd for Queued {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
+/// A parabola of the distance transform's lower envelope: rooted at column `at` with height
+/// `f` (the squared vertical distance there), lowest from `numer / denom` on (`denom` 0: from
+/// minus infinity).
+struct Root {
+    at: i128,
+    f: i128,
+    numer: i128,
+    denom: i128,
 }
 
-impl Ord for Queued {
-    fn cmp(&self, other: &Self) -> Ordering {
-        // BinaryHeap pops the greatest: reverse both keys.
-        other
-            .cost
-            .total_cmp(&self.cost)
-            .then_with(|| other.order.cmp(&self.order))
-    }
+/// The wavefront queue's key for a cell reached at `cost` as the `order`-th: cheapest first,
+/// then first queued. The cost's bits are mapped so that unsigned order is `f32::total_cmp`'s
+/// order (the sign bit flipped for positives, every bit for negatives) and put above the order,
+/// so one integer comparison orders as (cost, order) would.
+fn queue_key(cost: f32, order: u32) -> u64 {
+    let bits = cost.to_bits();
+    let ordered = if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 0x8000_0000
+    };
+    (u64::from(ordered) << 32) | u64::from(order)
 }
 
 #[cfg(test)]
@@ -390,6 +489,264 @@ mod tests {
         "....#.....",
         "..........",
     ];
+
+    /// The wavefront as first written (`Option<usize>` links, a queue of structs), kept as the
+    /// reference the packed version must match cell for cell.
+    fn reference_wavefront_path(plan: &Plan, start: Cell, goal: Cell) -> Option<Vec<Cell>> {
+        let this = plan;
+        let n = this.size_x * this.size_y;
+        let idx = |(i, j): Cell| i + j * this.size_x;
+        let mut cost = vec![MAX_COST; n];
+        let mut next: Vec<Option<usize>> = vec![None; n];
+        let mut reached = vec![false; n];
+        let dist = |k: usize| {
+            if k == idx(start) {
+                this.params.max_radius as f32
+            } else {
+                this.occ_dist[k]
+            }
+        };
+        let g = idx(goal);
+        cost[g] = 0.0;
+        if start == goal {
+            return Some(vec![start]);
+        }
+        let mut heap = BinaryHeap::new();
+        let mut order = 0u64;
+        reached[g] = true;
+        heap.push(Queued {
+            cost: 0.0,
+            order,
+            cell: g,
+        });
+        let abs_min = this.params.abs_min_radius as f32;
+        let max_r = this.params.max_radius as f32;
+        let penalty = this.params.dist_penalty as f32;
+        while let Some(Queued { cell, .. }) = heap.pop() {
+            let (oi, oj) = (cell % this.size_x, cell / this.size_x);
+            for dj in -1i64..=1 {
+                for di in -1i64..=1 {
+                    if di == 0 && dj == 0 {
+                        continue;
+                    }
+                    let (ni, nj) = (oi as i64 + di, oj as i64 + dj);
+                    if ni < 0 || nj < 0 || ni >= this.size_x as i64 || nj >= this.size_y as i64 {
+                        continue;
+                    }
+                    let k = ni as usize + nj as usize * this.size_x;
+                    if reached[k] {
+                        continue;
+                    }
+                    let d = dist(k);
+                    if d < abs_min {
+                        continue;
+                    }
+                    let step = (((di * di + dj * dj) as f64).sqrt() * this.scale) as f32;
+                    let mut c = cost[cell] + step;
+                    if d < max_r {
+                        c += penalty * (max_r - d);
+                    }
+                    if c < cost[k] {
+                        cost[k] = c;
+                        next[k] = Some(cell);
+                        reached[k] = true;
+                        order += 1;
+                        heap.push(Queued {
+                            cost: c,
+                            order,
+                            cell: k,
+                        });
+                    }
+                }
+            }
+        }
+        next[idx(start)]?;
+        let mut path = vec![start];
+        let mut at = idx(start);
+        while let Some(k) = next[at] {
+            path.push((k % this.size_x, k / this.size_x));
+            at = k;
+        }
+        Some(path)
+    }
+
+    /// A cell waiting in the wavefront's queue: cheapest first, then first queued.
+    #[derive(Debug)]
+    struct Queued {
+        cost: f32,
+        order: u64,
+        cell: usize,
+    }
+
+    impl PartialEq for Queued {
+        fn eq(&self, other: &Self) -> bool {
+            self.cmp(other) == Ordering::Equal
+        }
+    }
+
+    impl Eq for Queued {}
+
+    impl PartialOrd for Queued {
+        fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+            Some(self.cmp(other))
+        }
+    }
+
+    impl Ord for Queued {
+        fn cmp(&self, other: &Self) -> Ordering {
+            // BinaryHeap pops the greatest: reverse both keys.
+            other
+                .cost
+                .total_cmp(&self.cost)
+                .then_with(|| other.order.cmp(&self.order))
+        }
+    }
+
+    /// A random room-like grid: walls, blobs and unknown patches.
+    fn random_grid(rng: &mut rand_chacha::ChaCha8Rng, w: usize, h: usize, density: f64) -> Vec<i8> {
+        use rand::Rng;
+        (0..w * h)
+            .map(|_| {
+                if rng.random_bool(density) {
+                    if rng.random_bool(0.7) { OCC } else { 0 }
+                } else {
+                    FREE
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_packed_wavefront_finds_the_reference_paths() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut found = 0;
+        for round in 0..80 {
+            let (w, h) = (rng.random_range(2..60), rng.random_range(2..60));
+            let density = [0.0, 0.05, 0.15, 0.3][round % 4];
+            let cells = random_grid(&mut rng, w, h, density);
+            let scale = [1.0, 0.1, 0.25][round % 3];
+            let params = PlanParams {
+                abs_min_radius: [0.0, 0.5, 1.0][round % 3] * scale,
+                max_radius: [1.0, 3.0][round % 2] * scale,
+                dist_penalty: [1.0, 0.0, 5.0, -0.5][round % 4],
+            };
+            let plan = Plan::new(w, h, scale, (0.0, 0.0), &cells, params).unwrap();
+            for _ in 0..5 {
+                let s = (rng.random_range(0..w), rng.random_range(0..h));
+                let g = (rng.random_range(0..w), rng.random_range(0..h));
+                let want = reference_wavefront_path(&plan, s, g);
+                found += usize::from(want.as_ref().is_some_and(|p| p.len() > 2));
+                assert_eq!(
+                    plan.wavefront_path(s, g),
+                    want,
+                    "round {round}: {s:?} -> {g:?}"
+                );
+            }
+        }
+        assert!(found > 100, "only {found} non-trivial paths compared");
+    }
+
+    #[test]
+    fn floor_rounds_down() {
+        for x in [
+            0.0, 0.5, -0.5, -1.0, 1.0, -2.7, 3.2, 1e12, -1e12, -0.0, 1e-300, -1e-300,
+        ] {
+            assert_eq!(floor(x), x.floor() as i64, "{x}");
+        }
+    }
+
+    #[test]
+    fn queue_keys_order_as_cost_then_order() {
+        let costs = [
+            -3.5f32,
+            -0.0,
+            0.0,
+            1e-30,
+            0.1,
+            0.1000001,
+            2.0,
+            1e9,
+            f32::INFINITY,
+        ];
+        for (a, &ca) in costs.iter().enumerate() {
+            for &cb in &costs {
+                for (oa, ob) in [(1u32, 2u32), (2, 1), (5, 5)] {
+                    let want = ca.total_cmp(&cb).then(oa.cmp(&ob));
+                    let got = queue_key(ca, oa).cmp(&queue_key(cb, ob));
+                    assert_eq!(got, want, "{a}: {ca} #{oa} vs {cb} #{ob}");
+                }
+            }
+        }
+    }
+
+    /// Upstream's kernel c-space, kept as the reference the distance transform must match.
+    fn kernel_distances(
+        size_x: usize,
+        size_y: usize,
+        scale: f64,
+        cells: &[i8],
+        max_radius: f64,
+    ) -> Vec<f32> {
+        let max = max_radius as f32;
+        let mut occ_dist: Vec<f32> = cells
+            .iter()
+            .map(|&c| if c >= 0 { 0.0 } else { max })
+            .collect();
+        let half = (max_radius / scale).ceil().max(0.0) as i64;
+        for j in 0..size_y as i64 {
+            for i in 0..size_x as i64 {
+                if cells[(i + j * size_x as i64) as usize] < 0 {
+                    continue;
+                }
+                for dj in -half..=half {
+                    for di in -half..=half {
+                        let (ni, nj) = (i + di, j + dj);
+                        if ni < 0 || nj < 0 || ni >= size_x as i64 || nj >= size_y as i64 {
+                            continue;
+                        }
+                        let d = (((di * di + dj * dj) as f64).sqrt() * scale) as f32;
+                        let k = (ni + nj * size_x as i64) as usize;
+                        if d < occ_dist[k] {
+                            occ_dist[k] = d;
+                        }
+                    }
+                }
+            }
+        }
+        occ_dist
+    }
+
+    #[test]
+    fn the_distance_transform_gives_the_kernels_distances_bit_for_bit() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for round in 0..60 {
+            let (w, h) = (rng.random_range(1..70), rng.random_range(1..70));
+            let density = [0.0, 0.002, 0.02, 0.1, 0.5, 1.0][round % 6];
+            let cells: Vec<i8> = (0..w * h)
+                .map(|_| {
+                    if rng.random_bool(density) {
+                        if rng.random_bool(0.5) { OCC } else { 0 }
+                    } else {
+                        FREE
+                    }
+                })
+                .collect();
+            let scale = [0.1, 0.05, 0.032, 1.0, 0.3][round % 5];
+            let max_radius = [1.0, 0.25, 2.5, 0.0, 10.0, 0.07][round % 6];
+            let fast = obstacle_distances(w, h, scale, &cells, max_radius);
+            let slow = kernel_distances(w, h, scale, &cells, max_radius);
+            let same = fast
+                .iter()
+                .zip(&slow)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(
+                same,
+                "{w} x {h}, density {density}, scale {scale}, max {max_radius}"
+            );
+        }
+    }
 
     #[test]
     fn cspace_measures_distance_to_the_nearest_obstacle() {

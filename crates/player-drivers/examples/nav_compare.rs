@@ -66,6 +66,12 @@ struct Args {
     /// the true pose.
     #[arg(long)]
     localizer: Option<u16>,
+    /// In vfh mode, first subscribe to this planner on --nav (and keep it, idle). Player
+    /// 3.0.2 can only set up a vfh on remote devices from a driver thread (a wavefront's, as
+    /// in wavefront-remote.cfg): set up by a client's subscription, its geometry request to
+    /// the remote base never returns. Subscribing the planner first sets the chain up that way.
+    #[arg(long)]
+    hold_planner: Option<u16>,
     /// Distance (m) from the goal within which a stop counts as arrival.
     #[arg(long, default_value_t = 0.6)]
     tolerance: f64,
@@ -171,6 +177,11 @@ fn main() -> Result<()> {
     sim_client.set_datamode(DataMode::Push)?;
 
     let nav_client = connect(&args.nav)?;
+    let _held = args
+        .hold_planner
+        .map(|i| PlannerProxy::new(&nav_client, i))
+        .transpose()
+        .context("subscribe the held planner")?;
     let (drive, planner) = match args.mode {
         Mode::Vfh => (
             Some(Position2dProxy::new(&nav_client, args.driver).context("subscribe driver")?),

@@ -20,6 +20,18 @@ fn floor(x: f64) -> i64 {
     if (t as f64) > x { t - 1 } else { t }
 }
 
+/// The start of rays cast from one point: its world and fractional cell coordinates and its
+/// cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayOrigin {
+    ox: f64,
+    oy: f64,
+    i0: f64,
+    j0: f64,
+    ai: i64,
+    aj: i64,
+}
+
 /// A map device's grid, placed as amcl places it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OccupancyMap {
@@ -100,13 +112,40 @@ impl OccupancyMap {
     /// are skipped without being looked at, which finds the same first stopping cell (and so
     /// the same range) in a fraction of the steps across open space.
     pub fn calc_range(&self, ox: f64, oy: f64, oa: f64, max_range: f64) -> f64 {
+        self.calc_range_from(&self.ray_origin(ox, oy), oa, max_range)
+    }
+
+    /// What every ray cast from (`ox`, `oy`) shares, computed once for all the beams of a
+    /// particle.
+    pub fn ray_origin(&self, ox: f64, oy: f64) -> RayOrigin {
+        // The fractional cell coordinates, as `column` and `row` compute them.
+        let i0 = (ox - self.centre_x) / self.scale + 0.5;
+        let j0 = (oy - self.centre_y) / self.scale + 0.5;
+        RayOrigin {
+            ox,
+            oy,
+            i0,
+            j0,
+            ai: floor(i0) + self.width / 2,
+            aj: floor(j0) + self.height / 2,
+        }
+    }
+
+    /// [`OccupancyMap::calc_range`] from an origin made by [`OccupancyMap::ray_origin`].
+    pub fn calc_range_from(&self, origin: &RayOrigin, oa: f64, max_range: f64) -> f64 {
+        let &RayOrigin {
+            ox,
+            oy,
+            i0,
+            j0,
+            ai,
+            aj,
+        } = origin;
         let (s, c) = oa.sin_cos();
-        let (ai, aj) = (self.column(ox), self.row(oy));
         let hit = |i: i64, j: i64| ((i - ai) as f64).hypot((j - aj) as f64) * self.scale;
         if c.abs() > s.abs() {
             let bi = self.column(ox + max_range * c);
             // Row of the ray at column ai + k: floor(j0 + k * slope) + height / 2.
-            let j0 = (oy - self.centre_y) / self.scale + 0.5;
             let slope = oa.tan();
             let step = if ai < bi { 1 } else { -1 };
             let mut i = ai;
@@ -128,7 +167,6 @@ impl OccupancyMap {
             }
         } else {
             let bj = self.row(oy + max_range * s);
-            let i0 = (ox - self.centre_x) / self.scale + 0.5;
             let slope = (std::f64::consts::FRAC_PI_2 - oa).tan();
             let step = if aj < bj { 1 } else { -1 };
             let mut j = aj;

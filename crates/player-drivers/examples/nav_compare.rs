@@ -7,8 +7,9 @@
 //! drivers under test (`--nav`). Each goal is sent, then at every odometry sample the true pose
 //! is read (simulation GET_POSE2D), the path length accumulated and, with `--localizer`, the
 //! localiser's pose (its `position2d` output, the best hypothesis) compared with the true pose.
-//! A goal is reached when the robot has stood still near it for a few samples (vfh) or when
-//! the planner says it is done and the robot stands still (planner).
+//! A goal is reached when the robot has stood still within `--tolerance` of it for a few
+//! samples (the time to goal runs to the first of them); in planner mode the planner's `done`
+//! flag at that moment is reported too.
 //!
 //! ```text
 //! cargo run --release -p player-drivers --example nav_compare -- \
@@ -145,6 +146,8 @@ struct Leg {
     path_length: f64,
     final_error: f64,
     stalls: usize,
+    /// Whether the planner said it was done when the robot stopped at the goal.
+    planner_done: bool,
     /// Localiser position errors (m) and heading errors (rad), one per sample.
     loc_errors: Vec<(f64, f64)>,
 }
@@ -261,11 +264,11 @@ fn main() -> Result<()> {
             }
             let off = (truth.px - goal.px).hypot(truth.py - goal.py);
             let stopped = s.vel.px == 0.0 && s.vel.py == 0.0 && s.vel.pa == 0.0;
-            let done = match &planner {
-                Some(p) => p.data().is_some_and(|d| d.done != 0),
-                None => off < args.tolerance,
-            };
-            if done && stopped {
+            let planner_done = planner
+                .as_ref()
+                .is_some_and(|p| p.data().is_some_and(|d| d.done != 0));
+            if off < args.tolerance && stopped {
+                leg.planner_done = planner_done;
                 let first = *arrived_at.get_or_insert((t, wall.elapsed().as_secs_f64()));
                 still += 1;
                 if still >= 5 {
@@ -329,7 +332,7 @@ fn report_leg(args: &Args, banner: &str, goal: &Pose2d, leg: &Leg) {
     if args.json {
         println!(
             "{{\"nav\":{:?},\"goal\":[{:.3},{:.3},{:.1}],\"reached\":{},\"sim_s\":{:.2},\
-             \"wall_s\":{:.2},\"path_m\":{:.3},\"final_error_m\":{:.3},\"stalls\":{},\
+             \"wall_s\":{:.2},\"path_m\":{:.3},\"final_error_m\":{:.3},\"stalls\":{},\"planner_done\":{},\
              \"loc_mean_m\":{loc_mean:.4},\"loc_max_m\":{loc_max:.4}}}",
             args.nav,
             goal.px,
@@ -340,12 +343,13 @@ fn report_leg(args: &Args, banner: &str, goal: &Pose2d, leg: &Leg) {
             leg.wall_seconds,
             leg.path_length,
             leg.final_error,
-            leg.stalls
+            leg.stalls,
+            leg.planner_done
         );
     } else {
         println!(
             "goal ({:.2}, {:.2}, {:.0} deg) via {banner}: {} in {:.1} sim s ({:.1} wall s), \
-             path {:.2} m, stopped {:.2} m off, {} stalled samples{}",
+             path {:.2} m, stopped {:.2} m off, {} stalled samples{}{}",
             goal.px,
             goal.py,
             goal.pa.to_degrees(),
@@ -359,6 +363,11 @@ fn report_leg(args: &Args, banner: &str, goal: &Pose2d, leg: &Leg) {
             leg.path_length,
             leg.final_error,
             leg.stalls,
+            if args.mode == Mode::Planner && leg.reached {
+                format!(", planner done {}", leg.planner_done)
+            } else {
+                String::new()
+            },
             if leg.loc_errors.is_empty() {
                 String::new()
             } else {

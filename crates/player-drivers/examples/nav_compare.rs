@@ -180,11 +180,23 @@ fn main() -> Result<()> {
     sim_client.set_datamode(DataMode::Push)?;
 
     let nav_client = connect(&args.nav)?;
-    let _held = args
+    let held = args
         .hold_planner
         .map(|i| PlannerProxy::new(&nav_client, i))
         .transpose()
         .context("subscribe the held planner")?;
+    if let Some(held) = &held {
+        // Player 3.0.2 sets a threaded driver up on its own thread after answering the
+        // subscription: wait for the planner's first data (its setup done, the vfh it
+        // requires set up from that thread) before subscribing to anything else.
+        let wall = Instant::now();
+        while held.data().is_none() {
+            if wall.elapsed() > Duration::from_secs(120) {
+                bail!("the held planner sent no data for 120 s");
+            }
+            nav_client.read()?;
+        }
+    }
     let (drive, planner) = match args.mode {
         Mode::Vfh => (
             Some(Position2dProxy::new(&nav_client, args.driver).context("subscribe driver")?),

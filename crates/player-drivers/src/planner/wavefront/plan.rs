@@ -346,6 +346,19 @@ fn obstacle_distances(
         }
     }
     let mut occ_dist = vec![max; size_x * size_y];
+    // The distance of every squared cell offset within reach, computed as the kernel computes
+    // it. Offsets beyond reach are at least `max_radius` away: the kernel leaves those cells at
+    // `max_radius` (for reaches below 2^24 the margin, over 1 / (2 reach^2) relative, dwarfs
+    // the rounding of `sqrt(k) * scale`; past that they are computed as the kernel would).
+    let exact_cutoff = reach < 1 << 24;
+    let reach_squared = u64::from(reach) * u64::from(reach);
+    let squares: Vec<f32> = if reach <= 1024 {
+        (0..=reach_squared)
+            .map(|k| ((k as f64).sqrt() * scale) as f32)
+            .collect()
+    } else {
+        Vec::new()
+    };
     // Per row, the lower envelope of the parabolas rooted at the columns with a near
     // obstacle. Each kept root starts to be the lowest at `numer / denom` (exact integers,
     // compared by cross-multiplying; the first root starts at minus infinity, denom 0).
@@ -379,25 +392,38 @@ fn obstacle_distances(
                 denom,
             });
         }
-        if roots.is_empty() {
-            continue;
-        }
-        let mut r = 0;
-        for q in 0..size_x {
-            let qq = q as i128;
-            while r + 1 < roots.len() && roots[r + 1].numer < qq * roots[r + 1].denom {
-                r += 1;
-            }
-            let k = q + j * size_x;
-            if cells[k] >= 0 {
-                occ_dist[k] = 0.0;
-                continue;
-            }
-            let root = &roots[r];
-            let squared = (qq - root.at) * (qq - root.at) + root.f;
-            let d = ((squared as f64).sqrt() * scale) as f32;
-            if d < max {
-                occ_dist[k] = d;
+        // Each root is the lowest from the first column past its start to the next root's;
+        // only the columns within `reach` of it can be nearer than `max_radius`.
+        for (r, root) in roots.iter().enumerate() {
+            let first_column = |root: &Root| {
+                if root.denom == 0 {
+                    0
+                } else {
+                    (root.numer.div_euclid(root.denom) + 1).clamp(0, size_x as i128) as usize
+                }
+            };
+            let from = first_column(root);
+            let to = roots.get(r + 1).map_or(size_x, first_column);
+            let at = root.at as usize;
+            let from = from.max(at.saturating_sub(reach as usize));
+            let to = to.min(at.saturating_add(reach as usize + 1)).min(size_x);
+            let f = root.f as u64;
+            for q in from..to {
+                let di = q.abs_diff(at) as u64;
+                let squared = di * di + f;
+                let d = if squared <= reach_squared {
+                    squares
+                        .get(squared as usize)
+                        .copied()
+                        .unwrap_or_else(|| ((squared as f64).sqrt() * scale) as f32)
+                } else if exact_cutoff {
+                    continue;
+                } else {
+                    ((squared as f64).sqrt() * scale) as f32
+                };
+                if d < max {
+                    occ_dist[q + j * size_x] = d;
+                }
             }
         }
     }
@@ -746,6 +772,19 @@ mod tests {
                 "{w} x {h}, density {density}, scale {scale}, max {max_radius}"
             );
         }
+        // A reach past the table of squares (over 1,024 cells): distances computed directly.
+        let (w, h) = (45, 38);
+        let mut cells = vec![FREE; w * h];
+        for k in [3, 400, 1111, 1500] {
+            cells[k] = OCC;
+        }
+        let fast = obstacle_distances(w, h, 0.03, &cells, 40.0);
+        let slow = kernel_distances(w, h, 0.03, &cells, 40.0);
+        assert!(
+            fast.iter()
+                .zip(&slow)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
     }
 
     #[test]

@@ -108,13 +108,12 @@ impl LaserModel {
     pub fn likelihood(&self, scan: &LaserScan, robot: &Pose) -> f64 {
         let pose = compose(robot, &self.laser_pose);
         let cast_to = scan.range_max + 1.0;
+        let origin = self.map.ray_origin(pose.x, pose.y);
         scan.beams
             .iter()
             .step_by(self.beam_step(scan.beams.len()))
             .map(|&(obs, bearing)| {
-                let predicted = self
-                    .map
-                    .calc_range(pose.x, pose.y, pose.z + bearing, cast_to);
+                let predicted = self.map.calc_range_from(&origin, pose.z + bearing, cast_to);
                 beam_likelihood(
                     obs,
                     predicted,

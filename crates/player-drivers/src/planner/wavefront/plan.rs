@@ -6,7 +6,7 @@
 //! Everything here is plain data and pure functions, so the driver can run it on a worker
 //! thread and the tests can run it on hand-made grids.
 
-use std::cmp::Ordering;
+use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
 
 /// Cost of a cell the wavefront has not reached (upstream's `PLAN_MAX_COST`).
@@ -96,38 +96,19 @@ impl Plan {
     ) -> Option<Plan> {
         if size_x.checked_mul(size_y)? != cells.len()
             || size_x == 0
+            || cells.len() >= u32::MAX as usize
             || scale.partial_cmp(&0.0)? != Ordering::Greater
         {
             return None;
         }
-        let max = params.max_radius as f32;
-        let mut occ_dist: Vec<f32> = cells
-            .iter()
-            .map(|&c| if c >= 0 { 0.0 } else { max })
-            .collect();
-        // Grow every obstacle by a disc of radius max_radius (upstream's dist_kernel).
+        let occ_dist = obstacle_distances(size_x, size_y, scale, cells, params.max_radius);
+        // The kernel the laser's obstacles are grown with (upstream's dist_kernel); the map's
+        // own distances come from a distance transform that gives the kernel's values.
         let half = (params.max_radius / scale).ceil().max(0.0) as i64;
         let kernel: Vec<(i64, i64, f32)> = (-half..=half)
             .flat_map(|dj| (-half..=half).map(move |di| (di, dj)))
             .map(|(di, dj)| (di, dj, (((di * di + dj * dj) as f64).sqrt() * scale) as f32))
             .collect();
-        for j in 0..size_y {
-            for i in 0..size_x {
-                if cells[i + j * size_x] < 0 {
-                    continue;
-                }
-                for &(di, dj, d) in &kernel {
-                    let (ni, nj) = (i as i64 + di, j as i64 + dj);
-                    if ni < 0 || nj < 0 || ni >= size_x as i64 || nj >= size_y as i64 {
-                        continue;
-                    }
-                    let k = ni as usize + nj as usize * size_x;
-                    if d < occ_dist[k] {
-                        occ_dist[k] = d;
-                    }
-                }
-            }
-        }
         let n = cells.len();
         Some(Plan {
             size_x,
@@ -348,7 +329,11 @@ impl Plan {
     /// As upstream, a cell's cost is fixed when the cell is first reached (a reached cell is
     /// never pushed again), stepping costs the step length (half of it onto the last local
     /// path), and a cell within `max_radius` of an obstacle costs
-    /// `dist_penalty * (max_radius - distance)` more.
+    /// `dist_penalty * (max_radius - distance)` more, rounded as upstream's mix of `float` and
+    /// `double` rounds it. Because nothing about a reached cell changes afterwards, the path
+    /// from the start is final as soon as the start is reached, and the wavefront stops there
+    /// instead of flooding the rest of the region as upstream does: the same path, found
+    /// sooner. (The costs of cells not on it are then not all upstream's; nothing reads them.)
     fn wavefront(&mut self, start: Cell, goal: Cell) -> bool {
         let (x0, y0, x1, y1) = self.bounds;
         let in_bounds = |(i, j): Cell| (x0..=x1).contains(&i) && (y0..=y1).contains(&j);
@@ -361,32 +346,34 @@ impl Plan {
         if s == g {
             return true;
         }
-        let n = self.size_x * self.size_y;
-        let mut reached = vec![false; n];
+        // The queue holds (cost, order) packed in one key (see `queue_key`) and the cell.
         let mut heap = BinaryHeap::new();
-        let mut order = 0u64;
-        reached[g] = true;
-        heap.push(Queued {
-            cost: 0.0,
-            order,
-            cell: g,
-        });
+        let mut order = 0u32;
+        heap.push(Reverse((queue_key(0.0, order), g as u32)));
         let abs_min = self.params.abs_min_radius as f32;
         let max_r = self.params.max_radius;
         let penalty = self.params.dist_penalty;
-        while let Some(Queued { cell, .. }) = heap.pop() {
-            let (oi, oj) = (cell % self.size_x, cell / self.size_x);
+        // Step lengths, computed as upstream's 3x3 kernel computes them.
+        let straight = (1f64.sqrt() * self.scale) as f32;
+        let diagonal = (2f64.sqrt() * self.scale) as f32;
+        let (bx0, by0, bx1, by1) = (x0 as i64, y0 as i64, x1 as i64, y1 as i64);
+        let size_x = self.size_x as i64;
+        'flood: while let Some(Reverse((_, cell))) = heap.pop() {
+            let cell = cell as usize;
+            let (oi, oj) = ((cell % self.size_x) as i64, (cell / self.size_x) as i64);
             for dj in -1i64..=1 {
+                let nj = oj + dj;
+                if nj < by0 || nj > by1 {
+                    continue;
+                }
                 for di in -1i64..=1 {
-                    if di == 0 && dj == 0 {
+                    let ni = oi + di;
+                    if (di == 0 && dj == 0) || ni < bx0 || ni > bx1 {
                         continue;
                     }
-                    let (ni, nj) = (oi as i64 + di, oj as i64 + dj);
-                    if ni < x0 as i64 || nj < y0 as i64 || ni > x1 as i64 || nj > y1 as i64 {
-                        continue;
-                    }
-                    let k = ni as usize + nj as usize * self.size_x;
-                    if reached[k] {
+                    let k = (ni + nj * size_x) as usize;
+                    // Every cost assigned is below MAX_COST: reached.
+                    if self.cost[k] < MAX_COST {
                         continue;
                     }
                     // The start cell is free for this plan, whatever is near it.
@@ -398,7 +385,11 @@ impl Plan {
                     if d < abs_min {
                         continue;
                     }
-                    let step = (((di * di + dj * dj) as f64).sqrt() * self.scale) as f32;
+                    let step = if di != 0 && dj != 0 {
+                        diagonal
+                    } else {
+                        straight
+                    };
                     let mut c = self.cost[cell];
                     if self.lpath_mark[k] {
                         c += (f64::from(step) * HYSTERESIS_FACTOR) as f32;
@@ -411,13 +402,11 @@ impl Plan {
                     if c < self.cost[k] {
                         self.cost[k] = c;
                         self.next[k] = Some(cell);
-                        reached[k] = true;
+                        if k == s {
+                            break 'flood;
+                        }
                         order += 1;
-                        heap.push(Queued {
-                            cost: c,
-                            order,
-                            cell: k,
-                        });
+                        heap.push(Reverse((queue_key(c, order), k as u32)));
                     }
                 }
             }
@@ -563,7 +552,7 @@ impl Plan {
             if last_i == bi && last_j == bj {
                 return true;
             }
-            let (fi, fj) = (i.floor() as i64, j.floor() as i64);
+            let (fi, fj) = (floor(i), floor(j));
             if fi != last_i || fj != last_j {
                 last_i = fi;
                 last_j = fj;
@@ -585,36 +574,176 @@ impl Plan {
     }
 }
 
-/// A cell waiting in the wavefront's queue: cheapest first, then first queued.
-#[derive(Debug)]
-struct Queued {
-    cost: f32,
-    order: u64,
-    cell: usize,
+/// Upstream's c-space distances (`plan_compute_cspace`): per cell the distance (m, as `f32`)
+/// to the nearest non-free cell, `max_radius` where none is nearer than that, 0 on obstacles.
+///
+/// Upstream stamps a square kernel of half-width `r = ceil(max_radius / scale)` cells around
+/// every obstacle cell and keeps the minimum of `f32(sqrt(di^2 + dj^2) * scale)`. The same
+/// values come from the exact Euclidean distance transform of the grid (Felzenszwalb and
+/// Huttenlocher's two passes: per column the distance to the nearest obstacle in that column,
+/// then per row the lower envelope of the parabolas `(i - i')^2 + g(i')^2`), which costs a few
+/// operations per cell instead of one per kernel entry per obstacle. The nearest obstacle
+/// gives the smallest kernel value (the value only grows with `di^2 + dj^2`) and lies within
+/// the kernel whenever that value is below `max_radius`; obstacles farther than `r` cells can
+/// only give values of at least `max_radius`, so columns whose nearest obstacle is farther
+/// than `r` are left out of the envelope. The result is the kernel's bit for bit.
+fn obstacle_distances(
+    size_x: usize,
+    size_y: usize,
+    scale: f64,
+    cells: &[i8],
+    max_radius: f64,
+) -> Vec<f32> {
+    const NONE: u32 = u32::MAX;
+    let max = max_radius as f32;
+    // Cells of reach: the kernel's half-width, and never more than the grid spans.
+    let reach = (max_radius / scale)
+        .ceil()
+        .clamp(0.0, (size_x + size_y) as f64) as u32;
+    // Vertical distance to the nearest obstacle in the same column (NONE beyond `reach`),
+    // swept up then down a row at a time, so both sweeps read memory in order.
+    let mut column = vec![NONE; size_x * size_y];
+    for j in 0..size_y {
+        for i in 0..size_x {
+            let k = i + j * size_x;
+            column[k] = if cells[k] >= 0 {
+                0
+            } else if j > 0 && column[k - size_x] < reach {
+                column[k - size_x] + 1
+            } else {
+                NONE
+            };
+        }
+    }
+    for j in (0..size_y.saturating_sub(1)).rev() {
+        for i in 0..size_x {
+            let k = i + j * size_x;
+            let above = column[k + size_x];
+            if above < reach && above + 1 < column[k] {
+                column[k] = above + 1;
+            }
+        }
+    }
+    let mut occ_dist = vec![max; size_x * size_y];
+    // The distance of every squared cell offset within reach, computed as the kernel computes
+    // it. Offsets beyond reach are at least `max_radius` away: the kernel leaves those cells at
+    // `max_radius` (for reaches below 2^24 the margin, over 1 / (2 reach^2) relative, dwarfs
+    // the rounding of `sqrt(k) * scale`; past that they are computed as the kernel would).
+    let exact_cutoff = reach < 1 << 24;
+    let reach_squared = u64::from(reach) * u64::from(reach);
+    let squares: Vec<f32> = if reach <= 1024 {
+        (0..=reach_squared)
+            .map(|k| ((k as f64).sqrt() * scale) as f32)
+            .collect()
+    } else {
+        Vec::new()
+    };
+    // Per row, the lower envelope of the parabolas rooted at the columns with a near
+    // obstacle. Each kept root starts to be the lowest at `numer / denom` (exact integers,
+    // compared by cross-multiplying; the first root starts at minus infinity, denom 0).
+    let mut roots: Vec<Root> = Vec::with_capacity(size_x);
+    for j in 0..size_y {
+        let row = &column[j * size_x..(j + 1) * size_x];
+        roots.clear();
+        for (q, &g) in row.iter().enumerate() {
+            if g == NONE {
+                continue;
+            }
+            let (q, fq) = (q as i128, i128::from(g) * i128::from(g));
+            let (mut numer, mut denom) = (0, 0);
+            while let Some(last) = roots.last() {
+                // The parabolas of the last root and q meet at
+                // (fq + q^2 - fp - p^2) / (2 (q - p)); if that is not after the last root's
+                // own start, q undercuts it everywhere it was lowest.
+                numer = fq + q * q - last.f - last.at * last.at;
+                denom = 2 * (q - last.at);
+                if last.denom != 0 && numer * last.denom <= last.numer * denom {
+                    roots.pop();
+                    (numer, denom) = (0, 0);
+                } else {
+                    break;
+                }
+            }
+            roots.push(Root {
+                at: q,
+                f: fq,
+                numer,
+                denom,
+            });
+        }
+        // Each root is the lowest from the first column past its start to the next root's;
+        // only the columns within `reach` of it can be nearer than `max_radius`.
+        for (r, root) in roots.iter().enumerate() {
+            let first_column = |root: &Root| {
+                if root.denom == 0 {
+                    0
+                } else {
+                    (root.numer.div_euclid(root.denom) + 1).clamp(0, size_x as i128) as usize
+                }
+            };
+            let from = first_column(root);
+            let to = roots.get(r + 1).map_or(size_x, first_column);
+            let at = root.at as usize;
+            let from = from.max(at.saturating_sub(reach as usize));
+            let to = to.min(at.saturating_add(reach as usize + 1)).min(size_x);
+            let f = root.f as u64;
+            for q in from..to {
+                let di = q.abs_diff(at) as u64;
+                let squared = di * di + f;
+                let d = if squared <= reach_squared {
+                    squares
+                        .get(squared as usize)
+                        .copied()
+                        .unwrap_or_else(|| ((squared as f64).sqrt() * scale) as f32)
+                } else if exact_cutoff {
+                    continue;
+                } else {
+                    ((squared as f64).sqrt() * scale) as f32
+                };
+                if d < max {
+                    occ_dist[q + j * size_x] = d;
+                }
+            }
+        }
+    }
+    // Obstacle cells in rows without any root (reach 0) are still obstacles.
+    for (d, &c) in occ_dist.iter_mut().zip(cells) {
+        if c >= 0 {
+            *d = 0.0;
+        }
+    }
+    occ_dist
 }
 
-impl PartialEq for Queued {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == Ordering::Equal
-    }
+/// `x` rounded down, as `x.floor() as i64` but without the library call `floor` is on
+/// baseline x86-64 (the straight-line test does this twice per step).
+fn floor(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x { t - 1 } else { t }
 }
 
-impl Eq for Queued {}
-
-impl PartialOrd for Queued {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
+/// A parabola of the distance transform's lower envelope: rooted at column `at` with height
+/// `f` (the squared vertical distance there), lowest from `numer / denom` on (`denom` 0: from
+/// minus infinity).
+struct Root {
+    at: i128,
+    f: i128,
+    numer: i128,
+    denom: i128,
 }
 
-impl Ord for Queued {
-    fn cmp(&self, other: &Self) -> Ordering {
-        // BinaryHeap pops the greatest: reverse both keys.
-        other
-            .cost
-            .total_cmp(&self.cost)
-            .then_with(|| other.order.cmp(&self.order))
-    }
+/// The wavefront queue's key for a cell reached at `cost` as the `order`-th: cheapest first,
+/// then first queued. The cost's bits are mapped so that unsigned order is `f32::total_cmp`'s
+/// order (the sign bit flipped for positives, every bit for negatives) and put above the order,
+/// so one integer comparison orders as (cost, order) would.
+fn queue_key(cost: f32, order: u32) -> u64 {
+    let bits = cost.to_bits();
+    let ordered = if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 0x8000_0000
+    };
+    (u64::from(ordered) << 32) | u64::from(order)
 }
 
 #[cfg(test)]
@@ -665,6 +794,278 @@ mod tests {
         "....#.....",
         "..........",
     ];
+
+    /// The wavefront as first written (`Option<usize>` links, a queue of structs), kept as the
+    /// reference the packed version must match cell for cell.
+    fn reference_wavefront_path(plan: &Plan, start: Cell, goal: Cell) -> Option<Vec<Cell>> {
+        let this = plan;
+        let n = this.size_x * this.size_y;
+        let idx = |(i, j): Cell| i + j * this.size_x;
+        let mut cost = vec![MAX_COST; n];
+        let mut next: Vec<Option<usize>> = vec![None; n];
+        let mut reached = vec![false; n];
+        let dist = |k: usize| {
+            if k == idx(start) {
+                this.params.max_radius as f32
+            } else {
+                this.occ_dist[k]
+            }
+        };
+        let g = idx(goal);
+        cost[g] = 0.0;
+        if start == goal {
+            return Some(vec![start]);
+        }
+        let mut heap = BinaryHeap::new();
+        let mut order = 0u64;
+        reached[g] = true;
+        heap.push(Queued {
+            cost: 0.0,
+            order,
+            cell: g,
+        });
+        let abs_min = this.params.abs_min_radius as f32;
+        while let Some(Queued { cell, .. }) = heap.pop() {
+            let (oi, oj) = (cell % this.size_x, cell / this.size_x);
+            for dj in -1i64..=1 {
+                for di in -1i64..=1 {
+                    if di == 0 && dj == 0 {
+                        continue;
+                    }
+                    let (ni, nj) = (oi as i64 + di, oj as i64 + dj);
+                    if ni < 0 || nj < 0 || ni >= this.size_x as i64 || nj >= this.size_y as i64 {
+                        continue;
+                    }
+                    let k = ni as usize + nj as usize * this.size_x;
+                    if reached[k] {
+                        continue;
+                    }
+                    let d = dist(k);
+                    if d < abs_min {
+                        continue;
+                    }
+                    let step = (((di * di + dj * dj) as f64).sqrt() * this.scale) as f32;
+                    let mut c = cost[cell] + step;
+                    if f64::from(d) < this.params.max_radius {
+                        // upstream compares and rounds in double arithmetic
+                        c += (this.params.dist_penalty * (this.params.max_radius - f64::from(d)))
+                            as f32;
+                    }
+                    if c < cost[k] {
+                        cost[k] = c;
+                        next[k] = Some(cell);
+                        reached[k] = true;
+                        order += 1;
+                        heap.push(Queued {
+                            cost: c,
+                            order,
+                            cell: k,
+                        });
+                    }
+                }
+            }
+        }
+        next[idx(start)]?;
+        let mut path = vec![start];
+        let mut at = idx(start);
+        while let Some(k) = next[at] {
+            path.push((k % this.size_x, k / this.size_x));
+            at = k;
+        }
+        Some(path)
+    }
+
+    /// A cell waiting in the wavefront's queue: cheapest first, then first queued.
+    #[derive(Debug)]
+    struct Queued {
+        cost: f32,
+        order: u64,
+        cell: usize,
+    }
+
+    impl PartialEq for Queued {
+        fn eq(&self, other: &Self) -> bool {
+            self.cmp(other) == Ordering::Equal
+        }
+    }
+
+    impl Eq for Queued {}
+
+    impl PartialOrd for Queued {
+        fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+            Some(self.cmp(other))
+        }
+    }
+
+    impl Ord for Queued {
+        fn cmp(&self, other: &Self) -> Ordering {
+            // BinaryHeap pops the greatest: reverse both keys.
+            other
+                .cost
+                .total_cmp(&self.cost)
+                .then_with(|| other.order.cmp(&self.order))
+        }
+    }
+
+    /// A random room-like grid: walls, blobs and unknown patches.
+    fn random_grid(rng: &mut rand_chacha::ChaCha8Rng, w: usize, h: usize, density: f64) -> Vec<i8> {
+        use rand::Rng;
+        (0..w * h)
+            .map(|_| {
+                if rng.random_bool(density) {
+                    if rng.random_bool(0.7) { OCC } else { 0 }
+                } else {
+                    FREE
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_packed_wavefront_finds_the_reference_paths() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut found = 0;
+        for round in 0..80 {
+            let (w, h) = (rng.random_range(2..60), rng.random_range(2..60));
+            let density = [0.0, 0.05, 0.15, 0.3][round % 4];
+            let cells = random_grid(&mut rng, w, h, density);
+            let scale = [1.0, 0.1, 0.25][round % 3];
+            let params = PlanParams {
+                abs_min_radius: [0.0, 0.5, 1.0][round % 3] * scale,
+                max_radius: [1.0, 3.0][round % 2] * scale,
+                dist_penalty: [1.0, 0.0, 5.0, -0.5][round % 4],
+            };
+            let mut plan = Plan::new(w, h, scale, (0.0, 0.0), &cells, params).unwrap();
+            for _ in 0..5 {
+                let s = (rng.random_range(0..w), rng.random_range(0..h));
+                let g = (rng.random_range(0..w), rng.random_range(0..h));
+                let want = reference_wavefront_path(&plan, s, g);
+                found += usize::from(want.as_ref().is_some_and(|p| p.len() > 2));
+                let got = plan.plan(plan.world_of(s), plan.world_of(g)).path;
+                assert_eq!(
+                    got,
+                    want.unwrap_or_default(),
+                    "round {round}: {s:?} -> {g:?}"
+                );
+            }
+        }
+        assert!(found > 100, "only {found} non-trivial paths compared");
+    }
+
+    #[test]
+    fn floor_rounds_down() {
+        for x in [
+            0.0, 0.5, -0.5, -1.0, 1.0, -2.7, 3.2, 1e12, -1e12, -0.0, 1e-300, -1e-300,
+        ] {
+            assert_eq!(floor(x), x.floor() as i64, "{x}");
+        }
+    }
+
+    #[test]
+    fn queue_keys_order_as_cost_then_order() {
+        let costs = [
+            -3.5f32,
+            -0.0,
+            0.0,
+            1e-30,
+            0.1,
+            0.1000001,
+            2.0,
+            1e9,
+            f32::INFINITY,
+        ];
+        for (a, &ca) in costs.iter().enumerate() {
+            for &cb in &costs {
+                for (oa, ob) in [(1u32, 2u32), (2, 1), (5, 5)] {
+                    let want = ca.total_cmp(&cb).then(oa.cmp(&ob));
+                    let got = queue_key(ca, oa).cmp(&queue_key(cb, ob));
+                    assert_eq!(got, want, "{a}: {ca} #{oa} vs {cb} #{ob}");
+                }
+            }
+        }
+    }
+
+    /// Upstream's kernel c-space, kept as the reference the distance transform must match.
+    fn kernel_distances(
+        size_x: usize,
+        size_y: usize,
+        scale: f64,
+        cells: &[i8],
+        max_radius: f64,
+    ) -> Vec<f32> {
+        let max = max_radius as f32;
+        let mut occ_dist: Vec<f32> = cells
+            .iter()
+            .map(|&c| if c >= 0 { 0.0 } else { max })
+            .collect();
+        let half = (max_radius / scale).ceil().max(0.0) as i64;
+        for j in 0..size_y as i64 {
+            for i in 0..size_x as i64 {
+                if cells[(i + j * size_x as i64) as usize] < 0 {
+                    continue;
+                }
+                for dj in -half..=half {
+                    for di in -half..=half {
+                        let (ni, nj) = (i + di, j + dj);
+                        if ni < 0 || nj < 0 || ni >= size_x as i64 || nj >= size_y as i64 {
+                            continue;
+                        }
+                        let d = (((di * di + dj * dj) as f64).sqrt() * scale) as f32;
+                        let k = (ni + nj * size_x as i64) as usize;
+                        if d < occ_dist[k] {
+                            occ_dist[k] = d;
+                        }
+                    }
+                }
+            }
+        }
+        occ_dist
+    }
+
+    #[test]
+    fn the_distance_transform_gives_the_kernels_distances_bit_for_bit() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for round in 0..60 {
+            let (w, h) = (rng.random_range(1..70), rng.random_range(1..70));
+            let density = [0.0, 0.002, 0.02, 0.1, 0.5, 1.0][round % 6];
+            let cells: Vec<i8> = (0..w * h)
+                .map(|_| {
+                    if rng.random_bool(density) {
+                        if rng.random_bool(0.5) { OCC } else { 0 }
+                    } else {
+                        FREE
+                    }
+                })
+                .collect();
+            let scale = [0.1, 0.05, 0.032, 1.0, 0.3][round % 5];
+            let max_radius = [1.0, 0.25, 2.5, 0.0, 10.0, 0.07][round % 6];
+            let fast = obstacle_distances(w, h, scale, &cells, max_radius);
+            let slow = kernel_distances(w, h, scale, &cells, max_radius);
+            let same = fast
+                .iter()
+                .zip(&slow)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(
+                same,
+                "{w} x {h}, density {density}, scale {scale}, max {max_radius}"
+            );
+        }
+        // A reach past the table of squares (over 1,024 cells): distances computed directly.
+        let (w, h) = (45, 38);
+        let mut cells = vec![FREE; w * h];
+        for k in [3, 400, 1111, 1500] {
+            cells[k] = OCC;
+        }
+        let fast = obstacle_distances(w, h, 0.03, &cells, 40.0);
+        let slow = kernel_distances(w, h, 0.03, &cells, 40.0);
+        assert!(
+            fast.iter()
+                .zip(&slow)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
+    }
 
     #[test]
     fn cspace_measures_distance_to_the_nearest_obstacle() {

@@ -449,6 +449,74 @@ fn playerv_draws_the_map_the_plan_and_the_hypotheses_where_they_are() {
     assert_eq!(scene.layer(Layer::Static).triangles.len(), before);
 }
 
+/// Two robots on one map, as `playerv HOST:PORT HOST:PORT` shows them: the second server's
+/// robot (no map of its own) is drawn at its own localiser's pose, with its own hypothesis, on
+/// the first one's map.
+#[test]
+fn a_second_robot_is_drawn_on_the_first_ones_map_at_its_own_pose() {
+    let Some(mut gpu) = offscreen::for_tests() else {
+        return;
+    };
+    let first = nav_state();
+    let mut second = PlayervState::new("localhost:6666", player_client::DataMode::Pull, 5.0);
+    let at = Pose2 {
+        x: 3.0,
+        y: 2.0,
+        a: 0.0,
+    };
+    second.subscribed.insert(
+        DeviceKey::parse("localize:0").unwrap(),
+        Subscribed {
+            driver: "amcl".into(),
+            data: DeviceData::Localize {
+                hypotheses: vec![Hypothesis {
+                    mean: at,
+                    cov: [0.04, 0.04, 0.01],
+                    weight: 1.0,
+                }],
+                particles: Vec::new(),
+            },
+            datatime: 1.0,
+        },
+    );
+    second.subscribed.insert(
+        DeviceKey::parse("position2d:0").unwrap(),
+        Subscribed {
+            driver: "stage".into(),
+            data: DeviceData::Position2d {
+                pose: Pose2::default(),
+                velocity: Pose2::default(),
+                stall: false,
+                size: [0.4, 0.4],
+            },
+            datatime: 1.0,
+        },
+    );
+    let view = View {
+        center: [0.0, 0.0],
+        scale: 40.0,
+        yaw: 0.0,
+        size: [480.0, 400.0],
+    };
+    let mut scene = Scene::default();
+    let inset = viewer::playerv::scene::build(&first, None, &view, &mut scene);
+    viewer::playerv::scene::add_robot(&second, None, &view, &mut scene, inset);
+    let px = gpu.render(&scene, &view).expect("render");
+    dump(&px, "playerv-two-robots");
+    use viewer::playerv::scene::{BASE, MAP_FREE, MAP_OCCUPIED};
+    // Both robots' bodies, each where its localiser puts it, on the first one's map.
+    assert_eq!(rgb(pixel_at(&px, &view, [-3.1, -2.1])), rgb(BASE.0));
+    assert_eq!(rgb(pixel_at(&px, &view, [2.9, 1.9])), rgb(BASE.0));
+    assert_eq!(rgb(pixel_at(&px, &view, [1.25, -1.0])), rgb(MAP_OCCUPIED.0));
+    assert_eq!(rgb(pixel_at(&px, &view, [0.0, -3.0])), rgb(MAP_FREE.0));
+    // The second robot's hypothesis ellipse: 2 sigma = 0.4 m to its right.
+    assert!(
+        around(&px, &view, [3.4, 2.0], 1)
+            .into_iter()
+            .any(|c| c[2] > 150 && c[0] < 80 && c[1] < 80)
+    );
+}
+
 /// A click on the canvas goes through the same function the mouse's does: a click at a map
 /// pixel asks the planner for a goal at that pixel's world point, facing away from the robot;
 /// a right drag gives the localiser a pose at its start facing along it.

@@ -57,6 +57,26 @@ impl<K> Waiting<K> {
     }
 }
 
+impl Waiting<PendingReply> {
+    /// The reply to `ticket`, when it answers a request [`Waiting::forward`] passed on: sent back
+    /// unchanged to whoever asked ([`passed_on`]). Any other reply is handed back to the caller
+    /// (`Some`), for the driver's own requests.
+    pub(crate) fn pass_back(
+        &mut self,
+        ctx: &mut Context<'_>,
+        ticket: RequestTicket,
+        reply: Result<Message, RequestError>,
+    ) -> Option<Result<Message, RequestError>> {
+        match self.take(ticket) {
+            Some(pending) => {
+                ctx.answer(pending, passed_on(reply));
+                None
+            }
+            None => Some(reply),
+        }
+    }
+}
+
 /// The answer of a device, passed on unchanged: its ACK body (or an empty ACK), else a NACK.
 /// Whatever kept the device from answering (gone, failed) is a NACK to the requester, as a
 /// client of upstream would see (or time out waiting for).

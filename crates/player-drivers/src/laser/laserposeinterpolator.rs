@@ -22,7 +22,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, passed_on};
+use crate::forward::Waiting;
 
 /// The Player name of this driver.
 pub const NAME: &str = "laserposeinterpolator";
@@ -279,9 +279,7 @@ impl Driver for LaserPoseInterpolator {
         ticket: RequestTicket,
         reply: Result<Message, RequestError>,
     ) {
-        if let Some(pending) = self.waiting.take(ticket) {
-            ctx.answer(pending, passed_on(reply));
-        }
+        self.waiting.pass_back(ctx, ticket, reply);
     }
 }
 

@@ -26,7 +26,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, passed_on};
+use crate::forward::Waiting;
 
 /// The name cfg files use.
 pub const NAME: &str = "passthrough";
@@ -124,9 +124,7 @@ impl Driver for Passthrough {
         ticket: RequestTicket,
         reply: Result<Message, RequestError>,
     ) {
-        if let Some(pending) = self.waiting.take(ticket) {
-            ctx.answer(pending, passed_on(reply));
-        }
+        self.waiting.pass_back(ctx, ticket, reply);
     }
 
     fn handle_command(&mut self, ctx: &mut Context<'_>, command: &Message) {

@@ -33,7 +33,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, passed_on};
+use crate::forward::Waiting;
 use alg::{Frame, Outcome, Params, Reading};
 
 /// The Player name of this driver.
@@ -310,9 +310,7 @@ impl Driver for Mbicp {
         ticket: RequestTicket,
         reply: Result<Message, RequestError>,
     ) {
-        if let Some(pending) = self.waiting.take(ticket) {
-            ctx.answer(pending, passed_on(reply));
-        }
+        self.waiting.pass_back(ctx, ticket, reply);
     }
 }
 

@@ -27,7 +27,7 @@ use player_server::{
 };
 
 use crate::error::Error;
-use crate::forward::{Waiting, passed_on};
+use crate::forward::Waiting;
 use crate::options;
 
 use alg::{Command, Scan, SndParams};
@@ -262,9 +262,7 @@ impl Driver for Snd {
         ticket: RequestTicket,
         reply: Result<Message, RequestError>,
     ) {
-        if let Some(pending) = self.waiting.take(ticket) {
-            ctx.answer(pending, passed_on(reply));
-        }
+        self.waiting.pass_back(ctx, ticket, reply);
     }
 }
 

@@ -44,7 +44,7 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, passed_on};
+use crate::forward::Waiting;
 use algorithm::{Params, Vfh};
 use navigator::{GoalSettings, Navigator, Odometry};
 use ranges::HalfDegreeRanges;
@@ -408,10 +408,9 @@ impl Driver for VfhDriver {
         ticket: RequestTicket,
         reply: Result<Message, RequestError>,
     ) {
-        if let Some(pending) = self.waiting.take(ticket) {
-            ctx.answer(pending, passed_on(reply));
+        let Some(reply) = self.waiting.pass_back(ctx, ticket, reply) else {
             return;
-        }
+        };
         if self.geom_request == Some(ticket) {
             self.geom_request = None;
             match reply.as_ref().map(|m| &m.body) {

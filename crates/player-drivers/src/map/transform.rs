@@ -8,13 +8,14 @@
 //! source cannot be read; upstream does the fetching inside `Setup` instead, which keeps the
 //! subscribing client waiting and the whole server with it.
 
-use player_proto::{Body, DeviceAddr, InterfaceCode, MapInfo, MapMsg, MapReq, Message};
+use player_proto::{Body, DeviceAddr, InterfaceCode, MapMsg, Message};
 use player_server::map::{self, OccupancyGrid};
 use player_server::{
     Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
     RequestTicket,
 };
 
+use super::fetch::{Fetched, MapFetch};
 use super::mapcspace::{self, CspaceOptions};
 use super::mapscale::{self, ScaleOptions};
 use crate::error::Error;
@@ -42,13 +43,8 @@ impl Transform {
 enum State {
     /// Not set up.
     Idle,
-    /// Waiting for GET_INFO.
-    Info(RequestTicket),
-    /// Tiles asked for, the grid filling up.
-    Tiles {
-        grid: OccupancyGrid,
-        waiting: Vec<RequestTicket>,
-    },
+    /// Reading the source map.
+    Fetching(MapFetch),
     /// The transformed map.
     Ready(OccupancyGrid),
     /// The source could not be read (logged); requests are NACKed until the next setup.
@@ -116,30 +112,8 @@ impl MapTransform {
         self.release(ctx);
     }
 
-    fn got_info(&mut self, ctx: &mut Context<'_>, info: MapInfo) {
-        let Some(grid) = OccupancyGrid::new(info.width, info.height, info.scale, info.origin, 0)
-        else {
-            return self.fail(
-                ctx,
-                format!("a {} x {} map is too large", info.width, info.height),
-            );
-        };
-        let waiting: Vec<RequestTicket> = info
-            .tile_requests()
-            .map(|tile| ctx.request(self.source, MapReq::GetData(Some(tile))))
-            .collect();
-        self.state = State::Tiles { grid, waiting };
-        // A map of no cells has no tiles: it is complete already.
-        self.finish_if_complete(ctx);
-    }
-
-    fn finish_if_complete(&mut self, ctx: &mut Context<'_>) {
-        let State::Tiles { grid, waiting } = &self.state else {
-            return;
-        };
-        if !waiting.is_empty() {
-            return;
-        }
+    /// The source map is read: transformed, it answers the requests that waited.
+    fn finish(&mut self, ctx: &mut Context<'_>, grid: &OccupancyGrid) {
         match self.transform.apply(grid) {
             Ok(out) => {
                 tracing::debug!(
@@ -162,7 +136,7 @@ impl Driver for MapTransform {
     fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
         // Subscribed, as upstream: a source that is itself a transform sets up only then.
         ctx.subscribe(self.source);
-        self.state = State::Info(ctx.request(self.source, MapReq::GetInfo(None)));
+        self.state = State::Fetching(MapFetch::start(ctx, self.source));
         Ok(())
     }
 
@@ -177,7 +151,7 @@ impl Driver for MapTransform {
         }
         match &self.state {
             State::Ready(grid) => map::answer(grid, &request.body),
-            State::Info(_) | State::Tiles { .. } => match ctx.defer() {
+            State::Fetching(_) => match ctx.defer() {
                 Some(pending) => {
                     self.queued.push((pending, request.body.clone()));
                     Reply::Deferred
@@ -194,40 +168,14 @@ impl Driver for MapTransform {
         ticket: RequestTicket,
         reply: Result<Message, RequestError>,
     ) {
-        match (&mut self.state, reply) {
-            (State::Info(t), Ok(msg)) if *t == ticket => match msg.body {
-                Body::Map(MapMsg::Ack(MapReq::GetInfo(Some(info)))) => self.got_info(ctx, info),
-                other => self.fail(ctx, format!("GET_INFO answered with {}", other.constant())),
-            },
-            (State::Info(t), Err(e)) if *t == ticket => self.fail(ctx, e),
-            (State::Tiles { grid, waiting }, reply) => {
-                let Some(k) = waiting.iter().position(|&w| w == ticket) else {
-                    return;
-                };
-                waiting.swap_remove(k);
-                match reply {
-                    Ok(Message {
-                        body: Body::Map(MapMsg::Ack(MapReq::GetData(Some(tile)))),
-                        ..
-                    }) if grid.put_tile(
-                        tile.col,
-                        tile.row,
-                        tile.width,
-                        tile.height,
-                        &tile.data,
-                    ) =>
-                    {
-                        self.finish_if_complete(ctx);
-                    }
-                    Ok(msg) => self.fail(
-                        ctx,
-                        format!("GET_DATA answered with an unusable {}", msg.body.constant()),
-                    ),
-                    Err(e) => self.fail(ctx, e),
-                }
-            }
-            // Answers for an earlier setup, or after a failure: nothing waits for them.
-            _ => {}
+        // Answers for an earlier setup, or after a failure: nothing waits for them.
+        let State::Fetching(fetch) = &mut self.state else {
+            return;
+        };
+        match fetch.on_reply(ctx, ticket, reply) {
+            Fetched::NotMine(_) | Fetched::Pending => {}
+            Fetched::Done(grid) => self.finish(ctx, &grid),
+            Fetched::Failed(why) => self.fail(ctx, why),
         }
     }
 }

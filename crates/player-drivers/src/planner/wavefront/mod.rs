@@ -35,10 +35,10 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use player_proto::{
-    Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScanpose, LaserMsg, MapData, MapInfo,
-    MapMsg, MapReq, Message, PlannerCmd, PlannerCmdMsg, PlannerDataMsg, PlannerEnableReq,
-    PlannerMsg, PlannerReq, PlannerWaypointsReq, Pose2d, Position2dCmd, Position2dCmdPos,
-    Position2dCmdVel, Position2dData, Position2dMsg, Position2dPowerConfig, Position2dReq,
+    Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScanpose, LaserMsg, MapData, MapMsg,
+    Message, PlannerCmd, PlannerCmdMsg, PlannerDataMsg, PlannerEnableReq, PlannerMsg, PlannerReq,
+    PlannerWaypointsReq, Pose2d, Position2dCmd, Position2dCmdPos, Position2dCmdVel, Position2dData,
+    Position2dMsg, Position2dPowerConfig, Position2dReq,
 };
 use player_server::map::OccupancyGrid;
 use player_server::{
@@ -47,6 +47,7 @@ use player_server::{
 };
 
 use crate::error::Error;
+use crate::map::fetch::{Fetched, MapFetch};
 use crate::options;
 use control::{Control, ControlSettings, Motion, VelocityGains};
 use plan::{Plan, PlanParams};
@@ -336,21 +337,6 @@ impl Worker {
     }
 }
 
-/// Where fetching the map stands.
-#[derive(Debug, Default)]
-enum MapFetch {
-    /// Nothing asked.
-    #[default]
-    Idle,
-    /// Waiting for GET_INFO.
-    Info(RequestTicket),
-    /// Tiles asked for.
-    Tiles {
-        grid: OccupancyGrid,
-        waiting: Vec<RequestTicket>,
-    },
-}
-
 /// The driver.
 pub struct Wavefront {
     addr: DeviceAddr,
@@ -370,7 +356,7 @@ pub struct Wavefront {
     worker: Option<Worker>,
     geom_ticket: Option<RequestTicket>,
     robot_radius: Option<f64>,
-    fetch: MapFetch,
+    fetch: Option<MapFetch>,
     /// A fetched map waiting for the robot's radius before its c-space can be built.
     pending_map: Option<OccupancyGrid>,
     /// The worker holds a c-space.
@@ -436,7 +422,7 @@ impl Wavefront {
             worker: None,
             geom_ticket: None,
             robot_radius: None,
-            fetch: MapFetch::Idle,
+            fetch: None,
             pending_map: None,
             have_map: false,
             busy: false,
@@ -446,7 +432,7 @@ impl Wavefront {
     }
 
     fn fetch_map(&mut self, ctx: &mut Context<'_>) {
-        self.fetch = MapFetch::Info(ctx.request(self.map, MapReq::GetInfo(None)));
+        self.fetch = Some(MapFetch::start(ctx, self.map));
     }
 
     fn map_failed(&mut self, why: impl std::fmt::Display) {
@@ -455,34 +441,7 @@ impl Wavefront {
             self.addr,
             self.map
         );
-        self.fetch = MapFetch::Idle;
-    }
-
-    fn got_info(&mut self, ctx: &mut Context<'_>, info: MapInfo) {
-        let Some(grid) = OccupancyGrid::new(info.width, info.height, info.scale, info.origin, 0)
-        else {
-            return self.map_failed(format!(
-                "a {} x {} map is too large",
-                info.width, info.height
-            ));
-        };
-        let waiting = info
-            .tile_requests()
-            .map(|tile| ctx.request(self.map, MapReq::GetData(Some(tile))))
-            .collect();
-        self.fetch = MapFetch::Tiles { grid, waiting };
-        self.map_complete_check();
-    }
-
-    fn map_complete_check(&mut self) {
-        if let MapFetch::Tiles { waiting, .. } = &self.fetch {
-            if waiting.is_empty() {
-                if let MapFetch::Tiles { grid, .. } = std::mem::take(&mut self.fetch) {
-                    self.pending_map = Some(grid);
-                }
-            }
-        }
-        self.send_map();
+        self.fetch = None;
     }
 
     /// Hands a fetched map to the worker once the robot's radius is known.
@@ -663,7 +622,7 @@ impl Driver for Wavefront {
     fn teardown(&mut self, _ctx: &mut Context<'_>) {
         // The thread ends when its channel closes.
         self.worker = None;
-        self.fetch = MapFetch::Idle;
+        self.fetch = None;
         self.geom_ticket = None;
     }
 
@@ -756,7 +715,7 @@ impl Driver for Wavefront {
             Body::Map(MapMsg::Data(MapData::Info(_)))
                 if data.header.addr.same_device(&self.map)
                     && !self.opts.request_map
-                    && matches!(self.fetch, MapFetch::Idle) =>
+                    && self.fetch.is_none() =>
             {
                 self.fetch_map(ctx);
             }
@@ -798,48 +757,22 @@ impl Driver for Wavefront {
             }
             return;
         }
-        match (&mut self.fetch, reply) {
-            (MapFetch::Info(t), Ok(msg)) if *t == ticket => match msg.body {
-                Body::Map(
-                    MapMsg::Ack(MapReq::GetInfo(Some(info)))
-                    | MapMsg::Req(MapReq::GetInfo(Some(info))),
-                ) => self.got_info(ctx, info),
-                other => self.map_failed(format!("GET_INFO answered with {}", other.constant())),
-            },
-            (MapFetch::Info(t), Err(e)) if *t == ticket => self.map_failed(e),
-            (MapFetch::Tiles { grid, waiting }, reply) => {
-                let Some(k) = waiting.iter().position(|&w| w == ticket) else {
-                    return;
-                };
-                waiting.swap_remove(k);
-                match reply {
-                    Ok(Message {
-                        body:
-                            Body::Map(
-                                MapMsg::Ack(MapReq::GetData(Some(tile)))
-                                | MapMsg::Req(MapReq::GetData(Some(tile))),
-                            ),
-                        ..
-                    }) if grid.put_tile(
-                        tile.col,
-                        tile.row,
-                        tile.width,
-                        tile.height,
-                        &tile.data,
-                    ) =>
-                    {
-                        self.map_complete_check()
-                    }
-                    Ok(msg) => self.map_failed(format!(
-                        "GET_DATA answered with an unusable {}",
-                        msg.body.constant()
-                    )),
-                    Err(e) => self.map_failed(e),
+        let reply = match self.fetch.as_mut() {
+            Some(fetch) => match fetch.on_reply(ctx, ticket, reply) {
+                Fetched::NotMine(reply) => reply,
+                Fetched::Pending => return,
+                Fetched::Done(grid) => {
+                    self.fetch = None;
+                    self.pending_map = Some(grid);
+                    return self.send_map();
                 }
-            }
-            // MOTOR_POWER's answer (upstream only warns on failure), or a stale one.
-            (_, Err(e)) => tracing::warn!("wavefront {}: request failed: {e}", self.addr),
-            _ => {}
+                Fetched::Failed(why) => return self.map_failed(why),
+            },
+            None => reply,
+        };
+        // MOTOR_POWER's answer (upstream only warns on failure), or a stale one.
+        if let Err(e) = reply {
+            tracing::warn!("wavefront {}: request failed: {e}", self.addr);
         }
     }
 
@@ -911,7 +844,7 @@ pub fn register(registry: &mut DriverRegistry) {
 mod tests {
     use super::*;
     use crate::testing::{Harness, addr, block};
-    use player_proto::{Bbox3d, MapTile, Position2dDataState, Position2dGeom};
+    use player_proto::{Bbox3d, MapInfo, MapReq, MapTile, Position2dDataState, Position2dGeom};
     use player_server::{Action, RequiredDevice};
 
     fn keyed(b: &mut DriverBlock, key: &str, index: usize) {

@@ -599,23 +599,6 @@ fn stage_amcl_sonar_cfg_options_are_read() {
     assert_eq!(s.pf_max_samples, 10_000);
 }
 
-/// `shared/stage-worlds`, or `None` (after saying so).
-fn stage_worlds() -> Option<std::path::PathBuf> {
-    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
-    let p = shared.join("stage-worlds");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!(
-            "skipping: {} not found (set PLAYERSTAGE_SHARED)",
-            p.display()
-        );
-        None
-    }
-}
-
 /// Stage's `amcl-sonar.cfg` run: the Pioneer of `simple.world` wandering the cave, its 16
 /// sonars, the cave bitmap through `mapfile` (0.032 m) and `mapscale` (0.1 m), and the cfg's
 /// amcl block (`scount`, `spose[i]`, `update_thresh [0.1 5]`, Player 2.0's sonar defaults).
@@ -627,7 +610,7 @@ fn stage_worlds() -> Option<std::path::PathBuf> {
 /// origin, 10 m from the robot, so an `init_pose` at the robot's start is added.
 #[test]
 fn stage_amcl_sonar_cfg_localises_in_the_cave() {
-    let Some(root) = stage_worlds() else {
+    let Some(root) = common::stage_worlds() else {
         return;
     };
     let text = std::fs::read_to_string(root.join("amcl-sonar.cfg")).unwrap();

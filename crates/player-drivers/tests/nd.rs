@@ -196,41 +196,15 @@ fn nd_refuses_a_cfg_without_its_keyed_position_devices_or_a_range_sensor() {
     assert!(err.contains("sonar or one laser"), "{err}");
 }
 
-/// Stage 4.1.1's own files, when the shared reference folder is there.
-fn stage_worlds() -> Option<std::path::PathBuf> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/stage-worlds");
-    dir.join("nd.cfg").is_file().then_some(dir)
-}
-
-/// simple.world as a Player user runs it under nd.cfg: without its `wander` controller (which
-/// would drive r0 too) and with the cave's walls solid, so that touching one stalls the base.
-fn simple_world(src: &std::path::Path, dir: &std::path::Path) {
-    for f in ["pioneer.inc", "map.inc", "sick.inc"] {
-        std::fs::copy(src.join(f), dir.join(f)).unwrap();
-    }
-    std::fs::create_dir_all(dir.join("bitmaps")).unwrap();
-    std::fs::copy(src.join("bitmaps/cave.png"), dir.join("bitmaps/cave.png")).unwrap();
-    let world = std::fs::read_to_string(src.join("simple.world")).unwrap();
-    let world: Vec<&str> = world
-        .lines()
-        .filter(|l| !l.trim_start().starts_with("ctrl"))
-        .collect();
-    let cave = "bitmap \"bitmaps/cave.png\"";
-    let world = world.join("\n");
-    assert!(world.contains(cave));
-    let world = world.replace(cave, &format!("{cave}\n  obstacle_return 1"));
-    std::fs::write(dir.join("simple.world"), world).unwrap();
-}
-
 #[test]
 fn stages_nd_cfg_drives_r0_round_a_block_of_the_cave() {
-    let Some(src) = stage_worlds() else {
+    let Some(src) = common::stage_worlds() else {
         eprintln!("skipping: Stage's worlds are not in ../shared/stage-worlds");
         return;
     };
     let dir = std::env::temp_dir().join(format!("nd-stage-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    simple_world(&src, &dir);
+    common::simple_world_for_vfh(&src, &dir);
     // Stage's nd.cfg as written (laser and sonar, wait_on_stall 1, its stuck times), its
     // devices moved to OS-chosen ports.
     let cfg = std::fs::read_to_string(src.join("nd.cfg"))

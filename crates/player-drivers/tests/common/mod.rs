@@ -53,10 +53,22 @@ pub fn build_cfg(dir: &Path, name: &str, text: &str, pace: Pace) -> Result<Serve
     Ok(server)
 }
 
-/// Stage 4.1.1's own files, when the shared reference folder is there.
+/// Stage 4.1.1's own files, when the shared reference folder is there (`$PLAYERSTAGE_SHARED`,
+/// else `../shared` beside the workspace); `None` with a note otherwise.
 pub fn stage_worlds() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/stage-worlds");
-    dir.join("simple.world").is_file().then_some(dir)
+    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
+    let dir = shared.join("stage-worlds");
+    if dir.join("simple.world").is_file() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "skipping: {} not found (set PLAYERSTAGE_SHARED)",
+            dir.display()
+        );
+        None
+    }
 }
 
 /// simple.world as Player users run it with vfh.cfg: without the `wander` controller (the

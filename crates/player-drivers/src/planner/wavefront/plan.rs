@@ -179,14 +179,15 @@ impl Plan {
     /// the last plan searched, and points off the map are dropped.
     pub fn set_obstacles(&mut self, points: &[(f64, f64)]) {
         self.occ_dist_dyn.copy_from_slice(&self.occ_dist);
-        let mut marked = vec![false; self.occ_dist.len()];
         let (x0, y0, x1, y1) = self.bounds;
         for &(x, y) in points {
             let Some(c) = self.cell_of(x, y) else {
                 continue;
             };
             let k = self.index(c);
-            if std::mem::replace(&mut marked[k], true) {
+            // A cell at distance 0 is an obstacle already (of the map, or a point before this
+            // one): growing it again changes nothing (upstream marks the cells it has grown).
+            if self.occ_dist_dyn[k] == 0.0 {
                 continue;
             }
             self.occ_dist_dyn[k] = 0.0;

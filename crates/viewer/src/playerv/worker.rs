@@ -111,8 +111,9 @@ enum Proxy {
 /// usually differs in them too), and whether it is valid.
 type PlanKey = (bool, u32, [u64; 3]);
 
-/// How often particles are fetched while shown.
-const PARTICLE_PERIOD: Duration = Duration::from_secs(1);
+/// How often what has no DATA of its own is asked for again: particles (while shown) and log
+/// devices' state.
+const REFRESH_PERIOD: Duration = Duration::from_secs(1);
 
 impl Proxy {
     fn driver(&self) -> &str {
@@ -327,7 +328,7 @@ fn refresh(p: &mut Proxy, particles: bool) -> Result<(), ClientError> {
             if !particles {
                 shown.clear();
                 *fetched = None;
-            } else if fetched.is_none_or(|t| t.elapsed() >= PARTICLE_PERIOD) {
+            } else if fetched.is_none_or(|t| t.elapsed() >= REFRESH_PERIOD) {
                 *shown = p
                     .request_particles()?
                     .particles
@@ -337,7 +338,7 @@ fn refresh(p: &mut Proxy, particles: bool) -> Result<(), ClientError> {
                 *fetched = Some(Instant::now());
             }
         }
-        Proxy::Log(p, state, asked) if asked.is_none_or(|t| t.elapsed() >= PARTICLE_PERIOD) => {
+        Proxy::Log(p, state, asked) if asked.is_none_or(|t| t.elapsed() >= REFRESH_PERIOD) => {
             *asked = Some(Instant::now());
             *state = Some(p.get_state()?);
         }

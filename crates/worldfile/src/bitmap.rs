@@ -82,10 +82,20 @@ pub fn load_occupancy(path: &Path, max_pixels: u64) -> Result<Occupancy, String>
     limits.max_alloc = Some(max_pixels.saturating_mul(16));
     reader.limits(limits);
     let img = reader.decode().map_err(|e| e.to_string())?;
-    // Grey images become r = g = b = grey, so channel 0 is "grey or red" for every format.
-    let rgba = img.to_rgba8();
-    let (width, height) = rgba.dimensions();
-    let cells = rgba.pixels().map(|p| p.0[0] <= 127).collect();
+    let (width, height) = (img.width(), img.height());
+    // channel 0 is "grey or red"; 8-bit images are read in place (Stage's maps are mostly 8-bit
+    // grey: hospital.png is 3117x1189, whose RGBA copy took a third of the world's loading)
+    let first_channel = |raw: &[u8], channels: usize| -> Vec<bool> {
+        raw.chunks_exact(channels).map(|p| p[0] <= 127).collect()
+    };
+    let cells = match &img {
+        image::DynamicImage::ImageLuma8(b) => first_channel(b.as_raw(), 1),
+        image::DynamicImage::ImageLumaA8(b) => first_channel(b.as_raw(), 2),
+        image::DynamicImage::ImageRgb8(b) => first_channel(b.as_raw(), 3),
+        image::DynamicImage::ImageRgba8(b) => first_channel(b.as_raw(), 4),
+        // other depths and formats: grey becomes r = g = b = grey in the 8-bit RGBA conversion
+        _ => first_channel(img.to_rgba8().as_raw(), 4),
+    };
     Ok(Occupancy {
         width,
         height,
@@ -177,6 +187,60 @@ mod tests {
             }
         }
         cells.into_iter().map(|r| r.into_iter().collect()).collect()
+    }
+
+    /// Every pixel format gives what the 8-bit RGBA conversion's first channel gives (the
+    /// 8-bit formats are read without that conversion).
+    #[test]
+    fn every_format_thresholds_its_first_channel() {
+        let (w, h) = (7u32, 5u32);
+        let value = |x: u32, y: u32, c: u32| ((x * 37 + y * 91 + c * 53) % 256) as u8;
+        let dir = std::env::temp_dir().join(format!("worldfile-bitmap-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let images: Vec<(&str, image::DynamicImage)> = vec![
+            (
+                "l8",
+                image::GrayImage::from_fn(w, h, |x, y| image::Luma([value(x, y, 0)])).into(),
+            ),
+            (
+                "la8",
+                image::GrayAlphaImage::from_fn(w, h, |x, y| {
+                    image::LumaA([value(x, y, 0), value(x, y, 1)])
+                })
+                .into(),
+            ),
+            (
+                "rgb8",
+                image::RgbImage::from_fn(w, h, |x, y| {
+                    image::Rgb([value(x, y, 0), value(x, y, 1), value(x, y, 2)])
+                })
+                .into(),
+            ),
+            (
+                "rgba8",
+                image::RgbaImage::from_fn(w, h, |x, y| {
+                    image::Rgba([value(x, y, 0), value(x, y, 1), value(x, y, 2), 9])
+                })
+                .into(),
+            ),
+            (
+                "l16",
+                image::ImageBuffer::<image::Luma<u16>, _>::from_fn(w, h, |x, y| {
+                    image::Luma([value(x, y, 0) as u16 * 257 + (x % 2) as u16 * 128])
+                })
+                .into(),
+            ),
+        ];
+        for (name, img) in images {
+            let path = dir.join(format!("{name}.png"));
+            img.save(&path).unwrap();
+            let got = load_occupancy(&path, 1 << 20).unwrap();
+            let reference: Vec<bool> = img.to_rgba8().pixels().map(|p| p.0[0] <= 127).collect();
+            assert_eq!((got.width, got.height), (w, h), "{name}");
+            assert_eq!(got.cells, reference, "{name}");
+            assert!(got.cells.iter().any(|&c| c) && got.cells.iter().any(|&c| !c));
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

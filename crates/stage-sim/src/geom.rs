@@ -63,21 +63,43 @@ impl Aabb {
     /// within `[0, tmax]`.
     #[inline]
     pub fn ray_entry(&self, o: [f64; 2], inv: [f64; 2], tmax: f64) -> Option<f64> {
-        let mut t0 = 0.0f64;
-        let mut t1 = tmax;
-        for k in 0..2 {
-            let a = (self.min[k] - o[k]) * inv[k];
-            let b = (self.max[k] - o[k]) * inv[k];
-            let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
-            // NaN (0·inf on a face) keeps the interval: treat as inside along that axis.
-            if lo > t0 {
-                t0 = lo;
-            }
-            if hi < t1 {
-                t1 = hi;
-            }
-        }
+        let (t0, t1) = self.ray_span(o, inv, tmax);
         (t0 <= t1).then_some(t0)
+    }
+
+    /// Whether the ray meets the box within `[0, tmax]`: [`Aabb::ray_entry`]`.is_some()`, for
+    /// the hot rejection tests that need no distance.
+    #[inline(always)]
+    pub fn ray_meets(&self, o: [f64; 2], inv: [f64; 2], tmax: f64) -> bool {
+        let (t0, t1) = self.ray_span(o, inv, tmax);
+        t0 <= t1
+    }
+
+    /// The slab test, both axes written out: the parameter interval `(t0, t1)` of the ray inside
+    /// the box, clipped to `[0, tmax]` (empty when `t0 > t1`).
+    #[inline(always)]
+    fn ray_span(&self, o: [f64; 2], inv: [f64; 2], tmax: f64) -> (f64, f64) {
+        // NaN (0·inf on a face) keeps the interval: treat as inside along that axis
+        #[inline(always)]
+        fn axis(min: f64, max: f64, o: f64, inv: f64, t0: f64, t1: f64) -> (f64, f64) {
+            let a = (min - o) * inv;
+            let b = (max - o) * inv;
+            let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+            (if lo > t0 { lo } else { t0 }, if hi < t1 { hi } else { t1 })
+        }
+        let (t0, t1) = axis(self.min[0], self.max[0], o[0], inv[0], 0.0, tmax);
+        axis(self.min[1], self.max[1], o[1], inv[1], t0, t1)
+    }
+}
+
+/// `x.floor() as i32` without a libm call (saturating like `as`; NaN gives 0 like `as`).
+#[inline(always)]
+pub fn floor_i32(x: f64) -> i32 {
+    let i = x as i32;
+    if (i as f64) > x {
+        i.saturating_sub(1)
+    } else {
+        i
     }
 }
 

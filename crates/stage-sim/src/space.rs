@@ -28,7 +28,7 @@ use parry2d::math::Point;
 use parry2d::partitioning::{Bvh, BvhBuildStrategy};
 use std::cell::Cell;
 
-use crate::geom::{Aabb, ray_polygon, ray_segment, segments_intersect};
+use crate::geom::{Aabb, floor_i32, ray_polygon, ray_segment, segments_intersect};
 
 mod exposed;
 mod static_grid;
@@ -257,8 +257,8 @@ impl DynGrid {
     #[inline]
     fn cell_of(&self, p: [f64; 2]) -> [i32; 2] {
         [
-            ((p[0] - self.origin[0]) * self.inv_cell).floor() as i32,
-            ((p[1] - self.origin[1]) * self.inv_cell).floor() as i32,
+            floor_i32((p[0] - self.origin[0]) * self.inv_cell),
+            floor_i32((p[1] - self.origin[1]) * self.inv_cell),
         ]
     }
 
@@ -375,9 +375,10 @@ fn z_sees(z: Option<f64>, zmin: f64, zmax: f64) -> bool {
 /// Dynamic sets up to this size are scanned directly instead of walking the grid.
 const SMALL_DYNAMIC_SET: usize = 24;
 
-/// Edge of the dynamic grid's cells: four typical (median) moving bodies across, within
+/// Edge of the dynamic grid's cells: three typical (median) moving bodies across, within
 /// `[0.25, 2]` m — small enough that a cell holds few robots, large enough that short sensor
-/// rays cross few cells.
+/// rays cross few cells (callgrind, instructions per step against four across: cave −6%,
+/// hospital −4%, a 1,000-robot swarm +1%; two across: cave −11%, swarm +4%).
 fn dynamic_cell(bodies: &[Body], dynamic: &[bool]) -> f64 {
     let mut ext: Vec<f64> = bodies
         .iter()
@@ -390,7 +391,7 @@ fn dynamic_cell(bodies: &[Body], dynamic: &[bool]) -> f64 {
     }
     let mid = ext.len() / 2;
     ext.select_nth_unstable_by(mid, f64::total_cmp);
-    (4.0 * ext[mid]).clamp(0.25, 2.0)
+    (3.0 * ext[mid]).clamp(0.25, 2.0)
 }
 
 impl Space {
@@ -647,7 +648,7 @@ impl Space {
         let consider = |m: u32| {
             let tmax = best_t.get();
             if self.roots[m as usize] == skip_root
-                || self.aabbs[m as usize].ray_entry(o, inv, tmax).is_none()
+                || !self.aabbs[m as usize].ray_meets(o, inv, tmax)
                 || !accept(m)
             {
                 return;
@@ -663,8 +664,10 @@ impl Space {
             let body = &self.bodies[m as usize];
             let mut bt = tmax;
             let mut bb = None;
+            // a lone block's box is the body's, which the ray has just been found to meet
+            let one = body.blocks.len() == 1;
             for (bi, blk) in body.blocks.iter().enumerate() {
-                if !z_sees(z, blk.zmin, blk.zmax) || blk.aabb.ray_entry(o, inv, bt).is_none() {
+                if !z_sees(z, blk.zmin, blk.zmax) || !(one || blk.aabb.ray_meets(o, inv, bt)) {
                     continue;
                 }
                 if let Some(t) = ray_polygon(o, d, body.block_pts(bi), bt) {

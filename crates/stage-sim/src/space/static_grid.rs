@@ -12,7 +12,7 @@
 //!   the answer is the exact lexicographic minimum of (distance, model, block) over the edges
 //!   tested, so it does not depend on the cell size or on the order of the lists.
 
-use crate::geom::Aabb;
+use crate::geom::{Aabb, floor_i32};
 
 /// How far (m) beyond its cells an edge may lie and still be listed there: far above the
 /// floating-point error of the cell walk (≈1e-13 m in a 1 km world), far below any geometry.
@@ -306,17 +306,6 @@ impl StaticGrid {
     #[cfg(test)]
     pub fn cell_count(&self) -> usize {
         (self.nx * self.ny) as usize
-    }
-}
-
-/// `x.floor() as i32` without a libm call (saturating like `as`).
-#[inline]
-fn floor_i32(x: f64) -> i32 {
-    let i = x as i32;
-    if (i as f64) > x {
-        i.saturating_sub(1)
-    } else {
-        i
     }
 }
 

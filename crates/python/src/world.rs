@@ -57,10 +57,14 @@ impl World {
             .map_err(sim_err)?;
         let models: Vec<ModelId> = world.models().collect();
         for m in models {
-            match world.type_name(m) {
-                "position" | "ranger" | "blobfinder" | "fiducial" | "gripper" | "actuator" => {
-                    world.subscribe(m)
-                }
+            use stage_sim::ModelType as T;
+            match world.model_type(m) {
+                T::Position
+                | T::Ranger
+                | T::Blobfinder
+                | T::Fiducial
+                | T::Gripper
+                | T::Actuator => world.subscribe(m),
                 _ => {}
             }
         }

@@ -7,7 +7,7 @@
 //! `expand_swarm` (worlds/benchmark), `pioneer_flocking` and `lasernoise` (examples/ctrl).
 //! Other names (`fasr`, `sink`, `source`, …) produce a warning naming the model.
 
-use crate::desc::Color;
+use crate::desc::{Color, ModelType};
 use crate::rng::SimRng;
 use crate::world::{ModelId, World};
 
@@ -95,7 +95,7 @@ fn rangers_in(world: &World, m: ModelId) -> Vec<ModelId> {
         .subtree(m)
         .into_iter()
         .skip(1)
-        .filter(|&c| world.type_name(c) == "ranger")
+        .filter(|&c| world.model_type(c) == ModelType::Ranger)
         .collect()
 }
 
@@ -110,14 +110,14 @@ pub fn builtin(
     let _ = args;
     match name {
         "wander" => {
-            if world.type_name(model) != "position" {
+            if world.model_type(model) != ModelType::Position {
                 return Err(CtrlError::Missing("a position model"));
             }
             // Stage's wander reads `ranger:1` (the laser after the sonar ring); fall back to the
             // only ranger when there is one.
             let direct: Vec<ModelId> = world
                 .children(model)
-                .filter(|&c| world.type_name(c) == "ranger")
+                .filter(|&c| world.model_type(c) == ModelType::Ranger)
                 .collect();
             let laser = direct
                 .get(1)
@@ -140,7 +140,7 @@ pub fn builtin(
             }))
         }
         "expand_pioneer" | "expand_swarm" => {
-            if world.type_name(model) != "position" {
+            if world.model_type(model) != ModelType::Position {
                 return Err(CtrlError::Missing("a position model"));
             }
             let ranger = *rangers_in(world, model)
@@ -160,7 +160,7 @@ pub fn builtin(
             }))
         }
         "pioneer_flocking" => {
-            if world.type_name(model) != "position" {
+            if world.model_type(model) != ModelType::Position {
                 return Err(CtrlError::Missing("a position model"));
             }
             let ranger = *rangers_in(world, model)
@@ -170,7 +170,7 @@ pub fn builtin(
                 .subtree(model)
                 .into_iter()
                 .skip(1)
-                .find(|&c| world.type_name(c) == "fiducial")
+                .find(|&c| world.model_type(c) == ModelType::Fiducial)
                 .ok_or(CtrlError::Missing("a fiducial finder"))?;
             Ok(Some(Installed {
                 model,
@@ -185,7 +185,7 @@ pub fn builtin(
             }))
         }
         "lasernoise" => {
-            if world.type_name(model) != "ranger" {
+            if world.model_type(model) != ModelType::Ranger {
                 return Err(CtrlError::Missing("to be attached to a ranger"));
             }
             Ok(Some(Installed {

@@ -40,25 +40,8 @@ impl BlockDesc {
     }
 }
 
-/// `drive` of a position model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Drive {
-    /// Differential: x speed and turn rate.
-    Diff,
-    /// Holonomic: x, y and turn.
-    Omni,
-    /// Car-like: speed and steering angle, with `wheelbase`.
-    Car,
-}
-
-/// `localization` of a position model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Localization {
-    /// Report the true pose in the `localization_origin` frame (one step late, like Stage).
-    Gps,
-    /// Integrate commanded velocities with `odom_error` biases.
-    Odom,
-}
+// The drive and localisation words are the worldfile crate's (one vocabulary for every crate).
+pub use worldfile::models::{Drive, Localization, ModelType};
 
 /// Position-model properties (spec §7.1); angles in radians.
 #[derive(Clone, Debug, PartialEq)]
@@ -273,8 +256,8 @@ pub enum KindDesc {
 
 impl KindDesc {
     /// The worldfile crate's model type (whose table holds the per-type defaults).
-    pub fn model_type(&self) -> worldfile::models::ModelType {
-        use worldfile::models::ModelType as T;
+    pub fn model_type(&self) -> ModelType {
+        use ModelType as T;
         match self {
             KindDesc::Model => T::Model,
             KindDesc::Position(_) => T::Position,
@@ -291,18 +274,7 @@ impl KindDesc {
 
     /// The Stage type word.
     pub fn type_name(&self) -> &'static str {
-        match self {
-            KindDesc::Model => "model",
-            KindDesc::Position(_) => "position",
-            KindDesc::Ranger(_) => "ranger",
-            KindDesc::Blobfinder(_) => "blobfinder",
-            KindDesc::Fiducial(_) => "fiducial",
-            KindDesc::Gripper(_) => "gripper",
-            KindDesc::Camera(_) => "camera",
-            KindDesc::Actuator(_) => "actuator",
-            KindDesc::Blinkenlight { .. } => "blinkenlight",
-            KindDesc::LightIndicator => "lightindicator",
-        }
+        self.model_type().name()
     }
 }
 

@@ -103,7 +103,7 @@ pub mod world;
 pub use controller::{Command, Commands, Controller};
 pub use desc::{
     ActuatorDesc, ActuatorKind, BlobfinderDesc, BlockDesc, CameraDesc, Color, Drive, FiducialDesc,
-    GripperDesc, KindDesc, Localization, ModelDesc, PositionDesc, SensorDesc, WorldDesc,
+    GripperDesc, KindDesc, Localization, ModelDesc, ModelType, PositionDesc, SensorDesc, WorldDesc,
 };
 pub use error::{Error, Result};
 pub use models::blobfinder::{Blob, BlobfinderData};

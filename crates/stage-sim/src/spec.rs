@@ -43,15 +43,8 @@ pub(crate) fn sensor(s: &wm::SensorSpec, rng: &mut SimRng) -> SensorDesc {
 /// Position properties.
 pub(crate) fn position(p: &wm::PositionSpec) -> PositionDesc {
     PositionDesc {
-        drive: match p.drive {
-            wm::Drive::Diff => Drive::Diff,
-            wm::Drive::Omni => Drive::Omni,
-            wm::Drive::Car => Drive::Car,
-        },
-        localization: match p.localization {
-            wm::Localization::Gps => Localization::Gps,
-            wm::Localization::Odom => Localization::Odom,
-        },
+        drive: p.drive,
+        localization: p.localization,
         localization_origin: Some(pose(p.localization_origin)),
         odom_error: p.odom_error,
         wheelbase: p.wheelbase,

@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 
 use crate::controller::{self, Command, Commands, Controller};
-use crate::desc::{BlockDesc, Color, KindDesc, ModelDesc, WorldDesc};
+use crate::desc::{BlockDesc, Color, KindDesc, ModelDesc, ModelType, WorldDesc};
 use crate::error::{Error, Result};
 use crate::geom::Aabb;
 use crate::models::actuator::{ActuatorData, ActuatorMode, ActuatorModel};
@@ -50,8 +50,8 @@ pub struct LocalBlock {
 pub struct Node {
     /// Name.
     pub name: String,
-    /// Stage type word.
-    pub type_name: &'static str,
+    /// Stage model type.
+    pub model_type: ModelType,
     /// Parent model.
     pub parent: Option<u32>,
     /// Children in creation order.
@@ -355,7 +355,7 @@ impl World {
             }
             nodes.push(Node {
                 name: m.name.clone(),
-                type_name: m.kind.type_name(),
+                model_type: m.kind.model_type(),
                 parent: m.parent.map(|p| p as u32),
                 children: Vec::new(),
                 root,
@@ -932,9 +932,14 @@ impl World {
         &self.nodes[m.index()].name
     }
 
-    /// The model's Stage type word (`position`, `ranger`, …).
+    /// The model's Stage type: what code compares (the compiler checks every name).
+    pub fn model_type(&self, m: ModelId) -> ModelType {
+        self.nodes[m.index()].model_type
+    }
+
+    /// The model's Stage type word (`position`, `ranger`, …), for messages and display.
     pub fn type_name(&self, m: ModelId) -> &'static str {
-        self.nodes[m.index()].type_name
+        self.model_type(m).name()
     }
 
     /// The parent model.

@@ -4,7 +4,7 @@
 //! fiducial links; blobfinder images; gripper beams; camera frustums; blinkenlights; speech
 //! bubbles). Pure: the same world, settings and view give the same primitives.
 
-use stage_sim::{KindDesc, ModelId, Pose, World, WorldDesc};
+use stage_sim::{KindDesc, ModelId, ModelType, Pose, World, WorldDesc};
 use worldfile::{WindowSpec, WorldSpec};
 
 use crate::lod;
@@ -180,16 +180,16 @@ impl VisOptions {
         self.ranger_ranges || self.ranger_beams || self.ranger_strikes
     }
 
-    /// Whether model type `type_name`'s data is drawn, so it is worth subscribing to: the
-    /// simulator only updates subscribed sensors (spec §5.4), so the window subscribes the
-    /// sensors it shows.
-    pub fn shows_data_of(&self, type_name: &str) -> bool {
+    /// Whether model type `t`'s data is drawn, so it is worth subscribing to: the simulator
+    /// only updates subscribed sensors (spec §5.4), so the window subscribes the sensors it
+    /// shows.
+    pub fn shows_data_of(&self, t: ModelType) -> bool {
         self.data
-            && match type_name {
-                "ranger" => self.ranger_any(),
-                "fiducial" => self.fiducial,
-                "blobfinder" => self.blobfinder,
-                "gripper" => self.gripper,
+            && match t {
+                ModelType::Ranger => self.ranger_any(),
+                ModelType::Fiducial => self.fiducial,
+                ModelType::Blobfinder => self.blobfinder,
+                ModelType::Gripper => self.gripper,
                 _ => false,
             }
     }
@@ -199,7 +199,7 @@ impl VisOptions {
 pub fn visualised_sensors(world: &World, vis: &VisOptions) -> Vec<ModelId> {
     world
         .models()
-        .filter(|&m| vis.shows_data_of(world.type_name(m)))
+        .filter(|&m| vis.shows_data_of(world.model_type(m)))
         .collect()
 }
 
@@ -599,7 +599,7 @@ fn data(
         }
     }
     if vis.blinken {
-        if let (Some(on), "blinkenlight") = (world.light_on(m), world.type_name(m)) {
+        if let (Some(on), ModelType::Blinkenlight) = (world.light_on(m), world.model_type(m)) {
             let g = world.global_pose(m);
             let c = if on {
                 Rgba8::from_color(&world.color(m))

@@ -86,18 +86,22 @@
 //!   at the gripper's pose and height, `update_interval` rounds up to whole world steps and
 //!   `quit_time` overshoots to the end of the step that crosses it.
 
+pub mod block;
+pub mod color;
 pub mod controller;
 pub mod desc;
 pub mod error;
 pub mod generate;
 pub mod geom;
 pub mod models;
+pub mod node;
 pub mod pool;
 pub mod pose;
 pub mod raster;
 pub mod rng;
 pub mod space;
 pub mod spec;
+mod view;
 pub mod world;
 
 pub use controller::{Command, Commands, Controller};

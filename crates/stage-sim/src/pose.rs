@@ -54,6 +54,11 @@ impl Pose {
         }
     }
 
+    /// A pose from the worldfile's `[x y z a]` (m, rad).
+    pub fn from_array(p: [f64; 4]) -> Pose {
+        Pose::new(p[0], p[1], p[2], p[3])
+    }
+
     /// `self ⊕ q`: `q`, given in this pose's frame, expressed in this pose's parent frame.
     pub fn compose(&self, q: &Pose) -> Pose {
         let (s, c) = self.a.sin_cos();

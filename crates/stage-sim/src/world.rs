@@ -9,13 +9,13 @@ use crate::controller::{self, Command, Commands, Controller};
 use crate::desc::{BlockDesc, Color, KindDesc, ModelDesc, ModelType, WorldDesc};
 use crate::error::{Error, Result};
 use crate::geom::Aabb;
-use crate::models::actuator::{ActuatorData, ActuatorMode, ActuatorModel};
-use crate::models::blobfinder::{self, BlobfinderData, BlobfinderModel};
-use crate::models::camera::{self, CameraImage, CameraModel};
-use crate::models::fiducial::{self, FiducialData};
-use crate::models::gripper::{self, GripAction, GripperCmd, GripperData, GripperModel};
+use crate::models::actuator::{ActuatorData, ActuatorMode};
+use crate::models::blobfinder::BlobfinderData;
+use crate::models::camera::CameraImage;
+use crate::models::fiducial::FiducialData;
+use crate::models::gripper::{GripAction, GripperCmd, GripperData};
 use crate::models::position::{PositionData, PositionModel};
-use crate::models::ranger::{self, RangerData};
+use crate::models::ranger::RangerData;
 use crate::pose::Pose;
 use crate::raster::Raster;
 use crate::rng::SimRng;
@@ -23,81 +23,10 @@ use crate::space::{Body, RayHit, RayQuery, Space, WorldBlock};
 
 mod moves;
 
-/// Identifies a model: its index in creation (pre-)order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct ModelId(pub u32);
+use crate::models::KindState;
 
-impl ModelId {
-    /// The index into per-model tables.
-    pub fn index(self) -> usize {
-        self.0 as usize
-    }
-}
-
-/// A block in the model's body frame, already scaled to `size` (spec §2.3).
-#[derive(Clone, Debug, PartialEq)]
-pub struct LocalBlock {
-    /// Vertices in the body frame (m).
-    pub pts: Vec<[f64; 2]>,
-    /// z interval relative to the body base (m).
-    pub z: [f64; 2],
-    /// Own colour, or `None` to inherit the model's.
-    pub color: Option<Color>,
-}
-
-/// Per-model tree and configuration data (read by every phase of a step).
-#[derive(Clone, Debug)]
-pub struct Node {
-    /// Name.
-    pub name: String,
-    /// Stage model type.
-    pub model_type: ModelType,
-    /// Parent model.
-    pub parent: Option<u32>,
-    /// Children in creation order.
-    pub children: Vec<u32>,
-    /// Root of the tree the model is in (models with the same root are "related").
-    pub root: u32,
-    /// Size `[x y z]` (m).
-    pub size: [f64; 3],
-    /// Body offset from the pose.
-    pub origin: Pose,
-    /// Children's z measured from this model's top.
-    pub stack_children: bool,
-    /// Takes part in collisions.
-    pub obstacle_return: bool,
-    /// Ranger intensity (< 0: transparent to rangers).
-    pub ranger_return: f64,
-    /// Fiducial id (0: none).
-    pub fiducial_return: i32,
-    /// Fiducial key.
-    pub fiducial_key: i32,
-    /// Graspable.
-    pub gripper_return: bool,
-    /// Update period (µs).
-    pub update_interval_us: u64,
-    /// Mass (kg).
-    pub mass: f64,
-    /// Body blocks in the body frame.
-    pub blocks: Vec<LocalBlock>,
-    /// Where the model was defined.
-    pub source: String,
-}
-
-/// Type-specific mutable state.
-#[derive(Clone, Debug)]
-pub(crate) enum KindState {
-    Plain,
-    Position(Box<PositionModel>),
-    Ranger(RangerData),
-    Blobfinder(Box<BlobfinderModel>),
-    Fiducial(crate::desc::FiducialDesc, FiducialData),
-    Gripper(Box<GripperModel>),
-    Camera(Box<CameraModel>),
-    Actuator(ActuatorModel),
-    Blinkenlight { on: bool },
-    LightIndicator { on: bool },
-}
+pub use crate::node::{LocalBlock, ModelId, Node};
+pub(crate) use crate::view::View;
 
 /// Per-model mutable state: scheduling, RNG stream and the type's data.
 #[derive(Clone, Debug)]
@@ -109,34 +38,6 @@ pub(crate) struct ModelState {
     updated_at: Option<u64>,
     rng: SimRng,
     kind: KindState,
-}
-
-/// Read-only view of the world handed to model updates (phase 1).
-pub(crate) struct View<'a> {
-    pub nodes: &'a [Node],
-    pub globals: &'a [Pose],
-    pub colors: &'a [Color],
-    pub space: &'a Space,
-    pub fiducial_targets: &'a [u32],
-    pub sim_time: u64,
-    pub dt: f64,
-}
-
-impl View<'_> {
-    #[inline]
-    pub fn root(&self, m: u32) -> u32 {
-        self.nodes[m as usize].root
-    }
-    #[inline]
-    pub fn body_frame(&self, m: u32) -> Pose {
-        self.globals[m as usize].compose(&self.nodes[m as usize].origin)
-    }
-    #[inline]
-    pub fn block_color(&self, m: u32, b: u32) -> Color {
-        self.nodes[m as usize].blocks[b as usize]
-            .color
-            .unwrap_or(self.colors[m as usize])
-    }
 }
 
 /// World-level settings in internal units.
@@ -406,52 +307,20 @@ impl World {
         let mut positions = Vec::new();
         for (i, m) in desc.models.iter().enumerate() {
             let mut rng = SimRng::new(seed, i as u64);
-            let mut self_start = false;
-            let kind = match &m.kind {
-                KindDesc::Model => KindState::Plain,
-                KindDesc::Position(p) => {
-                    positions.push(i as u32);
-                    let origin = p.localization_origin.unwrap_or(globals[i]);
-                    let err = match p.odom_error {
-                        Some(e) => e,
-                        // drawn once per model from [-span/2, span/2), as Stage does (§7.7)
-                        None => worldfile::models::PositionSpec::ODOM_ERROR_SPAN
-                            .map(|span| rng.uniform(-span / 2.0, span / 2.0)),
-                    };
-                    KindState::Position(Box::new(PositionModel::new(
-                        p.clone(),
-                        &globals[i],
-                        origin,
-                        err,
-                    )))
-                }
-                KindDesc::Ranger(s) => KindState::Ranger(RangerData::new(s.clone())),
-                KindDesc::Blobfinder(b) => {
-                    KindState::Blobfinder(Box::new(BlobfinderModel::new(b.clone())))
-                }
-                KindDesc::Fiducial(f) => KindState::Fiducial(f.clone(), FiducialData::default()),
-                KindDesc::Gripper(g) => {
-                    let gm = GripperModel::new(g.clone());
-                    // the gripper's body is its base and paddles (spec §11.2)
-                    let tmp = ModelDesc {
-                        blocks: gm.blocks(m.size),
-                        default_body: false,
-                        ..m.clone()
-                    };
-                    nodes[i].blocks = local_blocks(&tmp)?;
-                    KindState::Gripper(Box::new(gm))
-                }
-                KindDesc::Camera(c) => {
-                    self_start = true;
-                    KindState::Camera(Box::new(CameraModel::new(c.clone())))
-                }
-                KindDesc::Actuator(a) => KindState::Actuator(ActuatorModel::new(a.clone())),
-                KindDesc::Blinkenlight { .. } => {
-                    self_start = true;
-                    KindState::Blinkenlight { on: false }
-                }
-                KindDesc::LightIndicator => KindState::LightIndicator { on: true },
-            };
+            let kind = KindState::new(&m.kind, &globals[i], &mut rng);
+            if matches!(kind, KindState::Position(_)) {
+                positions.push(i as u32);
+            }
+            // a kind that shapes its own body (the gripper's base and paddles, spec §11.2)
+            if let Some(blocks) = kind.own_blocks(m.size) {
+                let tmp = ModelDesc {
+                    blocks,
+                    default_body: false,
+                    ..m.clone()
+                };
+                nodes[i].blocks = local_blocks(&tmp)?;
+            }
+            let self_start = kind.starts_itself();
             states.push(ModelState {
                 subs: 0,
                 next_update: nodes[i].update_interval_us.max(1),
@@ -640,14 +509,7 @@ impl World {
             self.updated[i] = d;
             if d {
                 any = true;
-                rays += match &st.kind {
-                    KindState::Ranger(r) => r.ray_count(),
-                    KindState::Blobfinder(b) => b.cfg.image[0] as usize,
-                    KindState::Camera(c) => (c.cfg.resolution[0] * 4) as usize,
-                    KindState::Fiducial(..) => 8,
-                    KindState::Gripper(_) => 4,
-                    _ => 0,
-                };
+                rays += st.kind.ray_cost();
             }
         }
         if any {
@@ -999,14 +861,7 @@ impl World {
         }
         st.subs -= 1;
         if st.subs == 0 {
-            match &mut st.kind {
-                KindState::Position(p) => p.shutdown(),
-                KindState::Actuator(a) => a.shutdown(),
-                KindState::Ranger(r) => r.clear(),
-                KindState::Blobfinder(b) => b.data.blobs.clear(),
-                KindState::Fiducial(_, f) => f.fiducials.clear(),
-                _ => {}
-            }
+            st.kind.shutdown();
         }
     }
 
@@ -1322,39 +1177,7 @@ impl World {
             for v in [p.x, p.y, p.z, p.a] {
                 eat(f(v));
             }
-            match &self.states[i].kind {
-                KindState::Position(p) => {
-                    for v in [p.est.x, p.est.y, p.est.a, p.velocity.x, p.velocity.a] {
-                        eat(f(v));
-                    }
-                    eat(p.stall as u64);
-                }
-                KindState::Ranger(r) => {
-                    for s in &r.scans {
-                        for (&a, &b) in s.ranges.iter().zip(&s.intensities) {
-                            eat(f(a));
-                            eat(f(b));
-                        }
-                    }
-                }
-                KindState::Blobfinder(b) => {
-                    for bl in &b.data.blobs {
-                        eat(((bl.left as u64) << 32) | bl.right as u64);
-                        eat(f(bl.range));
-                    }
-                }
-                KindState::Fiducial(_, d) => {
-                    for fd in &d.fiducials {
-                        eat(fd.id as u64);
-                        eat(f(fd.range));
-                    }
-                }
-                KindState::Gripper(g) => {
-                    eat(f(g.data.paddle_pos));
-                    eat(g.data.carrying.map_or(u64::MAX, |c| c.0 as u64));
-                }
-                _ => {}
-            }
+            self.states[i].kind.digest(&mut eat);
         }
         h
     }
@@ -1362,17 +1185,7 @@ impl World {
 
 fn update_model(v: &View, m: u32, local: &Pose, st: &mut ModelState) {
     let node = &v.nodes[m as usize];
-    match &mut st.kind {
-        KindState::Plain | KindState::LightIndicator { .. } => {}
-        KindState::Position(p) => p.update(&v.globals[m as usize], v.dt, node.mass, v.sim_time),
-        KindState::Ranger(r) => ranger::update(v, m, r, &mut st.rng),
-        KindState::Blobfinder(b) => blobfinder::update(v, m, b),
-        KindState::Fiducial(cfg, d) => fiducial::update(v, m, cfg, d),
-        KindState::Gripper(g) => gripper::update(v, m, g),
-        KindState::Camera(c) => camera::update(v, m, c),
-        KindState::Actuator(a) => a.update(local, v.sim_time),
-        KindState::Blinkenlight { on } => *on = !*on,
-    }
+    st.kind.update(v, m, local, node, &mut st.rng);
     st.self_start = false;
     st.updated_at = Some(v.sim_time);
     st.next_update = v.sim_time + node.update_interval_us;

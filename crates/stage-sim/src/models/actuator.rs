@@ -2,8 +2,64 @@
 //! never applies it (the motion code is commented out), so the joint never moves; we report the
 //! same values.
 
-use crate::desc::{ActuatorDesc, ActuatorKind};
 use crate::pose::Pose;
+use worldfile::models as wm;
+
+/// Actuator joint type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ActuatorKind {
+    /// Moves along `axis`.
+    Linear,
+    /// Turns about z.
+    Rotational,
+}
+
+/// Actuator properties (spec §13).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ActuatorDesc {
+    /// Joint type.
+    pub kind: ActuatorKind,
+    /// Unit axis for linear joints.
+    pub axis: [f64; 3],
+    /// Lower limit.
+    pub min_position: f64,
+    /// Upper limit.
+    pub max_position: f64,
+    /// Speed limit.
+    pub max_speed: f64,
+    /// Initial position.
+    pub start_position: f64,
+}
+
+impl Default for ActuatorDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
+    fn default() -> Self {
+        ActuatorDesc::from_spec(&wm::ActuatorSpec::default())
+    }
+}
+
+impl ActuatorDesc {
+    /// Actuator properties; a zero axis becomes (1, 0, 0) as in Stage.
+    pub(crate) fn from_spec(a: &wm::ActuatorSpec) -> ActuatorDesc {
+        let len = a.axis.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let axis = if len > 0.0 {
+            [a.axis[0] / len, a.axis[1] / len, a.axis[2] / len]
+        } else {
+            [1.0, 0.0, 0.0]
+        };
+        ActuatorDesc {
+            kind: match a.actuator_type {
+                wm::ActuatorType::Linear => ActuatorKind::Linear,
+                wm::ActuatorType::Rotational => ActuatorKind::Rotational,
+            },
+            axis,
+            min_position: a.min_position,
+            max_position: a.max_position,
+            max_speed: a.max_speed,
+            start_position: a.start_position.unwrap_or(0.0),
+        }
+    }
+}
 
 /// Actuator control mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

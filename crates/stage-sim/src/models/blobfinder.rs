@@ -1,9 +1,48 @@
 //! `blobfinder` (spec §9): a fan of colour rays segmented into blobs.
 
-use crate::desc::{BlobfinderDesc, Color, same_rgb};
+use crate::color::{Color, same_rgb};
 use crate::pose::Pose;
 use crate::space::RayQuery;
-use crate::world::View;
+use crate::view::View;
+use worldfile::models as wm;
+
+/// Blobfinder properties (spec §9.1).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BlobfinderDesc {
+    /// Image width (rays) and height (pixels).
+    pub image: [u32; 2],
+    /// Ray length (m).
+    pub range: f64,
+    /// Horizontal field of view (rad).
+    pub fov: f64,
+    /// Centre direction relative to the body heading (rad).
+    pub pan: f64,
+    /// Colour channels; empty = report every colour.
+    pub colors: Vec<Color>,
+}
+
+impl Default for BlobfinderDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
+    fn default() -> Self {
+        BlobfinderDesc::from_spec(&wm::BlobfinderSpec::default())
+    }
+}
+
+impl BlobfinderDesc {
+    /// Blobfinder properties.
+    pub(crate) fn from_spec(b: &wm::BlobfinderSpec) -> BlobfinderDesc {
+        BlobfinderDesc {
+            image: [
+                b.image[0].clamp(0, 1 << 16) as u32,
+                b.image[1].clamp(0, 1 << 16) as u32,
+            ],
+            range: b.range,
+            fov: b.fov,
+            pan: b.pan,
+            colors: b.colors.clone(),
+        }
+    }
+}
 
 /// One blob in image coordinates (x grows to the right of the image, y downwards).
 #[derive(Clone, Copy, Debug, PartialEq)]

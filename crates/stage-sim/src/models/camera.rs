@@ -2,10 +2,46 @@
 //! ray-cast it instead, headless too: per column one planar ray collects every edge crossing,
 //! per row the elevation decides which crossing's block spans the ray's height there.
 
-use crate::desc::{CameraDesc, Color};
+use crate::color::Color;
 use crate::pose::Pose;
 use crate::space::{RayHit, RayQuery};
-use crate::world::View;
+use crate::view::View;
+use worldfile::models as wm;
+
+/// Camera properties (spec §12).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraDesc {
+    /// Image width and height (pixels).
+    pub resolution: [u32; 2],
+    /// Near and far clipping distances (m).
+    pub range: [f64; 2],
+    /// Horizontal and vertical field of view (rad).
+    pub fov: [f64; 2],
+    /// Pan and tilt (rad).
+    pub pantilt: [f64; 2],
+}
+
+impl Default for CameraDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
+    fn default() -> Self {
+        CameraDesc::from_spec(&wm::CameraSpec::default())
+    }
+}
+
+impl CameraDesc {
+    /// Camera properties (the worldfile keeps Stage's raw degrees for the camera).
+    pub(crate) fn from_spec(c: &wm::CameraSpec) -> CameraDesc {
+        CameraDesc {
+            resolution: [
+                c.resolution[0].clamp(1, 4096) as u32,
+                c.resolution[1].clamp(1, 4096) as u32,
+            ],
+            range: c.range,
+            fov: [c.fov[0].to_radians(), c.fov[1].to_radians()],
+            pantilt: [c.pantilt[0].to_radians(), c.pantilt[1].to_radians()],
+        }
+    }
+}
 
 /// Colour of the ground plane in camera images.
 pub const FLOOR: Color = Color::rgb(0.7, 0.7, 0.7);

@@ -1,9 +1,45 @@
 //! `fiducial` finder (spec §10).
 
-use crate::desc::FiducialDesc;
+use crate::node::ModelId;
 use crate::pose::{Pose, normalize};
 use crate::space::RayQuery;
-use crate::world::{ModelId, View};
+use crate::view::View;
+use worldfile::models as wm;
+
+/// Fiducial-finder properties (spec §10.1).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FiducialDesc {
+    /// Read but unused by Stage (kept for the Player geometry).
+    pub range_min: f64,
+    /// Detection range (m, strict).
+    pub range_max: f64,
+    /// Beyond this the id is reported as 0 (m).
+    pub range_max_id: f64,
+    /// Field of view (rad).
+    pub fov: f64,
+    /// Accept targets whose line-of-sight ray hits nothing.
+    pub ignore_zloc: bool,
+}
+
+impl Default for FiducialDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
+    fn default() -> Self {
+        FiducialDesc::from_spec(&wm::FiducialSpec::default())
+    }
+}
+
+impl FiducialDesc {
+    /// Fiducial-finder properties.
+    pub(crate) fn from_spec(f: &wm::FiducialSpec) -> FiducialDesc {
+        FiducialDesc {
+            range_min: f.range_min,
+            range_max: f.range_max,
+            range_max_id: f.range_max_id,
+            fov: f.fov,
+            ignore_zloc: f.ignore_zloc,
+        }
+    }
+}
 
 /// One detected fiducial.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,11 +1,45 @@
 //! `gripper` (spec §11): paddles that open/close and lift, two break beams, two contact rays,
 //! grasping and carrying `gripper_return` models.
 
-use crate::desc::{BlockDesc, GripperDesc};
+use crate::block::BlockDesc;
+use crate::node::ModelId;
 use crate::pose::Pose;
 use crate::space::RayQuery;
-use crate::world::{ModelId, View};
+use crate::view::View;
 use std::f64::consts::FRAC_PI_2;
+use worldfile::models as wm;
+
+/// Gripper properties (spec §11.1).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GripperDesc {
+    /// Paddle length, width, height as fractions of the gripper size.
+    pub paddle_size: [f64; 3],
+    /// Initially closed.
+    pub closed: bool,
+    /// Initially lifted.
+    pub up: bool,
+    /// Beams drive the paddles.
+    pub autosnatch: bool,
+}
+
+impl Default for GripperDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
+    fn default() -> Self {
+        GripperDesc::from_spec(&wm::GripperSpec::default())
+    }
+}
+
+impl GripperDesc {
+    /// Gripper properties.
+    pub(crate) fn from_spec(g: &wm::GripperSpec) -> GripperDesc {
+        GripperDesc {
+            paddle_size: g.paddle_size,
+            closed: g.paddle_state.paddles == wm::Paddles::Closed,
+            up: g.paddle_state.lift == wm::Lift::Up,
+            autosnatch: g.autosnatch,
+        }
+    }
+}
 
 /// Paddle (or lift) state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,9 +1,58 @@
 //! `position` (spec §7): control modes, per-update velocity computation, odometry / GPS
 //! localization, and the per-step motion delta.
 
-use crate::desc::{Drive, Localization, PositionDesc};
 use crate::pose::{Pose, normalize};
+use crate::rng::SimRng;
 use std::f64::consts::PI;
+use worldfile::models as wm;
+use worldfile::models::{Drive, Localization};
+
+/// Position-model properties (spec §7.1); angles in radians.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PositionDesc {
+    /// Drive model.
+    pub drive: Drive,
+    /// Localization mode.
+    pub localization: Localization,
+    /// Origin of the reported pose frame; `None`: the model's global pose at load.
+    pub localization_origin: Option<Pose>,
+    /// Odometry error factors `(x, y, z, a)`; `None`: drawn at random per model (spec §7.7).
+    pub odom_error: Option<[f64; 4]>,
+    /// Wheelbase for `car` drive (m).
+    pub wheelbase: f64,
+    /// `[xmin xmax ymin ymax zmin zmax amin amax]` (m/s, rad/s).
+    pub velocity_bounds: [f64; 8],
+    /// Same layout as `velocity_bounds`, for acceleration mode (m/s², rad/s²).
+    pub acceleration_bounds: [f64; 8],
+    /// Initial velocity (overwritten by the first control update, as in Stage).
+    pub velocity: Pose,
+}
+
+impl Default for PositionDesc {
+    /// Stage's defaults, from the worldfile crate's property table (one source of truth).
+    fn default() -> Self {
+        let mut d = PositionDesc::from_spec(&wm::PositionSpec::default());
+        // "the model's global pose at load", which the resolver fills in for real models
+        d.localization_origin = None;
+        d
+    }
+}
+
+impl PositionDesc {
+    /// Position properties.
+    pub(crate) fn from_spec(p: &wm::PositionSpec) -> PositionDesc {
+        PositionDesc {
+            drive: p.drive,
+            localization: p.localization,
+            localization_origin: Some(Pose::from_array(p.localization_origin)),
+            odom_error: p.odom_error,
+            wheelbase: p.wheelbase,
+            velocity_bounds: p.velocity_bounds,
+            acceleration_bounds: p.acceleration_bounds,
+            velocity: Pose::from_array(p.velocity),
+        }
+    }
+}
 
 /// How the goal of a position model is interpreted (spec §7.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -78,6 +127,21 @@ impl PositionModel {
     /// error factors resolved. As Stage's load does, the estimate starts at the global pose
     /// expressed in the origin's frame whatever the localization mode: zero when the origin
     /// defaults to the start pose, the world pose under `localization_origin [0 0 0 0]`.
+    /// A model as described, at `global` on load: the estimate's frame is
+    /// `localization_origin` (the load pose when unset) and a missing `odom_error` is drawn
+    /// once from `rng`, uniformly over Stage's spans (spec §7.7).
+    pub(crate) fn from_desc(p: &PositionDesc, global: &Pose, rng: &mut SimRng) -> PositionModel {
+        let origin = p.localization_origin.unwrap_or(*global);
+        let err = match p.odom_error {
+            Some(e) => e,
+            None => {
+                wm::PositionSpec::ODOM_ERROR_SPAN.map(|span| rng.uniform(-span / 2.0, span / 2.0))
+            }
+        };
+        PositionModel::new(p.clone(), global, origin, err)
+    }
+
+    /// A model with its estimate frame and odometry error given.
     pub fn new(
         cfg: PositionDesc,
         global: &Pose,

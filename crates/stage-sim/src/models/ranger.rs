@@ -2,11 +2,61 @@
 
 use std::sync::Mutex;
 
-use crate::desc::SensorDesc;
+use crate::color::Color;
 use crate::pool::share_out;
+use crate::pose::Pose;
 use crate::rng::SimRng;
 use crate::space::RayHit;
-use crate::world::View;
+use crate::view::View;
+use worldfile::models as wm;
+
+/// One ranger transducer (`sensor` entity, spec §8.1).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SensorDesc {
+    /// Pose in the ranger's body frame.
+    pub pose: Pose,
+    /// Size (m); `size.z/2` raises the ray origin.
+    pub size: [f64; 3],
+    /// `[min, max]` range (m); only `max` limits rays.
+    pub range: [f64; 2],
+    /// Angular spread (rad).
+    pub fov: f64,
+    /// Number of rays.
+    pub samples: u32,
+    /// Standard deviation of additive Gaussian range noise (m); 0 = Stage's noiseless ranger.
+    pub noise: f64,
+    /// Standard deviation of multiplicative range noise: each range is multiplied by a draw
+    /// from N(1, sd), as Stage's `lasernoise` example controller does; 0 = none.
+    pub noise_relative: f64,
+    /// GUI colour.
+    pub color: Color,
+}
+
+impl Default for SensorDesc {
+    /// Stage's defaults, from the worldfile crate's property table.
+    fn default() -> Self {
+        SensorDesc::from_spec(
+            &wm::SensorSpec::default(),
+            &mut crate::rng::SimRng::new(0, 0),
+        )
+    }
+}
+
+impl SensorDesc {
+    /// A ranger transducer from its worldfile properties (`random` colours drawn from `rng`).
+    pub(crate) fn from_spec(s: &wm::SensorSpec, rng: &mut SimRng) -> SensorDesc {
+        SensorDesc {
+            pose: Pose::from_array(s.pose),
+            size: s.size,
+            range: s.range,
+            fov: s.fov,
+            samples: s.samples.clamp(0, 1 << 20) as u32,
+            noise: 0.0,
+            noise_relative: 0.0,
+            color: crate::color::from_spec(&s.color, rng),
+        }
+    }
+}
 
 /// Fans of at least two chunks of this many rays are cast in parallel, chunk by chunk (see
 /// [`share_out`]): a 180-ray laser is a whole step's work in a one-robot world. Each chunk costs

@@ -64,7 +64,6 @@ pub enum KindDesc {
     LightIndicator,
 }
 
-
 impl KindDesc {
     /// The worldfile crate's model type (whose table holds the per-type defaults).
     pub fn model_type(&self) -> ModelType {
@@ -88,7 +87,6 @@ impl KindDesc {
         self.model_type().name()
     }
 }
-
 
 /// Type-specific mutable state.
 #[derive(Clone, Debug)]

@@ -10,7 +10,8 @@
 
 use rayon::prelude::*;
 
-use super::{KindState, World, below_ground, body_of, global_of_parent, obstacle_to, tree_of};
+use super::tree::{below_ground, body_of, global_of_parent, obstacle_to, tree_of};
+use super::{KindState, World};
 use crate::pose::Pose;
 use crate::space::Body;
 

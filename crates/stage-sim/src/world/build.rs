@@ -1,0 +1,235 @@
+//! Building a world from its description.
+
+use std::collections::HashMap;
+
+use crate::controller::{self, Controller};
+use crate::desc::{KindDesc, ModelDesc, WorldDesc};
+use crate::error::{Error, Result};
+use crate::models::KindState;
+use crate::pose::Pose;
+use crate::rng::SimRng;
+use crate::space::{Body, Space};
+
+use super::tree::*;
+use super::*;
+
+impl World {
+    /// Builds a world from a description; `seed` drives every random choice.
+    pub fn from_desc(desc: &WorldDesc, seed: u64) -> Result<World> {
+        if desc.interval_sim_us == 0 {
+            return Err(Error::InvalidWorld("interval_sim must be positive".into()));
+        }
+        let n = desc.models.len();
+        if n >= u32::MAX as usize {
+            return Err(Error::InvalidWorld("too many models".into()));
+        }
+        let mut nodes: Vec<Node> = Vec::with_capacity(n);
+        for (i, m) in desc.models.iter().enumerate() {
+            if let Some(p) = m.parent {
+                if p >= i {
+                    return Err(Error::InvalidModel {
+                        model: m.name.clone(),
+                        source_loc: m.source.clone(),
+                        msg: format!("parent index {p} is not an earlier model"),
+                    });
+                }
+            }
+            for v in m
+                .size
+                .iter()
+                .chain([m.pose.x, m.pose.y, m.pose.z, m.pose.a].iter())
+            {
+                if !v.is_finite() {
+                    return Err(Error::InvalidModel {
+                        model: m.name.clone(),
+                        source_loc: m.source.clone(),
+                        msg: "pose or size is not finite".into(),
+                    });
+                }
+            }
+            let root = match m.parent {
+                Some(p) => nodes[p].root,
+                None => i as u32,
+            };
+            if let Some(p) = m.parent {
+                nodes[p].children.push(i as u32);
+            }
+            nodes.push(Node {
+                name: m.name.clone(),
+                model_type: m.kind.model_type(),
+                parent: m.parent.map(|p| p as u32),
+                children: Vec::new(),
+                root,
+                size: m.size,
+                origin: m.origin,
+                stack_children: m.stack_children,
+                obstacle_return: m.obstacle_return,
+                ranger_return: m.ranger_return,
+                fiducial_return: m.fiducial_return,
+                fiducial_key: m.fiducial_key,
+                gripper_return: m.gripper_return,
+                update_interval_us: m.update_interval_us.max(1),
+                mass: m.mass,
+                blocks: local_blocks(m)?,
+                source: m.source.clone(),
+            });
+        }
+        let poses: Vec<Pose> = desc.models.iter().map(|m| m.pose).collect();
+        let mut globals = vec![Pose::ZERO; n];
+        for i in 0..n {
+            globals[i] = global_of(&nodes, &globals, i, &poses[i]);
+        }
+        // A tree that contains a position model can move: its bodies are dynamic.
+        let mut moving_root = vec![false; n];
+        for (i, m) in desc.models.iter().enumerate() {
+            if matches!(m.kind, KindDesc::Position(_)) {
+                moving_root[nodes[i].root as usize] = true;
+            }
+        }
+        let dynamic: Vec<bool> = (0..n)
+            .map(|i| moving_root[nodes[i].root as usize])
+            .collect();
+        let mut bodies = vec![Body::default(); n];
+        for i in 0..n {
+            body_of(&nodes[i], &globals[i], &mut bodies[i]);
+        }
+        let space = Space::new(bodies, &dynamic, nodes.iter().map(|n| n.root).collect());
+
+        let mut names = HashMap::new();
+        for (i, m) in desc.models.iter().enumerate() {
+            for a in &m.aliases {
+                names.insert(a.clone(), i as u32);
+            }
+            names.insert(m.name.clone(), i as u32);
+        }
+
+        let mut states = Vec::with_capacity(n);
+        let mut positions = Vec::new();
+        for (i, m) in desc.models.iter().enumerate() {
+            let mut rng = SimRng::new(seed, i as u64);
+            let kind = KindState::new(&m.kind, &globals[i], &mut rng);
+            if matches!(kind, KindState::Position(_)) {
+                positions.push(i as u32);
+            }
+            // a kind that shapes its own body (the gripper's base and paddles, spec §11.2)
+            if let Some(blocks) = kind.own_blocks(m.size) {
+                let tmp = ModelDesc {
+                    blocks,
+                    default_body: false,
+                    ..m.clone()
+                };
+                nodes[i].blocks = local_blocks(&tmp)?;
+            }
+            let self_start = kind.starts_itself();
+            states.push(ModelState {
+                subs: 0,
+                next_update: nodes[i].update_interval_us.max(1),
+                self_start,
+                updated_at: None,
+                rng,
+                kind,
+            });
+        }
+        let fiducial_targets = (0..n as u32)
+            .filter(|&i| nodes[i as usize].fiducial_return != 0)
+            .collect();
+
+        let mut world = World {
+            cfg: WorldConfig {
+                name: desc.name.clone(),
+                interval_sim_us: desc.interval_sim_us,
+                quit_time_us: desc.quit_time_us,
+                resolution: desc.resolution,
+                speedup: desc.speedup,
+                paused: desc.paused,
+                threads: desc.threads.max(1),
+                show_clock: desc.show_clock,
+                show_clock_interval: desc.show_clock_interval.max(1),
+            },
+            seed,
+            sim_time: 0,
+            updates: 0,
+            colors: desc.models.iter().map(|m| m.color).collect(),
+            says: desc.models.iter().map(|m| m.say.clone()).collect(),
+            nodes,
+            poses,
+            globals,
+            space,
+            states,
+            names,
+            positions,
+            fiducial_targets,
+            controllers: Vec::new(),
+            warnings: Vec::new(),
+            rays_cast: 0,
+            due: vec![false; n],
+            updated: vec![false; n],
+            subtree: Vec::new(),
+            scratch: Vec::new(),
+            move_plans: Vec::new(),
+        };
+        // gripper bodies were replaced above: refresh their world outlines
+        for i in 0..n {
+            if matches!(world.states[i].kind, KindState::Gripper(_)) {
+                world.refresh_subtree(i as u32);
+            }
+        }
+        for (i, m) in desc.models.iter().enumerate() {
+            if m.alwayson {
+                world.subscribe(ModelId(i as u32));
+            }
+        }
+        for (i, m) in desc.models.iter().enumerate() {
+            for c in &m.ctrl {
+                let name = c.split_whitespace().next().unwrap_or("");
+                if name.is_empty() {
+                    continue;
+                }
+                let rng = SimRng::new(seed ^ 0x5eed_c0de, i as u64);
+                match controller::builtin(name, &world, ModelId(i as u32), c, rng) {
+                    Ok(Some(inst)) => world.install_controller(inst),
+                    Ok(None) => {
+                        let msg = format!(
+                            "controller {name} is not built in; model {} runs without it",
+                            m.name
+                        );
+                        tracing::warn!("{msg}");
+                        world.warnings.push(msg);
+                    }
+                    Err(e) => {
+                        let msg = format!("controller {name} on model {}: {e}", m.name);
+                        tracing::warn!("{msg}");
+                        world.warnings.push(msg);
+                    }
+                }
+            }
+        }
+        Ok(world)
+    }
+
+    pub(super) fn install_controller(&mut self, inst: controller::Installed) {
+        for s in &inst.subscribe {
+            self.subscribe(*s);
+        }
+        for c in inst.init {
+            self.apply(c);
+        }
+        self.controllers.push(ControllerSlot {
+            model: inst.model.0,
+            trigger: inst.trigger.0,
+            ctrl: inst.ctrl,
+        });
+    }
+
+    /// Attaches a controller to `model`, called after each update of `trigger` (which is
+    /// subscribed, as is `model`). Commands it emits are applied after the step's moves.
+    pub fn add_controller(&mut self, model: ModelId, trigger: ModelId, ctrl: Box<dyn Controller>) {
+        self.install_controller(controller::Installed {
+            model,
+            trigger,
+            subscribe: vec![model, trigger],
+            init: Vec::new(),
+            ctrl,
+        });
+    }
+}

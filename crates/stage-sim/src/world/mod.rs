@@ -1,0 +1,147 @@
+//! The world: model tree, clock and scheduler, the deterministic two-phase step, and the API
+//! that servers, viewers and controllers use.
+//!
+//! * `build`: a world from its description (models, bodies, controllers);
+//! * `step`: the step's phases, command application and moves one by one (`moves`: the moves
+//!   planned for every robot at once);
+//! * `tree`: the model tree — global poses, world outlines, subtrees, names, reparenting;
+//! * `query`: subscriptions and the per-model API (poses, colours, commands, sensor data,
+//!   the determinism digest).
+
+mod build;
+mod moves;
+mod query;
+mod step;
+mod tree;
+
+use std::collections::HashMap;
+
+use crate::controller::Controller;
+use crate::desc::Color;
+use crate::models::KindState;
+use crate::pose::Pose;
+use crate::rng::SimRng;
+use crate::space::Space;
+
+pub use crate::node::{LocalBlock, ModelId, Node};
+pub(crate) use crate::view::View;
+
+/// Per-model mutable state: scheduling, RNG stream and the type's data.
+#[derive(Clone, Debug)]
+pub(crate) struct ModelState {
+    subs: u32,
+    next_update: u64,
+    /// Update once without a subscription (blinkenlight, camera start themselves).
+    self_start: bool,
+    updated_at: Option<u64>,
+    rng: SimRng,
+    kind: KindState,
+}
+
+/// World-level settings in internal units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorldConfig {
+    /// World name.
+    pub name: String,
+    /// Simulated time per step (µs).
+    pub interval_sim_us: u64,
+    /// Quit time (µs); 0 = never.
+    pub quit_time_us: u64,
+    /// Stage's grid resolution (m).
+    pub resolution: f64,
+    /// Target multiple of real time; ≤ 0 = as fast as possible.
+    pub speedup: f64,
+    /// Start paused (GUI).
+    pub paused: bool,
+    /// `threads` from the file (informational: the step uses rayon's pool).
+    pub threads: usize,
+    /// Print the clock.
+    pub show_clock: bool,
+    /// Clock printing period (updates).
+    pub show_clock_interval: u64,
+}
+
+struct ControllerSlot {
+    model: u32,
+    trigger: u32,
+    ctrl: Box<dyn Controller>,
+}
+
+/// A running world. See the crate docs for the step semantics.
+pub struct World {
+    cfg: WorldConfig,
+    seed: u64,
+    sim_time: u64,
+    updates: u64,
+    nodes: Vec<Node>,
+    poses: Vec<Pose>,
+    globals: Vec<Pose>,
+    colors: Vec<Color>,
+    says: Vec<String>,
+    space: Space,
+    states: Vec<ModelState>,
+    names: HashMap<String, u32>,
+    positions: Vec<u32>,
+    fiducial_targets: Vec<u32>,
+    controllers: Vec<ControllerSlot>,
+    warnings: Vec<String>,
+    rays_cast: u64,
+    // scratch
+    due: Vec<bool>,
+    updated: Vec<bool>,
+    subtree: Vec<u32>,
+    scratch: Vec<u32>,
+    move_plans: Vec<moves::MovePlan>,
+}
+
+impl World {
+    // ----- clock -------------------------------------------------------------------------
+
+    /// World settings.
+    pub fn config(&self) -> &WorldConfig {
+        &self.cfg
+    }
+
+    /// Overrides the quit time (µs; 0 = never).
+    pub fn set_quit_time_us(&mut self, t: u64) {
+        self.cfg.quit_time_us = t;
+    }
+
+    /// The seed the world was built with.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Simulated time (µs).
+    pub fn sim_time(&self) -> u64 {
+        self.sim_time
+    }
+
+    /// Number of steps taken.
+    pub fn updates(&self) -> u64 {
+        self.updates
+    }
+
+    /// Rays cast so far (for benchmarks).
+    pub fn rays_cast(&self) -> u64 {
+        self.rays_cast
+    }
+
+    /// Warnings collected while building (unknown controllers, unsupported models).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// Adds build warnings (used by loaders that translate other formats).
+    pub fn add_warnings(&mut self, w: impl IntoIterator<Item = String>) {
+        for m in w {
+            tracing::warn!("{m}");
+            self.warnings.push(m);
+        }
+    }
+
+    /// Whether `quit_time` has been reached (further steps do nothing).
+    pub fn done(&self) -> bool {
+        self.cfg.quit_time_us > 0 && self.sim_time >= self.cfg.quit_time_us
+    }
+}

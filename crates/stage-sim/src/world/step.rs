@@ -1,0 +1,309 @@
+//! The step: its three phases, command application, and moves one model at a time.
+
+use rayon::prelude::*;
+
+use crate::controller::{Command, Commands};
+use crate::desc::{BlockDesc, KindDesc, ModelDesc};
+use crate::models::KindState;
+use crate::models::gripper::GripAction;
+use crate::pose::Pose;
+
+use super::tree::*;
+use super::*;
+
+/// Stack below this many rays per step is run on the calling thread (fork/join costs more).
+const PARALLEL_MIN_RAYS: usize = 1024;
+
+impl World {
+    /// Advances the world by one `interval_sim` (spec §5.2). Returns `false` (and does nothing)
+    /// once `quit_time` is reached.
+    ///
+    /// 1. every due, subscribed model updates against the state at the end of the previous step
+    ///    (in parallel when there is enough work; results do not depend on the thread count);
+    /// 2. gripper grasps/releases, then position models move one at a time in creation order,
+    ///    each tested for contact against the already-moved state;
+    /// 3. controllers of models that updated run (in parallel) and their commands are applied
+    ///    in controller order; they take effect at the next step, as Stage's callbacks do.
+    pub fn step(&mut self) -> bool {
+        if self.done() {
+            return false;
+        }
+        self.sim_time += self.cfg.interval_sim_us;
+        let now = self.sim_time;
+        let dt = self.cfg.interval_sim_us as f64 * 1e-6;
+
+        // ---- phase 1: updates ----
+        let mut rays = 0usize;
+        let mut any = false;
+        for (i, st) in self.states.iter().enumerate() {
+            let d = (st.subs > 0 || st.self_start) && st.next_update <= now;
+            self.due[i] = d;
+            self.updated[i] = d;
+            if d {
+                any = true;
+                rays += st.kind.ray_cost();
+            }
+        }
+        if any {
+            let view = View {
+                nodes: &self.nodes,
+                globals: &self.globals,
+                colors: &self.colors,
+                space: &self.space,
+                fiducial_targets: &self.fiducial_targets,
+                sim_time: now,
+                dt,
+            };
+            let poses = &self.poses;
+            let due = &self.due;
+            let run = |(i, st): (usize, &mut ModelState)| {
+                if due[i] {
+                    update_model(&view, i as u32, &poses[i], st);
+                }
+            };
+            if rays >= PARALLEL_MIN_RAYS {
+                self.states
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(16)
+                    .for_each(run);
+            } else {
+                self.states.iter_mut().enumerate().for_each(run);
+            }
+            self.rays_cast += rays as u64;
+        }
+
+        // ---- phase 2: grasps, body changes, moves ----
+        if any {
+            for i in 0..self.states.len() {
+                if !self.due[i] {
+                    continue;
+                }
+                if let KindState::Gripper(g) = &mut self.states[i].kind {
+                    let action = g.action.take();
+                    let changed = std::mem::take(&mut g.body_changed);
+                    let size = self.nodes[i].size;
+                    let blocks = changed.then(|| g.blocks(size));
+                    if let Some(blocks) = blocks {
+                        self.set_blocks(i as u32, &blocks);
+                    }
+                    match action {
+                        Some(GripAction::Grasp(obj)) => self.grasp(i as u32, obj),
+                        Some(GripAction::Release(obj)) => self.release(i as u32, obj),
+                        None => {}
+                    }
+                }
+            }
+        }
+        self.move_all(dt);
+
+        // ---- phase 3: controllers ----
+        if any && !self.controllers.is_empty() {
+            let mut slots = std::mem::take(&mut self.controllers);
+            let world = &*self;
+            let run = |slot: &mut ControllerSlot| {
+                let mut cmds = Commands::new(ModelId(slot.model));
+                if world.updated[slot.trigger as usize] {
+                    slot.ctrl.update(world, &mut cmds);
+                }
+                cmds
+            };
+            let mut outs: Vec<Commands> = if slots.len() >= 512 {
+                slots.par_iter_mut().with_min_len(32).map(run).collect()
+            } else {
+                slots.iter_mut().map(run).collect()
+            };
+            self.controllers = slots;
+            for out in outs.iter_mut() {
+                for c in out.drain() {
+                    self.apply(c);
+                }
+            }
+        }
+        self.updates += 1;
+        true
+    }
+
+    /// Applies one controller command.
+    pub fn apply(&mut self, c: Command) {
+        match c {
+            Command::Velocity(m, x, y, a) => {
+                let _ = self.position_cmd_vel(m, x, y, a);
+            }
+            Command::Subscribe(m) => self.subscribe(m),
+            Command::Unsubscribe(m) => self.unsubscribe(m),
+            Command::SetColor(m, col) => self.set_color(m, col),
+            Command::Say(m, s) => self.say(m, &s),
+            Command::RangerNoise(m, sd) => {
+                if let Some(KindState::Ranger(r)) =
+                    self.states.get_mut(m.index()).map(|s| &mut s.kind)
+                {
+                    for s in &mut r.sensors {
+                        s.noise_relative = sd;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether model `m`'s world outline is recomputed when it moves: not for models that have
+    /// no blocks and no outline (their empty body stays as it is).
+    pub(super) fn outline_kept_fresh(&self, m: u32) -> bool {
+        !(self.space.body(m).is_empty() && self.nodes[m as usize].blocks.is_empty())
+    }
+
+    /// How far position model `m` moves this step (in its own frame); `None` when it does not
+    /// move (unsubscribed, or no velocity).
+    pub(super) fn move_delta(&self, m: u32, dt: f64) -> Option<Pose> {
+        let st = &self.states[m as usize];
+        match &st.kind {
+            KindState::Position(p) if st.subs > 0 => p.step_delta(dt),
+            _ => None,
+        }
+    }
+
+    pub(super) fn move_model(&mut self, m: u32, dt: f64) {
+        let i = m as usize;
+        let Some(delta) = self.move_delta(m, dt) else {
+            return;
+        };
+        let old = self.poses[i];
+        self.poses[i] = old.compose(&delta);
+        self.refresh_subtree(m);
+        let hit = self.contact(m);
+        if hit {
+            self.poses[i] = old;
+            self.refresh_subtree(m);
+        }
+        if let KindState::Position(p) = &mut self.states[i].kind {
+            p.set_stall(hit);
+        }
+    }
+
+    /// Whether model `m`'s tree (from `m` down) touches an unrelated obstacle or the ground.
+    pub(super) fn contact(&mut self, m: u32) -> bool {
+        self.collect_subtree(m);
+        let root = self.nodes[m as usize].root;
+        let mut movers = std::mem::take(&mut self.subtree);
+        movers.retain(|&s| self.nodes[s as usize].obstacle_return);
+        let ground = movers.iter().any(|&s| below_ground(self.space.body(s)));
+        let hit = ground
+            || self
+                .space
+                .first_contact(&movers, &mut self.scratch, obstacle_to(&self.nodes, root))
+                .is_some();
+        self.subtree = movers;
+        hit
+    }
+
+    /// Collects `m` and its descendants into `self.subtree`, parents before children.
+    pub(super) fn collect_subtree(&mut self, m: u32) {
+        tree_of(&self.nodes, m, &mut self.subtree);
+    }
+
+    /// Recomputes global poses and world outlines of `m` and its descendants.
+    pub(super) fn refresh_subtree(&mut self, m: u32) {
+        self.collect_subtree(m);
+        let list = std::mem::take(&mut self.subtree);
+        for &x in &list {
+            let xi = x as usize;
+            self.globals[xi] = global_of(&self.nodes, &self.globals, xi, &self.poses[xi]);
+            if !self.outline_kept_fresh(x) {
+                continue;
+            }
+            let node = &self.nodes[xi];
+            let g = self.globals[xi];
+            body_of(node, &g, self.space.body_mut(x));
+            self.space.commit_body(x);
+        }
+        self.subtree = list;
+    }
+
+    pub(super) fn set_blocks(&mut self, m: u32, blocks: &[BlockDesc]) {
+        let n = &self.nodes[m as usize];
+        let tmp = ModelDesc {
+            size: n.size,
+            blocks: blocks.to_vec(),
+            default_body: false,
+            ..ModelDesc::new(&n.name, KindDesc::Model)
+        };
+        if let Ok(b) = local_blocks(&tmp) {
+            self.nodes[m as usize].blocks = b;
+            self.refresh_subtree(m);
+        }
+    }
+
+    pub(super) fn set_root(&mut self, m: u32, root: u32) {
+        self.collect_subtree(m);
+        let list = std::mem::take(&mut self.subtree);
+        for &x in &list {
+            self.nodes[x as usize].root = root;
+            self.space.set_root(x, root);
+        }
+        self.subtree = list;
+    }
+
+    pub(super) fn reparent(&mut self, m: u32, parent: Option<u32>, local: Pose) {
+        let i = m as usize;
+        if let Some(old) = self.nodes[i].parent {
+            self.nodes[old as usize].children.retain(|&c| c != m);
+        }
+        self.nodes[i].parent = parent;
+        let root = match parent {
+            Some(p) => {
+                self.nodes[p as usize].children.push(m);
+                self.nodes[p as usize].root
+            }
+            None => m,
+        };
+        self.set_root(m, root);
+        self.poses[i] = local;
+        self.refresh_subtree(m);
+    }
+
+    pub(super) fn grasp(&mut self, gripper: u32, obj: u32) {
+        // an object already carried elsewhere (or an ancestor of the gripper) cannot be taken
+        let mut a = Some(gripper);
+        while let Some(x) = a {
+            if x == obj {
+                return;
+            }
+            a = self.nodes[x as usize].parent;
+        }
+        if self.nodes[obj as usize].parent.is_some() {
+            if let KindState::Gripper(g) = &mut self.states[gripper as usize].kind {
+                g.data.carrying = None;
+                g.close_limit = 1.0;
+            }
+            return;
+        }
+        let sz = self.nodes[gripper as usize].size[2];
+        self.reparent(
+            obj,
+            Some(gripper),
+            Pose {
+                x: 0.0,
+                y: 0.0,
+                z: -sz,
+                a: 0.0,
+            },
+        );
+    }
+
+    pub(super) fn release(&mut self, gripper: u32, obj: u32) {
+        if self.nodes[obj as usize].parent != Some(gripper) {
+            return;
+        }
+        // dropped at the gripper's global pose, height included (Stage quirk, spec §11.3)
+        let g = self.globals[gripper as usize];
+        self.reparent(obj, None, g);
+    }
+}
+
+pub(super) fn update_model(v: &View, m: u32, local: &Pose, st: &mut ModelState) {
+    let node = &v.nodes[m as usize];
+    st.kind.update(v, m, local, node, &mut st.rng);
+    st.self_start = false;
+    st.updated_at = Some(v.sim_time);
+    st.next_update = v.sim_time + node.update_interval_us;
+}

@@ -1,0 +1,196 @@
+//! The model tree: global poses and world outlines, subtrees, names and reparenting.
+
+use crate::desc::{ModelDesc, ModelType};
+use crate::error::{Error, Result};
+use crate::geom::Aabb;
+use crate::pose::Pose;
+use crate::space::{Body, WorldBlock};
+
+use super::*;
+
+pub(super) fn local_blocks(m: &ModelDesc) -> Result<Vec<LocalBlock>> {
+    if m.default_body {
+        let [sx, sy, sz] = m.size;
+        return Ok(vec![LocalBlock {
+            pts: vec![
+                [-sx / 2.0, -sy / 2.0],
+                [sx / 2.0, -sy / 2.0],
+                [sx / 2.0, sy / 2.0],
+                [-sx / 2.0, sy / 2.0],
+            ],
+            z: [0.0, sz],
+            color: None,
+        }]);
+    }
+    m.blocks
+        .iter()
+        .map(|b| {
+            let bad = |msg: String| Error::InvalidModel {
+                model: m.name.clone(),
+                source_loc: m.source.clone(),
+                msg,
+            };
+            if b.points.len() < 2 {
+                return Err(bad(format!(
+                    "a block has {} point(s); at least 2 are needed",
+                    b.points.len()
+                )));
+            }
+            if b.points.iter().flatten().any(|v| !v.is_finite())
+                || !b.zmin.is_finite()
+                || !b.zmax.is_finite()
+            {
+                return Err(bad("a block coordinate is not a finite number".into()));
+            }
+            Ok(LocalBlock {
+                pts: b.points.clone(),
+                z: [b.zmin, b.zmax],
+                color: b.color,
+            })
+        })
+        .collect()
+}
+
+pub(super) fn body_of(node: &Node, global: &Pose, out: &mut Body) {
+    out.blocks.clear();
+    out.pts.clear();
+    out.aabb = Aabb::EMPTY;
+    if node.blocks.is_empty() {
+        return;
+    }
+    let frame = global.compose(&node.origin);
+    let (s, c) = frame.a.sin_cos();
+    for b in &node.blocks {
+        let start = out.pts.len() as u32;
+        let mut bb = Aabb::EMPTY;
+        for p in &b.pts {
+            let w = [frame.x + p[0] * c - p[1] * s, frame.y + p[0] * s + p[1] * c];
+            bb.add(w);
+            out.pts.push(w);
+        }
+        out.aabb.merge(&bb);
+        out.blocks.push(WorldBlock {
+            zmin: frame.z + b.z[0],
+            zmax: frame.z + b.z[1],
+            start,
+            end: out.pts.len() as u32,
+            aabb: bb,
+        });
+    }
+}
+
+pub(super) fn global_of(nodes: &[Node], globals: &[Pose], m: usize, pose: &Pose) -> Pose {
+    match nodes[m].parent {
+        None => *pose,
+        Some(p) => global_of_parent(&nodes[p as usize], &globals[p as usize], pose),
+    }
+}
+
+/// `m` and its descendants into `out`, parents before children.
+pub(super) fn tree_of(nodes: &[Node], m: u32, out: &mut Vec<u32>) {
+    out.clear();
+    out.push(m);
+    let mut i = 0;
+    while i < out.len() {
+        let x = out[i] as usize;
+        out.extend_from_slice(&nodes[x].children);
+        i += 1;
+    }
+}
+
+/// Whether a body reaches below the ground (z < 0): a move that puts it there is refused.
+pub(super) fn below_ground(body: &Body) -> bool {
+    body.blocks.iter().any(|b| b.zmin < 0.0)
+}
+
+/// Which models stop a move of the tree rooted at `root`: unrelated ones with
+/// `obstacle_return`.
+pub(super) fn obstacle_to(nodes: &[Node], root: u32) -> impl Fn(u32) -> bool + Copy + '_ {
+    move |o| {
+        let n = &nodes[o as usize];
+        n.root != root && n.obstacle_return
+    }
+}
+
+/// The global pose of a child at `pose` in `parent`'s frame (stacked on top of it if the
+/// parent stacks its children).
+pub(super) fn global_of_parent(parent: &Node, parent_global: &Pose, pose: &Pose) -> Pose {
+    let mut g = parent_global.compose(pose);
+    if parent.stack_children {
+        g.z += parent.size[2];
+    }
+    g
+}
+
+impl World {
+    // ----- tree and names ----------------------------------------------------------------
+
+    /// Number of models.
+    pub fn model_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Every model id in creation order.
+    pub fn models(&self) -> impl Iterator<Item = ModelId> + '_ {
+        (0..self.nodes.len() as u32).map(ModelId)
+    }
+
+    /// The model registered under `name` (the last one registered wins, as in Stage).
+    pub fn model_by_name(&self, name: &str) -> Option<ModelId> {
+        self.names.get(name).map(|&i| ModelId(i))
+    }
+
+    /// Tree and configuration data of a model.
+    pub fn node(&self, m: ModelId) -> &Node {
+        &self.nodes[m.index()]
+    }
+
+    /// The model's name.
+    pub fn name(&self, m: ModelId) -> &str {
+        &self.nodes[m.index()].name
+    }
+
+    /// The model's Stage type: what code compares (the compiler checks every name).
+    pub fn model_type(&self, m: ModelId) -> ModelType {
+        self.nodes[m.index()].model_type
+    }
+
+    /// The model's Stage type word (`position`, `ranger`, …), for messages and display.
+    pub fn type_name(&self, m: ModelId) -> &'static str {
+        self.model_type(m).name()
+    }
+
+    /// The parent model.
+    pub fn parent(&self, m: ModelId) -> Option<ModelId> {
+        self.nodes[m.index()].parent.map(ModelId)
+    }
+
+    /// Children in creation order.
+    pub fn children(&self, m: ModelId) -> impl Iterator<Item = ModelId> + '_ {
+        self.nodes[m.index()].children.iter().map(|&c| ModelId(c))
+    }
+
+    /// `m` and its descendants in pre-order (how the stage driver binds devices).
+    pub fn subtree(&self, m: ModelId) -> Vec<ModelId> {
+        let mut out = Vec::new();
+        let mut stack = vec![m.0];
+        while let Some(x) = stack.pop() {
+            out.push(ModelId(x));
+            for &c in self.nodes[x as usize].children.iter().rev() {
+                stack.push(c);
+            }
+        }
+        out
+    }
+
+    /// Top-level models in creation order.
+    pub fn roots(&self) -> impl Iterator<Item = ModelId> + '_ {
+        self.models()
+            .filter(|m| self.nodes[m.index()].parent.is_none())
+    }
+
+    /// Whether two models are in the same tree (they never see or touch each other).
+    pub fn related(&self, a: ModelId, b: ModelId) -> bool {
+        self.nodes[a.index()].root == self.nodes[b.index()].root
+    }
+}

@@ -90,6 +90,7 @@ pub mod block;
 pub mod color;
 pub mod controller;
 pub mod desc;
+mod digest;
 pub mod error;
 pub mod generate;
 pub mod geom;

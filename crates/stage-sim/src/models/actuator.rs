@@ -2,6 +2,7 @@
 //! never applies it (the motion code is commented out), so the joint never moves; we report the
 //! same values.
 
+use crate::digest::Digest;
 use crate::pose::Pose;
 use worldfile::models as wm;
 
@@ -101,6 +102,18 @@ pub struct ActuatorModel {
 }
 
 impl ActuatorModel {
+    /// Feeds the control mode, goal and joint state to the determinism digest.
+    pub(crate) fn digest(&self, d: &mut Digest) {
+        d.u64(self.mode as u64);
+        d.f64(self.goal);
+        let s = &self.data;
+        d.u64(s.time_us);
+        for v in [s.position, s.speed, s.computed_velocity] {
+            d.f64(v);
+        }
+        d.u64(s.moving as u64);
+    }
+
     /// An idle actuator.
     pub fn new(cfg: ActuatorDesc) -> Self {
         ActuatorModel {

@@ -1,6 +1,7 @@
 //! `blobfinder` (spec §9): a fan of colour rays segmented into blobs.
 
 use crate::color::{Color, same_rgb};
+use crate::digest::Digest;
 use crate::pose::Pose;
 use crate::space::RayQuery;
 use crate::view::View;
@@ -103,6 +104,19 @@ pub struct BlobfinderModel {
 }
 
 impl BlobfinderModel {
+    /// Feeds the latest image size and blobs to the determinism digest.
+    pub(crate) fn digest(&self, d: &mut Digest) {
+        d.u64(self.data.time_us);
+        d.u64(((self.data.width as u64) << 32) | self.data.height as u64);
+        d.u64(self.data.blobs.len() as u64);
+        for b in &self.data.blobs {
+            d.color(&b.color);
+            d.u64(((b.left as u64) << 32) | b.right as u64);
+            d.u64(((b.top as u64) << 32) | b.bottom as u64);
+            d.f64(b.range);
+        }
+    }
+
     /// A blobfinder with no data yet.
     pub fn new(cfg: BlobfinderDesc) -> Self {
         BlobfinderModel {

@@ -3,6 +3,7 @@
 //! per row the elevation decides which crossing's block spans the ray's height there.
 
 use crate::color::Color;
+use crate::digest::Digest;
 use crate::pose::Pose;
 use crate::space::{RayHit, RayQuery};
 use crate::view::View;
@@ -72,6 +73,16 @@ pub struct CameraModel {
 }
 
 impl CameraModel {
+    /// Feeds the latest image (colour and depth) to the determinism digest.
+    pub(crate) fn digest(&self, d: &mut Digest) {
+        let im = &self.image;
+        d.u64(im.time_us);
+        d.u64(((im.width as u64) << 32) | im.height as u64);
+        d.bytes(&im.rgba);
+        d.u64(im.depth.len() as u64);
+        im.depth.iter().for_each(|&z| d.u64(z.to_bits() as u64));
+    }
+
     /// A camera with no image yet.
     pub fn new(cfg: CameraDesc) -> Self {
         CameraModel {

@@ -1,5 +1,6 @@
 //! `fiducial` finder (spec §10).
 
+use crate::digest::Digest;
 use crate::node::ModelId;
 use crate::pose::{Pose, normalize};
 use crate::space::RayQuery;
@@ -67,6 +68,23 @@ pub struct FiducialData {
     pub time_us: u64,
     /// Detections in model creation order.
     pub fiducials: Vec<Fiducial>,
+}
+
+impl FiducialData {
+    /// Feeds every detection to the determinism digest.
+    pub(crate) fn digest(&self, d: &mut Digest) {
+        d.u64(self.time_us);
+        d.u64(self.fiducials.len() as u64);
+        for f in &self.fiducials {
+            d.u64(f.id as u32 as u64);
+            d.model(Some(f.model));
+            for v in [f.range, f.bearing, f.heading] {
+                d.f64(v);
+            }
+            f.geom.iter().for_each(|&v| d.f64(v));
+            d.pose(&f.pose);
+        }
+    }
 }
 
 /// One fiducial-finder update.

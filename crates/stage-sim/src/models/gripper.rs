@@ -2,6 +2,7 @@
 //! grasping and carrying `gripper_return` models.
 
 use crate::block::BlockDesc;
+use crate::digest::Digest;
 use crate::node::ModelId;
 use crate::pose::Pose;
 use crate::space::RayQuery;
@@ -125,6 +126,20 @@ pub struct GripperModel {
 }
 
 impl GripperModel {
+    /// Feeds the last command and the paddle, lift, beam and carrying state to the
+    /// determinism digest.
+    pub(crate) fn digest(&self, d: &mut Digest) {
+        d.u64(self.cmd as u64);
+        let s = &self.data;
+        d.u64(s.time_us);
+        d.u64(((s.paddles as u64) << 8) | s.lift as u64);
+        d.f64(s.paddle_pos);
+        d.f64(s.lift_pos);
+        s.beams.iter().chain(&s.contacts).for_each(|&m| d.model(m));
+        d.u64(s.paddles_stalled as u64);
+        d.model(s.carrying);
+    }
+
     /// A gripper in its initial state.
     pub fn new(cfg: GripperDesc) -> Self {
         let pos = if cfg.closed { 1.0 } else { 0.0 };

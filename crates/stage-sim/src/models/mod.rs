@@ -20,6 +20,7 @@ use position::PositionModel;
 use ranger::RangerData;
 
 use crate::block::BlockDesc;
+use crate::digest::Digest;
 use crate::node::Node;
 use crate::pose::Pose;
 use crate::rng::SimRng;
@@ -191,41 +192,18 @@ impl KindState {
         }
     }
 
-    /// Feeds the type's state to a determinism digest ([`crate::World::state_digest`]).
-    pub(crate) fn digest(&self, eat: &mut impl FnMut(u64)) {
-        let f = |x: f64| x.to_bits();
+    /// Feeds the type's whole state to the determinism digest ([`crate::World::state_digest`]).
+    pub(crate) fn digest(&self, d: &mut Digest) {
         match self {
-            KindState::Position(p) => {
-                for v in [p.est.x, p.est.y, p.est.a, p.velocity.x, p.velocity.a] {
-                    eat(f(v));
-                }
-                eat(p.stall as u64);
-            }
-            KindState::Ranger(r) => {
-                for s in &r.scans {
-                    for (&a, &b) in s.ranges.iter().zip(&s.intensities) {
-                        eat(f(a));
-                        eat(f(b));
-                    }
-                }
-            }
-            KindState::Blobfinder(b) => {
-                for bl in &b.data.blobs {
-                    eat(((bl.left as u64) << 32) | bl.right as u64);
-                    eat(f(bl.range));
-                }
-            }
-            KindState::Fiducial(_, d) => {
-                for fd in &d.fiducials {
-                    eat(fd.id as u64);
-                    eat(f(fd.range));
-                }
-            }
-            KindState::Gripper(g) => {
-                eat(f(g.data.paddle_pos));
-                eat(g.data.carrying.map_or(u64::MAX, |c| c.0 as u64));
-            }
-            _ => {}
+            KindState::Plain => {}
+            KindState::Position(p) => p.digest(d),
+            KindState::Ranger(r) => r.digest(d),
+            KindState::Blobfinder(b) => b.digest(d),
+            KindState::Fiducial(_, f) => f.digest(d),
+            KindState::Gripper(g) => g.digest(d),
+            KindState::Camera(c) => c.digest(d),
+            KindState::Actuator(a) => a.digest(d),
+            KindState::Blinkenlight { on } | KindState::LightIndicator { on } => d.u64(*on as u64),
         }
     }
 }

@@ -1,6 +1,7 @@
 //! `position` (spec §7): control modes, per-update velocity computation, odometry / GPS
 //! localization, and the per-step motion delta.
 
+use crate::digest::Digest;
 use crate::pose::{Pose, normalize};
 use crate::rng::SimRng;
 use std::f64::consts::PI;
@@ -127,6 +128,23 @@ impl PositionModel {
     /// error factors resolved. As Stage's load does, the estimate starts at the global pose
     /// expressed in the origin's frame whatever the localization mode: zero when the origin
     /// defaults to the start pose, the world pose under `localization_origin [0 0 0 0]`.
+    /// Feeds the state to the determinism digest: control mode and goal, velocity, estimate,
+    /// odometry error, stall and the published data.
+    pub(crate) fn digest(&self, d: &mut Digest) {
+        d.u64(self.mode as u64);
+        d.pose(&self.goal);
+        d.pose(&self.velocity);
+        d.pose(&self.est);
+        d.pose(&self.est_origin);
+        self.odom_error.iter().for_each(|&v| d.f64(v));
+        d.u64(self.stall as u64);
+        d.f64(self.watts);
+        d.u64(self.data.time_us);
+        d.pose(&self.data.pose);
+        d.pose(&self.data.velocity);
+        d.u64(self.data.stall as u64);
+    }
+
     /// A model as described, at `global` on load: the estimate's frame is
     /// `localization_origin` (the load pose when unset) and a missing `odom_error` is drawn
     /// once from `rng`, uniformly over Stage's spans (spec §7.7).

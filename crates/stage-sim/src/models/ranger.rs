@@ -3,6 +3,7 @@
 use std::sync::Mutex;
 
 use crate::color::Color;
+use crate::digest::Digest;
 use crate::pool::share_out;
 use crate::pose::Pose;
 use crate::rng::SimRng;
@@ -96,6 +97,19 @@ impl RangerData {
             sensors,
             scans: Vec::new(),
             dirs: Vec::new(),
+        }
+    }
+
+    /// Feeds every transducer's ranges, intensities and bearings to the determinism digest.
+    pub(crate) fn digest(&self, d: &mut Digest) {
+        d.u64(self.time_us);
+        for s in &self.scans {
+            d.u64(s.ranges.len() as u64);
+            for ((&r, &i), &b) in s.ranges.iter().zip(&s.intensities).zip(&s.bearings) {
+                d.f64(r);
+                d.f64(i);
+                d.f64(b);
+            }
         }
     }
 

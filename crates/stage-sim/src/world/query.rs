@@ -342,23 +342,20 @@ impl World {
         }
     }
 
-    /// A 64-bit digest of every pose, velocity and sensor output: equal digests mean equal
-    /// states (used by determinism tests).
+    /// A 64-bit digest of the whole simulated state: the clock, and per model its pose,
+    /// colour, speech, subscription schedule and its type's state (sensor data, commands, goals,
+    /// lights). Equal digests mean equal states (the determinism tests and benches compare them).
     pub fn state_digest(&self) -> u64 {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |v: u64| {
-            h ^= v;
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        };
-        let f = |x: f64| x.to_bits();
-        eat(self.sim_time);
-        for i in 0..self.nodes.len() {
-            let p = self.poses[i];
-            for v in [p.x, p.y, p.z, p.a] {
-                eat(f(v));
-            }
-            self.states[i].kind.digest(&mut eat);
+        let mut d = crate::digest::Digest::new();
+        d.u64(self.sim_time);
+        for (i, st) in self.states.iter().enumerate() {
+            d.pose(&self.poses[i]);
+            d.color(&self.colors[i]);
+            d.bytes(self.says[i].as_bytes());
+            d.u64(st.next_update);
+            d.u64(st.updated_at.map_or(u64::MAX, |t| t));
+            st.kind.digest(&mut d);
         }
-        h
+        d.finish()
     }
 }

@@ -1,0 +1,57 @@
+//! Bodies in world space: a model's polygon outlines with their z ranges, as the indices and
+//! queries of [`Space`](super::Space) read them.
+
+use crate::geom::Aabb;
+
+/// One block of a body in world space: its z interval and its vertex range in [`Body::pts`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldBlock {
+    /// Lower z bound (m, world).
+    pub zmin: f64,
+    /// Upper z bound (m, world).
+    pub zmax: f64,
+    /// First vertex in the body's point list.
+    pub start: u32,
+    /// One past the last vertex.
+    pub end: u32,
+    /// Bounding box of the block's vertices.
+    pub aabb: Aabb,
+}
+
+/// A model's body in world space (polygon outlines with z ranges); empty for bodiless models.
+#[derive(Clone, Debug, Default)]
+pub struct Body {
+    /// Blocks in model order (the index is the block index used in hits).
+    pub blocks: Vec<WorldBlock>,
+    /// All vertices of all blocks, block after block.
+    pub pts: Vec<[f64; 2]>,
+    /// Bounding box of all vertices.
+    pub aabb: Aabb,
+}
+
+impl Body {
+    /// Whether the model has any outline to see or touch.
+    pub fn is_empty(&self) -> bool {
+        self.blocks.is_empty()
+    }
+
+    /// The vertices of block `b`.
+    pub fn block_pts(&self, b: usize) -> &[[f64; 2]] {
+        let blk = &self.blocks[b];
+        &self.pts[blk.start as usize..blk.end as usize]
+    }
+
+    /// Iterates the edges of block `b` (closed polygon; a 2-point block is one segment).
+    #[inline]
+    pub fn edges(&self, b: usize) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+        edges_of(self.block_pts(b))
+    }
+}
+
+/// The edges of a closed polygon (a 2-point polygon is a single segment).
+#[inline]
+pub(super) fn edges_of(p: &[[f64; 2]]) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {
+    let n = p.len();
+    let closing = (n > 2).then(|| (p[n - 1], p[0]));
+    p.windows(2).map(|w| (w[0], w[1])).chain(closing)
+}

@@ -1,0 +1,166 @@
+//! Contacts: whether a body's outline crosses another's (static blocks through the BVH, moving
+//! bodies through the dynamic grid), with overlapping z intervals.
+
+use parry2d::bounding_volume::Aabb as PAabb;
+use parry2d::math::Point;
+
+use super::static_index::AABB_PAD;
+use super::{Body, Space};
+use crate::geom::{Aabb, segments_intersect};
+
+impl Space {
+    /// Contact test for a set of models (a moving model and its descendants): returns the first
+    /// other model whose outline intersects one of theirs with overlapping z intervals and that
+    /// `accept` admits (unrelated, `obstacle_return`). `None`: no contact.
+    pub fn first_contact(
+        &self,
+        movers: &[u32],
+        cand: &mut Vec<u32>,
+        accept: impl Fn(u32) -> bool,
+    ) -> Option<u32> {
+        let mut best: Option<u32> = None;
+        for &m in movers {
+            let body = &self.bodies[m as usize];
+            if body.is_empty() {
+                continue;
+            }
+            if let Some(s) = self.static_contact(body, best, &accept) {
+                best = Some(s);
+            }
+            if let Some(d) = self.dynamic_contact(m, body, cand, best, &accept) {
+                best = Some(d);
+            }
+        }
+        best
+    }
+
+    /// Whether `body` (registered or not: a move being tried) touches a static block that
+    /// `accept` admits. Static blocks do not change while robots move, so this can be asked
+    /// for every robot at once, in parallel, before the moves are applied in order.
+    pub fn touches_static(&self, body: &Body, accept: impl Fn(u32) -> bool) -> bool {
+        !body.is_empty() && self.static_contact(body, None, &accept).is_some()
+    }
+
+    /// Whether any of the registered `movers` touches a moving body that `accept` admits (the
+    /// order-dependent half of [`Space::first_contact`]).
+    pub fn touches_dynamic(
+        &self,
+        movers: &[u32],
+        cand: &mut Vec<u32>,
+        accept: impl Fn(u32) -> bool,
+    ) -> bool {
+        movers.iter().any(|&m| {
+            let body = &self.bodies[m as usize];
+            !body.is_empty() && self.dynamic_contact(m, body, cand, None, &accept).is_some()
+        })
+    }
+
+    /// The lowest-numbered static model below `bound` whose live blocks touch `body`.
+    fn static_contact(
+        &self,
+        body: &Body,
+        bound: Option<u32>,
+        accept: &impl Fn(u32) -> bool,
+    ) -> Option<u32> {
+        let mut best = bound;
+        let mut found = None;
+        let bb = body.aabb;
+        let pa = PAabb::new(
+            Point::new((bb.min[0] - AABB_PAD) as f32, (bb.min[1] - AABB_PAD) as f32),
+            Point::new((bb.max[0] + AABB_PAD) as f32, (bb.max[1] + AABB_PAD) as f32),
+        );
+        for leaf in self.statics.bvh.intersect_aabb(&pa) {
+            let sb = self.statics.blocks[leaf as usize];
+            if !self.static_live[sb.model as usize]
+                || best.is_some_and(|b| sb.model >= b)
+                || !accept(sb.model)
+            {
+                continue;
+            }
+            if self
+                .statics
+                .edges(leaf as usize)
+                .any(|(a, b)| self.edge_hits_body(body, a, b, sb.zmin, sb.zmax))
+            {
+                best = Some(sb.model);
+                found = best;
+            }
+        }
+        found
+    }
+
+    /// The lowest-numbered moving model below `bound`, other than `m`, whose blocks touch
+    /// `body` (model `m`'s registered body).
+    fn dynamic_contact(
+        &self,
+        m: u32,
+        body: &Body,
+        cand: &mut Vec<u32>,
+        bound: Option<u32>,
+        accept: &impl Fn(u32) -> bool,
+    ) -> Option<u32> {
+        let bb = body.aabb;
+        cand.clear();
+        let g = &self.grid;
+        match g.span_of(&bb) {
+            Some([x0, y0, x1, y1]) => {
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        cand.extend_from_slice(&g.cells[(y * g.nx + x) as usize]);
+                    }
+                }
+            }
+            None => {
+                // the mover is (partly) outside the grid: test every registered model
+                for c in &g.cells {
+                    cand.extend_from_slice(c);
+                }
+            }
+        }
+        cand.extend_from_slice(&g.overflow);
+        cand.sort_unstable();
+        cand.dedup();
+        // ascending order: the first touching model is the lowest
+        for &o in cand.iter() {
+            if o == m {
+                continue;
+            }
+            if bound.is_some_and(|b| o >= b) {
+                break;
+            }
+            let ob = &self.bodies[o as usize];
+            if !ob.aabb.intersects(&bb) || !accept(o) {
+                continue;
+            }
+            for (bi, blk) in ob.blocks.iter().enumerate() {
+                for (a, b) in ob.edges(bi) {
+                    if self.edge_hits_body(body, a, b, blk.zmin, blk.zmax) {
+                        return Some(o);
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    fn edge_hits_body(&self, body: &Body, a: [f64; 2], b: [f64; 2], zmin: f64, zmax: f64) -> bool {
+        let mut eb = Aabb::EMPTY;
+        eb.add(a);
+        eb.add(b);
+        if !eb.intersects(&body.aabb) {
+            return false;
+        }
+        for (bi, blk) in body.blocks.iter().enumerate() {
+            // inclusive z overlap (block.cc TestCollision); NaN bounds never overlap
+            if !(zmin <= blk.zmax && zmax >= blk.zmin && eb.intersects(&blk.aabb)) {
+                continue;
+            }
+            for (p, q) in body.edges(bi) {
+                if segments_intersect(p, q, a, b) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}

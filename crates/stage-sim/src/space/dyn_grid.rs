@@ -1,0 +1,124 @@
+//! The uniform grid over moving bodies: a model re-registers only when the set of cells its
+//! box covers changes, so moves cost O(1) and the grid is never rebuilt.
+
+use super::body::Body;
+use crate::geom::{Aabb, floor_i32};
+
+/// The uniform grid holding dynamic bodies (model indices per cell).
+pub(super) struct DynGrid {
+    pub(super) origin: [f64; 2],
+    pub(super) cell: f64,
+    inv_cell: f64,
+    pub(super) nx: i32,
+    pub(super) ny: i32,
+    pub(super) cells: Vec<Vec<u32>>,
+    /// Models whose box leaves the grid: tested by every query.
+    pub(super) overflow: Vec<u32>,
+    /// Registered cell range per model (`None`: not registered or in `overflow`).
+    span: Vec<Option<[i32; 4]>>,
+    in_overflow: Vec<bool>,
+}
+
+impl DynGrid {
+    pub(super) fn new(bounds: Aabb, cell: f64, nmodels: usize) -> DynGrid {
+        let (origin, nx, ny) = if bounds.is_empty() {
+            ([0.0, 0.0], 1, 1)
+        } else {
+            let nx = (((bounds.max[0] - bounds.min[0]) / cell).ceil() as i64).clamp(1, 4096) as i32;
+            let ny = (((bounds.max[1] - bounds.min[1]) / cell).ceil() as i64).clamp(1, 4096) as i32;
+            (bounds.min, nx, ny)
+        };
+        DynGrid {
+            origin,
+            cell,
+            inv_cell: 1.0 / cell,
+            nx,
+            ny,
+            cells: vec![Vec::new(); (nx * ny) as usize],
+            overflow: Vec::new(),
+            span: vec![None; nmodels],
+            in_overflow: vec![false; nmodels],
+        }
+    }
+
+    #[inline]
+    pub(super) fn cell_of(&self, p: [f64; 2]) -> [i32; 2] {
+        [
+            floor_i32((p[0] - self.origin[0]) * self.inv_cell),
+            floor_i32((p[1] - self.origin[1]) * self.inv_cell),
+        ]
+    }
+
+    pub(super) fn span_of(&self, b: &Aabb) -> Option<[i32; 4]> {
+        let lo = self.cell_of(b.min);
+        let hi = self.cell_of(b.max);
+        (lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.nx && hi[1] < self.ny)
+            .then_some([lo[0], lo[1], hi[0], hi[1]])
+    }
+
+    fn remove(&mut self, m: u32) {
+        if let Some([x0, y0, x1, y1]) = self.span[m as usize].take() {
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let c = &mut self.cells[(y * self.nx + x) as usize];
+                    if let Some(i) = c.iter().position(|&v| v == m) {
+                        c.remove(i);
+                    }
+                }
+            }
+        }
+        if self.in_overflow[m as usize] {
+            self.in_overflow[m as usize] = false;
+            self.overflow.retain(|&v| v != m);
+        }
+    }
+
+    /// Registers (or re-registers) model `m` with box `b`.
+    pub(super) fn update(&mut self, m: u32, b: &Aabb) {
+        if b.is_empty() {
+            self.remove(m);
+            return;
+        }
+        let new = self.span_of(b);
+        if new.is_some() && new == self.span[m as usize] {
+            return;
+        }
+        if new.is_none() && self.in_overflow[m as usize] {
+            return;
+        }
+        self.remove(m);
+        match new {
+            Some([x0, y0, x1, y1]) => {
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        self.cells[(y * self.nx + x) as usize].push(m);
+                    }
+                }
+                self.span[m as usize] = new;
+            }
+            None => {
+                self.in_overflow[m as usize] = true;
+                self.overflow.push(m);
+            }
+        }
+    }
+}
+
+/// Edge of the dynamic grid's cells: three typical (median) moving bodies across, within
+/// `[0.25, 2]` m — small enough that a cell holds few robots, large enough that short sensor
+/// rays cross few cells (callgrind, instructions per step against four across: cave −6%,
+/// hospital −4%, a 1,000-robot swarm +1%; two across: cave −11%, swarm +4%).
+pub(super) fn dynamic_cell(bodies: &[Body], dynamic: &[bool]) -> f64 {
+    let mut ext: Vec<f64> = bodies
+        .iter()
+        .zip(dynamic)
+        .filter(|(b, d)| **d && !b.is_empty())
+        .map(|(b, _)| (b.aabb.max[0] - b.aabb.min[0]).max(b.aabb.max[1] - b.aabb.min[1]))
+        .collect();
+    if ext.is_empty() {
+        return 1.0;
+    }
+    let mid = ext.len() / 2;
+    ext.select_nth_unstable_by(mid, f64::total_cmp);
+    (3.0 * ext[mid]).clamp(0.25, 2.0)
+}

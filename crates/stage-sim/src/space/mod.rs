@@ -1,0 +1,162 @@
+//! The spatial engine: every body's outline in world space, a static BVH (parry2d) over the
+//! blocks of bodies that never move, and a uniform grid over the bodies that do.
+//!
+//! * Static bodies (floorplans and everything not in a robot's tree) are indexed twice, both
+//!   built once: a parry2d [`Bvh`](parry2d::partitioning::Bvh) (binned SAH, one leaf per
+//!   block) answers contact queries and the camera's all-hits casts; for single rays their
+//!   edges also sit in a uniform grid (`static_grid`) walked cell by cell with empty-space
+//!   jumps: 205k instead of 413k instructions per step on simple.world (callgrind) than the
+//!   flattened BVH walk, same answers.
+//!   Sides that touching blocks of one model share (most of a bitmap's) are left out of that
+//!   grid: a ray from open space always meets the wall's outline first (`exposed`).
+//! * A ranger's fan of rays from one origin ([`Space::raycast_fan`]) works out once what its
+//!   rays share: which of a few moving bodies any of them can stop at, and the static grid cell
+//!   they start in (simple.world: 143k instructions per step, from 197k ray by ray).
+//! * Dynamic bodies (robots and everything in their trees) live in a uniform grid; a moving model
+//!   re-registers only when the set of cells its box covers changes, so moves cost O(1) and the
+//!   index is never rebuilt. Rays walk it cell by cell (DDA) and stop at the first hit.
+//! * A static body that is moved later (teleported, picked up by a gripper) is switched off in
+//!   the static index (its blocks are skipped) and joins the dynamic grid.
+//!
+//! Differences from Stage's occupancy grid (spec §6): ranges are exact distances to the first
+//! edge crossed, where Stage returns the near boundary of the first grid cell that an edge was
+//! rasterised into — so Stage reads up to one cell (`resolution`, 2 cm by default, more at
+//! oblique angles) shorter, and Stage's contacts fire up to one cell early. Sub-cell bodies, which
+//! Stage drops, are kept.
+//!
+//! One file per concern: `body` (outlines in world space), `static_index` (the static blocks,
+//! their BVH, and the building of their edge grid: `static_grid`, `exposed`), `dyn_grid` (the
+//! moving bodies' grid), `ray` (ray queries), `contact` (contact tests); [`Space`] itself, which
+//! owns all of them and registers bodies, is here.
+
+mod body;
+mod contact;
+mod dyn_grid;
+mod exposed;
+mod ray;
+mod static_grid;
+mod static_index;
+
+pub use body::{Body, WorldBlock};
+pub use ray::{NO_ROOT, RayHit, RayQuery};
+
+use crate::geom::Aabb;
+use dyn_grid::{DynGrid, dynamic_cell};
+use static_index::StaticIndex;
+
+/// Every body in world space plus the two indices; see the module docs.
+pub struct Space {
+    bodies: Vec<Body>,
+    /// Root of each model's tree (models with equal roots are related and never see each other).
+    roots: Vec<u32>,
+    /// Each body's box, densely packed for the hot ray loop.
+    aabbs: Vec<Aabb>,
+    /// Every model ever registered in the dynamic grid (a short list is scanned directly).
+    members: Vec<u32>,
+    is_member: Vec<bool>,
+    is_static: Vec<bool>,
+    static_live: Vec<bool>,
+    statics: StaticIndex,
+    grid: DynGrid,
+}
+
+impl Space {
+    /// Builds the indices from every model's world-space body; `dynamic[m]` says whether model
+    /// `m` can move (it is in a robot's tree).
+    pub fn new(bodies: Vec<Body>, dynamic: &[bool], roots: Vec<u32>) -> Space {
+        let n = bodies.len();
+        let mut bounds = Aabb::EMPTY;
+        for body in &bodies {
+            bounds.merge(&body.aabb);
+        }
+        if !bounds.is_empty() {
+            bounds.min[0] -= 10.0;
+            bounds.min[1] -= 10.0;
+            bounds.max[0] += 10.0;
+            bounds.max[1] += 10.0;
+        }
+        let mut grid = DynGrid::new(bounds, dynamic_cell(&bodies, dynamic), n);
+        let mut members = Vec::new();
+        let mut is_member = vec![false; n];
+        for (m, body) in bodies.iter().enumerate() {
+            if dynamic[m] && !body.is_empty() {
+                grid.update(m as u32, &body.aabb);
+                members.push(m as u32);
+                is_member[m] = true;
+            }
+        }
+        Space {
+            roots,
+            aabbs: bodies.iter().map(|b| b.aabb).collect(),
+            members,
+            is_member,
+            is_static: dynamic.iter().map(|d| !d).collect(),
+            static_live: dynamic.iter().map(|d| !d).collect(),
+            statics: StaticIndex::build(&bodies, dynamic),
+            bodies,
+            grid,
+        }
+    }
+
+    /// Records that model `m` now belongs to the tree rooted at `root` (re-parenting).
+    pub fn set_root(&mut self, m: u32, root: u32) {
+        self.roots[m as usize] = root;
+    }
+
+    /// The world-space body of model `m`.
+    pub fn body(&self, m: u32) -> &Body {
+        &self.bodies[m as usize]
+    }
+
+    /// All bodies, indexed by model.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+
+    /// Number of blocks in the static index.
+    pub fn static_block_count(&self) -> usize {
+        self.statics.blocks.len()
+    }
+
+    /// Replaces model `m`'s body after it moved, updating the dynamic index incrementally.
+    /// A static body that moves leaves the static index for good and joins the grid.
+    pub fn set_body(&mut self, m: u32, body: Body) {
+        let i = m as usize;
+        if self.static_live[i] {
+            self.static_live[i] = false;
+        }
+        self.is_static[i] = false;
+        self.grid.update(m, &body.aabb);
+        self.aabbs[i] = body.aabb;
+        self.bodies[i] = body;
+        self.note_member(m);
+    }
+
+    /// Mutable access to a body's storage for in-place refresh; call [`Space::commit_body`] after.
+    pub fn body_mut(&mut self, m: u32) -> &mut Body {
+        let i = m as usize;
+        self.static_live[i] = false;
+        self.is_static[i] = false;
+        &mut self.bodies[i]
+    }
+
+    /// Re-registers model `m` in the dynamic index after [`Space::body_mut`] changed it.
+    pub fn commit_body(&mut self, m: u32) {
+        let aabb = self.bodies[m as usize].aabb;
+        self.grid.update(m, &aabb);
+        self.aabbs[m as usize] = aabb;
+        self.note_member(m);
+    }
+
+    fn note_member(&mut self, m: u32) {
+        if !self.is_member[m as usize] && !self.bodies[m as usize].is_empty() {
+            self.is_member[m as usize] = true;
+            self.members.push(m);
+        }
+    }
+
+    /// Models whose bodies are registered as static (never moved).
+    pub fn is_static(&self, m: u32) -> bool {
+        self.is_static[m as usize]
+    }
+}

@@ -55,8 +55,8 @@
 //!   [`World::gripper_cmd`], [`World::actuator_cmd`], [`World::set_fiducial_id`].
 //! * Data, each stamped with the sim time it was produced (publish at each model's update
 //!   interval by comparing stamps): [`World::position_state`], [`World::ranger_scans`]
-//!   (per-sensor ranges, intensities and configuration; [`RangerData::player_ranges`] does
-//!   Player's flattening), [`World::blobfinder_blobs`], [`World::fiducials`],
+//!   (per-sensor ranges, intensities and configuration; Player's flattening is the stage
+//!   driver's), [`World::blobfinder_blobs`], [`World::fiducials`],
 //!   [`World::gripper_state`], [`World::camera_image`], [`World::actuator`].
 //! * Drawing without copying: [`World::global_pose`], [`World::body`] (world-space polygons with
 //!   z ranges, borrowed) and [`World::block_color`] for every model, plus the sensor data above.
@@ -81,8 +81,8 @@
 //! * Kept because clients can observe them: the GPS pose lags the true pose by one step, the
 //!   odometry flips the sign of lateral (omni) motion and integrates commanded velocities,
 //!   `odom_error` values are used as exact bias factors, SET/RESET_ODOM do not last in GPS
-//!   mode, the blobfinder skips the column after each blob and Player's blob area wraps
-//!   ([`Blob::player_area`]), fiducial ids beyond `range_max_id` are 0, dropped objects land
+//!   mode, the blobfinder skips the column after each blob (Player's blob area, which wraps,
+//!   is the stage driver's), fiducial ids beyond `range_max_id` are 0, dropped objects land
 //!   at the gripper's pose and height, `update_interval` rounds up to whole world steps and
 //!   `quit_time` overshoots to the end of the step that crosses it.
 

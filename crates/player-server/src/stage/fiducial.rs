@@ -38,13 +38,11 @@ pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<
 /// GET_GEOM: the finder's pose in its parent and its size; Stage fills only a laser-sized
 /// part of the struct, so the height and the fiducial size are 0.
 fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> FiducialGeom {
-    let size = b.size();
     FiducialGeom {
         pose: b.local_pose3d(),
         size: Bbox3d {
-            sw: size[1],
-            sl: size[0],
             sh: 0.0,
+            ..b.bbox()
         },
         fiducial_size: Bbox2d::default(),
     }

@@ -42,14 +42,9 @@ pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<
 
 /// GET_GEOM: the gripper's pose in its parent and size; two beams, no capacity.
 fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> GripperGeom {
-    let size = b.size();
     GripperGeom {
         pose: b.local_pose3d(),
-        outer_size: Bbox3d {
-            sw: size[1],
-            sl: size[0],
-            sh: size[2],
-        },
+        outer_size: b.bbox(),
         inner_size: Bbox3d::default(),
         num_beams: 2,
         capacity: 0,

@@ -30,6 +30,7 @@
 mod actarray;
 pub mod binding;
 mod camera;
+pub mod convert;
 mod fiducial;
 pub mod graphics;
 mod gripper;
@@ -47,7 +48,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, RwLock, RwLockWriteGuard};
 use std::time::Duration;
 
-use player_proto::{Body, DeviceAddr, InterfaceCode, Message, Pose3d};
+use player_proto::{Bbox3d, Body, DeviceAddr, InterfaceCode, Message, Pose3d};
 use stage_sim::{ModelId, Pose, World};
 use worldfile::{LoadOptions, ModelType, WorldSpec};
 
@@ -300,6 +301,11 @@ impl<W: std::ops::Deref<Target = World>> Bound<'_, W> {
         self.world.node(self.model).size
     }
 
+    /// The model's size as Player's bounding box: Stage's `[x y z]` is length, width, height.
+    pub fn bbox(&self) -> Bbox3d {
+        size_bbox(self.size())
+    }
+
     /// The model's pose in its parent's frame as a Player 3D pose (roll = pitch = 0).
     pub fn local_pose3d(&self) -> Pose3d {
         pose3d(&self.world.pose(self.model))
@@ -315,6 +321,15 @@ pub(crate) fn pose3d(p: &Pose) -> Pose3d {
         proll: 0.0,
         ppitch: 0.0,
         pyaw: p.a,
+    }
+}
+
+/// A Stage size `[x y z]` as Player's bounding box (length along x, width along y, height).
+pub(crate) fn size_bbox(size: [f64; 3]) -> Bbox3d {
+    Bbox3d {
+        sw: size[1],
+        sl: size[0],
+        sh: size[2],
     }
 }
 
@@ -617,9 +632,9 @@ fn blobfinder_publish(b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
         .map(|blob| BlobfinderBlob {
             id: 0,
             color: blob.color.packed_rgb(),
-            area: blob.player_area(),
-            x: blob.x(),
-            y: blob.y(),
+            area: convert::blob_area(blob),
+            x: convert::blob_x(blob),
+            y: convert::blob_y(blob),
             left: blob.left,
             right: blob.right,
             top: blob.top,

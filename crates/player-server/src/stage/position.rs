@@ -3,8 +3,8 @@
 use std::ops::Deref;
 
 use player_proto::{
-    Bbox3d, Body, Pose2d, Pose3d, Position2dCmd, Position2dData, Position2dDataState,
-    Position2dGeom, Position2dMsg, Position2dReq,
+    Body, Pose2d, Pose3d, Position2dCmd, Position2dData, Position2dDataState, Position2dGeom,
+    Position2dMsg, Position2dReq,
 };
 use stage_sim::{Pose, World};
 
@@ -39,11 +39,7 @@ pub(super) fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Position2d
             pyaw: node.origin.a,
             ..Pose3d::default()
         },
-        size: Bbox3d {
-            sw: node.size[1],
-            sl: node.size[0],
-            sh: node.size[2],
-        },
+        size: super::size_bbox(node.size),
     }
 }
 

@@ -18,11 +18,11 @@ pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<
     let Some(data) = b.world.ranger_scans(b.model) else {
         return;
     };
-    let ranges = data.player_ranges();
+    let ranges = super::convert::ranger_ranges(data);
     if !ranges.is_empty() {
         out.publish(RangerData::Range(RangerDataRange { ranges }));
     }
-    let intensities = data.player_intensities();
+    let intensities = super::convert::ranger_intensities(data);
     if !intensities.is_empty() {
         out.publish(RangerData::Intns(RangerDataIntns { intensities }));
     }
@@ -43,20 +43,19 @@ pub(super) fn sensors<W: Deref<Target = World>>(
 /// GET_GEOM: the ranger's pose in its parent, its size, and per transducer its pose and size
 /// (with Stage's width/length swap for the transducer sizes).
 pub(super) fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> RangerGeom {
-    let size = b.size();
     let mut pose = b.local_pose3d();
     pose.pz = 0.0;
     let sensors = sensors(b);
     RangerGeom {
         pose,
         size: Bbox3d {
-            sw: size[1],
-            sl: size[0],
             sh: 0.0,
+            ..b.bbox()
         },
         element_poses: sensors.iter().map(|s| spec_pose3d(&s.pose)).collect(),
         element_sizes: sensors
             .iter()
+            // Stage reports a transducer's size with x as the width (its plugin's order)
             .map(|s| Bbox3d {
                 sw: s.size[0],
                 sl: s.size[1],

@@ -62,24 +62,6 @@ pub struct Blob {
     pub range: f64,
 }
 
-impl Blob {
-    /// Player's blob centre x: `left + (right − left)/2` (integer division).
-    pub fn x(&self) -> u32 {
-        self.left + (self.right - self.left) / 2
-    }
-    /// Player's blob centre y: `bottom + (top − bottom)/2` in C signed arithmetic.
-    pub fn y(&self) -> u32 {
-        let (t, b) = (self.top as i64, self.bottom as i64);
-        (b + (t - b) / 2) as u32
-    }
-    /// Player's `area = (right − left)·(top − bottom)`, which is ≤ 0 and wraps in the unsigned
-    /// wire field (spec §9.3 quirk, kept because clients can observe it).
-    pub fn player_area(&self) -> u32 {
-        let a = (self.right as i64 - self.left as i64) * (self.top as i64 - self.bottom as i64);
-        a as u32
-    }
-}
-
 /// A blobfinder's latest data.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BlobfinderData {

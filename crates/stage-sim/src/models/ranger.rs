@@ -118,28 +118,6 @@ impl RangerData {
         self.sensors.iter().map(|s| s.samples as usize).sum()
     }
 
-    /// Player's flattening (spec §8.3): one sensor → all its samples; several → first sample
-    /// of each.
-    pub fn player_ranges(&self) -> Vec<f64> {
-        self.flatten(|s| &s.ranges)
-    }
-
-    /// Intensities flattened like [`RangerData::player_ranges`].
-    pub fn player_intensities(&self) -> Vec<f64> {
-        self.flatten(|s| &s.intensities)
-    }
-
-    fn flatten(&self, f: impl Fn(&SensorScan) -> &Vec<f64>) -> Vec<f64> {
-        if self.scans.len() == 1 {
-            f(&self.scans[0]).clone()
-        } else {
-            self.scans
-                .iter()
-                .filter_map(|s| f(s).first().copied())
-                .collect()
-        }
-    }
-
     /// Clears the data (shutdown).
     pub fn clear(&mut self) {
         self.scans.clear();

@@ -131,14 +131,32 @@ impl KindState {
     pub(crate) fn own_blocks(&self, size: [f64; 3]) -> Option<Vec<BlockDesc>> {
         match self {
             KindState::Gripper(g) => Some(g.blocks(size)),
-            _ => None,
+            KindState::Plain
+            | KindState::Position(_)
+            | KindState::Ranger(_)
+            | KindState::Blobfinder(_)
+            | KindState::Fiducial(..)
+            | KindState::Camera(_)
+            | KindState::Actuator(_)
+            | KindState::Blinkenlight { .. }
+            | KindState::LightIndicator { .. } => None,
         }
     }
 
     /// Whether the model updates once without being subscribed (Stage starts cameras and
     /// blinkenlights itself).
     pub(crate) fn starts_itself(&self) -> bool {
-        matches!(self, KindState::Camera(_) | KindState::Blinkenlight { .. })
+        match self {
+            KindState::Camera(_) | KindState::Blinkenlight { .. } => true,
+            KindState::Plain
+            | KindState::Position(_)
+            | KindState::Ranger(_)
+            | KindState::Blobfinder(_)
+            | KindState::Fiducial(..)
+            | KindState::Gripper(_)
+            | KindState::Actuator(_)
+            | KindState::LightIndicator { .. } => false,
+        }
     }
 
     /// About how many rays one update casts: decides whether a step's updates are worth

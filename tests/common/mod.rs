@@ -16,24 +16,8 @@ pub fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// `rel` inside the shared reference folder: `$PLAYERSTAGE_SHARED`, else `../shared` beside
-/// the workspace root; `None` (after printing why) when absent, so the caller can skip.
-pub fn shared(rel: &str) -> Option<PathBuf> {
-    let dir = match std::env::var_os("PLAYERSTAGE_SHARED") {
-        Some(d) => PathBuf::from(d),
-        None => root().parent()?.join("shared"),
-    };
-    let path = dir.join(rel);
-    if path.exists() {
-        Some(path)
-    } else {
-        eprintln!(
-            "SKIP: {} not found (set PLAYERSTAGE_SHARED to the shared folder)",
-            path.display()
-        );
-        None
-    }
-}
+#[allow(unused_imports)] // test binaries each use a different subset
+pub use test_support::shared;
 
 /// A running server on a cfg, its cfg ports mapped to free ports.
 pub struct Running {

@@ -1,22 +1,8 @@
 //! The `stage` binary end to end: headless runs to `quit_time`, clock output, `--dump`, errors.
 
-use std::path::PathBuf;
 use std::process::Command;
 
-fn stage_worlds() -> Option<PathBuf> {
-    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
-        .map(PathBuf::from)
-        .or_else(|| {
-            Some(
-                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                    .ancestors()
-                    .nth(2)?
-                    .join("../shared"),
-            )
-        })?;
-    let p = shared.join("stage-worlds");
-    p.is_dir().then_some(p)
-}
+use test_support::stage_worlds;
 
 fn stage(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_stage"))

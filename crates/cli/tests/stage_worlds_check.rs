@@ -5,34 +5,13 @@
 //! A driver landing shows up here as entries to delete.
 
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use serde_json::Value;
 use worldfile::{CfgFile, LoadOptions};
 
-/// `shared/stage-worlds`: `$PLAYERSTAGE_SHARED/stage-worlds`, else `../shared/stage-worlds`
-/// beside the workspace root; `None` (after saying so) when absent.
-fn stage_worlds() -> Option<PathBuf> {
-    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
-        .map(PathBuf::from)
-        .filter(|p| p.is_dir())
-        .or_else(|| {
-            let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).ancestors().nth(2)?;
-            Some(workspace.join("../shared"))
-        })?;
-    let p = shared.join("stage-worlds");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!(
-            "skipping: {} not found (set PLAYERSTAGE_SHARED or put the shared material beside \
-             the workspace)",
-            p.display()
-        );
-        None
-    }
-}
+use test_support::stage_worlds;
 
 /// The cfgs of the suite, relative to its root, sorted.
 fn cfgs(root: &Path) -> Vec<String> {

@@ -128,13 +128,13 @@ fn bench(label: &str, max_samples: usize, beams: usize, init_cov: Matrix3<f64>) 
     );
 }
 
-/// A bitmap of Stage's suite: under `$PLAYERSTAGE_SHARED/stage-worlds`, else under
-/// `../shared/stage-worlds` beside the workspace (as the cli tests find it).
+/// A bitmap of Stage's suite in the shared reference folder (`test_support`).
 fn stage_bitmap(name: &str) -> PathBuf {
-    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
-    shared.join("stage-worlds/bitmaps").join(name)
+    // where it would be, so that the caller's read reports the path when it is absent
+    test_support::shared_dir()
+        .unwrap_or_else(|| test_support::workspace_root().join("../shared"))
+        .join("stage-worlds/bitmaps")
+        .join(name)
 }
 
 /// Beams of the fixed-population runs: a 180-degree laser of 180 beams, all weighed.

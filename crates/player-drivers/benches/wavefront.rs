@@ -21,7 +21,7 @@
 
 use std::hint::black_box;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use player_drivers::map::mapfile::MapFileOptions;
@@ -41,13 +41,13 @@ const START: (f64, f64) = (-130.85, -26.15);
 /// The goals (m), named.
 const GOALS: [(&str, (f64, f64)); 2] = [("east", (118.15, -27.15)), ("north", (-7.85, 39.35))];
 
-/// A bitmap of Stage's suite: under `$PLAYERSTAGE_SHARED/stage-worlds`, else under
-/// `../shared/stage-worlds` beside the workspace (as the cli tests find it).
+/// A bitmap of Stage's suite in the shared reference folder (`test_support`).
 fn stage_bitmap(name: &str) -> PathBuf {
-    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
-    shared.join("stage-worlds/bitmaps").join(name)
+    // where it would be, so that the caller's read reports the path when it is absent
+    test_support::shared_dir()
+        .unwrap_or_else(|| test_support::workspace_root().join("../shared"))
+        .join("stage-worlds/bitmaps")
+        .join(name)
 }
 
 /// Mean and fastest (ms) of `ROUNDS` runs of `f`, and its last result.

@@ -565,17 +565,10 @@ fn a_broken_map_leaves_amcl_refusing_and_the_server_running() {
 /// they mean (16 transducer poses in degrees, `update_thresh [0.1 5]`). The next test runs it.
 #[test]
 fn stage_amcl_sonar_cfg_options_are_read() {
-    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
-    let path = shared.join("stage-worlds/amcl-sonar.cfg");
-    let Ok(text) = std::fs::read_to_string(&path) else {
-        eprintln!(
-            "skipping: {} not found (set PLAYERSTAGE_SHARED)",
-            path.display()
-        );
+    let Some(path) = test_support::shared("stage-worlds/amcl-sonar.cfg") else {
         return;
     };
+    let text = std::fs::read_to_string(&path).unwrap();
     let cfgfile = CfgFile::parse(&path, &text, &LoadOptions::default()).unwrap();
     let spec = cfgfile
         .drivers

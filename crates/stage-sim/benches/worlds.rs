@@ -16,7 +16,6 @@
 
 use stage_sim::generate::swarm_world;
 use stage_sim::{RayQuery, World};
-use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use worldfile::LoadOptions;
 
@@ -65,21 +64,7 @@ fn measure(label: &str, mut w: World, run: &Run) {
     }
 }
 
-/// `$PLAYERSTAGE_SHARED/stage-worlds`, else `../shared/stage-worlds` beside the workspace.
-fn stage_worlds() -> Option<PathBuf> {
-    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
-        .map(PathBuf::from)
-        .or_else(|| {
-            Some(
-                Path::new(env!("CARGO_MANIFEST_DIR"))
-                    .ancestors()
-                    .nth(2)?
-                    .join("../shared"),
-            )
-        })?;
-    let p = shared.join("stage-worlds");
-    p.is_dir().then_some(p)
-}
+use test_support::stage_worlds;
 
 /// Ray-cast micro-benchmark: `n` rays of length `range` from random points of the world's
 /// bounding box, ignoring nothing but the robots' own trees (none here).

@@ -1,26 +1,13 @@
 //! Parsing speed: models per second for the largest world of Stage's suite and for a generated
 //! world of 10,000 models. Run with `cargo bench -p worldfile --bench parse`.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use worldfile::loader::parse_document;
 use worldfile::{Dialect, LoadOptions, WorldSpec};
 
-/// The shared reference folder (`$PLAYERSTAGE_SHARED` or `../shared` beside the workspace).
-fn shared_dir() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("PLAYERSTAGE_SHARED") {
-        let p = PathBuf::from(p);
-        if p.is_dir() {
-            return Some(p);
-        }
-    }
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .ancestors()
-        .nth(2)?
-        .join("../shared");
-    p.is_dir().then_some(p)
-}
+use test_support::shared_dir;
 
 /// Runs `f` until at least `budget` has passed (and at least 3 times); returns the best time.
 fn best_of(budget: Duration, mut f: impl FnMut() -> usize) -> (Duration, usize) {

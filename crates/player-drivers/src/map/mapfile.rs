@@ -411,18 +411,9 @@ mod tests {
     #[test]
     fn one_bit_images_read_as_black_and_white() {
         // Stage's ghost.png is a 1-bit greyscale PNG: its samples expand to 0 and 255.
-        let shared = match std::env::var_os("PLAYERSTAGE_SHARED") {
-            Some(dir) => PathBuf::from(dir),
-            None => std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"),
-        };
-        let path = shared.join("stage-worlds/bitmaps/ghost.png");
-        if !path.exists() {
-            eprintln!(
-                "SKIP: {} not found (set PLAYERSTAGE_SHARED to the shared folder)",
-                path.display()
-            );
+        let Some(path) = test_support::shared("stage-worlds/bitmaps/ghost.png") else {
             return;
-        }
+        };
         let o = MapFileOptions {
             filename: path,
             ..opts(1.0, false, None)

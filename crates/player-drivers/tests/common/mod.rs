@@ -2,7 +2,7 @@
 
 #![allow(dead_code)] // each test binary uses a different subset
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use player_server::stage::{self, StageOptions};
 use player_server::{DriverRegistry, Pace, Server, ServerConfig, ServerHandle, cfg};
@@ -53,23 +53,8 @@ pub fn build_cfg(dir: &Path, name: &str, text: &str, pace: Pace) -> Result<Serve
     Ok(server)
 }
 
-/// Stage 4.1.1's own files, when the shared reference folder is there (`$PLAYERSTAGE_SHARED`,
-/// else `../shared` beside the workspace); `None` with a note otherwise.
-pub fn stage_worlds() -> Option<PathBuf> {
-    let shared = std::env::var_os("PLAYERSTAGE_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
-    let dir = shared.join("stage-worlds");
-    if dir.join("simple.world").is_file() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "skipping: {} not found (set PLAYERSTAGE_SHARED)",
-            dir.display()
-        );
-        None
-    }
-}
+#[allow(unused_imports)] // test binaries each use a different subset
+pub use test_support::stage_worlds;
 
 /// simple.world as Player users run it with vfh.cfg: without the `wander` controller (the
 /// world's comment says to drop it under Player; it would drive r0 too), and with the cave's

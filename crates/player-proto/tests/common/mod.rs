@@ -2,44 +2,16 @@
 
 #![allow(dead_code)] // each test binary uses a different subset
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use player_proto::Value;
 use serde_json::Value as Json;
 
-/// The shared reference folder: `$PLAYERSTAGE_SHARED`, else `../shared` beside the workspace
-/// root. `None` (after printing why) when neither exists, so the caller can skip.
-pub fn shared_dir() -> Option<PathBuf> {
-    if let Some(dir) = std::env::var_os("PLAYERSTAGE_SHARED") {
-        let dir = PathBuf::from(dir);
-        if dir.is_dir() {
-            return Some(dir);
-        }
-        eprintln!("PLAYERSTAGE_SHARED={} is not a directory", dir.display());
-    }
-    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).ancestors().nth(2)?;
-    let dir = workspace.parent()?.join("shared");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "SKIP: shared reference folder not found (set PLAYERSTAGE_SHARED or put it at {})",
-            dir.display()
-        );
-        None
-    }
-}
+#[allow(unused_imports)] // test binaries each use a different subset
+pub use test_support::shared_dir;
 
-/// `shared/<rel>` if present, else `None` after printing a skip message.
-pub fn shared(rel: &str) -> Option<PathBuf> {
-    let path = shared_dir()?.join(rel);
-    if path.exists() {
-        Some(path)
-    } else {
-        eprintln!("SKIP: {} is absent", path.display());
-        None
-    }
-}
+#[allow(unused_imports)] // test binaries each use a different subset
+pub use test_support::shared;
 
 pub fn read_json(path: &Path) -> Json {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -5,7 +5,6 @@
 
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use player_proto::constants::LOCALHOST_ADDR;
@@ -18,28 +17,8 @@ use player_server::{
     DriverBlock, DriverRegistry, Pace, ProvidedDevice, Server, ServerConfig, ServerHandle,
 };
 
-/// The shared reference folder: `$PLAYERSTAGE_SHARED`, else `../shared` beside the workspace
-/// root; `None` (after printing why) when neither exists, so the caller can skip.
-pub fn shared(rel: &str) -> Option<PathBuf> {
-    let dir = match std::env::var_os("PLAYERSTAGE_SHARED") {
-        Some(d) => PathBuf::from(d),
-        None => Path::new(env!("CARGO_MANIFEST_DIR"))
-            .ancestors()
-            .nth(2)?
-            .parent()?
-            .join("shared"),
-    };
-    let path = dir.join(rel);
-    if path.exists() {
-        Some(path)
-    } else {
-        eprintln!(
-            "SKIP: {} not found (set PLAYERSTAGE_SHARED to the shared folder)",
-            path.display()
-        );
-        None
-    }
-}
+#[allow(unused_imports)] // test binaries each use a different subset
+pub use test_support::shared;
 
 /// A free port, kept bound so nobody else takes it before the server does.
 pub fn free_listener() -> (u32, TcpListener) {

@@ -1,20 +1,10 @@
 //! Finds the shared reference material: `$PLAYERSTAGE_SHARED`, else `../shared` beside the
 //! workspace root; `None` (and the caller skips with a message) when neither exists.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-/// The `shared/` directory, if present.
-pub fn shared_dir() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("PLAYERSTAGE_SHARED") {
-        let p = PathBuf::from(p);
-        if p.is_dir() {
-            return Some(p);
-        }
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).ancestors().nth(2)?;
-    let p = root.join("../shared");
-    p.is_dir().then_some(p)
-}
+#[allow(unused_imports)] // test binaries each use a different subset
+pub use test_support::shared_dir;
 
 /// Every `.world` file of Stage's suite, sorted.
 pub fn suite_worlds() -> Option<Vec<PathBuf>> {

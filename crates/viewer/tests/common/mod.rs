@@ -1,34 +1,13 @@
 //! Shared fixtures: a small world whose geometry the tests know, and the shared-material lookup.
 #![allow(dead_code)]
 
-use std::path::{Path, PathBuf};
-
 use stage_sim::{
     BlockDesc, Color, KindDesc, ModelDesc, Pose, PositionDesc, SensorDesc, World, WorldDesc,
 };
 use viewer::world_scene::WorldGui;
 
-/// `../shared` beside the workspace root, or `$PLAYERSTAGE_SHARED`; `None` (with a note) when
-/// neither exists.
-pub fn shared_dir() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("PLAYERSTAGE_SHARED") {
-        let p = PathBuf::from(p);
-        if p.is_dir() {
-            return Some(p);
-        }
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .ancestors()
-        .find(|p| p.join("Cargo.lock").exists())?
-        .to_path_buf();
-    let p = root.join("../shared");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipping: no shared reference material (set PLAYERSTAGE_SHARED)");
-        None
-    }
-}
+#[allow(unused_imports)] // test binaries each use a different subset
+pub use test_support::shared_dir;
 
 /// Laser colour in the known world.
 pub const LASER: Color = Color::rgb(0.0, 0.0, 1.0);

@@ -2,40 +2,14 @@
 
 #![allow(dead_code)]
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// The shared reference folder: `$PLAYERSTAGE_SHARED`, else `../shared` beside the workspace
-/// root. `None` (after printing why) when neither exists, so callers can skip.
-pub fn shared_dir() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("PLAYERSTAGE_SHARED") {
-        let p = PathBuf::from(p);
-        if p.is_dir() {
-            return Some(p);
-        }
-    }
-    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).ancestors().nth(2)?;
-    let p = workspace.join("../shared");
-    if p.is_dir() {
-        return Some(p);
-    }
-    eprintln!(
-        "skipping: shared reference material not found (set PLAYERSTAGE_SHARED or put it at {})",
-        p.display()
-    );
-    None
-}
+#[allow(unused_imports)] // test binaries each use a different subset
+pub use test_support::shared_dir;
 
-/// `shared/stage-worlds`, or `None` with a message.
-pub fn stage_worlds() -> Option<PathBuf> {
-    let p = shared_dir()?.join("stage-worlds");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipping: {} not found", p.display());
-        None
-    }
-}
+#[allow(unused_imports)] // test binaries each use a different subset
+pub use test_support::stage_worlds;
 
 /// A scratch directory removed when dropped.
 pub struct Scratch {

@@ -106,28 +106,36 @@ impl ModelDesc {
     }
 }
 
-/// World-level settings (stage-worldfile.md §10) and the model tree. The default settings are
-/// the worldfile crate's.
+/// World-level settings (stage-worldfile.md §10) in internal units: what a description gives
+/// and a running world keeps ([`crate::World::config`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct WorldDesc {
+pub struct WorldConfig {
     /// World name.
     pub name: String,
     /// Simulated time per step (µs).
     pub interval_sim_us: u64,
-    /// Stop at this simulated time (µs); 0 = never.
+    /// Quit time (µs); 0 = never.
     pub quit_time_us: u64,
-    /// Stage's grid cell size (m): reported as ranger `range_res`; geometry here is exact.
+    /// Stage's grid resolution (m).
     pub resolution: f64,
     /// Target multiple of real time; ≤ 0 = as fast as possible.
     pub speedup: f64,
     /// Start paused (GUI).
     pub paused: bool,
-    /// Worker threads requested by the file (we use rayon's pool; kept for reporting).
+    /// `threads` from the file (informational: the step uses rayon's pool).
     pub threads: usize,
     /// Print the clock.
     pub show_clock: bool,
     /// Clock printing period (updates).
     pub show_clock_interval: u64,
+}
+
+
+/// A world: its settings and its model tree. The default settings are the worldfile crate's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorldDesc {
+    /// World-level settings.
+    pub config: WorldConfig,
     /// Models in pre-order (parents before children).
     pub models: Vec<ModelDesc>,
 }
@@ -151,15 +159,17 @@ impl WorldDesc {
     /// World-level settings with an empty model list.
     pub(crate) fn from_settings(s: &worldfile::world::WorldSettings, name: String) -> WorldDesc {
         WorldDesc {
-            name,
-            interval_sim_us: s.interval_sim_usec().max(1),
-            quit_time_us: s.quit_time_usec(),
-            resolution: s.resolution,
-            speedup: s.speedup,
-            paused: s.paused,
-            threads: s.threads.max(1) as usize,
-            show_clock: s.show_clock,
-            show_clock_interval: s.show_clock_interval.max(1) as u64,
+            config: WorldConfig {
+                name,
+                interval_sim_us: s.interval_sim_usec().max(1),
+                quit_time_us: s.quit_time_usec(),
+                resolution: s.resolution,
+                speedup: s.speedup,
+                paused: s.paused,
+                threads: s.threads.max(1) as usize,
+                show_clock: s.show_clock,
+                show_clock_interval: s.show_clock_interval.max(1) as u64,
+            },
             models: Vec::new(),
         }
     }

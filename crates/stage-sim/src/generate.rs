@@ -8,11 +8,9 @@ use crate::rng::SimRng;
 
 /// A world of `n` swarm robots (about 1 m² of floor each) in a square walled arena.
 pub fn swarm_world(n: usize, seed: u64) -> WorldDesc {
-    let mut d = WorldDesc {
-        name: format!("swarm{n}"),
-        speedup: -1.0,
-        ..WorldDesc::default()
-    };
+    let mut d = WorldDesc::default();
+    d.config.name = format!("swarm{n}");
+    d.config.speedup = -1.0;
     let side = ((n as f64).sqrt().ceil() * 1.0).max(2.0);
     let half = side / 2.0 + 0.5;
     // arena walls as one static floorplan-like model with four blocks

@@ -316,10 +316,8 @@ fn unsubscribed_models_do_not_move_or_sense() {
 
 #[test]
 fn update_interval_rounds_up_to_world_steps_and_quit_time_overshoots() {
-    let mut d = WorldDesc {
-        quit_time_us: 350_000,
-        ..WorldDesc::default()
-    };
+    let mut d = WorldDesc::default();
+    d.config.quit_time_us = 350_000;
     let r = d.add(robot("r", 0.0, 0.0, 0.0, Drive::Diff), None);
     let mut l = laser(1, 0.0, 8.0);
     l.update_interval_us = 150_000;

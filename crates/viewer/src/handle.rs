@@ -383,10 +383,8 @@ mod tests {
     use stage_sim::{KindDesc, ModelDesc, WorldDesc};
 
     fn world() -> (World, WorldGui) {
-        let mut d = WorldDesc {
-            quit_time_us: 1_000_000,
-            ..WorldDesc::default()
-        };
+        let mut d = WorldDesc::default();
+        d.config.quit_time_us = 1_000_000;
         d.add(ModelDesc::new("box", KindDesc::Model), None);
         let gui = WorldGui::from_desc(&d);
         (World::from_desc(&d, 1).unwrap(), gui)

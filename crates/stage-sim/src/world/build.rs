@@ -16,7 +16,7 @@ use super::*;
 impl World {
     /// Builds a world from a description; `seed` drives every random choice.
     pub fn from_desc(desc: &WorldDesc, seed: u64) -> Result<World> {
-        if desc.interval_sim_us == 0 {
+        if desc.config.interval_sim_us == 0 {
             return Err(Error::InvalidWorld("interval_sim must be positive".into()));
         }
         let n = desc.models.len();
@@ -136,15 +136,9 @@ impl World {
 
         let mut world = World {
             cfg: WorldConfig {
-                name: desc.name.clone(),
-                interval_sim_us: desc.interval_sim_us,
-                quit_time_us: desc.quit_time_us,
-                resolution: desc.resolution,
-                speedup: desc.speedup,
-                paused: desc.paused,
-                threads: desc.threads.max(1),
-                show_clock: desc.show_clock,
-                show_clock_interval: desc.show_clock_interval.max(1),
+                threads: desc.config.threads.max(1),
+                show_clock_interval: desc.config.show_clock_interval.max(1),
+                ..desc.config.clone()
             },
             seed,
             sim_time: 0,

@@ -23,6 +23,7 @@ use crate::pose::Pose;
 use crate::rng::SimRng;
 use crate::space::Space;
 
+pub use crate::desc::WorldConfig;
 pub use crate::node::{LocalBlock, ModelId, Node};
 pub(crate) use crate::view::View;
 
@@ -36,29 +37,6 @@ pub(crate) struct ModelState {
     updated_at: Option<u64>,
     rng: SimRng,
     kind: KindState,
-}
-
-/// World-level settings in internal units.
-#[derive(Clone, Debug, PartialEq)]
-pub struct WorldConfig {
-    /// World name.
-    pub name: String,
-    /// Simulated time per step (µs).
-    pub interval_sim_us: u64,
-    /// Quit time (µs); 0 = never.
-    pub quit_time_us: u64,
-    /// Stage's grid resolution (m).
-    pub resolution: f64,
-    /// Target multiple of real time; ≤ 0 = as fast as possible.
-    pub speedup: f64,
-    /// Start paused (GUI).
-    pub paused: bool,
-    /// `threads` from the file (informational: the step uses rayon's pool).
-    pub threads: usize,
-    /// Print the clock.
-    pub show_clock: bool,
-    /// Clock printing period (updates).
-    pub show_clock_interval: u64,
 }
 
 struct ControllerSlot {

@@ -43,7 +43,7 @@ for _name in dir(_pc):
     if _name.startswith("PLAYER_") and _name.endswith("_CODE"):
         globals()[_name] = getattr(_pc, _name)
 
-PLAYER_PORTNUM = 6665
+PLAYER_PORTNUM = _native.DEFAULT_PORT
 PLAYER_HOSTNAME = "localhost"
 
 

@@ -516,7 +516,7 @@ class Client:
     def __init__(
         self,
         host: str = "localhost",
-        port: int = 6665,
+        port: int = _native.DEFAULT_PORT,
         *,
         push: bool = False,
         request_timeout: float = 5.0,

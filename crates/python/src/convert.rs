@@ -44,6 +44,18 @@ pub fn bbox3d(b: &Bbox3d) -> [f64; 3] {
     [b.sw, b.sl, b.sh]
 }
 
+/// A device's pose and size as libplayerc's geometry fields: `{pose: [6], size: [3]}`.
+pub fn pose_size<'py>(
+    py: Python<'py>,
+    pose: &Pose3d,
+    size: &Bbox3d,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("pose", pose3d(pose))?;
+    d.set_item("size", bbox3d(size))?;
+    Ok(d)
+}
+
 /// A ranger's geometry: `device_pose`, `device_size`, `element_poses`, `element_sizes`
 /// (libplayerc's `playerc_ranger_t` names).
 pub fn ranger_geom<'py>(py: Python<'py>, g: &RangerGeom) -> PyResult<Bound<'py, PyDict>> {

@@ -218,12 +218,7 @@ pub struct LaserPoseInterpolator {
 impl LaserPoseInterpolator {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<LaserPoseInterpolator, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::LASER)
-            .ok_or_else(|| DriverError::new("must provide a laser device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::LASER)?;
         let laser = block.required(InterfaceCode::LASER, None)?.addr;
         if laser.same_device(&addr) {
             return Err(DriverError::new("attempt to subscribe to self"));
@@ -285,9 +280,7 @@ impl Driver for LaserPoseInterpolator {
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(LaserPoseInterpolator::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, LaserPoseInterpolator::from_block);
 }
 
 #[cfg(test)]

@@ -45,9 +45,7 @@ const FREE_BELOW: f64 = 0.1;
 
 /// Registers `mapfile`.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(MapFile::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, MapFile::from_block);
 }
 
 /// The options of a `mapfile` block.

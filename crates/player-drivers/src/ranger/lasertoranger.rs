@@ -42,9 +42,7 @@ pub const NAME: &str = "lasertoranger";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(LaserToRanger::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, LaserToRanger::from_block);
 }
 
 /// The ranger requests this driver answers (its CAPABILITIES).

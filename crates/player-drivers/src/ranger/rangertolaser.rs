@@ -40,9 +40,7 @@ pub const NAME: &str = "rangertolaser";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(RangerToLaser::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, RangerToLaser::from_block);
 }
 
 /// The laser requests this driver answers (its CAPABILITIES).

@@ -32,9 +32,7 @@ pub const NAME: &str = "sonartoranger";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(SonarToRanger::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, SonarToRanger::from_block);
 }
 
 /// The ranger requests this driver lists in its CAPABILITIES (upstream answers GET_CONFIG

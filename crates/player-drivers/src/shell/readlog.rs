@@ -52,9 +52,7 @@ const OUTBOX_LIMIT: usize = 1024;
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(ReadLog::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, ReadLog::from_block);
 }
 
 /// A line of a log that could not be replayed, with where it is.

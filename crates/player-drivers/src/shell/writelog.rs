@@ -46,9 +46,7 @@ pub const NAME: &str = "writelog";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(WriteLog::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, WriteLog::from_block);
 }
 
 /// An open log: plain text (flushed after every line, as upstream) or gzip.

@@ -384,12 +384,7 @@ impl std::fmt::Debug for Wavefront {
 impl Wavefront {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<Wavefront, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::PLANNER)
-            .ok_or_else(|| DriverError::new("must provide a planner device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::PLANNER)?;
         let output = block
             .required(InterfaceCode::POSITION2D, Some("output"))?
             .addr;
@@ -835,9 +830,7 @@ impl Driver for Wavefront {
 
 /// Registers `wavefront`.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Wavefront::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Wavefront::from_block);
 }
 
 #[cfg(test)]

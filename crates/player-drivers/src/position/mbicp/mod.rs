@@ -215,12 +215,7 @@ pub struct Mbicp {
 impl Mbicp {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<Mbicp, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::POSITION2D)
-            .ok_or_else(|| DriverError::new("must provide a position2d device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::POSITION2D)?;
         let odom = block.required(InterfaceCode::POSITION2D, None)?.addr;
         if odom.same_device(&addr) {
             return Err(DriverError::new("attempt to subscribe to self"));
@@ -316,9 +311,7 @@ impl Driver for Mbicp {
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Mbicp::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Mbicp::from_block);
 }
 
 #[cfg(test)]

@@ -502,12 +502,7 @@ pub struct Nd {
 impl Nd {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<Nd, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::POSITION2D)
-            .ok_or_else(|| DriverError::new("must provide a position2d device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::POSITION2D)?;
         let output = block
             .required(InterfaceCode::POSITION2D, Some("output"))?
             .addr;
@@ -754,9 +749,7 @@ impl Driver for Nd {
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Nd::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Nd::from_block);
 }
 
 #[cfg(test)]

@@ -150,12 +150,7 @@ pub struct Snd {
 impl Snd {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<Snd, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::POSITION2D)
-            .ok_or_else(|| DriverError::new("must provide a position2d device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::POSITION2D)?;
         let laser = block.required(InterfaceCode::LASER, None)?.addr;
         let input = block
             .required(InterfaceCode::POSITION2D, Some("input"))?
@@ -268,9 +263,7 @@ impl Driver for Snd {
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Snd::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Snd::from_block);
 }
 
 #[cfg(test)]

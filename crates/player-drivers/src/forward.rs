@@ -77,6 +77,34 @@ impl Waiting<PendingReply> {
     }
 }
 
+/// The `handle_request` and `handle_reply` of a driver that passes every request to one of
+/// its input devices, `self.$device`, and sends the answer back unchanged (tracked in
+/// `self.waiting`, a `Waiting<PendingReply>`): upstream's filters that sit in front of a
+/// device (`laserposeinterpolator`, `mbicp`, `snd`) answer their clients so. Used inside the
+/// driver's `impl Driver`.
+macro_rules! pass_requests_to {
+    ($device:ident) => {
+        fn handle_request(
+            &mut self,
+            ctx: &mut player_server::Context<'_>,
+            request: &player_proto::Message,
+        ) -> player_server::Reply {
+            self.waiting
+                .forward(ctx, self.$device, request.body.clone(), |p| p)
+        }
+
+        fn handle_reply(
+            &mut self,
+            ctx: &mut player_server::Context<'_>,
+            ticket: player_server::RequestTicket,
+            reply: Result<player_proto::Message, player_server::RequestError>,
+        ) {
+            self.waiting.pass_back(ctx, ticket, reply);
+        }
+    };
+}
+pub(crate) use pass_requests_to;
+
 /// The answer of a device, passed on unchanged: its ACK body (or an empty ACK), else a NACK.
 /// Whatever kept the device from answering (gone, failed) is a NACK to the requester, as a
 /// client of upstream would see (or time out waiting for).

@@ -17,10 +17,7 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScan, LaserDataScanpose, LaserMsg,
     Message, Pose2d, Position2dData, Position2dMsg,
 };
-use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
-};
+use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
 
 use crate::forward::Waiting;
 
@@ -263,19 +260,7 @@ impl Driver for LaserPoseInterpolator {
         }
     }
 
-    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        self.waiting
-            .forward(ctx, self.laser, request.body.clone(), |p| p)
-    }
-
-    fn handle_reply(
-        &mut self,
-        ctx: &mut Context<'_>,
-        ticket: RequestTicket,
-        reply: Result<Message, RequestError>,
-    ) {
-        self.waiting.pass_back(ctx, ticket, reply);
-    }
+    crate::forward::pass_requests_to!(laser);
 }
 
 /// Registers the driver under its Player name.

@@ -28,10 +28,7 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScanpose, LaserMsg, Message, Pose2d,
     Position2dCmd, Position2dCmdVel, Position2dData, Position2dMsg,
 };
-use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
-};
+use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
 
 use crate::forward::Waiting;
 use alg::{Frame, Outcome, Params, Reading};
@@ -294,19 +291,7 @@ impl Driver for Mbicp {
         ctx.command(self.odom, command.body.clone());
     }
 
-    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        self.waiting
-            .forward(ctx, self.odom, request.body.clone(), |p| p)
-    }
-
-    fn handle_reply(
-        &mut self,
-        ctx: &mut Context<'_>,
-        ticket: RequestTicket,
-        reply: Result<Message, RequestError>,
-    ) {
-        self.waiting.pass_back(ctx, ticket, reply);
-    }
+    crate::forward::pass_requests_to!(odom);
 }
 
 /// Registers the driver under its Player name.

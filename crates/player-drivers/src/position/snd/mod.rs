@@ -21,10 +21,7 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserMsg, Message, Pose2d, Position2dCmd,
     Position2dCmdVel, Position2dData, Position2dMsg,
 };
-use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
-};
+use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
 
 use crate::error::Error;
 use crate::forward::Waiting;
@@ -246,19 +243,7 @@ impl Driver for Snd {
         }
     }
 
-    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        self.waiting
-            .forward(ctx, self.output, request.body.clone(), |p| p)
-    }
-
-    fn handle_reply(
-        &mut self,
-        ctx: &mut Context<'_>,
-        ticket: RequestTicket,
-        reply: Result<Message, RequestError>,
-    ) {
-        self.waiting.pass_back(ctx, ticket, reply);
-    }
+    crate::forward::pass_requests_to!(output);
 }
 
 /// Registers the driver under its Player name.

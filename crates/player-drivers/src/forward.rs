@@ -119,6 +119,43 @@ pub(crate) fn passed_on(reply: Result<Message, RequestError>) -> Reply {
     }
 }
 
+/// The body of a device's answer (`None` when it refused or could not answer).
+pub(crate) fn answer_body(reply: &Result<Message, RequestError>) -> Option<&Body> {
+    reply.as_ref().ok().map(|m| &m.body)
+}
+
+/// An empty ACK when the device acknowledged, else a NACK: for requests whose answer carries
+/// nothing the requester needs (POWER).
+pub(crate) fn acked(reply: &Result<Message, RequestError>) -> Reply {
+    match reply {
+        Ok(_) => Reply::empty_ack(),
+        Err(_) => Reply::Nack,
+    }
+}
+
+/// An ACK with `body` when the driver could make one from the device's answer, else a NACK.
+pub(crate) fn ack_or_nack(body: Option<impl Into<Body>>) -> Reply {
+    body.map_or(Reply::Nack, Reply::ack)
+}
+
+/// What every converter does first with a request (upstream's `ToRanger` / `FromRanger`
+/// `ProcessMessage`): a property request goes to the `input` device as it is, its answer
+/// later found as `property(pending)` in `waiting`; a CAPABILITIES request is answered for the
+/// `handled` subtypes. `None` for any other request: the converter's own to handle.
+pub(crate) fn converter_request<K>(
+    ctx: &mut Context<'_>,
+    waiting: &mut Waiting<K>,
+    input: player_proto::DeviceAddr,
+    body: &Body,
+    handled: &[u8],
+    property: fn(PendingReply) -> K,
+) -> Option<Reply> {
+    if is_forwarded_property(body) {
+        return Some(waiting.forward(ctx, input, body.clone(), property));
+    }
+    capability_reply(body, handled)
+}
+
 /// Whether `body` is one of the property requests upstream's `ToRanger` / `FromRanger` base
 /// classes pass to their input device (integer, double and string properties; booleans
 /// are not among them in 3.0.2).

@@ -161,6 +161,14 @@ impl Shared {
         // A worker that panicked leaves the state as it was; keep serving it.
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
+
+    /// Waits up to `timeout` for a change of the state (a poisoned lock kept, as in `lock`).
+    fn wait<'a>(&'a self, st: MutexGuard<'a, State>, timeout: Duration) -> MutexGuard<'a, State> {
+        self.changed
+            .wait_timeout(st, timeout)
+            .map(|(g, _)| g)
+            .unwrap_or_else(|e| e.into_inner().0)
+    }
 }
 
 /// What `player --fast` does to a cfg's `readlog` blocks: replay without waiting between
@@ -300,10 +308,7 @@ impl Replay {
                 }
                 if !st.enabled {
                     anchor = None;
-                    let _ = self
-                        .shared
-                        .changed
-                        .wait_timeout(st, Duration::from_millis(100));
+                    drop(self.shared.wait(st, Duration::from_millis(100)));
                     continue;
                 }
             }
@@ -317,12 +322,7 @@ impl Replay {
                 // Stop (clients polling the log device see it), and wait for a rewind.
                 st.enabled = false;
                 while !st.rewind_requested && !st.stop {
-                    st = self
-                        .shared
-                        .changed
-                        .wait_timeout(st, Duration::from_millis(100))
-                        .map(|(g, _)| g)
-                        .unwrap_or_else(|e| e.into_inner().0);
+                    st = self.shared.wait(st, Duration::from_millis(100));
                 }
                 continue;
             };
@@ -388,12 +388,7 @@ impl Replay {
                 // Paused while waiting: this message goes out when replay resumes.
                 *anchor = None;
                 while !st.enabled && !st.stop && !st.rewind_requested {
-                    st = self
-                        .shared
-                        .changed
-                        .wait_timeout(st, Duration::from_millis(100))
-                        .map(|(g, _)| g)
-                        .unwrap_or_else(|e| e.into_inner().0);
+                    st = self.shared.wait(st, Duration::from_millis(100));
                 }
                 if st.enabled {
                     *anchor = Some((Instant::now(), time));
@@ -405,12 +400,7 @@ impl Replay {
             if now >= due {
                 return Waited::Due;
             }
-            st = self
-                .shared
-                .changed
-                .wait_timeout(st, due - now)
-                .map(|(g, _)| g)
-                .unwrap_or_else(|e| e.into_inner().0);
+            st = self.shared.wait(st, due - now);
         }
     }
 
@@ -420,12 +410,7 @@ impl Replay {
             if let Some(w) = &self.waker {
                 w.wake();
             }
-            st = self
-                .shared
-                .changed
-                .wait_timeout(st, Duration::from_millis(50))
-                .map(|(g, _)| g)
-                .unwrap_or_else(|e| e.into_inner().0);
+            st = self.shared.wait(st, Duration::from_millis(50));
         }
         st.outbox.push_back((addr, body, time));
         drop(st);

@@ -340,6 +340,27 @@ impl WriteLog {
     }
 
     /// Formats one message of `device` and writes (or holds) its line.
+    /// Records `device`'s ACK to the driver's own request for its `what` (geometry,
+    /// particles), or warns that it gave none; `hold` as in [`WriteLog::record`].
+    fn record_answer(
+        &mut self,
+        device: &DeviceAddr,
+        reply: Result<Message, RequestError>,
+        what: &str,
+        hold: bool,
+    ) {
+        match reply {
+            Ok(msg) => self.record(
+                device,
+                MsgType::RespAck.code(),
+                &msg.body,
+                msg.header.timestamp,
+                hold,
+            ),
+            Err(e) => tracing::warn!("{NAME}: unable to get the {what} of {device}: {e}"),
+        }
+    }
+
     fn record(&mut self, device: &DeviceAddr, msg_type: u8, body: &Body, time: f64, hold: bool) {
         let (line, result) = logformat::encode_line(time, device, msg_type, body, self.options);
         if let Err(why) = result
@@ -456,31 +477,13 @@ impl Driver for WriteLog {
         reply: Result<Message, RequestError>,
     ) {
         if let Some(device) = self.particles_pending.remove(&ticket) {
-            match reply {
-                Ok(msg) => self.record(
-                    &device,
-                    MsgType::RespAck.code(),
-                    &msg.body,
-                    msg.header.timestamp,
-                    true,
-                ),
-                Err(e) => tracing::warn!("{NAME}: unable to get the particles of {device}: {e}"),
-            }
+            self.record_answer(&device, reply, "particles", true);
             return;
         }
         let Some(device) = self.geometry_pending.remove(&ticket) else {
             return;
         };
-        match reply {
-            Ok(msg) => self.record(
-                &device,
-                MsgType::RespAck.code(),
-                &msg.body,
-                msg.header.timestamp,
-                false,
-            ),
-            Err(e) => tracing::warn!("{NAME}: unable to get the geometry of {device}: {e}"),
-        }
+        self.record_answer(&device, reply, "geometry", false);
         if self.geometry_pending.is_empty() {
             self.flush_held();
         }

@@ -8,7 +8,7 @@
 use crate::color::{ColorSpec, Rgba};
 use crate::document::{Document, EntityId, Property, Value};
 use crate::error::{Error, ErrorKind, Warning};
-use crate::numeric::{atof, atoi};
+use crate::numeric::{Prefix, atof, atoi};
 
 /// A 2D-plus-height pose `[x y z a]` in metres and radians (heading normalised to [-π, π]).
 pub type Pose = [f64; 4];
@@ -99,33 +99,29 @@ impl<'d, 'w> Reader<'d, 'w> {
 
     /// `atof` of one value, as an error if there is no number and a warning if there is junk.
     fn number(&mut self, p: &Property, v: &Value) -> Result<f64, Error> {
-        match atof(&v.text) {
-            Some(n) => {
-                if !n.complete {
-                    let msg = format!(
-                        "`{}` value `{}` is read as {} (the rest is ignored, as in Stage)",
-                        p.name, v.text, n.value
-                    );
-                    self.warn_at(p, msg);
-                }
-                Ok(n.value)
-            }
-            None => Err(self.error(
-                ErrorKind::NotANumber {
-                    name: p.name.to_string(),
-                    text: v.text.to_string(),
-                },
-                v,
-            )),
-        }
+        let parsed = atof(&v.text);
+        self.prefix_value(p, v, parsed, false)
     }
 
     /// `atoi` of one value (a clean decimal such as `180.0` truncates silently, like Stage).
     fn integer(&mut self, p: &Property, v: &Value) -> Result<i64, Error> {
-        match atoi(&v.text) {
+        let parsed = atoi(&v.text);
+        let clean_float = atof(&v.text).is_some_and(|f| f.complete);
+        self.prefix_value(p, v, parsed, clean_float)
+    }
+
+    /// The value C's `atof`/`atoi` read from `v` (`parsed`): an error when there is no number,
+    /// a warning when text follows it, unless `quiet`.
+    fn prefix_value<T: Copy + std::fmt::Display>(
+        &mut self,
+        p: &Property,
+        v: &Value,
+        parsed: Option<Prefix<T>>,
+        quiet: bool,
+    ) -> Result<T, Error> {
+        match parsed {
             Some(n) => {
-                let clean_float = atof(&v.text).is_some_and(|f| f.complete);
-                if !n.complete && !clean_float {
+                if !n.complete && !quiet {
                     let msg = format!(
                         "`{}` value `{}` is read as {} (the rest is ignored, as in Stage)",
                         p.name, v.text, n.value

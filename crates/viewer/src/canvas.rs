@@ -10,6 +10,22 @@ use crate::render::SceneRenderer;
 use crate::scene::{Rgba8, Scene};
 use crate::view::View;
 
+/// A screen point as canvas pixels from the canvas `rect`'s corner, as [`View`] takes them.
+pub fn local(rect: Rect, p: egui::Pos2) -> [f64; 2] {
+    [(p.x - rect.min.x) as f64, (p.y - rect.min.y) as f64]
+}
+
+/// Zooms `view` about the pointer by the mouse wheel or a pinch over the canvas `resp`: the
+/// world window and playerv zoom alike.
+pub fn zoom_on_scroll(view: &mut View, ui: &egui::Ui, resp: &egui::Response) {
+    if let Some(hover) = resp.hover_pos() {
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y + i.zoom_delta().ln() * 200.0);
+        if scroll != 0.0 {
+            view.zoom_at(local(resp.rect, hover), (scroll as f64 / 200.0).exp());
+        }
+    }
+}
+
 /// Adds the scene renderer to eframe's wgpu state (once, at start-up).
 pub fn install(rs: &egui_wgpu::RenderState) {
     let mut renderer = SceneRenderer::new(&rs.device, rs.target_format, 1);

@@ -191,10 +191,7 @@ impl Snd {
 impl Driver for Snd {
     fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
         self.nav.reset();
-        ctx.subscribe(self.input);
-        if !self.output.same_device(&self.input) {
-            ctx.subscribe(self.output);
-        }
+        super::subscribe_both(ctx, self.input, self.output);
         ctx.subscribe(self.laser);
         Ok(())
     }

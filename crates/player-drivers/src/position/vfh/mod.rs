@@ -251,12 +251,7 @@ impl VfhDriver {
         if odom.same_device(&addr) {
             return Err(DriverError::new("attempt to subscribe to self"));
         }
-        let laser = block
-            .optional_required(InterfaceCode::LASER, None)?
-            .map(|r| r.addr);
-        let sonar = block
-            .optional_required(InterfaceCode::SONAR, None)?
-            .map(|r| r.addr);
+        let (laser, sonar) = super::laser_and_sonar(block)?;
         let sensor = match (laser, sonar) {
             (Some(l), None) => RangeSensor::Laser(l),
             (None, Some(s)) => RangeSensor::Sonar(s),

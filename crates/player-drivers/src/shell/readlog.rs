@@ -34,8 +34,7 @@ use std::time::{Duration, Instant};
 
 use flate2::read::MultiGzDecoder;
 use player_proto::{
-    Body, DeviceAddr, InterfaceCode, LogGetState, LogMsg, LogReq, Message, MsgType,
-    PLAYER_LOG_TYPE_READ,
+    Body, DeviceAddr, InterfaceCode, LogMsg, LogReq, Message, MsgType, PLAYER_LOG_TYPE_READ,
 };
 use player_server::{
     Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply,
@@ -471,17 +470,10 @@ impl Driver for ReadLog {
             let mut st = self.shared.lock();
             let reply = match req {
                 LogReq::SetReadState(Some(s)) => {
-                    st.enabled = s.state != 0;
-                    tracing::info!(
-                        "{NAME}: {} playback",
-                        if st.enabled { "start" } else { "stop" }
-                    );
+                    super::switch_state(NAME, &mut st.enabled, s.state, "playback");
                     Reply::ack(LogReq::SetReadState(None))
                 }
-                LogReq::GetState(_) => Reply::ack(LogReq::GetState(Some(LogGetState {
-                    log_type: PLAYER_LOG_TYPE_READ,
-                    state: u8::from(st.enabled),
-                }))),
+                LogReq::GetState(_) => super::state_reply(PLAYER_LOG_TYPE_READ, st.enabled),
                 LogReq::SetReadRewind => {
                     st.rewind_requested = true;
                     Reply::ack(LogReq::SetReadRewind)
@@ -520,7 +512,7 @@ impl Drop for ReadLog {
 mod tests {
     use super::*;
     use crate::testing::{Harness, addr, block};
-    use player_proto::{LaserReq, LogSetReadState, Position2dData};
+    use player_proto::{LaserReq, LogGetState, LogSetReadState, Position2dData};
 
     fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
         std::fs::create_dir_all(dir).unwrap();

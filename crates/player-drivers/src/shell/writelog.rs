@@ -32,8 +32,8 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use flate2::Compression;
 use flate2::write::GzEncoder;
 use player_proto::{
-    Body, CameraData, CameraMsg, DeviceAddr, InterfaceCode, LaserReq, LocalizeReq, LogGetState,
-    LogMsg, LogReq, Message, MsgType, PLAYER_LOG_TYPE_WRITE, Position2dReq, RangerReq, SonarReq,
+    Body, CameraData, CameraMsg, DeviceAddr, InterfaceCode, LaserReq, LocalizeReq, LogMsg, LogReq,
+    Message, MsgType, PLAYER_LOG_TYPE_WRITE, Position2dReq, RangerReq, SonarReq,
 };
 use player_server::{
     Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply, RequestError, RequestTicket,
@@ -441,17 +441,10 @@ impl Driver for WriteLog {
         };
         match req {
             LogReq::SetWriteState(Some(s)) => {
-                self.enabled = s.state != 0;
-                tracing::info!(
-                    "{NAME}: {} logging",
-                    if self.enabled { "start" } else { "stop" }
-                );
+                super::switch_state(NAME, &mut self.enabled, s.state, "logging");
                 Reply::ack(LogReq::SetWriteState(None))
             }
-            LogReq::GetState(_) => Reply::ack(LogReq::GetState(Some(LogGetState {
-                log_type: PLAYER_LOG_TYPE_WRITE,
-                state: u8::from(self.enabled),
-            }))),
+            LogReq::GetState(_) => super::state_reply(PLAYER_LOG_TYPE_WRITE, self.enabled),
             LogReq::SetFilename(Some(f)) => {
                 if self.enabled {
                     tracing::warn!("{NAME}: tried to switch filenames while logging");
@@ -524,7 +517,7 @@ mod tests {
     use super::*;
     use crate::testing::{Harness, addr, block};
     use player_proto::{
-        LaserData, LaserDataScan, LaserGeom, LogSetFilename, LogSetWriteState, Pose2d,
+        LaserData, LaserDataScan, LaserGeom, LogGetState, LogSetFilename, LogSetWriteState, Pose2d,
         Position2dData, Position2dDataState, Text,
     };
 

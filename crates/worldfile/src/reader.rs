@@ -229,13 +229,9 @@ impl<'d, 'w> Reader<'d, 'w> {
         format: &str,
     ) -> Result<Option<[f64; N]>, Error> {
         debug_assert_eq!(format.len(), N);
-        let Some(p) = self.prop(name) else {
+        let Some(p) = self.tuple(name, N)? else {
             return Ok(None);
         };
-        if p.values.len() < N {
-            return Err(self.too_short(p, N));
-        }
-        self.warn_extra(p, N);
         let mut out = [0.0; N];
         for (i, f) in format.bytes().enumerate() {
             out[i] = self.number(p, &p.values[i])? * self.scale(f);
@@ -245,13 +241,9 @@ impl<'d, 'w> Reader<'d, 'w> {
 
     /// `ReadTuple` with integer formats `i`/`u`.
     pub fn ints<const N: usize>(&mut self, name: &str) -> Result<Option<[i64; N]>, Error> {
-        let Some(p) = self.prop(name) else {
+        let Some(p) = self.tuple(name, N)? else {
             return Ok(None);
         };
-        if p.values.len() < N {
-            return Err(self.too_short(p, N));
-        }
-        self.warn_extra(p, N);
         let mut out = [0; N];
         for (i, o) in out.iter_mut().enumerate() {
             *o = self.integer(p, &p.values[i])?;
@@ -264,14 +256,23 @@ impl<'d, 'w> Reader<'d, 'w> {
         &mut self,
         name: &str,
     ) -> Result<Option<[String; N]>, Error> {
+        let Some(p) = self.tuple(name, N)? else {
+            return Ok(None);
+        };
+        Ok(Some(std::array::from_fn(|i| p.values[i].text.to_string())))
+    }
+
+    /// The property `name` as a tuple of `n` values (`ReadTuple`): too few is an error, more
+    /// than `n` a warning that the rest are ignored.
+    fn tuple(&mut self, name: &str, n: usize) -> Result<Option<&'d Property>, Error> {
         let Some(p) = self.prop(name) else {
             return Ok(None);
         };
-        if p.values.len() < N {
-            return Err(self.too_short(p, N));
+        if p.values.len() < n {
+            return Err(self.too_short(p, n));
         }
-        self.warn_extra(p, N);
-        Ok(Some(std::array::from_fn(|i| p.values[i].text.to_string())))
+        self.warn_extra(p, n);
+        Ok(Some(p))
     }
 
     fn warn_extra(&mut self, p: &Property, n: usize) {

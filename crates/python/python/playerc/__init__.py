@@ -766,11 +766,8 @@ class playerc_simulation(_device):
 
     def get_pose2d(self, name):
         """``[result, x, y, a]``: the C function's int and its three OUTPUT doubles."""
-        try:
-            x, y, a = self._conn().simulation_get_pose2d(self.index, name)
-            return [0, x, y, a]
-        except _native.PlayerError as e:
-            return [_fail(e), 0.0, 0.0, 0.0]
+        p = self._answer("simulation_get_pose2d", name)
+        return [-1, 0.0, 0.0, 0.0] if p is None else [0, *p]
 
     def set_pose3d(self, name, gx, gy, gz, groll, gpitch, gyaw):
         return self._call(
@@ -782,11 +779,11 @@ class playerc_simulation(_device):
 
     def get_pose3d(self, name):
         """``[result, x, y, z, roll, pitch, yaw, time]``."""
-        try:
-            p, t = self._conn().simulation_get_pose3d(self.index, name)
-            return [0, *p, t]
-        except _native.PlayerError as e:
-            return [_fail(e)] + [0.0] * 7
+        answer = self._answer("simulation_get_pose3d", name)
+        if answer is None:
+            return [-1] + [0.0] * 7
+        p, t = answer
+        return [0, *p, t]
 
     def set_property(self, name, property, value):
         """``value``: bytes of the property's C value."""
@@ -796,11 +793,8 @@ class playerc_simulation(_device):
 
     def get_property(self, name, property, value_len=16):
         """``[result, bytes]``."""
-        try:
-            v = self._conn().simulation_get_property(self.index, name, property, value_len)
-            return [0, v]
-        except _native.PlayerError as e:
-            return [_fail(e), b""]
+        v = self._answer("simulation_get_property", name, property, value_len)
+        return [-1, b""] if v is None else [0, v]
 
     def pause(self):
         return self._call(self._conn().simulation_cmd, self.index, "pause")
@@ -928,10 +922,10 @@ class playerc_map(_device):
         self.segments = []
 
     def get_map(self):
-        try:
-            info, cells = self._conn().map_get_map(self.index)
-        except _native.PlayerError as e:
-            return _fail(e)
+        answer = self._answer("map_get_map")
+        if answer is None:
+            return -1
+        info, cells = answer
         self.__dict__.update(info)
         self.cells = [c - 256 if c > 127 else c for c in cells]
         return 0
@@ -959,12 +953,12 @@ class playerc_planner(_device):
         return self._call(self._conn().planner_set_cmd_pose, self.index, [gx, gy, ga])
 
     def get_waypoints(self):
-        try:
-            self.waypoints = self._conn().planner_get_waypoints(self.index)
-            self.waypoint_count = len(self.waypoints)
-            return 0
-        except _native.PlayerError as e:
-            return _fail(e)
+        waypoints = self._answer("planner_get_waypoints")
+        if waypoints is None:
+            return -1
+        self.waypoints = waypoints
+        self.waypoint_count = len(waypoints)
+        return 0
 
     def enable(self, state):
         return self._call(self._conn().planner_enable, self.index, bool(state))

@@ -26,13 +26,19 @@ pub fn zoom_on_scroll(view: &mut View, ui: &egui::Ui, resp: &egui::Response) {
     }
 }
 
-/// Adds the scene renderer to eframe's wgpu state (once, at start-up).
-pub fn install(rs: &egui_wgpu::RenderState) {
+/// Adds the scene renderer to a starting eframe app's wgpu state (once, at start-up); an error
+/// when eframe runs without wgpu.
+pub fn install(cc: &eframe::CreationContext<'_>) -> Result<(), &'static str> {
+    let rs = cc
+        .wgpu_render_state
+        .as_ref()
+        .ok_or("eframe started without wgpu")?;
     let mut renderer = SceneRenderer::new(&rs.device, rs.target_format, 1);
     renderer.set_fan_coverage(crate::render::fan_coverage_for(
         rs.adapter.get_info().device_type,
     ));
     rs.renderer.write().callback_resources.insert(renderer);
+    Ok(())
 }
 
 struct SceneCallback {

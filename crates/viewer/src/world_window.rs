@@ -106,11 +106,7 @@ pub fn run(handle: WorldHandle, options: WindowOptions) -> Result<(), ViewerErro
         &title,
         native_options(&title, size),
         Box::new(move |cc| {
-            let rs = cc
-                .wgpu_render_state
-                .as_ref()
-                .ok_or("eframe started without wgpu")?;
-            canvas::install(rs);
+            canvas::install(cc)?;
             Ok(Box::new(WorldApp::new(h2, view, options, res2)))
         }),
     );

@@ -130,11 +130,7 @@ pub fn run(options: PlayervOptions) -> Result<(), ViewerError> {
         &title,
         crate::world_window::native_options(&title, [900.0, 640.0]),
         Box::new(move |cc| {
-            let rs = cc
-                .wgpu_render_state
-                .as_ref()
-                .ok_or("eframe started without wgpu")?;
-            canvas::install(rs);
+            canvas::install(cc)?;
             let servers = std::iter::once((options.host.clone(), options.port))
                 .chain(options.more_servers.clone());
             let workers = servers

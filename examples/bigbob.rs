@@ -35,7 +35,7 @@ struct Options {
 fn options() -> Result<Options, String> {
     let mut o = Options {
         host: "localhost".into(),
-        port: 6665,
+        port: player_client::DEFAULT_PORT,
         iterations: None,
         robot: "bob1".into(),
     };

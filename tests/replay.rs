@@ -453,14 +453,22 @@ fn replay_pair(a: &Path, b: &Path, cfg: &Path) {
     }
 }
 
-fn replay_named(filter: impl Fn(&str) -> bool) -> usize {
-    let Some((paths, cfg)) = sessions() else {
-        return 0;
-    };
+/// Replays the sessions whose file name passes `filter` and returns how many it replayed; with
+/// the recordings present it fails unless that is every such session and at least one, so a
+/// filter or loop that silently skips sessions cannot pass. `None` when the recordings are
+/// absent (`shared` has said why).
+fn replay_named(filter: impl Fn(&str) -> bool) -> Option<usize> {
+    let (paths, cfg) = sessions()?;
+    let file_name = |p: &Path| p.file_name().unwrap().to_string_lossy().to_string();
+    let expected = paths.iter().filter(|p| filter(&file_name(p))).count();
+    assert!(
+        expected > 0,
+        "no recorded session matches this test's files"
+    );
     let mut n = 0;
     let mut pairs: BTreeMap<PathBuf, Vec<PathBuf>> = BTreeMap::new();
     for p in paths {
-        let file = p.file_name().unwrap().to_string_lossy().to_string();
+        let file = file_name(&p);
         if !filter(&file) {
             continue;
         }
@@ -479,29 +487,72 @@ fn replay_named(filter: impl Fn(&str) -> bool) -> usize {
         replay_pair(&pair[0], &pair[1], &cfg);
         n += 2;
     }
-    n
+    assert_eq!(n, expected, "sessions replayed vs recorded");
+    Some(n)
+}
+
+fn libplayerc_files(f: &str) -> bool {
+    f.starts_with("c_") || f == "gripper.json" || f == "fiducial.json"
+}
+
+fn libplayerc_plus_plus_files(f: &str) -> bool {
+    f == "cpp_bigbob.json"
+}
+
+fn utility_files(f: &str) -> bool {
+    f == "playerprint.json" || f == "playerv.json"
+}
+
+fn two_port_files(f: &str) -> bool {
+    f.starts_with("two_ports_")
+}
+
+#[test]
+fn every_recorded_session_belongs_to_one_replay_test() {
+    let Some((paths, _)) = sessions() else {
+        return;
+    };
+    let groups = [
+        libplayerc_files,
+        libplayerc_plus_plus_files,
+        utility_files,
+        two_port_files,
+    ];
+    for p in &paths {
+        let f = p.file_name().unwrap().to_string_lossy();
+        let n = groups.iter().filter(|g| g(&f)).count();
+        assert_eq!(n, 1, "{}: replayed by {n} tests", p.display());
+    }
+    println!(
+        "{} recorded sessions, each replayed by one test",
+        paths.len()
+    );
 }
 
 #[test]
 fn libplayerc_sessions_replay() {
-    let n = replay_named(|f| f.starts_with("c_") || f == "gripper.json" || f == "fiducial.json");
-    println!("{n} libplayerc sessions replayed");
+    if let Some(n) = replay_named(libplayerc_files) {
+        println!("{n} libplayerc sessions replayed");
+    }
 }
 
 #[test]
 fn libplayerc_plus_plus_bigbob_session_replays() {
-    let n = replay_named(|f| f == "cpp_bigbob.json");
-    println!("{n} libplayerc++ sessions replayed");
+    if let Some(n) = replay_named(libplayerc_plus_plus_files) {
+        println!("{n} libplayerc++ sessions replayed");
+    }
 }
 
 #[test]
 fn playerprint_and_playerv_sessions_replay() {
-    let n = replay_named(|f| f == "playerprint.json" || f == "playerv.json");
-    println!("{n} utility sessions replayed");
+    if let Some(n) = replay_named(utility_files) {
+        println!("{n} utility sessions replayed");
+    }
 }
 
 #[test]
 fn two_port_sessions_replay_concurrently() {
-    let n = replay_named(|f| f.starts_with("two_ports_"));
-    println!("{n} two-port sessions replayed");
+    if let Some(n) = replay_named(two_port_files) {
+        println!("{n} two-port sessions replayed");
+    }
 }

@@ -50,7 +50,7 @@ def collect(sim, robot, collected):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--host", default="localhost")
-    ap.add_argument("--port", type=int, default=6665)
+    ap.add_argument("--port", type=int, default=playerstage.DEFAULT_PORT)
     ap.add_argument("--iterations", type=int, default=None)
     ap.add_argument("--collect", type=int, default=None)
     ap.add_argument("--robot", default="bob1")

@@ -24,8 +24,9 @@ use player_proto::{
 
 use crate::error::ClientError;
 
-/// The default Player port (`PLAYER_PORTNUM`).
-pub const DEFAULT_PORT: u16 = 6665;
+/// The default Player port (`PLAYER_PORTNUM`): player-proto's, re-exported so clients need not
+/// depend on the protocol crate for it.
+pub const DEFAULT_PORT: u16 = player_proto::constants::PLAYERTCP_DEFAULT_PORT;
 
 /// libplayerc's default request timeout.
 pub const DEFAULT_REQUEST_TIMEOUT: Duration = Duration::from_secs(5);

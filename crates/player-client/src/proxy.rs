@@ -20,6 +20,9 @@ pub struct ClientProxy {
     interf: InterfaceCode,
     index: u16,
     driver_name: String,
+    /// False for a handle made by [`ClientProxy::attach`]: it did not subscribe, so dropping
+    /// it must not end a subscription someone else holds.
+    subscribed: bool,
 }
 
 impl ClientProxy {
@@ -35,7 +38,22 @@ impl ClientProxy {
             interf,
             index,
             driver_name,
+            subscribed: true,
         })
+    }
+
+    /// A handle on (`interf`, `index`) for requests and commands that neither subscribes nor
+    /// unsubscribes: for callers that hold the subscription themselves (the Python bindings'
+    /// proxies), so that they use these typed requests instead of writing them again. Its
+    /// driver name is empty.
+    pub fn attach(client: &PlayerClient, interf: InterfaceCode, index: u16) -> ClientProxy {
+        ClientProxy {
+            client: client.clone(),
+            interf,
+            index,
+            driver_name: String::new(),
+            subscribed: false,
+        }
     }
 
     /// The client this proxy reads through.
@@ -238,9 +256,12 @@ impl ClientProxy {
 }
 
 impl Drop for ClientProxy {
-    /// Unsubscribes, as libplayerc++ proxy destructors do; errors (e.g. the server is gone)
+    /// Unsubscribes (a subscribing proxy), as libplayerc++ proxy destructors do; errors (e.g. the server is gone)
     /// are only logged.
     fn drop(&mut self) {
+        if !self.subscribed {
+            return;
+        }
         if let Err(e) = self.client.unsubscribe(self.interf, self.index) {
             tracing::debug!("unsubscribing {}:{} failed: {e}", self.interf, self.index);
         }
@@ -262,6 +283,13 @@ macro_rules! proxy {
                 Ok($name {
                     proxy: ClientProxy::subscribe(client, InterfaceCode::$code, index)?,
                 })
+            }
+
+            /// A handle on device `index` without subscribing ([`ClientProxy::attach`]).
+            pub fn attach(client: &PlayerClient, index: u16) -> $name {
+                $name {
+                    proxy: ClientProxy::attach(client, InterfaceCode::$code, index),
+                }
             }
         }
 

@@ -77,6 +77,34 @@ impl Waiting<PendingReply> {
     }
 }
 
+/// The `handle_request` and `handle_reply` of a driver that passes every request to one of
+/// its input devices, `self.$device`, and sends the answer back unchanged (tracked in
+/// `self.waiting`, a `Waiting<PendingReply>`): upstream's filters that sit in front of a
+/// device (`laserposeinterpolator`, `mbicp`, `snd`) answer their clients so. Used inside the
+/// driver's `impl Driver`.
+macro_rules! pass_requests_to {
+    ($device:ident) => {
+        fn handle_request(
+            &mut self,
+            ctx: &mut player_server::Context<'_>,
+            request: &player_proto::Message,
+        ) -> player_server::Reply {
+            self.waiting
+                .forward(ctx, self.$device, request.body.clone(), |p| p)
+        }
+
+        fn handle_reply(
+            &mut self,
+            ctx: &mut player_server::Context<'_>,
+            ticket: player_server::RequestTicket,
+            reply: Result<player_proto::Message, player_server::RequestError>,
+        ) {
+            self.waiting.pass_back(ctx, ticket, reply);
+        }
+    };
+}
+pub(crate) use pass_requests_to;
+
 /// The answer of a device, passed on unchanged: its ACK body (or an empty ACK), else a NACK.
 /// Whatever kept the device from answering (gone, failed) is a NACK to the requester, as a
 /// client of upstream would see (or time out waiting for).
@@ -89,6 +117,43 @@ pub(crate) fn passed_on(reply: Result<Message, RequestError>) -> Reply {
             Reply::Nack
         }
     }
+}
+
+/// The body of a device's answer (`None` when it refused or could not answer).
+pub(crate) fn answer_body(reply: &Result<Message, RequestError>) -> Option<&Body> {
+    reply.as_ref().ok().map(|m| &m.body)
+}
+
+/// An empty ACK when the device acknowledged, else a NACK: for requests whose answer carries
+/// nothing the requester needs (POWER).
+pub(crate) fn acked(reply: &Result<Message, RequestError>) -> Reply {
+    match reply {
+        Ok(_) => Reply::empty_ack(),
+        Err(_) => Reply::Nack,
+    }
+}
+
+/// An ACK with `body` when the driver could make one from the device's answer, else a NACK.
+pub(crate) fn ack_or_nack(body: Option<impl Into<Body>>) -> Reply {
+    body.map_or(Reply::Nack, Reply::ack)
+}
+
+/// What every converter does first with a request (upstream's `ToRanger` / `FromRanger`
+/// `ProcessMessage`): a property request goes to the `input` device as it is, its answer
+/// later found as `property(pending)` in `waiting`; a CAPABILITIES request is answered for the
+/// `handled` subtypes. `None` for any other request: the converter's own to handle.
+pub(crate) fn converter_request<K>(
+    ctx: &mut Context<'_>,
+    waiting: &mut Waiting<K>,
+    input: player_proto::DeviceAddr,
+    body: &Body,
+    handled: &[u8],
+    property: fn(PendingReply) -> K,
+) -> Option<Reply> {
+    if is_forwarded_property(body) {
+        return Some(waiting.forward(ctx, input, body.clone(), property));
+    }
+    capability_reply(body, handled)
 }
 
 /// Whether `body` is one of the property requests upstream's `ToRanger` / `FromRanger` base

@@ -31,6 +31,25 @@ pub fn length(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Err
     element(block, key, 0, "a length")
 }
 
+/// A length that must be given and positive, such as a map's resolution: `why` says what it
+/// is for when it is missing, `unit` (e.g. `m/pixel`) what it measures when it is not positive.
+pub fn positive_length(
+    block: &DriverBlock,
+    key: &'static str,
+    why: &'static str,
+    unit: &str,
+) -> Result<f64, Error> {
+    let value = length(block, key)?.ok_or(Error::MissingOption { option: key, why })?;
+    if !(value > 0.0 && value.is_finite()) {
+        return Err(Error::BadOption {
+            option: key,
+            value: value.to_string(),
+            why: format!("must be a positive length ({unit})"),
+        });
+    }
+    Ok(value)
+}
+
 /// `ReadTupleLength(key, index)`: element `index` of a tuple of lengths.
 pub fn tuple_length(
     block: &DriverBlock,

@@ -684,7 +684,14 @@ impl Core {
                     }
                     continue;
                 }
-                Due::At(at) => {
+                Due::At(_) | Due::Never => {
+                    // Until the next step is due, if any: Never waits for messages only.
+                    let step = async {
+                        match due {
+                            Due::At(at) => tokio::time::sleep_until(at.into()).await,
+                            _ => std::future::pending().await,
+                        }
+                    };
                     tokio::select! {
                         biased;
                         _ = self.stop.changed() => {}
@@ -693,18 +700,7 @@ impl Core {
                             None => break,
                         },
                         Some(d) = self.wakes.recv() => self.bus.wake(d),
-                        _ = tokio::time::sleep_until(at.into()) => {}
-                    }
-                }
-                Due::Never => {
-                    tokio::select! {
-                        biased;
-                        _ = self.stop.changed() => {}
-                        ev = self.events.recv() => match ev {
-                            Some(ev) => self.event(ev),
-                            None => break,
-                        },
-                        Some(d) = self.wakes.recv() => self.bus.wake(d),
+                        _ = step => {}
                     }
                 }
             }

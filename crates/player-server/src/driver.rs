@@ -97,6 +97,16 @@ impl DriverBlock {
         }
     }
 
+    /// The first provided device of `interface` (upstream's single-interface `Driver`
+    /// constructor); an error saying the block must provide one when there is none.
+    pub fn provided(&self, interface: InterfaceCode) -> Result<DeviceAddr, DriverError> {
+        self.provides
+            .iter()
+            .find(|p| p.addr.interf == interface)
+            .map(|p| p.addr)
+            .ok_or_else(|| DriverError::new(format!("must provide a {interface} device")))
+    }
+
     /// The required device of `interface` with `key` (Player's `ReadDeviceAddr(.., "requires",
     /// code, -1, key)`): the first entry of that interface whose key matches. `None` matches
     /// any entry of that interface, keyed or not, as upstream's NULL key does (so
@@ -579,6 +589,18 @@ impl DriverRegistry {
         factory: impl FnMut(&DriverBlock) -> Result<Box<dyn Driver>, DriverError> + Send + 'static,
     ) {
         self.factories.insert(name.into(), Box::new(factory));
+    }
+
+    /// Registers driver `name` built by `from_block`, the usual constructor of a driver that
+    /// keeps no state across blocks: each driver module then registers itself in one line.
+    pub fn register_driver<D: Driver + 'static>(
+        &mut self,
+        name: impl Into<String>,
+        from_block: fn(&DriverBlock) -> Result<D, DriverError>,
+    ) {
+        self.register(name, move |block: &DriverBlock| {
+            Ok(Box::new(from_block(block)?) as Box<dyn Driver>)
+        });
     }
 
     /// The registered names, sorted.

@@ -8,7 +8,10 @@
 
 use std::time::Duration;
 
-use player_client::{ClientError, DataMode, MapProxy, PlayerClient};
+use player_client::{
+    ClientError, DataMode, FiducialProxy, GripperProxy, LaserProxy, LocalizeProxy, MapProxy,
+    PlannerProxy, PlayerClient, Position2dProxy, RangerProxy, SimulationProxy, SonarProxy,
+};
 use player_proto::*;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
@@ -80,6 +83,18 @@ impl Connection {
         let client = self.client()?;
         py.allow_threads(move || client.request(interf, index, body))
             .map_err(client_err)
+    }
+
+    /// Runs `f` on the client with the GIL released. The typed requests are player-client's
+    /// proxies' own, on handles `attach`ed without subscribing (the Python proxies hold the
+    /// subscriptions), so each request and its ACK's unpacking is written once.
+    fn call<T: Send>(
+        &self,
+        py: Python<'_>,
+        f: impl FnOnce(&PlayerClient) -> Result<T, ClientError> + Send,
+    ) -> PyResult<T> {
+        let client = self.client()?;
+        py.allow_threads(move || f(&client)).map_err(client_err)
     }
 
     /// Sends a command (never answered).
@@ -308,29 +323,23 @@ impl Connection {
 
     /// `playerc_position2d_enable` (motor power).
     fn position2d_enable(&self, py: Python<'_>, index: u16, enable: bool) -> PyResult<()> {
-        let req = Position2dReq::MotorPower(Some(Position2dPowerConfig {
-            state: u8::from(enable),
-        }));
-        self.request(py, InterfaceCode::POSITION2D, index, req)
-            .map(|_| ())
+        self.call(py, move |c| {
+            Position2dProxy::attach(c, index).set_motor_enable(enable)
+        })
     }
 
     /// `playerc_position2d_set_odom`.
     fn position2d_set_odom(&self, py: Python<'_>, index: u16, p: [f64; 3]) -> PyResult<()> {
-        let req = Position2dReq::SetOdom(Some(Position2dSetOdomReq { pose: pose(p) }));
-        self.request(py, InterfaceCode::POSITION2D, index, req)
-            .map(|_| ())
+        self.call(py, move |c| {
+            Position2dProxy::attach(c, index).set_odometry(p[0], p[1], p[2])
+        })
     }
 
     /// RESET_ODOM.
     fn position2d_reset_odom(&self, py: Python<'_>, index: u16) -> PyResult<()> {
-        self.request(
-            py,
-            InterfaceCode::POSITION2D,
-            index,
-            Position2dReq::ResetOdom,
-        )
-        .map(|_| ())
+        self.call(py, move |c| {
+            Position2dProxy::attach(c, index).reset_odometry()
+        })
     }
 
     /// `playerc_position2d_get_geom`: `{pose: [6], size: [3]}`.
@@ -339,42 +348,24 @@ impl Connection {
         py: Python<'py>,
         index: u16,
     ) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(
-            py,
-            InterfaceCode::POSITION2D,
-            index,
-            Position2dReq::GetGeom(None),
-        )? {
-            Some(Body::Position2d(Position2dMsg::Ack(Position2dReq::GetGeom(Some(g))))) => {
-                let d = PyDict::new(py);
-                d.set_item("pose", convert::pose3d(&g.pose))?;
-                d.set_item("size", convert::bbox3d(&g.size))?;
-                Ok(d)
-            }
-            _ => Err(bad_reply("position2d GET_GEOM")),
-        }
+        let g = self.call(py, move |c| {
+            Position2dProxy::attach(c, index).request_geom()
+        })?;
+        convert::pose_size(py, &g.pose, &g.size)
     }
 
     // --- ranger -----------------------------------------------------------------------
 
     /// `playerc_ranger_get_geom`.
     fn ranger_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(py, InterfaceCode::RANGER, index, RangerReq::GetGeom(None))? {
-            Some(Body::Ranger(RangerMsg::Ack(RangerReq::GetGeom(Some(g))))) => {
-                convert::ranger_geom(py, &g)
-            }
-            _ => Err(bad_reply("ranger GET_GEOM")),
-        }
+        let g = self.call(py, move |c| RangerProxy::attach(c, index).request_geom())?;
+        convert::ranger_geom(py, &g)
     }
 
     /// `playerc_ranger_get_config`.
     fn ranger_get_config<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(py, InterfaceCode::RANGER, index, RangerReq::GetConfig(None))? {
-            Some(Body::Ranger(RangerMsg::Ack(RangerReq::GetConfig(Some(c))))) => {
-                convert::ranger_config(py, &c)
-            }
-            _ => Err(bad_reply("ranger GET_CONFIG")),
-        }
+        let c = self.call(py, move |c| RangerProxy::attach(c, index).request_config())?;
+        convert::ranger_config(py, &c)
     }
 
     /// `playerc_ranger_set_config`: the seven values in libplayerc's order; returns the
@@ -433,25 +424,14 @@ impl Connection {
 
     /// `playerc_laser_get_geom`: `{pose: [6], size: [3]}`.
     fn laser_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(py, InterfaceCode::LASER, index, LaserReq::GetGeom(None))? {
-            Some(Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(g))))) => {
-                let d = PyDict::new(py);
-                d.set_item("pose", convert::pose3d(&g.pose))?;
-                d.set_item("size", convert::bbox3d(&g.size))?;
-                Ok(d)
-            }
-            _ => Err(bad_reply("laser GET_GEOM")),
-        }
+        let g = self.call(py, move |c| LaserProxy::attach(c, index).request_geom())?;
+        convert::pose_size(py, &g.pose, &g.size)
     }
 
     /// `playerc_laser_get_config`.
     fn laser_get_config<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(py, InterfaceCode::LASER, index, LaserReq::GetConfig(None))? {
-            Some(Body::Laser(LaserMsg::Ack(LaserReq::GetConfig(Some(c))))) => {
-                convert::laser_config(py, &c)
-            }
-            _ => Err(bad_reply("laser GET_CONFIG")),
-        }
+        let c = self.call(py, move |c| LaserProxy::attach(c, index).request_config())?;
+        convert::laser_config(py, &c)
     }
 
     /// `playerc_laser_set_config`; returns the configuration the device applied.
@@ -476,50 +456,28 @@ impl Connection {
             intensity,
             scanning_frequency,
         };
-        match self.request(
-            py,
-            InterfaceCode::LASER,
-            index,
-            LaserReq::SetConfig(Some(cfg)),
-        )? {
-            Some(Body::Laser(LaserMsg::Ack(LaserReq::SetConfig(Some(c))))) => {
-                convert::laser_config(py, &c)
-            }
-            _ => Err(bad_reply("laser SET_CONFIG")),
-        }
+        let c = self.call(py, move |c| LaserProxy::attach(c, index).configure(cfg))?;
+        convert::laser_config(py, &c)
     }
 
     /// `playerc_sonar_get_geom`: `{pose_count, poses}`.
     fn sonar_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(py, InterfaceCode::SONAR, index, SonarReq::GetGeom(None))? {
-            Some(Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g))))) => {
-                let d = PyDict::new(py);
-                convert::sonar_geom(&d, &g)?;
-                Ok(d)
-            }
-            _ => Err(bad_reply("sonar GET_GEOM")),
-        }
+        let g = self.call(py, move |c| SonarProxy::attach(c, index).request_geom())?;
+        let d = PyDict::new(py);
+        convert::sonar_geom(&d, &g)?;
+        Ok(d)
     }
 
     // --- fiducial, gripper ------------------------------------------------------------
 
     /// `playerc_fiducial_get_geom`: `{pose: [6], size: [3], fiducial_size: [2]}`.
     fn fiducial_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(
-            py,
-            InterfaceCode::FIDUCIAL,
-            index,
-            FiducialReq::GetGeom(None),
-        )? {
-            Some(Body::Fiducial(FiducialMsg::Ack(FiducialReq::GetGeom(Some(g))))) => {
-                let d = PyDict::new(py);
-                d.set_item("pose", convert::pose3d(&g.pose))?;
-                d.set_item("size", convert::bbox3d(&g.size))?;
-                d.set_item("fiducial_size", [g.fiducial_size.sw, g.fiducial_size.sl])?;
-                Ok(d)
-            }
-            _ => Err(bad_reply("fiducial GET_GEOM")),
-        }
+        let g = self.call(py, move |c| {
+            FiducialProxy::attach(c, index).request_geometry()
+        })?;
+        let d = convert::pose_size(py, &g.pose, &g.size)?;
+        d.set_item("fiducial_size", [g.fiducial_size.sw, g.fiducial_size.sl])?;
+        Ok(d)
     }
 
     /// A gripper command: `open`, `close`, `stop`, `store` or `retrieve`.
@@ -541,34 +499,26 @@ impl Connection {
 
     /// `playerc_gripper_get_geom`.
     fn gripper_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(py, InterfaceCode::GRIPPER, index, GripperReq::GetGeom(None))? {
-            Some(Body::Gripper(GripperMsg::Ack(GripperReq::GetGeom(Some(g))))) => {
-                let d = PyDict::new(py);
-                d.set_item("pose", convert::pose3d(&g.pose))?;
-                d.set_item("outer_size", convert::bbox3d(&g.outer_size))?;
-                d.set_item("inner_size", convert::bbox3d(&g.inner_size))?;
-                d.set_item("num_beams", g.num_beams)?;
-                d.set_item("capacity", g.capacity)?;
-                Ok(d)
-            }
-            _ => Err(bad_reply("gripper GET_GEOM")),
-        }
+        let g = self.call(py, move |c| {
+            GripperProxy::attach(c, index).request_geometry()
+        })?;
+        let d = PyDict::new(py);
+        d.set_item("pose", convert::pose3d(&g.pose))?;
+        d.set_item("outer_size", convert::bbox3d(&g.outer_size))?;
+        d.set_item("inner_size", convert::bbox3d(&g.inner_size))?;
+        d.set_item("num_beams", g.num_beams)?;
+        d.set_item("capacity", g.capacity)?;
+        Ok(d)
     }
 
     // --- simulation -------------------------------------------------------------------
 
     /// `playerc_simulation_get_pose2d`: `(x, y, a)`.
     fn simulation_get_pose2d(&self, py: Python<'_>, index: u16, name: &str) -> PyResult<[f64; 3]> {
-        let req = SimulationReq::GetPose2d(Some(SimulationPose2dReq {
-            name: Text::new(name),
-            pose: Pose2d::default(),
-        }));
-        match self.request(py, InterfaceCode::SIMULATION, index, req)? {
-            Some(Body::Simulation(SimulationMsg::Ack(SimulationReq::GetPose2d(Some(r))))) => {
-                Ok(convert::pose2d(&r.pose))
-            }
-            _ => Err(bad_reply("simulation GET_POSE2D")),
-        }
+        let p = self.call(py, move |c| {
+            SimulationProxy::attach(c, index).get_pose2d(name)
+        })?;
+        Ok(convert::pose2d(&p))
     }
 
     /// `playerc_simulation_set_pose2d`.
@@ -579,12 +529,9 @@ impl Connection {
         name: &str,
         p: [f64; 3],
     ) -> PyResult<()> {
-        let req = SimulationReq::SetPose2d(Some(SimulationPose2dReq {
-            name: Text::new(name),
-            pose: pose(p),
-        }));
-        self.request(py, InterfaceCode::SIMULATION, index, req)
-            .map(|_| ())
+        self.call(py, move |c| {
+            SimulationProxy::attach(c, index).set_pose2d(name, p[0], p[1], p[2])
+        })
     }
 
     /// `playerc_simulation_get_pose3d`: `([x, y, z, roll, pitch, yaw], simtime)`.
@@ -594,16 +541,10 @@ impl Connection {
         index: u16,
         name: &str,
     ) -> PyResult<([f64; 6], f64)> {
-        let req = SimulationReq::GetPose3d(Some(SimulationPose3dReq {
-            name: Text::new(name),
-            ..SimulationPose3dReq::default()
-        }));
-        match self.request(py, InterfaceCode::SIMULATION, index, req)? {
-            Some(Body::Simulation(SimulationMsg::Ack(SimulationReq::GetPose3d(Some(r))))) => {
-                Ok((convert::pose3d(&r.pose), r.simtime))
-            }
-            _ => Err(bad_reply("simulation GET_POSE3D")),
-        }
+        let (p, simtime) = self.call(py, move |c| {
+            SimulationProxy::attach(c, index).get_pose3d(name)
+        })?;
+        Ok((convert::pose3d(&p), simtime))
     }
 
     /// `playerc_simulation_set_pose3d`.
@@ -614,13 +555,9 @@ impl Connection {
         name: &str,
         p: [f64; 6],
     ) -> PyResult<()> {
-        let req = SimulationReq::SetPose3d(Some(SimulationPose3dReq {
-            name: Text::new(name),
-            pose: pose3(p),
-            simtime: 0.0,
-        }));
-        self.request(py, InterfaceCode::SIMULATION, index, req)
-            .map(|_| ())
+        self.call(py, move |c| {
+            SimulationProxy::attach(c, index).set_pose3d(name, pose3(p))
+        })
     }
 
     /// `playerc_simulation_get_property`: the value's raw bytes (`size` of them asked for).
@@ -632,18 +569,10 @@ impl Connection {
         prop: &str,
         size: usize,
     ) -> PyResult<Bound<'py, PyBytes>> {
-        let req = SimulationReq::GetProperty(Some(SimulationPropertyReq {
-            name: Text::new(name),
-            prop: Text::new(prop),
-            index: 0,
-            value: vec![0; size],
-        }));
-        match self.request(py, InterfaceCode::SIMULATION, index, req)? {
-            Some(Body::Simulation(SimulationMsg::Ack(SimulationReq::GetProperty(Some(r))))) => {
-                Ok(PyBytes::new(py, &r.value))
-            }
-            _ => Err(bad_reply("simulation GET_PROPERTY")),
-        }
+        let value = self.call(py, move |c| {
+            SimulationProxy::attach(c, index).get_property(name, prop, size)
+        })?;
+        Ok(PyBytes::new(py, &value))
     }
 
     /// `playerc_simulation_set_property` from raw value bytes.
@@ -655,14 +584,9 @@ impl Connection {
         prop: &str,
         value: Vec<u8>,
     ) -> PyResult<()> {
-        let req = SimulationReq::SetProperty(Some(SimulationPropertyReq {
-            name: Text::new(name),
-            prop: Text::new(prop),
-            index: 0,
-            value,
-        }));
-        self.request(py, InterfaceCode::SIMULATION, index, req)
-            .map(|_| ())
+        self.call(py, move |c| {
+            SimulationProxy::attach(c, index).set_property(name, prop, value)
+        })
     }
 
     /// `playerc_simulation_pause` / `reset` / `save`: the command by name.
@@ -766,24 +690,20 @@ impl Connection {
 
     /// `playerc_map_get_vector`: `{minx, maxx, miny, maxy, segments: [(x0, y0, x1, y1)]}`.
     fn map_get_vector<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(py, InterfaceCode::MAP, index, MapReq::GetVector(None))? {
-            Some(Body::Map(MapMsg::Ack(MapReq::GetVector(Some(v))))) => {
-                let d = PyDict::new(py);
-                d.set_item("vminx", v.minx)?;
-                d.set_item("vmaxx", v.maxx)?;
-                d.set_item("vminy", v.miny)?;
-                d.set_item("vmaxy", v.maxy)?;
-                let segs: Vec<[f64; 4]> = v
-                    .segments
-                    .iter()
-                    .map(|s| [s.x0, s.y0, s.x1, s.y1])
-                    .collect();
-                d.set_item("num_segments", segs.len())?;
-                d.set_item("segments", segs)?;
-                Ok(d)
-            }
-            _ => Err(bad_reply("map GET_VECTOR")),
-        }
+        let v = self.call(py, move |c| MapProxy::attach(c, index).get_vector())?;
+        let d = PyDict::new(py);
+        d.set_item("vminx", v.minx)?;
+        d.set_item("vmaxx", v.maxx)?;
+        d.set_item("vminy", v.miny)?;
+        d.set_item("vmaxy", v.maxy)?;
+        let segs: Vec<[f64; 4]> = v
+            .segments
+            .iter()
+            .map(|s| [s.x0, s.y0, s.x1, s.y1])
+            .collect();
+        d.set_item("num_segments", segs.len())?;
+        d.set_item("segments", segs)?;
+        Ok(d)
     }
 
     /// `playerc_planner_set_cmd_pose`.
@@ -797,26 +717,15 @@ impl Connection {
 
     /// `playerc_planner_get_waypoints`: `[[x, y, a], ...]`.
     fn planner_get_waypoints(&self, py: Python<'_>, index: u16) -> PyResult<Vec<[f64; 3]>> {
-        match self.request(
-            py,
-            InterfaceCode::PLANNER,
-            index,
-            PlannerReq::GetWaypoints(None),
-        )? {
-            Some(Body::Planner(PlannerMsg::Ack(PlannerReq::GetWaypoints(Some(w))))) => {
-                Ok(w.waypoints.iter().map(convert::pose2d).collect())
-            }
-            _ => Err(bad_reply("planner GET_WAYPOINTS")),
-        }
+        let w = self.call(py, move |c| {
+            PlannerProxy::attach(c, index).request_waypoints()
+        })?;
+        Ok(w.iter().map(convert::pose2d).collect())
     }
 
     /// `playerc_planner_enable`.
     fn planner_enable(&self, py: Python<'_>, index: u16, state: bool) -> PyResult<()> {
-        let req = PlannerReq::Enable(Some(PlannerEnableReq {
-            state: u8::from(state),
-        }));
-        self.request(py, InterfaceCode::PLANNER, index, req)
-            .map(|_| ())
+        self.call(py, move |c| PlannerProxy::attach(c, index).enable(state))
     }
 
     /// `playerc_localize_set_pose`: mean `[x, y, a]`, covariance `[xx, yy, aa]`.
@@ -827,12 +736,9 @@ impl Connection {
         mean: [f64; 3],
         cov: [f64; 3],
     ) -> PyResult<()> {
-        let req = LocalizeReq::SetPose(Some(LocalizeSetPose {
-            mean: pose(mean),
-            cov,
-        }));
-        self.request(py, InterfaceCode::LOCALIZE, index, req)
-            .map(|_| ())
+        self.call(py, move |c| {
+            LocalizeProxy::attach(c, index).set_pose(pose(mean), cov)
+        })
     }
 
     /// `playerc_localize_get_particles`: `{mean: [3], variance, particles: [([3], alpha)]}`.
@@ -841,26 +747,19 @@ impl Connection {
         py: Python<'py>,
         index: u16,
     ) -> PyResult<Bound<'py, PyDict>> {
-        match self.request(
-            py,
-            InterfaceCode::LOCALIZE,
-            index,
-            LocalizeReq::GetParticles(None),
-        )? {
-            Some(Body::Localize(LocalizeMsg::Ack(LocalizeReq::GetParticles(Some(p))))) => {
-                let d = PyDict::new(py);
-                d.set_item("mean", convert::pose2d(&p.mean))?;
-                d.set_item("variance", p.variance)?;
-                let parts: Vec<([f64; 3], f64)> = p
-                    .particles
-                    .iter()
-                    .map(|q| (convert::pose2d(&q.pose), q.alpha))
-                    .collect();
-                d.set_item("num_particles", parts.len())?;
-                d.set_item("particles", parts)?;
-                Ok(d)
-            }
-            _ => Err(bad_reply("localize GET_PARTICLES")),
-        }
+        let p = self.call(py, move |c| {
+            LocalizeProxy::attach(c, index).request_particles()
+        })?;
+        let d = PyDict::new(py);
+        d.set_item("mean", convert::pose2d(&p.mean))?;
+        d.set_item("variance", p.variance)?;
+        let parts: Vec<([f64; 3], f64)> = p
+            .particles
+            .iter()
+            .map(|q| (convert::pose2d(&q.pose), q.alpha))
+            .collect();
+        d.set_item("num_particles", parts.len())?;
+        d.set_item("particles", parts)?;
+        Ok(d)
     }
 }

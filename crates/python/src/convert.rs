@@ -44,6 +44,35 @@ pub fn bbox3d(b: &Bbox3d) -> [f64; 3] {
     [b.sw, b.sl, b.sh]
 }
 
+/// A device's pose and size as libplayerc's geometry fields: `{pose: [6], size: [3]}`.
+pub fn pose_size<'py>(
+    py: Python<'py>,
+    pose: &Pose3d,
+    size: &Bbox3d,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("pose", pose3d(pose))?;
+    d.set_item("size", bbox3d(size))?;
+    Ok(d)
+}
+
+/// libplayerc's position2d odometry fields (`px py pa vx vy va stall`), from a server's DATA
+/// or an in-process `World`'s position model alike, so the Python side reads both one way.
+pub fn odometry<'py>(
+    d: &Bound<'py, PyDict>,
+    pos: [f64; 3],
+    vel: [f64; 3],
+    stall: impl IntoPyObject<'py>,
+) -> PyResult<()> {
+    for (key, v) in ["px", "py", "pa"].into_iter().zip(pos) {
+        d.set_item(key, v)?;
+    }
+    for (key, v) in ["vx", "vy", "va"].into_iter().zip(vel) {
+        d.set_item(key, v)?;
+    }
+    d.set_item("stall", stall)
+}
+
 /// A ranger's geometry: `device_pose`, `device_size`, `element_poses`, `element_sizes`
 /// (libplayerc's `playerc_ranger_t` names).
 pub fn ranger_geom<'py>(py: Python<'py>, g: &RangerGeom) -> PyResult<Bound<'py, PyDict>> {
@@ -110,13 +139,7 @@ pub fn data<'py>(py: Python<'py>, body: &Body) -> PyResult<Option<Bound<'py, PyD
     let d = PyDict::new(py);
     match body {
         Body::Position2d(Position2dMsg::Data(Position2dData::State(s))) => {
-            d.set_item("px", s.pos.px)?;
-            d.set_item("py", s.pos.py)?;
-            d.set_item("pa", s.pos.pa)?;
-            d.set_item("vx", s.vel.px)?;
-            d.set_item("vy", s.vel.py)?;
-            d.set_item("va", s.vel.pa)?;
-            d.set_item("stall", s.stall)?;
+            odometry(&d, pose2d(&s.pos), pose2d(&s.vel), s.stall)?;
         }
         Body::Position2d(Position2dMsg::Data(Position2dData::Geom(g))) => {
             d.set_item("pose", pose3d(&g.pose))?;

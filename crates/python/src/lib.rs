@@ -15,13 +15,15 @@ pub mod convert;
 pub mod errors;
 pub mod world;
 
-/// The module's contents: the two classes, the exception hierarchy and the interface codes
-/// the Python side addresses devices with.
+/// The module's contents: the two classes, the exception hierarchy, the interface codes the
+/// Python side addresses devices with, and Player's default port (`DEFAULT_PORT`, so the
+/// Python modules' defaults come from the one Rust constant).
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<client::Connection>()?;
     m.add_class::<world::World>()?;
     errors::register(m)?;
+    m.add("DEFAULT_PORT", player_client::DEFAULT_PORT)?;
     for (name, code) in convert::INTERFACES {
         m.add(*name, code.0)?;
     }

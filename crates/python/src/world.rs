@@ -12,6 +12,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use stage_sim::{GripperCmd, ModelId, Pose, on_sim_threads};
 
+use crate::convert;
 use crate::errors::WorldError;
 
 /// A loaded world: `World(path, seed=0)`.
@@ -41,6 +42,18 @@ impl World {
             "{}: model `{name}` is not a {want}",
             self.path.display()
         ))
+    }
+
+    /// What `read` gives of the model `name`, a `kind` of sensor; an error naming the model
+    /// when there is none or it is not one.
+    fn sensor<'w, T>(
+        &'w self,
+        name: &str,
+        kind: &str,
+        read: impl FnOnce(&'w stage_sim::World, ModelId) -> Option<T>,
+    ) -> PyResult<T> {
+        let m = self.model(name)?;
+        read(&self.world, m).ok_or_else(|| self.wrong_type(name, kind))
     }
 }
 
@@ -201,13 +214,8 @@ impl World {
             return Ok(None);
         };
         let d = PyDict::new(py);
-        d.set_item("px", s.pose.x)?;
-        d.set_item("py", s.pose.y)?;
-        d.set_item("pa", s.pose.a)?;
-        d.set_item("vx", s.velocity.x)?;
-        d.set_item("vy", s.velocity.y)?;
-        d.set_item("va", s.velocity.a)?;
-        d.set_item("stall", s.stall)?;
+        let (pos, vel) = (&s.pose, &s.velocity);
+        convert::odometry(&d, [pos.x, pos.y, pos.a], [vel.x, vel.y, vel.a], s.stall)?;
         d.set_item("time", s.time_us as f64 / 1e6)?;
         Ok(Some(d))
     }
@@ -215,11 +223,7 @@ impl World {
     /// A ranger's data as Player publishes it: `{ranges, intensities, bearings, time}`
     /// (one sensor: all its samples; several: the first sample of each).
     fn ranger<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
-        let m = self.model(name)?;
-        let r = self
-            .world
-            .ranger_scans(m)
-            .ok_or_else(|| self.wrong_type(name, "ranger"))?;
+        let r = self.sensor(name, "ranger", |w, m| w.ranger_scans(m))?;
         let d = PyDict::new(py);
         d.set_item("ranges", convert::ranger_ranges(r))?;
         d.set_item("intensities", convert::ranger_intensities(r))?;
@@ -232,11 +236,7 @@ impl World {
     /// A blobfinder's data: `{width, height, blobs: [{color, x, y, left, right, top, bottom,
     /// range, area}], time}` with Player's blob fields.
     fn blobfinder<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
-        let m = self.model(name)?;
-        let b = self
-            .world
-            .blobfinder_blobs(m)
-            .ok_or_else(|| self.wrong_type(name, "blobfinder"))?;
+        let b = self.sensor(name, "blobfinder", |w, m| w.blobfinder_blobs(m))?;
         let d = PyDict::new(py);
         d.set_item("width", b.width)?;
         d.set_item("height", b.height)?;
@@ -261,11 +261,7 @@ impl World {
 
     /// A fiducial finder's detections: `[{id, range, bearing, heading}]`.
     fn fiducials<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyList>> {
-        let m = self.model(name)?;
-        let f = self
-            .world
-            .fiducials(m)
-            .ok_or_else(|| self.wrong_type(name, "fiducial finder"))?;
+        let f = self.sensor(name, "fiducial finder", |w, m| w.fiducials(m))?;
         let out = PyList::empty(py);
         for item in &f.fiducials {
             let e = PyDict::new(py);
@@ -281,11 +277,7 @@ impl World {
     /// A gripper's state: `{paddles, lift, beams, holding}` (paddle/lift states by name,
     /// `beams` how many break beams see an object).
     fn gripper<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
-        let m = self.model(name)?;
-        let g = self
-            .world
-            .gripper_state(m)
-            .ok_or_else(|| self.wrong_type(name, "gripper"))?;
+        let g = self.sensor(name, "gripper", |w, m| w.gripper_state(m))?;
         let d = PyDict::new(py);
         d.set_item("paddles", format!("{:?}", g.paddles).to_lowercase())?;
         d.set_item("lift", format!("{:?}", g.lift).to_lowercase())?;

@@ -10,13 +10,35 @@ use crate::render::SceneRenderer;
 use crate::scene::{Rgba8, Scene};
 use crate::view::View;
 
-/// Adds the scene renderer to eframe's wgpu state (once, at start-up).
-pub fn install(rs: &egui_wgpu::RenderState) {
+/// A screen point as canvas pixels from the canvas `rect`'s corner, as [`View`] takes them.
+pub fn local(rect: Rect, p: egui::Pos2) -> [f64; 2] {
+    [(p.x - rect.min.x) as f64, (p.y - rect.min.y) as f64]
+}
+
+/// Zooms `view` about the pointer by the mouse wheel or a pinch over the canvas `resp`: the
+/// world window and playerv zoom alike.
+pub fn zoom_on_scroll(view: &mut View, ui: &egui::Ui, resp: &egui::Response) {
+    if let Some(hover) = resp.hover_pos() {
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y + i.zoom_delta().ln() * 200.0);
+        if scroll != 0.0 {
+            view.zoom_at(local(resp.rect, hover), (scroll as f64 / 200.0).exp());
+        }
+    }
+}
+
+/// Adds the scene renderer to a starting eframe app's wgpu state (once, at start-up); an error
+/// when eframe runs without wgpu.
+pub fn install(cc: &eframe::CreationContext<'_>) -> Result<(), &'static str> {
+    let rs = cc
+        .wgpu_render_state
+        .as_ref()
+        .ok_or("eframe started without wgpu")?;
     let mut renderer = SceneRenderer::new(&rs.device, rs.target_format, 1);
     renderer.set_fan_coverage(crate::render::fan_coverage_for(
         rs.adapter.get_info().device_type,
     ));
     rs.renderer.write().callback_resources.insert(renderer);
+    Ok(())
 }
 
 struct SceneCallback {

@@ -8,6 +8,7 @@
 //! outlines, grid lines), images (camera frames) and text labels (drawn by egui, on top).
 
 use crate::triangulate;
+use crate::view::View;
 
 /// An sRGB colour with alpha, 8 bits per channel (what the render targets store).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, bytemuck::Pod, bytemuck::Zeroable)]
@@ -343,6 +344,39 @@ impl Scene {
         if pts.len() > 2 {
             self.line(layer, pts[pts.len() - 1], pts[0], width, color);
         }
+    }
+
+    /// A blobfinder image as an inset fixed on screen, as Stage's world window and playerv both
+    /// draw it: `w` × `h` image pixels from canvas pixel `top_left` at `k` canvas pixels per
+    /// image pixel, on `background`, with each blob's box (`[left, top, right, bottom]` image
+    /// pixels, inclusive) filled in its colour. Returns the world point of the inset's
+    /// bottom-left corner.
+    #[allow(clippy::too_many_arguments)]
+    pub fn blob_inset(
+        &mut self,
+        layer: Layer,
+        view: &View,
+        top_left: [f64; 2],
+        k: f64,
+        [w, h]: [f64; 2],
+        background: Rgba8,
+        blobs: impl IntoIterator<Item = (Rgba8, [f64; 4])>,
+    ) -> [f64; 2] {
+        let corner = |x: f64, y: f64| view.to_world([top_left[0] + x * k, top_left[1] + y * k]);
+        let frame = [
+            corner(0.0, 0.0),
+            corner(w, 0.0),
+            corner(w, h),
+            corner(0.0, h),
+        ];
+        self.fill(layer, &frame, background);
+        self.outline(layer, &frame, 1.0, Rgba8::BLACK);
+        for (color, [l, t, r, b]) in blobs {
+            let (r, b) = ((r + 1.0).min(w), (b + 1.0).min(h));
+            let q = [corner(l, t), corner(r, t), corner(r, b), corner(l, b)];
+            self.fill(layer, &q, color);
+        }
+        frame[3]
     }
 
     /// A filled simple polygon (convex or not; self-intersecting ones are filled as well as the

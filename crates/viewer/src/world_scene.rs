@@ -765,21 +765,12 @@ fn blob_image(
     let g = world.global_pose(m);
     let anchor = view.to_screen([g.x, g.y]);
     let top_left = [anchor[0] + 10.0, anchor[1] - 10.0 - h * k];
-    let corner = |x: f64, y: f64| view.to_world([top_left[0] + x * k, top_left[1] + y * k]);
-    let frame = [
-        corner(0.0, 0.0),
-        corner(w, 0.0),
-        corner(w, h),
-        corner(0.0, h),
-    ];
-    scene.fill(Layer::Data, &frame, Rgba8::rgb(40, 40, 40).with_alpha(200));
-    scene.outline(Layer::Data, &frame, 1.0, Rgba8::BLACK);
-    for b in &d.blobs {
-        let (l, r) = (b.left as f64, (b.right as f64 + 1.0).min(w));
-        let (t, btm) = (b.top as f64, (b.bottom as f64 + 1.0).min(h));
-        let q = [corner(l, t), corner(r, t), corner(r, btm), corner(l, btm)];
-        scene.fill(Layer::Data, &q, Rgba8::from_color(&b.color));
-    }
+    let boxes = d.blobs.iter().map(|b| {
+        let edges = [b.left as f64, b.top as f64, b.right as f64, b.bottom as f64];
+        (Rgba8::from_color(&b.color), edges)
+    });
+    let background = Rgba8::rgb(40, 40, 40).with_alpha(200);
+    scene.blob_inset(Layer::Data, view, top_left, k, [w, h], background, boxes);
 }
 
 /// The topmost model under world point `p`, or its nearest movable ancestor when `movable`

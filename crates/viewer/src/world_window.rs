@@ -106,11 +106,7 @@ pub fn run(handle: WorldHandle, options: WindowOptions) -> Result<(), ViewerErro
         &title,
         native_options(&title, size),
         Box::new(move |cc| {
-            let rs = cc
-                .wgpu_render_state
-                .as_ref()
-                .ok_or("eframe started without wgpu")?;
-            canvas::install(rs);
+            canvas::install(cc)?;
             Ok(Box::new(WorldApp::new(h2, view, options, res2)))
         }),
     );
@@ -328,14 +324,8 @@ impl WorldApp {
 
     fn interact(&mut self, ui: &egui::Ui, resp: &egui::Response, world: &World) {
         let rect = resp.rect;
-        let to_local = |p: egui::Pos2| [(p.x - rect.min.x) as f64, (p.y - rect.min.y) as f64];
-        if let Some(hover) = resp.hover_pos() {
-            let scroll = ui.input(|i| i.smooth_scroll_delta.y + i.zoom_delta().ln() * 200.0);
-            if scroll != 0.0 {
-                self.view
-                    .zoom_at(to_local(hover), (scroll as f64 / 200.0).exp());
-            }
-        }
+        let to_local = |p: egui::Pos2| canvas::local(rect, p);
+        canvas::zoom_on_scroll(&mut self.view, ui, resp);
         let gui = self.handle.gui();
         let pressed = |b| resp.drag_started_by(b);
         if let Some(pos) = resp.interact_pointer_pos() {

@@ -8,7 +8,7 @@
 use crate::color::{ColorSpec, Rgba};
 use crate::document::{Document, EntityId, Property, Value};
 use crate::error::{Error, ErrorKind, Warning};
-use crate::numeric::{atof, atoi};
+use crate::numeric::{Prefix, atof, atoi};
 
 /// A 2D-plus-height pose `[x y z a]` in metres and radians (heading normalised to [-π, π]).
 pub type Pose = [f64; 4];
@@ -99,33 +99,29 @@ impl<'d, 'w> Reader<'d, 'w> {
 
     /// `atof` of one value, as an error if there is no number and a warning if there is junk.
     fn number(&mut self, p: &Property, v: &Value) -> Result<f64, Error> {
-        match atof(&v.text) {
-            Some(n) => {
-                if !n.complete {
-                    let msg = format!(
-                        "`{}` value `{}` is read as {} (the rest is ignored, as in Stage)",
-                        p.name, v.text, n.value
-                    );
-                    self.warn_at(p, msg);
-                }
-                Ok(n.value)
-            }
-            None => Err(self.error(
-                ErrorKind::NotANumber {
-                    name: p.name.to_string(),
-                    text: v.text.to_string(),
-                },
-                v,
-            )),
-        }
+        let parsed = atof(&v.text);
+        self.prefix_value(p, v, parsed, false)
     }
 
     /// `atoi` of one value (a clean decimal such as `180.0` truncates silently, like Stage).
     fn integer(&mut self, p: &Property, v: &Value) -> Result<i64, Error> {
-        match atoi(&v.text) {
+        let parsed = atoi(&v.text);
+        let clean_float = atof(&v.text).is_some_and(|f| f.complete);
+        self.prefix_value(p, v, parsed, clean_float)
+    }
+
+    /// The value C's `atof`/`atoi` read from `v` (`parsed`): an error when there is no number,
+    /// a warning when text follows it, unless `quiet`.
+    fn prefix_value<T: Copy + std::fmt::Display>(
+        &mut self,
+        p: &Property,
+        v: &Value,
+        parsed: Option<Prefix<T>>,
+        quiet: bool,
+    ) -> Result<T, Error> {
+        match parsed {
             Some(n) => {
-                let clean_float = atof(&v.text).is_some_and(|f| f.complete);
-                if !n.complete && !clean_float {
+                if !n.complete && !quiet {
                     let msg = format!(
                         "`{}` value `{}` is read as {} (the rest is ignored, as in Stage)",
                         p.name, v.text, n.value
@@ -233,13 +229,9 @@ impl<'d, 'w> Reader<'d, 'w> {
         format: &str,
     ) -> Result<Option<[f64; N]>, Error> {
         debug_assert_eq!(format.len(), N);
-        let Some(p) = self.prop(name) else {
+        let Some(p) = self.tuple(name, N)? else {
             return Ok(None);
         };
-        if p.values.len() < N {
-            return Err(self.too_short(p, N));
-        }
-        self.warn_extra(p, N);
         let mut out = [0.0; N];
         for (i, f) in format.bytes().enumerate() {
             out[i] = self.number(p, &p.values[i])? * self.scale(f);
@@ -249,13 +241,9 @@ impl<'d, 'w> Reader<'d, 'w> {
 
     /// `ReadTuple` with integer formats `i`/`u`.
     pub fn ints<const N: usize>(&mut self, name: &str) -> Result<Option<[i64; N]>, Error> {
-        let Some(p) = self.prop(name) else {
+        let Some(p) = self.tuple(name, N)? else {
             return Ok(None);
         };
-        if p.values.len() < N {
-            return Err(self.too_short(p, N));
-        }
-        self.warn_extra(p, N);
         let mut out = [0; N];
         for (i, o) in out.iter_mut().enumerate() {
             *o = self.integer(p, &p.values[i])?;
@@ -268,14 +256,23 @@ impl<'d, 'w> Reader<'d, 'w> {
         &mut self,
         name: &str,
     ) -> Result<Option<[String; N]>, Error> {
+        let Some(p) = self.tuple(name, N)? else {
+            return Ok(None);
+        };
+        Ok(Some(std::array::from_fn(|i| p.values[i].text.to_string())))
+    }
+
+    /// The property `name` as a tuple of `n` values (`ReadTuple`): too few is an error, more
+    /// than `n` a warning that the rest are ignored.
+    fn tuple(&mut self, name: &str, n: usize) -> Result<Option<&'d Property>, Error> {
         let Some(p) = self.prop(name) else {
             return Ok(None);
         };
-        if p.values.len() < N {
-            return Err(self.too_short(p, N));
+        if p.values.len() < n {
+            return Err(self.too_short(p, n));
         }
-        self.warn_extra(p, N);
-        Ok(Some(std::array::from_fn(|i| p.values[i].text.to_string())))
+        self.warn_extra(p, n);
+        Ok(Some(p))
     }
 
     fn warn_extra(&mut self, p: &Property, n: usize) {

@@ -12,6 +12,7 @@ use std::sync::Mutex;
 
 use anyhow::{Context, bail};
 use clap::Parser;
+use player_proto::constants::PLAYERTCP_DEFAULT_PORT;
 use player_server::stage::{self, StageHandle, StageOptions};
 use player_server::test_driver::{TEST_DRIVER_NAME, TestDriver};
 use player_server::{DriverRegistry, Pace, Server, ServerConfig};
@@ -33,7 +34,7 @@ struct Args {
     #[arg(long, requires = "check")]
     json: bool,
     /// Default port for addresses without one.
-    #[arg(short = 'p', long = "port", default_value_t = 6665)]
+    #[arg(short = 'p', long = "port", default_value_t = PLAYERTCP_DEFAULT_PORT)]
     port: u16,
     /// Quiet start-up: no banner, no cfg warnings.
     #[arg(short, long)]

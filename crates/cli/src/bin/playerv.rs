@@ -11,6 +11,7 @@ use std::time::Duration;
 use anyhow::{Context, bail};
 use clap::Parser;
 use player_client::DataMode;
+use player_proto::constants::PLAYERTCP_DEFAULT_PORT;
 use viewer::playerv::{self, PlayervOptions, state::DeviceKey};
 
 /// Player 3.0.2's device viewer. Devices are named as in playerv: `--INTERFACE:INDEX`
@@ -22,7 +23,7 @@ struct Args {
     #[arg(short = 'h', long = "host", default_value = "localhost")]
     host: String,
     /// Server port.
-    #[arg(short = 'p', long = "port", default_value_t = 6665)]
+    #[arg(short = 'p', long = "port", default_value_t = PLAYERTCP_DEFAULT_PORT)]
     port: u16,
     /// Ask for data with requests (PULL mode) instead of having it pushed.
     #[arg(long, conflicts_with = "push")]
@@ -51,7 +52,7 @@ struct Args {
     help: Option<bool>,
 }
 
-/// `host:port` (the port defaulting to 6665 when only a host is given).
+/// `host:port` (the port defaulting to Player's 6665 when only a host is given).
 fn parse_server(s: &str) -> Result<(String, u16), String> {
     match s.rsplit_once(':') {
         Some((host, port)) if !host.is_empty() => port
@@ -59,7 +60,7 @@ fn parse_server(s: &str) -> Result<(String, u16), String> {
             .map(|p| (host.to_string(), p))
             .map_err(|_| format!("\"{port}\" is not a port number")),
         Some(_) => Err(format!("\"{s}\" names no host")),
-        None => Ok((s.to_string(), 6665)),
+        None => Ok((s.to_string(), PLAYERTCP_DEFAULT_PORT)),
     }
 }
 

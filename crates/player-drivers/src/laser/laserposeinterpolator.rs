@@ -17,10 +17,7 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScan, LaserDataScanpose, LaserMsg,
     Message, Pose2d, Position2dData, Position2dMsg,
 };
-use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
-};
+use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
 
 use crate::forward::Waiting;
 
@@ -218,12 +215,7 @@ pub struct LaserPoseInterpolator {
 impl LaserPoseInterpolator {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<LaserPoseInterpolator, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::LASER)
-            .ok_or_else(|| DriverError::new("must provide a laser device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::LASER)?;
         let laser = block.required(InterfaceCode::LASER, None)?.addr;
         if laser.same_device(&addr) {
             return Err(DriverError::new("attempt to subscribe to self"));
@@ -268,26 +260,12 @@ impl Driver for LaserPoseInterpolator {
         }
     }
 
-    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        self.waiting
-            .forward(ctx, self.laser, request.body.clone(), |p| p)
-    }
-
-    fn handle_reply(
-        &mut self,
-        ctx: &mut Context<'_>,
-        ticket: RequestTicket,
-        reply: Result<Message, RequestError>,
-    ) {
-        self.waiting.pass_back(ctx, ticket, reply);
-    }
+    crate::forward::pass_requests_to!(laser);
 }
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(LaserPoseInterpolator::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, LaserPoseInterpolator::from_block);
 }
 
 #[cfg(test)]

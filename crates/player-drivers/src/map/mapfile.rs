@@ -45,9 +45,7 @@ const FREE_BELOW: f64 = 0.1;
 
 /// Registers `mapfile`.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(MapFile::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, MapFile::from_block);
 }
 
 /// The options of a `mapfile` block.
@@ -72,17 +70,12 @@ impl MapFileOptions {
                 why: "the map image to read",
             });
         };
-        let resolution = options::length(block, "resolution")?.ok_or(Error::MissingOption {
-            option: "resolution",
-            why: "the map's scale in metres per pixel",
-        })?;
-        if !(resolution > 0.0 && resolution.is_finite()) {
-            return Err(Error::BadOption {
-                option: "resolution",
-                value: resolution.to_string(),
-                why: "must be a positive length (m/pixel)".into(),
-            });
-        }
+        let resolution = options::positive_length(
+            block,
+            "resolution",
+            "the map's scale in metres per pixel",
+            "m/pixel",
+        )?;
         let negate = options::int(block, "negate")?.unwrap_or(0) != 0;
         let origin = match (
             options::tuple_length(block, "origin", 0)?,

@@ -43,17 +43,12 @@ pub struct ScaleOptions {
 impl ScaleOptions {
     /// Reads `resolution` from `block` (its `requires` is the server's).
     pub fn from_block(block: &DriverBlock) -> Result<ScaleOptions, Error> {
-        let resolution = options::length(block, "resolution")?.ok_or(Error::MissingOption {
-            option: "resolution",
-            why: "the new map scale in metres per cell",
-        })?;
-        if !(resolution > 0.0 && resolution.is_finite()) {
-            return Err(Error::BadOption {
-                option: "resolution",
-                value: resolution.to_string(),
-                why: "must be a positive length (m/cell)".into(),
-            });
-        }
+        let resolution = options::positive_length(
+            block,
+            "resolution",
+            "the new map scale in metres per cell",
+            "m/cell",
+        )?;
         Ok(ScaleOptions { resolution })
     }
 

@@ -70,12 +70,7 @@ impl MapTransform {
         block: &DriverBlock,
         transform: Transform,
     ) -> Result<MapTransform, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::MAP)
-            .ok_or_else(|| DriverError::new("must provide a map device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::MAP)?;
         let source = block.required(InterfaceCode::MAP, None)?.addr;
         if source.same_device(&addr) {
             return Err(DriverError::new("requires the map it provides"));

@@ -35,16 +35,14 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, capability_reply, is_forwarded_property, passed_on};
+use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "lasertoranger";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(LaserToRanger::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, LaserToRanger::from_block);
 }
 
 /// The ranger requests this driver answers (its CAPABILITIES).
@@ -217,18 +215,15 @@ impl LaserToRanger {
     }
 
     fn answer_config(&mut self, reply: &Result<Message, RequestError>) -> Option<RangerConfig> {
-        match reply {
-            Ok(m) => match &m.body {
-                Body::Laser(LaserMsg::Req(r) | LaserMsg::Ack(r)) => match r {
-                    LaserReq::GetConfig(Some(c)) | LaserReq::SetConfig(Some(c)) => {
-                        self.laser_config = c.clone();
-                        Some(ranger_config(c, self.force.as_ref()))
-                    }
-                    _ => None,
-                },
+        match answer_body(reply)? {
+            Body::Laser(LaserMsg::Req(r) | LaserMsg::Ack(r)) => match r {
+                LaserReq::GetConfig(Some(c)) | LaserReq::SetConfig(Some(c)) => {
+                    self.laser_config = c.clone();
+                    Some(ranger_config(c, self.force.as_ref()))
+                }
                 _ => None,
             },
-            Err(_) => None,
+            _ => None,
         }
     }
 
@@ -295,43 +290,42 @@ impl Driver for LaserToRanger {
 
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
         let body = &request.body;
-        let (asked, to_laser): (fn(PendingReply) -> Asked, Body) = if is_forwarded_property(body) {
-            (Asked::Property, body.clone())
-        } else if let Some(reply) = capability_reply(body, &HANDLED) {
+        let (laser, waiting) = (self.laser, &mut self.waiting);
+        if let Some(reply) = converter_request(ctx, waiting, laser, body, &HANDLED, Asked::Property)
+        {
             return reply;
-        } else {
-            let Body::Ranger(player_proto::RangerMsg::Req(req)) = body else {
-                return Reply::NotHandled;
-            };
-            match req {
-                RangerReq::Power(Some(p)) => (
-                    Asked::Power,
-                    LaserReq::Power(Some(LaserPowerConfig { state: p.state })).into(),
-                ),
-                RangerReq::Intns(Some(i)) => {
-                    self.laser_config.intensity = i.state;
-                    (
-                        Asked::Intensity,
-                        LaserReq::SetConfig(Some(self.laser_config.clone())).into(),
-                    )
-                }
-                RangerReq::GetGeom(_) => (Asked::Geom, LaserReq::GetGeom(None).into()),
-                RangerReq::SetConfig(Some(c)) => {
-                    let lc = &mut self.laser_config;
-                    lc.min_angle = c.min_angle as f32;
-                    lc.max_angle = c.max_angle as f32;
-                    lc.resolution = c.angular_res as f32;
-                    lc.max_range = c.max_range as f32;
-                    lc.range_res = c.range_res as f32;
-                    lc.scanning_frequency = c.frequency as f32;
-                    (
-                        Asked::SetConfig,
-                        LaserReq::SetConfig(Some(self.laser_config.clone())).into(),
-                    )
-                }
-                RangerReq::GetConfig(_) => (Asked::Config, LaserReq::GetConfig(None).into()),
-                _ => return Reply::NotHandled,
+        }
+        let Body::Ranger(player_proto::RangerMsg::Req(req)) = body else {
+            return Reply::NotHandled;
+        };
+        let (asked, to_laser): (fn(PendingReply) -> Asked, Body) = match req {
+            RangerReq::Power(Some(p)) => (
+                Asked::Power,
+                LaserReq::Power(Some(LaserPowerConfig { state: p.state })).into(),
+            ),
+            RangerReq::Intns(Some(i)) => {
+                self.laser_config.intensity = i.state;
+                (
+                    Asked::Intensity,
+                    LaserReq::SetConfig(Some(self.laser_config.clone())).into(),
+                )
             }
+            RangerReq::GetGeom(_) => (Asked::Geom, LaserReq::GetGeom(None).into()),
+            RangerReq::SetConfig(Some(c)) => {
+                let lc = &mut self.laser_config;
+                lc.min_angle = c.min_angle as f32;
+                lc.max_angle = c.max_angle as f32;
+                lc.resolution = c.angular_res as f32;
+                lc.max_range = c.max_range as f32;
+                lc.range_res = c.range_res as f32;
+                lc.scanning_frequency = c.frequency as f32;
+                (
+                    Asked::SetConfig,
+                    LaserReq::SetConfig(Some(self.laser_config.clone())).into(),
+                )
+            }
+            RangerReq::GetConfig(_) => (Asked::Config, LaserReq::GetConfig(None).into()),
+            _ => return Reply::NotHandled,
         };
         self.waiting.forward(ctx, self.laser, to_laser, asked)
     }
@@ -356,11 +350,11 @@ impl Driver for LaserToRanger {
                 }
             }
             Asked::Config(pending) => {
-                let answer = match self.answer_config(&reply) {
-                    Some(c) => Reply::ack(RangerReq::GetConfig(Some(c))),
-                    None => Reply::Nack,
-                };
-                ctx.answer(pending, answer);
+                let config = self.answer_config(&reply);
+                ctx.answer(
+                    pending,
+                    ack_or_nack(config.map(|c| RangerReq::GetConfig(Some(c)))),
+                );
             }
             Asked::SetConfig(pending) => {
                 let answer = match (&reply, self.answer_config(&reply)) {
@@ -375,38 +369,25 @@ impl Driver for LaserToRanger {
                 ctx.answer(pending, answer);
             }
             Asked::Intensity(pending) => {
-                let answer = match reply {
-                    Ok(_) => {
-                        self.answer_config(&reply);
-                        Reply::empty_ack()
-                    }
-                    Err(_) => Reply::Nack,
-                };
-                ctx.answer(pending, answer);
+                if reply.is_ok() {
+                    self.answer_config(&reply);
+                }
+                ctx.answer(pending, acked(&reply));
             }
             Asked::Geom(pending) => {
-                let answer = match &reply {
-                    Ok(m) => match &m.body {
-                        Body::Laser(LaserMsg::Req(r) | LaserMsg::Ack(r)) => match r {
-                            LaserReq::GetGeom(Some(g)) => {
-                                self.geom = ranger_geom(g, self.buggy_geom);
-                                Reply::ack(RangerReq::GetGeom(Some(self.geom.clone())))
-                            }
-                            _ => Reply::Nack,
-                        },
-                        _ => Reply::Nack,
-                    },
-                    Err(_) => Reply::Nack,
+                let geom = match answer_body(&reply) {
+                    Some(Body::Laser(
+                        LaserMsg::Req(LaserReq::GetGeom(Some(g)))
+                        | LaserMsg::Ack(LaserReq::GetGeom(Some(g))),
+                    )) => {
+                        self.geom = ranger_geom(g, self.buggy_geom);
+                        Some(RangerReq::GetGeom(Some(self.geom.clone())))
+                    }
+                    _ => None,
                 };
-                ctx.answer(pending, answer);
+                ctx.answer(pending, ack_or_nack(geom));
             }
-            Asked::Power(pending) => {
-                let answer = match reply {
-                    Ok(_) => Reply::empty_ack(),
-                    Err(_) => Reply::Nack,
-                };
-                ctx.answer(pending, answer);
-            }
+            Asked::Power(pending) => ctx.answer(pending, acked(&reply)),
             Asked::Property(pending) => ctx.answer(pending, passed_on(reply)),
         }
     }

@@ -33,16 +33,14 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, capability_reply, is_forwarded_property, passed_on};
+use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "rangertolaser";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(RangerToLaser::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, RangerToLaser::from_block);
 }
 
 /// The laser requests this driver answers (its CAPABILITIES).
@@ -313,47 +311,47 @@ impl Driver for RangerToLaser {
 
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
         let body = &request.body;
-        let (asked, to_ranger): (fn(PendingReply) -> Asked, Body) = if is_forwarded_property(body) {
-            (Asked::Property, body.clone())
-        } else if let Some(reply) = capability_reply(body, &HANDLED) {
+        let (ranger, waiting) = (self.ranger, &mut self.waiting);
+        if let Some(reply) =
+            converter_request(ctx, waiting, ranger, body, &HANDLED, Asked::Property)
+        {
             return reply;
-        } else {
-            match body {
-                Body::Laser(LaserMsg::Req(LaserReq::Power(Some(p)))) => (
-                    Asked::Power,
-                    RangerReq::Power(Some(RangerPowerConfig { state: p.state })).into(),
-                ),
-                Body::Laser(LaserMsg::Req(LaserReq::GetGeom(_))) => {
-                    (Asked::Geom, RangerReq::GetGeom(None).into())
-                }
-                Body::Laser(LaserMsg::Req(LaserReq::GetConfig(_))) => {
-                    (Asked::Config, RangerReq::GetConfig(None).into())
-                }
-                Body::Laser(LaserMsg::Req(LaserReq::SetConfig(Some(c)))) => {
-                    let Some(pending) = ctx.defer() else {
-                        return Reply::Nack;
-                    };
-                    let requested = ranger_config(c);
-                    let t = ctx.request(self.ranger, RangerReq::SetConfig(Some(requested.clone())));
-                    self.waiting.insert(t, Asked::SetConfig(pending));
-                    let intns = RangerIntnsConfig { state: c.intensity };
-                    let t = ctx.request(self.ranger, RangerReq::Intns(Some(intns)));
-                    self.waiting.insert(t, Asked::SetIntensity(pending));
-                    // Upstream takes the flag at once, whatever the ranger answers.
-                    self.config.intensity = c.intensity;
-                    self.set_config.insert(
-                        pending,
-                        SetConfigJob {
-                            requested,
-                            intensity: c.intensity,
-                            config: None,
-                            intensity_acked: None,
-                        },
-                    );
-                    return Reply::Deferred;
-                }
-                _ => return Reply::NotHandled,
+        }
+        let (asked, to_ranger): (fn(PendingReply) -> Asked, Body) = match body {
+            Body::Laser(LaserMsg::Req(LaserReq::Power(Some(p)))) => (
+                Asked::Power,
+                RangerReq::Power(Some(RangerPowerConfig { state: p.state })).into(),
+            ),
+            Body::Laser(LaserMsg::Req(LaserReq::GetGeom(_))) => {
+                (Asked::Geom, RangerReq::GetGeom(None).into())
             }
+            Body::Laser(LaserMsg::Req(LaserReq::GetConfig(_))) => {
+                (Asked::Config, RangerReq::GetConfig(None).into())
+            }
+            Body::Laser(LaserMsg::Req(LaserReq::SetConfig(Some(c)))) => {
+                let Some(pending) = ctx.defer() else {
+                    return Reply::Nack;
+                };
+                let requested = ranger_config(c);
+                let t = ctx.request(self.ranger, RangerReq::SetConfig(Some(requested.clone())));
+                self.waiting.insert(t, Asked::SetConfig(pending));
+                let intns = RangerIntnsConfig { state: c.intensity };
+                let t = ctx.request(self.ranger, RangerReq::Intns(Some(intns)));
+                self.waiting.insert(t, Asked::SetIntensity(pending));
+                // Upstream takes the flag at once, whatever the ranger answers.
+                self.config.intensity = c.intensity;
+                self.set_config.insert(
+                    pending,
+                    SetConfigJob {
+                        requested,
+                        intensity: c.intensity,
+                        config: None,
+                        intensity_acked: None,
+                    },
+                );
+                return Reply::Deferred;
+            }
+            _ => return Reply::NotHandled,
         };
         self.waiting.forward(ctx, self.ranger, to_ranger, asked)
     }
@@ -367,13 +365,11 @@ impl Driver for RangerToLaser {
         let Some(asked) = self.waiting.take(ticket) else {
             return;
         };
-        let config_of = |reply: &Result<Message, RequestError>| match reply {
-            Ok(m) => match ranger_req(&m.body) {
+        let config_of =
+            |reply: &Result<Message, RequestError>| match ranger_req(answer_body(reply)?) {
                 Some(RangerReq::GetConfig(Some(c))) => Some(c.clone()),
                 _ => None,
-            },
-            Err(_) => None,
-        };
+            };
         match asked {
             Asked::StartupConfig => match config_of(&reply) {
                 Some(c) => self.config = laser_config(&c, self.config.intensity),
@@ -384,34 +380,22 @@ impl Driver for RangerToLaser {
                 ),
             },
             Asked::Config(pending) => {
-                let answer = match config_of(&reply) {
-                    Some(c) => {
-                        self.config = laser_config(&c, self.config.intensity);
-                        Reply::ack(LaserReq::GetConfig(Some(self.config.clone())))
-                    }
-                    None => Reply::Nack,
-                };
-                ctx.answer(pending, answer);
+                let config = config_of(&reply).map(|c| {
+                    self.config = laser_config(&c, self.config.intensity);
+                    LaserReq::GetConfig(Some(self.config.clone()))
+                });
+                ctx.answer(pending, ack_or_nack(config));
             }
             Asked::Geom(pending) => {
-                let answer = match &reply {
-                    Ok(m) => match ranger_req(&m.body) {
-                        Some(RangerReq::GetGeom(Some(g))) => {
-                            Reply::ack(LaserReq::GetGeom(Some(laser_geom(g))))
-                        }
-                        _ => Reply::Nack,
-                    },
-                    Err(_) => Reply::Nack,
+                let geom = match answer_body(&reply).and_then(ranger_req) {
+                    Some(RangerReq::GetGeom(Some(g))) => {
+                        Some(LaserReq::GetGeom(Some(laser_geom(g))))
+                    }
+                    _ => None,
                 };
-                ctx.answer(pending, answer);
+                ctx.answer(pending, ack_or_nack(geom));
             }
-            Asked::Power(pending) => {
-                let answer = match reply {
-                    Ok(_) => Reply::empty_ack(),
-                    Err(_) => Reply::Nack,
-                };
-                ctx.answer(pending, answer);
-            }
+            Asked::Power(pending) => ctx.answer(pending, acked(&reply)),
             Asked::Property(pending) => ctx.answer(pending, passed_on(reply)),
             Asked::SetConfig(pending) => self.set_config_part(ctx, pending, true, reply),
             Asked::SetIntensity(pending) => self.set_config_part(ctx, pending, false, reply),

@@ -25,16 +25,14 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::forward::{Waiting, capability_reply, is_forwarded_property, passed_on};
+use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "sonartoranger";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(SonarToRanger::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, SonarToRanger::from_block);
 }
 
 /// The ranger requests this driver lists in its CAPABILITIES (upstream answers GET_CONFIG
@@ -127,10 +125,7 @@ impl SonarToRanger {
     }
 
     fn converted_geom(&mut self, reply: &Result<Message, RequestError>) -> Option<RangerGeom> {
-        let Ok(m) = reply else {
-            return None;
-        };
-        match &m.body {
+        match answer_body(reply)? {
             Body::Sonar(SonarMsg::Req(SonarReq::GetGeom(Some(g))))
             | Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g)))) => {
                 self.geom = ranger_geom(g, self.buggy_geom);
@@ -152,24 +147,23 @@ impl Driver for SonarToRanger {
 
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
         let body = &request.body;
-        let (asked, to_sonar): (fn(PendingReply) -> Asked, Body) = if is_forwarded_property(body) {
-            (Asked::Property, body.clone())
-        } else if let Some(reply) = capability_reply(body, &HANDLED) {
+        let (sonar, waiting) = (self.sonar, &mut self.waiting);
+        if let Some(reply) = converter_request(ctx, waiting, sonar, body, &HANDLED, Asked::Property)
+        {
             return reply;
-        } else {
-            match body {
-                Body::Ranger(RangerMsg::Req(RangerReq::Power(Some(p)))) => (
-                    Asked::Power,
-                    SonarReq::Power(Some(SonarPowerConfig { state: p.state })).into(),
-                ),
-                Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(_))) => {
-                    (Asked::Geom, SonarReq::GetGeom(None).into())
-                }
-                Body::Ranger(RangerMsg::Req(RangerReq::GetConfig(_))) => {
-                    return Reply::ack(RangerReq::GetConfig(Some(RangerConfig::default())));
-                }
-                _ => return Reply::NotHandled,
+        }
+        let (asked, to_sonar): (fn(PendingReply) -> Asked, Body) = match body {
+            Body::Ranger(RangerMsg::Req(RangerReq::Power(Some(p)))) => (
+                Asked::Power,
+                SonarReq::Power(Some(SonarPowerConfig { state: p.state })).into(),
+            ),
+            Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(_))) => {
+                (Asked::Geom, SonarReq::GetGeom(None).into())
             }
+            Body::Ranger(RangerMsg::Req(RangerReq::GetConfig(_))) => {
+                return Reply::ack(RangerReq::GetConfig(Some(RangerConfig::default())));
+            }
+            _ => return Reply::NotHandled,
         };
         self.waiting.forward(ctx, self.sonar, to_sonar, asked)
     }
@@ -194,19 +188,13 @@ impl Driver for SonarToRanger {
                 }
             }
             Asked::Geom(pending) => {
-                let answer = match self.converted_geom(&reply) {
-                    Some(g) => Reply::ack(RangerReq::GetGeom(Some(g))),
-                    None => Reply::Nack,
-                };
-                ctx.answer(pending, answer);
+                let geom = self.converted_geom(&reply);
+                ctx.answer(
+                    pending,
+                    ack_or_nack(geom.map(|g| RangerReq::GetGeom(Some(g)))),
+                );
             }
-            Asked::Power(pending) => {
-                let answer = match reply {
-                    Ok(_) => Reply::empty_ack(),
-                    Err(_) => Reply::Nack,
-                };
-                ctx.answer(pending, answer);
-            }
+            Asked::Power(pending) => ctx.answer(pending, acked(&reply)),
             Asked::Property(pending) => ctx.answer(pending, passed_on(reply)),
         }
     }

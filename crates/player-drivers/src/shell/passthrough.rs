@@ -33,9 +33,7 @@ pub const NAME: &str = "passthrough";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Passthrough::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Passthrough::from_block);
 }
 
 /// One provided device and the device it stands for.

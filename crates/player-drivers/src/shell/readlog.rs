@@ -34,8 +34,7 @@ use std::time::{Duration, Instant};
 
 use flate2::read::MultiGzDecoder;
 use player_proto::{
-    Body, DeviceAddr, InterfaceCode, LogGetState, LogMsg, LogReq, Message, MsgType,
-    PLAYER_LOG_TYPE_READ,
+    Body, DeviceAddr, InterfaceCode, LogMsg, LogReq, Message, MsgType, PLAYER_LOG_TYPE_READ,
 };
 use player_server::{
     Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply,
@@ -52,9 +51,7 @@ const OUTBOX_LIMIT: usize = 1024;
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(ReadLog::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, ReadLog::from_block);
 }
 
 /// A line of a log that could not be replayed, with where it is.
@@ -162,6 +159,14 @@ impl Shared {
     fn lock(&self) -> MutexGuard<'_, State> {
         // A worker that panicked leaves the state as it was; keep serving it.
         self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Waits up to `timeout` for a change of the state (a poisoned lock kept, as in `lock`).
+    fn wait<'a>(&'a self, st: MutexGuard<'a, State>, timeout: Duration) -> MutexGuard<'a, State> {
+        self.changed
+            .wait_timeout(st, timeout)
+            .map(|(g, _)| g)
+            .unwrap_or_else(|e| e.into_inner().0)
     }
 }
 
@@ -302,10 +307,7 @@ impl Replay {
                 }
                 if !st.enabled {
                     anchor = None;
-                    let _ = self
-                        .shared
-                        .changed
-                        .wait_timeout(st, Duration::from_millis(100));
+                    drop(self.shared.wait(st, Duration::from_millis(100)));
                     continue;
                 }
             }
@@ -319,12 +321,7 @@ impl Replay {
                 // Stop (clients polling the log device see it), and wait for a rewind.
                 st.enabled = false;
                 while !st.rewind_requested && !st.stop {
-                    st = self
-                        .shared
-                        .changed
-                        .wait_timeout(st, Duration::from_millis(100))
-                        .map(|(g, _)| g)
-                        .unwrap_or_else(|e| e.into_inner().0);
+                    st = self.shared.wait(st, Duration::from_millis(100));
                 }
                 continue;
             };
@@ -390,12 +387,7 @@ impl Replay {
                 // Paused while waiting: this message goes out when replay resumes.
                 *anchor = None;
                 while !st.enabled && !st.stop && !st.rewind_requested {
-                    st = self
-                        .shared
-                        .changed
-                        .wait_timeout(st, Duration::from_millis(100))
-                        .map(|(g, _)| g)
-                        .unwrap_or_else(|e| e.into_inner().0);
+                    st = self.shared.wait(st, Duration::from_millis(100));
                 }
                 if st.enabled {
                     *anchor = Some((Instant::now(), time));
@@ -407,12 +399,7 @@ impl Replay {
             if now >= due {
                 return Waited::Due;
             }
-            st = self
-                .shared
-                .changed
-                .wait_timeout(st, due - now)
-                .map(|(g, _)| g)
-                .unwrap_or_else(|e| e.into_inner().0);
+            st = self.shared.wait(st, due - now);
         }
     }
 
@@ -422,12 +409,7 @@ impl Replay {
             if let Some(w) = &self.waker {
                 w.wake();
             }
-            st = self
-                .shared
-                .changed
-                .wait_timeout(st, Duration::from_millis(50))
-                .map(|(g, _)| g)
-                .unwrap_or_else(|e| e.into_inner().0);
+            st = self.shared.wait(st, Duration::from_millis(50));
         }
         st.outbox.push_back((addr, body, time));
         drop(st);
@@ -488,17 +470,10 @@ impl Driver for ReadLog {
             let mut st = self.shared.lock();
             let reply = match req {
                 LogReq::SetReadState(Some(s)) => {
-                    st.enabled = s.state != 0;
-                    tracing::info!(
-                        "{NAME}: {} playback",
-                        if st.enabled { "start" } else { "stop" }
-                    );
+                    super::switch_state(NAME, &mut st.enabled, s.state, "playback");
                     Reply::ack(LogReq::SetReadState(None))
                 }
-                LogReq::GetState(_) => Reply::ack(LogReq::GetState(Some(LogGetState {
-                    log_type: PLAYER_LOG_TYPE_READ,
-                    state: u8::from(st.enabled),
-                }))),
+                LogReq::GetState(_) => super::state_reply(PLAYER_LOG_TYPE_READ, st.enabled),
                 LogReq::SetReadRewind => {
                     st.rewind_requested = true;
                     Reply::ack(LogReq::SetReadRewind)
@@ -537,7 +512,7 @@ impl Drop for ReadLog {
 mod tests {
     use super::*;
     use crate::testing::{Harness, addr, block};
-    use player_proto::{LaserReq, LogSetReadState, Position2dData};
+    use player_proto::{LaserReq, LogGetState, LogSetReadState, Position2dData};
 
     fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
         std::fs::create_dir_all(dir).unwrap();

@@ -16,9 +16,7 @@ pub const NAME: &str = "relay";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Relay::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Relay::from_block);
 }
 
 /// The driver: one `opaque` device.

@@ -32,8 +32,8 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use flate2::Compression;
 use flate2::write::GzEncoder;
 use player_proto::{
-    Body, CameraData, CameraMsg, DeviceAddr, InterfaceCode, LaserReq, LocalizeReq, LogGetState,
-    LogMsg, LogReq, Message, MsgType, PLAYER_LOG_TYPE_WRITE, Position2dReq, RangerReq, SonarReq,
+    Body, CameraData, CameraMsg, DeviceAddr, InterfaceCode, LaserReq, LocalizeReq, LogMsg, LogReq,
+    Message, MsgType, PLAYER_LOG_TYPE_WRITE, Position2dReq, RangerReq, SonarReq,
 };
 use player_server::{
     Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply, RequestError, RequestTicket,
@@ -46,9 +46,7 @@ pub const NAME: &str = "writelog";
 
 /// Registers the driver under [`NAME`].
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(WriteLog::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, WriteLog::from_block);
 }
 
 /// An open log: plain text (flushed after every line, as upstream) or gzip.
@@ -342,6 +340,27 @@ impl WriteLog {
     }
 
     /// Formats one message of `device` and writes (or holds) its line.
+    /// Records `device`'s ACK to the driver's own request for its `what` (geometry,
+    /// particles), or warns that it gave none; `hold` as in [`WriteLog::record`].
+    fn record_answer(
+        &mut self,
+        device: &DeviceAddr,
+        reply: Result<Message, RequestError>,
+        what: &str,
+        hold: bool,
+    ) {
+        match reply {
+            Ok(msg) => self.record(
+                device,
+                MsgType::RespAck.code(),
+                &msg.body,
+                msg.header.timestamp,
+                hold,
+            ),
+            Err(e) => tracing::warn!("{NAME}: unable to get the {what} of {device}: {e}"),
+        }
+    }
+
     fn record(&mut self, device: &DeviceAddr, msg_type: u8, body: &Body, time: f64, hold: bool) {
         let (line, result) = logformat::encode_line(time, device, msg_type, body, self.options);
         if let Err(why) = result
@@ -422,17 +441,10 @@ impl Driver for WriteLog {
         };
         match req {
             LogReq::SetWriteState(Some(s)) => {
-                self.enabled = s.state != 0;
-                tracing::info!(
-                    "{NAME}: {} logging",
-                    if self.enabled { "start" } else { "stop" }
-                );
+                super::switch_state(NAME, &mut self.enabled, s.state, "logging");
                 Reply::ack(LogReq::SetWriteState(None))
             }
-            LogReq::GetState(_) => Reply::ack(LogReq::GetState(Some(LogGetState {
-                log_type: PLAYER_LOG_TYPE_WRITE,
-                state: u8::from(self.enabled),
-            }))),
+            LogReq::GetState(_) => super::state_reply(PLAYER_LOG_TYPE_WRITE, self.enabled),
             LogReq::SetFilename(Some(f)) => {
                 if self.enabled {
                     tracing::warn!("{NAME}: tried to switch filenames while logging");
@@ -458,31 +470,13 @@ impl Driver for WriteLog {
         reply: Result<Message, RequestError>,
     ) {
         if let Some(device) = self.particles_pending.remove(&ticket) {
-            match reply {
-                Ok(msg) => self.record(
-                    &device,
-                    MsgType::RespAck.code(),
-                    &msg.body,
-                    msg.header.timestamp,
-                    true,
-                ),
-                Err(e) => tracing::warn!("{NAME}: unable to get the particles of {device}: {e}"),
-            }
+            self.record_answer(&device, reply, "particles", true);
             return;
         }
         let Some(device) = self.geometry_pending.remove(&ticket) else {
             return;
         };
-        match reply {
-            Ok(msg) => self.record(
-                &device,
-                MsgType::RespAck.code(),
-                &msg.body,
-                msg.header.timestamp,
-                false,
-            ),
-            Err(e) => tracing::warn!("{NAME}: unable to get the geometry of {device}: {e}"),
-        }
+        self.record_answer(&device, reply, "geometry", false);
         if self.geometry_pending.is_empty() {
             self.flush_held();
         }
@@ -523,7 +517,7 @@ mod tests {
     use super::*;
     use crate::testing::{Harness, addr, block};
     use player_proto::{
-        LaserData, LaserDataScan, LaserGeom, LogSetFilename, LogSetWriteState, Pose2d,
+        LaserData, LaserDataScan, LaserGeom, LogGetState, LogSetFilename, LogSetWriteState, Pose2d,
         Position2dData, Position2dDataState, Text,
     };
 

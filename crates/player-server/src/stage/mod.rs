@@ -549,6 +549,14 @@ impl StageDriver {
         self.world.write().unwrap_or_else(|e| e.into_inner())
     }
 
+    /// The device `addr` of this driver, or an error saying it is not one.
+    fn own_device(&mut self, addr: &DeviceAddr) -> Result<&mut Device, DriverError> {
+        let i = self
+            .device(addr)
+            .ok_or_else(|| DriverError::new(format!("{addr} is not a device of this driver")))?;
+        Ok(&mut self.devices[i])
+    }
+
     fn device(&self, addr: &DeviceAddr) -> Option<usize> {
         self.devices.iter().position(|d| {
             d.addr.robot == addr.robot && d.addr.interf == addr.interf && d.addr.index == addr.index
@@ -699,38 +707,23 @@ fn create_world(
 
 impl Driver for StageDriver {
     fn subscribe(&mut self, addr: DeviceAddr) -> Result<(), DriverError> {
-        let i = self
-            .device(&addr)
-            .ok_or_else(|| DriverError::new(format!("{addr} is not a device of this driver")))?;
-        let d = &mut self.devices[i];
+        let d = self.own_device(&addr)?;
         d.subs += 1;
-        if d.subs == 1 {
-            if let Some(m) = d.model {
-                self.world
-                    .write()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .subscribe(m);
-            }
+        // The first subscription starts the model updating.
+        if let (1, Some(m)) = (d.subs, d.model) {
+            self.write().subscribe(m);
         }
         Ok(())
     }
 
     fn unsubscribe(&mut self, addr: DeviceAddr) -> Result<(), DriverError> {
-        let i = self
-            .device(&addr)
-            .ok_or_else(|| DriverError::new(format!("{addr} is not a device of this driver")))?;
-        let d = &mut self.devices[i];
+        let d = self.own_device(&addr)?;
         if d.subs == 0 {
             return Err(DriverError::new(format!("{addr} was not subscribed")));
         }
         d.subs -= 1;
-        if d.subs == 0 {
-            if let Some(m) = d.model {
-                self.world
-                    .write()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .unsubscribe(m);
-            }
+        if let (0, Some(m)) = (d.subs, d.model) {
+            self.write().unsubscribe(m);
         }
         Ok(())
     }

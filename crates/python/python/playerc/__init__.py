@@ -412,6 +412,23 @@ class _device:
         except _native.PlayerError as e:
             return _fail(e)
 
+    def _answer(self, request, *args):
+        """Runs ``request`` (the name of a ``Connection`` method) for this device: its answer,
+        or ``None`` with the error recorded (the caller then returns libplayerc's -1)."""
+        try:
+            return getattr(self._conn(), request)(self.index, *args)
+        except _native.PlayerError as e:
+            _fail(e)
+            return None
+
+    def _config(self, request, *args):
+        """A request answered with a dict of libplayerc field names (a configuration), copied
+        onto the proxy; the dict, or ``None`` as ``_answer``."""
+        c = self._answer(request, *args)
+        if c is not None:
+            self.__dict__.update(c)
+        return c
+
     def _update(self, t, fields):
         self.info.lasttime = self.info.datatime
         self.info.datatime = t
@@ -446,10 +463,9 @@ class playerc_position2d(_device):
         return self._call(self._conn().position2d_enable, self.index, bool(enable))
 
     def get_geom(self):
-        try:
-            g = self._conn().position2d_get_geom(self.index)
-        except _native.PlayerError as e:
-            return _fail(e)
+        g = self._answer("position2d_get_geom")
+        if g is None:
+            return -1
         self.pose = [g["pose"][0], g["pose"][1], g["pose"][5]]
         self.size = [g["size"][1], g["size"][0]]
         self.info.freshgeom = 1
@@ -541,50 +557,28 @@ class playerc_ranger(_device):
         self.points_count = n
 
     def get_geom(self):
-        try:
-            self._geom(self._conn().ranger_get_geom(self.index))
-            return 0
-        except _native.PlayerError as e:
-            return _fail(e)
+        g = self._answer("ranger_get_geom")
+        if g is None:
+            return -1
+        self._geom(g)
+        return 0
 
     def get_config(self):
         """Fetches the configuration into the proxy's fields; returns
         ``[0, min_angle, max_angle, angular_res, min_range, max_range, range_res,
         frequency]`` as SWIG's OUTPUT typemap would (``[-1]`` on failure)."""
-        try:
-            c = self._conn().ranger_get_config(self.index)
-        except _native.PlayerError as e:
-            return [_fail(e)]
-        self.__dict__.update(c)
-        return [
-            0,
-            c["min_angle"],
-            c["max_angle"],
-            c["angular_res"],
-            c["min_range"],
-            c["max_range"],
-            c["range_res"],
-            c["frequency"],
-        ]
+        c = self._config("ranger_get_config")
+        if c is None:
+            return [-1]
+        keys = ("min_angle", "max_angle", "angular_res", "min_range", "max_range", "range_res",
+                "frequency")
+        return [0] + [c[k] for k in keys]
 
     def set_config(
         self, min_angle, max_angle, angular_res, min_range, max_range, range_res, frequency
     ):
-        try:
-            c = self._conn().ranger_set_config(
-                self.index,
-                min_angle,
-                max_angle,
-                angular_res,
-                min_range,
-                max_range,
-                range_res,
-                frequency,
-            )
-        except _native.PlayerError as e:
-            return _fail(e)
-        self.__dict__.update(c)
-        return 0
+        config = (min_angle, max_angle, angular_res, min_range, max_range, range_res, frequency)
+        return -1 if self._config("ranger_set_config", *config) is None else 0
 
     def power_config(self, value):
         return self._call(self._conn().ranger_power_config, self.index, int(value))
@@ -621,10 +615,9 @@ class playerc_laser(_device):
             self.scan_start = self.min_angle
 
     def get_geom(self):
-        try:
-            g = self._conn().laser_get_geom(self.index)
-        except _native.PlayerError as e:
-            return _fail(e)
+        g = self._answer("laser_get_geom")
+        if g is None:
+            return -1
         self.pose = [g["pose"][0], g["pose"][1], g["pose"][5]]
         self.size = [g["size"][1], g["size"][0]]
         return 0
@@ -632,38 +625,18 @@ class playerc_laser(_device):
     def get_config(self):
         """``[0, min_angle, max_angle, resolution, range_res, intensity,
         scanning_frequency]`` (``[-1]`` on failure), as SWIG's OUTPUT typemap."""
-        try:
-            c = self._conn().laser_get_config(self.index)
-        except _native.PlayerError as e:
-            return [_fail(e)]
-        self.__dict__.update(c)
-        return [
-            0,
-            c["min_angle"],
-            c["max_angle"],
-            c["scan_res"],
-            c["range_res"],
-            c["intensity_on"],
-            c["scanning_frequency"],
-        ]
+        c = self._config("laser_get_config")
+        if c is None:
+            return [-1]
+        keys = ("min_angle", "max_angle", "scan_res", "range_res", "intensity_on",
+                "scanning_frequency")
+        return [0] + [c[k] for k in keys]
 
     def set_config(
         self, min_angle, max_angle, resolution, range_res, intensity, scanning_frequency
     ):
-        try:
-            c = self._conn().laser_set_config(
-                self.index,
-                min_angle,
-                max_angle,
-                resolution,
-                range_res,
-                int(intensity),
-                scanning_frequency,
-            )
-        except _native.PlayerError as e:
-            return _fail(e)
-        self.__dict__.update(c)
-        return 0
+        config = (min_angle, max_angle, resolution, range_res, int(intensity), scanning_frequency)
+        return -1 if self._config("laser_set_config", *config) is None else 0
 
 
 class playerc_sonar(_device):
@@ -678,11 +651,7 @@ class playerc_sonar(_device):
         self.scan = []
 
     def get_geom(self):
-        try:
-            self.__dict__.update(self._conn().sonar_get_geom(self.index))
-            return 0
-        except _native.PlayerError as e:
-            return _fail(e)
+        return -1 if self._config("sonar_get_geom") is None else 0
 
 
 class playerc_blobfinder(_device):
@@ -728,10 +697,9 @@ class playerc_fiducial(_device):
             self.fiducials_count = len(self.fiducials)
 
     def get_geom(self):
-        try:
-            g = self._conn().fiducial_get_geom(self.index)
-        except _native.PlayerError as e:
-            return _fail(e)
+        g = self._answer("fiducial_get_geom")
+        if g is None:
+            return -1
         self.fiducial_geom = _Struct(
             pose=_pose3d(g["pose"]), size=_bbox3d(g["size"]), fiducial_size=g["fiducial_size"]
         )
@@ -770,10 +738,9 @@ class playerc_gripper(_device):
         return self._call(self._conn().gripper_cmd, self.index, "retrieve")
 
     def get_geom(self):
-        try:
-            g = self._conn().gripper_get_geom(self.index)
-        except _native.PlayerError as e:
-            return _fail(e)
+        g = self._answer("gripper_get_geom")
+        if g is None:
+            return -1
         self.pose = _pose3d(g["pose"])
         self.outer_size = _bbox3d(g["outer_size"])
         self.inner_size = _bbox3d(g["inner_size"])
@@ -799,11 +766,8 @@ class playerc_simulation(_device):
 
     def get_pose2d(self, name):
         """``[result, x, y, a]``: the C function's int and its three OUTPUT doubles."""
-        try:
-            x, y, a = self._conn().simulation_get_pose2d(self.index, name)
-            return [0, x, y, a]
-        except _native.PlayerError as e:
-            return [_fail(e), 0.0, 0.0, 0.0]
+        p = self._answer("simulation_get_pose2d", name)
+        return [-1, 0.0, 0.0, 0.0] if p is None else [0, *p]
 
     def set_pose3d(self, name, gx, gy, gz, groll, gpitch, gyaw):
         return self._call(
@@ -815,11 +779,11 @@ class playerc_simulation(_device):
 
     def get_pose3d(self, name):
         """``[result, x, y, z, roll, pitch, yaw, time]``."""
-        try:
-            p, t = self._conn().simulation_get_pose3d(self.index, name)
-            return [0, *p, t]
-        except _native.PlayerError as e:
-            return [_fail(e)] + [0.0] * 7
+        answer = self._answer("simulation_get_pose3d", name)
+        if answer is None:
+            return [-1] + [0.0] * 7
+        p, t = answer
+        return [0, *p, t]
 
     def set_property(self, name, property, value):
         """``value``: bytes of the property's C value."""
@@ -829,11 +793,8 @@ class playerc_simulation(_device):
 
     def get_property(self, name, property, value_len=16):
         """``[result, bytes]``."""
-        try:
-            v = self._conn().simulation_get_property(self.index, name, property, value_len)
-            return [0, v]
-        except _native.PlayerError as e:
-            return [_fail(e), b""]
+        v = self._answer("simulation_get_property", name, property, value_len)
+        return [-1, b""] if v is None else [0, v]
 
     def pause(self):
         return self._call(self._conn().simulation_cmd, self.index, "pause")
@@ -961,20 +922,16 @@ class playerc_map(_device):
         self.segments = []
 
     def get_map(self):
-        try:
-            info, cells = self._conn().map_get_map(self.index)
-        except _native.PlayerError as e:
-            return _fail(e)
+        answer = self._answer("map_get_map")
+        if answer is None:
+            return -1
+        info, cells = answer
         self.__dict__.update(info)
         self.cells = [c - 256 if c > 127 else c for c in cells]
         return 0
 
     def get_vector(self):
-        try:
-            self.__dict__.update(self._conn().map_get_vector(self.index))
-            return 0
-        except _native.PlayerError as e:
-            return _fail(e)
+        return -1 if self._config("map_get_vector") is None else 0
 
 
 class playerc_planner(_device):
@@ -996,12 +953,12 @@ class playerc_planner(_device):
         return self._call(self._conn().planner_set_cmd_pose, self.index, [gx, gy, ga])
 
     def get_waypoints(self):
-        try:
-            self.waypoints = self._conn().planner_get_waypoints(self.index)
-            self.waypoint_count = len(self.waypoints)
-            return 0
-        except _native.PlayerError as e:
-            return _fail(e)
+        waypoints = self._answer("planner_get_waypoints")
+        if waypoints is None:
+            return -1
+        self.waypoints = waypoints
+        self.waypoint_count = len(waypoints)
+        return 0
 
     def enable(self, state):
         return self._call(self._conn().planner_enable, self.index, bool(state))
@@ -1039,10 +996,9 @@ class playerc_localize(_device):
         return self._call(self._conn().localize_set_pose, self.index, list(pose), list(cov))
 
     def get_particles(self):
-        try:
-            d = self._conn().localize_get_particles(self.index)
-        except _native.PlayerError as e:
-            return _fail(e)
+        d = self._answer("localize_get_particles")
+        if d is None:
+            return -1
         self.mean = d["mean"]
         self.variance = d["variance"]
         self.num_particles = d["num_particles"]

@@ -43,8 +43,18 @@ for _name in dir(_pc):
     if _name.startswith("PLAYER_") and _name.endswith("_CODE"):
         globals()[_name] = getattr(_pc, _name)
 
-PLAYER_PORTNUM = 6665
+PLAYER_PORTNUM = _native.DEFAULT_PORT
 PLAYER_HOSTNAME = "localhost"
+
+
+def _field(name):
+    """A libplayerc++ getter (``GetXPos()``, ...) that returns the playerc proxy's field
+    ``name`` as it is: one line per getter instead of a method each."""
+
+    def get(self):
+        return getattr(self._dev, name)
+
+    return get
 
 
 class PlayerError(_native.PlayerError):
@@ -134,11 +144,8 @@ class ClientProxy:
     def _ok(self, what, ret):
         _check(f"{type(self).__name__}::{what}", ret)
 
-    def GetIndex(self):
-        return self._dev.index
-
-    def GetInterface(self):
-        return self._dev._code
+    GetIndex = _field("index")
+    GetInterface = _field("_code")
 
     def GetDriverName(self):
         return self._dev.info.drivername
@@ -221,23 +228,12 @@ class Position2dProxy(ClientProxy):
     def SetOdometry(self, aX, aY, aYaw):
         self._ok("SetOdometry", self._dev.set_odom(aX, aY, aYaw))
 
-    def GetXPos(self):
-        return self._dev.px
-
-    def GetYPos(self):
-        return self._dev.py
-
-    def GetYaw(self):
-        return self._dev.pa
-
-    def GetXSpeed(self):
-        return self._dev.vx
-
-    def GetYSpeed(self):
-        return self._dev.vy
-
-    def GetYawSpeed(self):
-        return self._dev.va
+    GetXPos = _field("px")
+    GetYPos = _field("py")
+    GetYaw = _field("pa")
+    GetXSpeed = _field("vx")
+    GetYSpeed = _field("vy")
+    GetYawSpeed = _field("va")
 
     def GetStall(self):
         return bool(self._dev.stall)
@@ -248,14 +244,9 @@ class RangerProxy(ClientProxy):
 
     _playerc = _pc.playerc_ranger
 
-    def GetElementCount(self):
-        return self._dev.element_count
-
-    def GetDevicePose(self):
-        return self._dev.device_pose
-
-    def GetDeviceSize(self):
-        return self._dev.device_size
+    GetElementCount = _field("element_count")
+    GetDevicePose = _field("device_pose")
+    GetDeviceSize = _field("device_size")
 
     def GetElementPose(self, aIndex):
         return self._dev.element_poses[aIndex]
@@ -263,8 +254,7 @@ class RangerProxy(ClientProxy):
     def GetElementSize(self, aIndex):
         return self._dev.element_sizes[aIndex]
 
-    def GetRangeCount(self):
-        return self._dev.ranges_count
+    GetRangeCount = _field("ranges_count")
 
     def GetRange(self, aIndex):
         return self._dev.ranges[aIndex]
@@ -272,8 +262,7 @@ class RangerProxy(ClientProxy):
     def __getitem__(self, aIndex):
         return self.GetRange(aIndex)
 
-    def GetIntensityCount(self):
-        return self._dev.intensities_count
+    GetIntensityCount = _field("intensities_count")
 
     def GetIntensity(self, aIndex):
         return self._dev.intensities[aIndex]
@@ -298,26 +287,13 @@ class RangerProxy(ClientProxy):
     def RequestConfigure(self):
         self._ok("RequestConfigure", self._dev.get_config()[0])
 
-    def GetMinAngle(self):
-        return self._dev.min_angle
-
-    def GetMaxAngle(self):
-        return self._dev.max_angle
-
-    def GetAngularRes(self):
-        return self._dev.angular_res
-
-    def GetMinRange(self):
-        return self._dev.min_range
-
-    def GetMaxRange(self):
-        return self._dev.max_range
-
-    def GetRangeRes(self):
-        return self._dev.range_res
-
-    def GetFrequency(self):
-        return self._dev.frequency
+    GetMinAngle = _field("min_angle")
+    GetMaxAngle = _field("max_angle")
+    GetAngularRes = _field("angular_res")
+    GetMinRange = _field("min_range")
+    GetMaxRange = _field("max_range")
+    GetRangeRes = _field("range_res")
+    GetFrequency = _field("frequency")
 
 
 class LaserProxy(ClientProxy):
@@ -325,8 +301,7 @@ class LaserProxy(ClientProxy):
 
     _playerc = _pc.playerc_laser
 
-    def GetCount(self):
-        return self._dev.scan_count
+    GetCount = _field("scan_count")
 
     def GetRange(self, aIndex):
         return self._dev.scan[aIndex][0]
@@ -344,26 +319,13 @@ class LaserProxy(ClientProxy):
         x, y = self._dev.point[aIndex]
         return player_point_2d_t(x, y)
 
-    def GetMaxRange(self):
-        return self._dev.max_range
-
-    def GetScanRes(self):
-        return self._dev.scan_res
-
-    def GetRangeRes(self):
-        return self._dev.range_res
-
-    def GetScanningFrequency(self):
-        return self._dev.scanning_frequency
-
-    def GetMinAngle(self):
-        return self._dev.min_angle
-
-    def GetMaxAngle(self):
-        return self._dev.max_angle
-
-    def GetID(self):
-        return self._dev.laser_id
+    GetMaxRange = _field("max_range")
+    GetScanRes = _field("scan_res")
+    GetRangeRes = _field("range_res")
+    GetScanningFrequency = _field("scanning_frequency")
+    GetMinAngle = _field("min_angle")
+    GetMaxAngle = _field("max_angle")
+    GetID = _field("laser_id")
 
     def RequestGeom(self):
         self._ok("RequestGeom", self._dev.get_geom())
@@ -392,8 +354,7 @@ class SonarProxy(ClientProxy):
 
     _playerc = _pc.playerc_sonar
 
-    def GetCount(self):
-        return self._dev.scan_count
+    GetCount = _field("scan_count")
 
     def GetScan(self, aIndex):
         return self._dev.scan[aIndex]
@@ -401,8 +362,7 @@ class SonarProxy(ClientProxy):
     def __getitem__(self, aIndex):
         return self.GetScan(aIndex)
 
-    def GetPoseCount(self):
-        return self._dev.pose_count
+    GetPoseCount = _field("pose_count")
 
     def GetPose(self, aIndex):
         x, y, a = self._dev.poses[aIndex]
@@ -417,8 +377,7 @@ class BlobfinderProxy(ClientProxy):
 
     _playerc = _pc.playerc_blobfinder
 
-    def GetCount(self):
-        return self._dev.blobs_count
+    GetCount = _field("blobs_count")
 
     def GetBlob(self, aIndex):
         return self._dev.blobs[aIndex]
@@ -426,11 +385,8 @@ class BlobfinderProxy(ClientProxy):
     def __getitem__(self, aIndex):
         return self.GetBlob(aIndex)
 
-    def GetWidth(self):
-        return self._dev.width
-
-    def GetHeight(self):
-        return self._dev.height
+    GetWidth = _field("width")
+    GetHeight = _field("height")
 
 
 class FiducialProxy(ClientProxy):
@@ -438,8 +394,7 @@ class FiducialProxy(ClientProxy):
 
     _playerc = _pc.playerc_fiducial
 
-    def GetCount(self):
-        return self._dev.fiducials_count
+    GetCount = _field("fiducials_count")
 
     def GetFiducialItem(self, aIndex):
         return self._dev.fiducials[aIndex]
@@ -462,29 +417,14 @@ class GripperProxy(ClientProxy):
 
     _playerc = _pc.playerc_gripper
 
-    def GetState(self):
-        return self._dev.state
-
-    def GetBeams(self):
-        return self._dev.beams
-
-    def GetStored(self):
-        return self._dev.stored
-
-    def GetCapacity(self):
-        return self._dev.capacity
-
-    def GetNumBeams(self):
-        return self._dev.num_beams
-
-    def GetPose(self):
-        return self._dev.pose
-
-    def GetOuterSize(self):
-        return self._dev.outer_size
-
-    def GetInnerSize(self):
-        return self._dev.inner_size
+    GetState = _field("state")
+    GetBeams = _field("beams")
+    GetStored = _field("stored")
+    GetCapacity = _field("capacity")
+    GetNumBeams = _field("num_beams")
+    GetPose = _field("pose")
+    GetOuterSize = _field("outer_size")
+    GetInnerSize = _field("inner_size")
 
     def RequestGeometry(self):
         self._ok("RequestGeometry", self._dev.get_geom())
@@ -573,23 +513,12 @@ class CameraProxy(ClientProxy):
 
     _playerc = _pc.playerc_camera
 
-    def GetWidth(self):
-        return self._dev.width
-
-    def GetHeight(self):
-        return self._dev.height
-
-    def GetDepth(self):
-        return self._dev.bpp
-
-    def GetFormat(self):
-        return self._dev.format
-
-    def GetCompression(self):
-        return self._dev.compression
-
-    def GetImageSize(self):
-        return self._dev.image_count
+    GetWidth = _field("width")
+    GetHeight = _field("height")
+    GetDepth = _field("bpp")
+    GetFormat = _field("format")
+    GetCompression = _field("compression")
+    GetImageSize = _field("image_count")
 
     def GetImage(self):
         """The image bytes (C++ copies them into a caller's buffer)."""
@@ -617,14 +546,9 @@ class MapProxy(ClientProxy):
     def GetCell(self, x, y):
         return self._dev.cells[self.GetCellIndex(x, y)]
 
-    def GetResolution(self):
-        return self._dev.resolution
-
-    def GetWidth(self):
-        return self._dev.width
-
-    def GetHeight(self):
-        return self._dev.height
+    GetResolution = _field("resolution")
+    GetWidth = _field("width")
+    GetHeight = _field("height")
 
     def GetOriginX(self):
         return self._dev.origin[0]
@@ -650,38 +574,17 @@ class PlannerProxy(ClientProxy):
     def SetEnable(self, aEnable):
         self._ok("SetEnable", self._dev.enable(aEnable))
 
-    def GetPathValid(self):
-        return self._dev.path_valid
-
-    def GetPathDone(self):
-        return self._dev.path_done
-
-    def GetPx(self):
-        return self._dev.px
-
-    def GetPy(self):
-        return self._dev.py
-
-    def GetPa(self):
-        return self._dev.pa
-
-    def GetGx(self):
-        return self._dev.gx
-
-    def GetGy(self):
-        return self._dev.gy
-
-    def GetGa(self):
-        return self._dev.ga
-
-    def GetWx(self):
-        return self._dev.wx
-
-    def GetWy(self):
-        return self._dev.wy
-
-    def GetWa(self):
-        return self._dev.wa
+    GetPathValid = _field("path_valid")
+    GetPathDone = _field("path_done")
+    GetPx = _field("px")
+    GetPy = _field("py")
+    GetPa = _field("pa")
+    GetGx = _field("gx")
+    GetGy = _field("gy")
+    GetGa = _field("ga")
+    GetWx = _field("wx")
+    GetWy = _field("wy")
+    GetWa = _field("wa")
 
     def GetIx(self, i):
         return self._dev.waypoints[i][0]
@@ -692,11 +595,8 @@ class PlannerProxy(ClientProxy):
     def GetIa(self, i):
         return self._dev.waypoints[i][2]
 
-    def GetCurrentWaypointId(self):
-        return self._dev.curr_waypoint
-
-    def GetWaypointCount(self):
-        return self._dev.waypoint_count
+    GetCurrentWaypointId = _field("curr_waypoint")
+    GetWaypointCount = _field("waypoint_count")
 
 
 class LocalizeProxy(ClientProxy):
@@ -704,14 +604,9 @@ class LocalizeProxy(ClientProxy):
 
     _playerc = _pc.playerc_localize
 
-    def GetPendingCount(self):
-        return self._dev.pending_count
-
-    def GetPendingTime(self):
-        return self._dev.pending_time
-
-    def GetHypothCount(self):
-        return self._dev.hypoth_count
+    GetPendingCount = _field("pending_count")
+    GetPendingTime = _field("pending_time")
+    GetHypothCount = _field("hypoth_count")
 
     def GetHypoth(self, aIndex):
         return self._dev.hypoths[aIndex]
@@ -723,8 +618,7 @@ class LocalizeProxy(ClientProxy):
     def GetParticlePose(self, index):
         return self._dev.particles[index].pose
 
-    def GetNumParticles(self):
-        return self._dev.num_particles
+    GetNumParticles = _field("num_particles")
 
     def SetPose(self, pose, cov):
         self._ok("SetPose", self._dev.set_pose(pose, cov))

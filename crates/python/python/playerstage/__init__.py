@@ -34,6 +34,7 @@ conventions) are installed beside this package; this layer is built on ``playerc
 
 from . import _native
 from ._native import (
+    DEFAULT_PORT,
     ConnectionLost,
     PlayerError,
     RequestRefused,
@@ -49,6 +50,7 @@ __all__ = [
     "RequestRefused",
     "RequestTimeout",
     "WorldError",
+    "DEFAULT_PORT",
     "Pose2d",
     "Odometry",
     "RangerScan",

@@ -26,24 +26,8 @@ try:  # numpy is optional: sensor arrays are numpy arrays when it is installed.
 except ImportError:  # pragma: no cover - exercised only without numpy
     _np = None
 
-__all__ = [
-    "Client",
-    "World",
-    "PlayerError",
-    "ConnectionLost",
-    "RequestRefused",
-    "RequestTimeout",
-    "WorldError",
-    "Pose2d",
-    "Odometry",
-    "RangerScan",
-    "LaserScan",
-    "Blob",
-    "BlobfinderFrame",
-    "Fiducial",
-    "GripperState",
-    "HAVE_NUMPY",
-]
+# The public names are listed once, in the package's ``__all__`` (``playerstage/__init__.py``),
+# which loads them from here on first use.
 
 HAVE_NUMPY = _np is not None
 
@@ -516,7 +500,7 @@ class Client:
     def __init__(
         self,
         host: str = "localhost",
-        port: int = 6665,
+        port: int = _native.DEFAULT_PORT,
         *,
         push: bool = False,
         request_timeout: float = 5.0,

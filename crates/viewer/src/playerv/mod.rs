@@ -130,11 +130,7 @@ pub fn run(options: PlayervOptions) -> Result<(), ViewerError> {
         &title,
         crate::world_window::native_options(&title, [900.0, 640.0]),
         Box::new(move |cc| {
-            let rs = cc
-                .wgpu_render_state
-                .as_ref()
-                .ok_or("eframe started without wgpu")?;
-            canvas::install(rs);
+            canvas::install(cc)?;
             let servers = std::iter::once((options.host.clone(), options.port))
                 .chain(options.more_servers.clone());
             let workers = servers
@@ -379,14 +375,8 @@ impl PlayervApp {
 
     fn interact(&mut self, ui: &egui::Ui, resp: &egui::Response, st: &PlayervState) {
         let rect = resp.rect;
-        let to_local = |p: egui::Pos2| [(p.x - rect.min.x) as f64, (p.y - rect.min.y) as f64];
-        if let Some(hover) = resp.hover_pos() {
-            let scroll = ui.input(|i| i.smooth_scroll_delta.y + i.zoom_delta().ln() * 200.0);
-            if scroll != 0.0 {
-                self.view
-                    .zoom_at(to_local(hover), (scroll as f64 / 200.0).exp());
-            }
-        }
+        let to_local = |p: egui::Pos2| canvas::local(rect, p);
+        canvas::zoom_on_scroll(&mut self.view, ui, resp);
         // playernav's clicks, on the map frame and when no command mode takes the left button.
         if st.map_frame() {
             let left = self.command == CommandMode::Off;

@@ -391,22 +391,14 @@ fn draw_devices(
                 let (w, h) = (size[0].clamp(1, 640) as f64, size[1].clamp(1, 480) as f64);
                 let k = (160.0 / w).min(1.0);
                 let tl = [view.size[0] - 10.0 - w * k, inset_y];
-                let corner = |x: f64, y: f64| view.to_world([tl[0] + x * k, tl[1] + y * k]);
-                let frame = [
-                    corner(0.0, 0.0),
-                    corner(w, 0.0),
-                    corner(w, h),
-                    corner(0.0, h),
-                ];
-                scene.fill(Layer::Overlay, &frame, Rgba8::rgb(30, 30, 30));
-                scene.outline(Layer::Overlay, &frame, 1.0, Rgba8::BLACK);
-                for (color, [l, t, r, b]) in blobs {
-                    let (l, t) = (*l as f64, *t as f64);
-                    let (r, b) = ((*r as f64 + 1.0).min(w), (*b as f64 + 1.0).min(h));
-                    let q = [corner(l, t), corner(r, t), corner(r, b), corner(l, b)];
-                    scene.fill(Layer::Overlay, &q, Rgba8::from_packed_rgb(*color));
-                }
-                scene.label(corner(0.0, h), key.to_string(), Rgba8::BLACK);
+                let boxes = blobs.iter().map(|(color, [l, t, r, b])| {
+                    let edges = [*l as f64, *t as f64, *r as f64, *b as f64];
+                    (Rgba8::from_packed_rgb(*color), edges)
+                });
+                let background = Rgba8::rgb(30, 30, 30);
+                let bottom_left =
+                    scene.blob_inset(Layer::Overlay, view, tl, k, [w, h], background, boxes);
+                scene.label(bottom_left, key.to_string(), Rgba8::BLACK);
                 inset_y += h * k + 24.0;
             }
             DeviceData::Camera {

@@ -749,9 +749,7 @@ impl Driver for Amcl {
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Amcl::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Amcl::from_block);
 }
 
 #[cfg(test)]

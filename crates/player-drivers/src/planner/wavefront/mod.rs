@@ -384,18 +384,8 @@ impl std::fmt::Debug for Wavefront {
 impl Wavefront {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<Wavefront, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::PLANNER)
-            .ok_or_else(|| DriverError::new("must provide a planner device"))?
-            .addr;
-        let output = block
-            .required(InterfaceCode::POSITION2D, Some("output"))?
-            .addr;
-        let input = block
-            .required(InterfaceCode::POSITION2D, Some("input"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::PLANNER)?;
+        let (output, input) = crate::position::output_and_input(block)?;
         let map = block.required(InterfaceCode::MAP, None)?.addr;
         let laser = block
             .optional_required(InterfaceCode::LASER, None)?
@@ -592,10 +582,7 @@ impl Driver for Wavefront {
         self.deferred_goal = None;
         self.last_publish = None;
         self.robot_radius = None;
-        ctx.subscribe(self.output);
-        if !self.input.same_device(&self.output) {
-            ctx.subscribe(self.input);
-        }
+        crate::position::subscribe_both(ctx, self.output, self.input);
         ctx.subscribe(self.map);
         self.scans.clear();
         self.scans_changed = false;
@@ -835,9 +822,7 @@ impl Driver for Wavefront {
 
 /// Registers `wavefront`.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Wavefront::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Wavefront::from_block);
 }
 
 #[cfg(test)]

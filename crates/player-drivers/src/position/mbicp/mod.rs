@@ -28,10 +28,7 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScanpose, LaserMsg, Message, Pose2d,
     Position2dCmd, Position2dCmdVel, Position2dData, Position2dMsg,
 };
-use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
-};
+use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
 
 use crate::forward::Waiting;
 use alg::{Frame, Outcome, Params, Reading};
@@ -215,12 +212,7 @@ pub struct Mbicp {
 impl Mbicp {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<Mbicp, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::POSITION2D)
-            .ok_or_else(|| DriverError::new("must provide a position2d device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::POSITION2D)?;
         let odom = block.required(InterfaceCode::POSITION2D, None)?.addr;
         if odom.same_device(&addr) {
             return Err(DriverError::new("attempt to subscribe to self"));
@@ -299,26 +291,12 @@ impl Driver for Mbicp {
         ctx.command(self.odom, command.body.clone());
     }
 
-    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        self.waiting
-            .forward(ctx, self.odom, request.body.clone(), |p| p)
-    }
-
-    fn handle_reply(
-        &mut self,
-        ctx: &mut Context<'_>,
-        ticket: RequestTicket,
-        reply: Result<Message, RequestError>,
-    ) {
-        self.waiting.pass_back(ctx, ticket, reply);
-    }
+    crate::forward::pass_requests_to!(odom);
 }
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Mbicp::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Mbicp::from_block);
 }
 
 #[cfg(test)]

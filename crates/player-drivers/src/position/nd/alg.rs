@@ -447,6 +447,130 @@ pub struct Regions {
     pub chosen: Option<usize>,
 }
 
+/// Makes slot `i` exist (upstream's fixed array has room for it).
+fn slot(slots: &mut Vec<Region>, i: usize) {
+    if slots.len() <= i {
+        slots.resize(i + 1, Region::default());
+    }
+}
+
+/// When both sides of the search agree on a region, the duplicate is dropped and the one
+/// earlier in the list kept (upstream's bookkeeping at each success); returns the region
+/// chosen.
+fn settle(slots: &mut [Region], len: &mut usize, won: usize, other: usize) -> usize {
+    let o = slots[other];
+    if o.start_rising || o.end_rising {
+        return won;
+    }
+    if other > won {
+        *len -= 1;
+        return won;
+    }
+    slots[other] = slots[won];
+    *len -= 1;
+    other
+}
+
+/// A side of the alternating region search: `Left` walks counter-clockwise from the goal
+/// (its regions' near edge is their start), `Right` clockwise (their end). Upstream writes
+/// the two searches out mirrored; one [`search_side`] with this parameter is both.
+#[derive(Clone, Copy)]
+enum Side {
+    Left,
+    Right,
+}
+
+impl Side {
+    /// The edge the search moves on: (sector, rising).
+    fn edge(self, r: &Region) -> (usize, bool) {
+        match self {
+            Side::Left => (r.start, r.start_rising),
+            Side::Right => (r.end, r.end_rising),
+        }
+    }
+
+    fn set_edge(self, r: &mut Region, (s, rising): (usize, bool)) {
+        match self {
+            Side::Left => (r.start, r.start_rising) = (s, rising),
+            Side::Right => (r.end, r.end_rising) = (s, rising),
+        }
+    }
+
+    /// Sets the edge facing the goal: one sector beyond the previous region's `edge`, on the
+    /// other side of its discontinuity.
+    fn set_back_edge(self, r: &mut Region, (s, rising): (usize, bool)) {
+        match self {
+            Side::Left => (r.end, r.end_rising) = (dec(s), !rising),
+            Side::Right => (r.start, r.start_rising) = (inc(s), !rising),
+        }
+    }
+
+    /// The region's discontinuity on this side, and on the other.
+    fn directions(self) -> (Direction, Direction) {
+        match self {
+            Side::Left => (Direction::StartDiscontinuity, Direction::EndDiscontinuity),
+            Side::Right => (Direction::EndDiscontinuity, Direction::StartDiscontinuity),
+        }
+    }
+
+    /// Finds the next discontinuity from `r`'s back edge and makes it `r`'s edge.
+    fn extend(self, robot: &Robot, d: &[Polar; SECTORS], r: &mut Region) {
+        let (from, left) = match self {
+            Side::Left => (r.end, true),
+            Side::Right => (r.start, false),
+        };
+        let found = next_discontinuity(robot, d, from, left).unwrap_or((0, false));
+        self.set_edge(r, found);
+    }
+}
+
+/// One step of the region search on `side`: the region `cur` is tried through its edge (when
+/// rising) or the search moves past it to the next one and tries that through its back edge.
+/// `other` is the other side's current region. The chosen region's index when one is reachable.
+#[allow(clippy::too_many_arguments)]
+fn search_side(
+    side: Side,
+    robot: &Robot,
+    d: &[Polar; SECTORS],
+    goal: &Goal,
+    slots: &mut Vec<Region>,
+    len: &mut usize,
+    cur: &mut usize,
+    other: usize,
+) -> Option<usize> {
+    let (near, far) = side.directions();
+    let new_slot = |slots: &mut Vec<Region>, len: &mut usize, cur: &mut usize| {
+        let prev = slots[*cur];
+        *cur = *len;
+        *len += 1;
+        slot(slots, *cur);
+        slots[*cur] = Region::default();
+        side.set_back_edge(&mut slots[*cur], side.edge(&prev));
+    };
+    if side.edge(&slots[*cur]).1 {
+        if reachable(robot, d, goal, &mut slots[*cur], near) {
+            return Some(settle(slots, len, *cur, other));
+        }
+        if *cur != other {
+            slots[*cur].discarded = true;
+        }
+        new_slot(slots, len, cur);
+        side.extend(robot, d, &mut slots[*cur]);
+    } else {
+        if *cur != other {
+            let r = &mut slots[*cur];
+            side.set_back_edge(r, side.edge(r));
+        } else {
+            new_slot(slots, len, cur);
+        }
+        side.extend(robot, d, &mut slots[*cur]);
+        if reachable(robot, d, goal, &mut slots[*cur], far) {
+            return Some(settle(slots, len, *cur, other));
+        }
+    }
+    None
+}
+
 /// Chooses the region to move through: the goal's own if it is in sight and reachable,
 /// else the nearest passable one, searching to both sides alternately.
 pub fn select_region(robot: &Robot, d: &[Polar; SECTORS], goal: &Goal) -> Regions {
@@ -455,11 +579,6 @@ pub fn select_region(robot: &Robot, d: &[Polar; SECTORS], goal: &Goal) -> Region
     // `slots` is that array, `len` its length.
     let mut slots: Vec<Region> = vec![Region::default(); 2];
     let mut len = 1usize;
-    let slot = |slots: &mut Vec<Region>, i: usize| {
-        if slots.len() <= i {
-            slots.resize(i + 1, Region::default());
-        }
-    };
     let finish = |slots: Vec<Region>, len: usize, chosen: Option<usize>| {
         let mut list = slots;
         list.truncate(len);
@@ -520,126 +639,34 @@ pub fn select_region(robot: &Robot, d: &[Polar; SECTORS], goal: &Goal) -> Region
         }
     }
     let (mut il, mut ir) = (idx, idx);
-    // When both sides agree on a region, the duplicate is dropped and the one earlier in the
-    // list kept (upstream's bookkeeping at each success).
-    let settle = |slots: &mut Vec<Region>, len: &mut usize, won: usize, other: usize| -> usize {
-        let o = slots[other];
-        if o.start_rising || o.end_rising {
-            return won;
-        }
-        if other > won {
-            *len -= 1;
-            return won;
-        }
-        slots[other] = slots[won];
-        *len -= 1;
-        other
-    };
     loop {
         let dl = sector_distance(slots[il].start, goal.sector);
         let dr = sector_distance(goal.sector, slots[ir].end);
-        if dl <= dr {
-            if slots[il].start_rising {
-                if reachable(
-                    robot,
-                    d,
-                    goal,
-                    &mut slots[il],
-                    Direction::StartDiscontinuity,
-                ) {
-                    let c = settle(&mut slots, &mut len, il, ir);
-                    return finish(slots, len, Some(c));
-                }
-                if il != ir {
-                    slots[il].discarded = true;
-                }
-                let prev = slots[il];
-                il = len;
-                len += 1;
-                slot(&mut slots, il);
-                slots[il] = Region {
-                    end: dec(prev.start),
-                    end_rising: !prev.start_rising,
-                    ..Region::default()
-                };
-                let (s, r) =
-                    next_discontinuity(robot, d, slots[il].end, true).unwrap_or((0, false));
-                slots[il].start = s;
-                slots[il].start_rising = r;
-            } else {
-                if il != ir {
-                    let r = &mut slots[il];
-                    r.end = dec(r.start);
-                    r.end_rising = !r.start_rising;
-                } else {
-                    let prev = slots[il];
-                    il = len;
-                    len += 1;
-                    slot(&mut slots, il);
-                    slots[il] = Region {
-                        end: dec(prev.start),
-                        end_rising: !prev.start_rising,
-                        ..Region::default()
-                    };
-                }
-                let (s, r) =
-                    next_discontinuity(robot, d, slots[il].end, true).unwrap_or((0, false));
-                slots[il].start = s;
-                slots[il].start_rising = r;
-                if reachable(robot, d, goal, &mut slots[il], Direction::EndDiscontinuity) {
-                    let c = settle(&mut slots, &mut len, il, ir);
-                    return finish(slots, len, Some(c));
-                }
-            }
-        } else if slots[ir].end_rising {
-            if reachable(robot, d, goal, &mut slots[ir], Direction::EndDiscontinuity) {
-                let c = settle(&mut slots, &mut len, ir, il);
-                return finish(slots, len, Some(c));
-            }
-            if ir != il {
-                slots[ir].discarded = true;
-            }
-            let prev = slots[ir];
-            ir = len;
-            len += 1;
-            slot(&mut slots, ir);
-            slots[ir] = Region {
-                start: inc(prev.end),
-                start_rising: !prev.end_rising,
-                ..Region::default()
-            };
-            let (e, r) = next_discontinuity(robot, d, slots[ir].start, false).unwrap_or((0, false));
-            slots[ir].end = e;
-            slots[ir].end_rising = r;
-        } else {
-            if ir != il {
-                let r = &mut slots[ir];
-                r.start = inc(r.end);
-                r.start_rising = !r.end_rising;
-            } else {
-                let prev = slots[ir];
-                ir = len;
-                len += 1;
-                slot(&mut slots, ir);
-                slots[ir] = Region {
-                    start: inc(prev.end),
-                    start_rising: !prev.end_rising,
-                    ..Region::default()
-                };
-            }
-            let (e, r) = next_discontinuity(robot, d, slots[ir].start, false).unwrap_or((0, false));
-            slots[ir].end = e;
-            slots[ir].end_rising = r;
-            if reachable(
+        let found = if dl <= dr {
+            search_side(
+                Side::Left,
                 robot,
                 d,
                 goal,
-                &mut slots[ir],
-                Direction::StartDiscontinuity,
-            ) {
-                let c = settle(&mut slots, &mut len, ir, il);
-                return finish(slots, len, Some(c));
-            }
+                &mut slots,
+                &mut len,
+                &mut il,
+                ir,
+            )
+        } else {
+            search_side(
+                Side::Right,
+                robot,
+                d,
+                goal,
+                &mut slots,
+                &mut len,
+                &mut ir,
+                il,
+            )
+        };
+        if let Some(c) = found {
+            return finish(slots, len, Some(c));
         }
         if dl >= SECTORS / 2 && dr >= SECTORS / 2 {
             break;

@@ -502,24 +502,9 @@ pub struct Nd {
 impl Nd {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<Nd, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::POSITION2D)
-            .ok_or_else(|| DriverError::new("must provide a position2d device"))?
-            .addr;
-        let output = block
-            .required(InterfaceCode::POSITION2D, Some("output"))?
-            .addr;
-        let input = block
-            .required(InterfaceCode::POSITION2D, Some("input"))?
-            .addr;
-        let laser = block
-            .optional_required(InterfaceCode::LASER, None)?
-            .map(|r| r.addr);
-        let sonar = block
-            .optional_required(InterfaceCode::SONAR, None)?
-            .map(|r| r.addr);
+        let addr = block.provided(InterfaceCode::POSITION2D)?;
+        let (output, input) = super::output_and_input(block)?;
+        let (laser, sonar) = super::laser_and_sonar(block)?;
         if laser.is_none() && sonar.is_none() {
             return Err(DriverError::new(
                 "ND needs at least one sonar or one laser (e.g. \"laser:0\")",
@@ -591,10 +576,7 @@ impl Driver for Nd {
         self.laser_pose = None;
         self.sonar_poses = None;
         self.waiting_on_stall = false;
-        ctx.subscribe(self.output);
-        if !self.input.same_device(&self.output) {
-            ctx.subscribe(self.input);
-        }
+        super::subscribe_both(ctx, self.output, self.input);
         let t = ctx.request(self.output, Position2dReq::GetGeom(None));
         self.asked.insert(t, Asked::RobotGeom);
         if let Some(laser) = self.laser {
@@ -754,9 +736,7 @@ impl Driver for Nd {
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Nd::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Nd::from_block);
 }
 
 #[cfg(test)]

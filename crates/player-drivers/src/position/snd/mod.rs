@@ -21,10 +21,7 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserMsg, Message, Pose2d, Position2dCmd,
     Position2dCmdVel, Position2dData, Position2dMsg,
 };
-use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
-};
+use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
 
 use crate::error::Error;
 use crate::forward::Waiting;
@@ -150,12 +147,7 @@ pub struct Snd {
 impl Snd {
     /// Builds the driver from its cfg block.
     pub fn from_block(block: &DriverBlock) -> Result<Snd, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::POSITION2D)
-            .ok_or_else(|| DriverError::new("must provide a position2d device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::POSITION2D)?;
         let laser = block.required(InterfaceCode::LASER, None)?.addr;
         let input = block
             .required(InterfaceCode::POSITION2D, Some("input"))?
@@ -199,10 +191,7 @@ impl Snd {
 impl Driver for Snd {
     fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
         self.nav.reset();
-        ctx.subscribe(self.input);
-        if !self.output.same_device(&self.input) {
-            ctx.subscribe(self.output);
-        }
+        super::subscribe_both(ctx, self.input, self.output);
         ctx.subscribe(self.laser);
         Ok(())
     }
@@ -251,26 +240,12 @@ impl Driver for Snd {
         }
     }
 
-    fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
-        self.waiting
-            .forward(ctx, self.output, request.body.clone(), |p| p)
-    }
-
-    fn handle_reply(
-        &mut self,
-        ctx: &mut Context<'_>,
-        ticket: RequestTicket,
-        reply: Result<Message, RequestError>,
-    ) {
-        self.waiting.pass_back(ctx, ticket, reply);
-    }
+    crate::forward::pass_requests_to!(output);
 }
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(Snd::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, Snd::from_block);
 }
 
 #[cfg(test)]

@@ -245,23 +245,13 @@ impl VfhDriver {
                 p.origin
             )));
         }
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::POSITION2D)
-            .ok_or_else(|| DriverError::new("must provide a position2d device"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::POSITION2D)?;
         // An absent key matches entries of any key, as Player's ReadDeviceAddr with NULL.
         let odom = block.required(InterfaceCode::POSITION2D, None)?.addr;
         if odom.same_device(&addr) {
             return Err(DriverError::new("attempt to subscribe to self"));
         }
-        let laser = block
-            .optional_required(InterfaceCode::LASER, None)?
-            .map(|r| r.addr);
-        let sonar = block
-            .optional_required(InterfaceCode::SONAR, None)?
-            .map(|r| r.addr);
+        let (laser, sonar) = super::laser_and_sonar(block)?;
         let sensor = match (laser, sonar) {
             (Some(l), None) => RangeSensor::Laser(l),
             (None, Some(s)) => RangeSensor::Sonar(s),
@@ -446,9 +436,7 @@ impl Driver for VfhDriver {
 
 /// Registers the driver under its Player name.
 pub fn register(registry: &mut DriverRegistry) {
-    registry.register(NAME, |block: &DriverBlock| {
-        Ok(Box::new(VfhDriver::from_block(block)?) as Box<dyn Driver>)
-    });
+    registry.register_driver(NAME, VfhDriver::from_block);
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 //! name; every position and sensor model except cameras (costly ray fans) is subscribed at
 //! load so it updates from the first step, as if a client had subscribed to each.
 
-use player_server::stage::convert;
+use player_server::stage::convert as player_view;
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
@@ -225,8 +225,8 @@ impl World {
     fn ranger<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
         let r = self.sensor(name, "ranger", |w, m| w.ranger_scans(m))?;
         let d = PyDict::new(py);
-        d.set_item("ranges", convert::ranger_ranges(r))?;
-        d.set_item("intensities", convert::ranger_intensities(r))?;
+        d.set_item("ranges", player_view::ranger_ranges(r))?;
+        d.set_item("intensities", player_view::ranger_intensities(r))?;
         let bearings: Vec<f64> = r.scans.iter().flat_map(|s| s.bearings.clone()).collect();
         d.set_item("bearings", bearings)?;
         d.set_item("time", r.time_us as f64 / 1e6)?;
@@ -244,14 +244,14 @@ impl World {
         for blob in &b.blobs {
             let e = PyDict::new(py);
             e.set_item("color", blob.color.packed_rgb())?;
-            e.set_item("x", convert::blob_x(blob))?;
-            e.set_item("y", convert::blob_y(blob))?;
+            e.set_item("x", player_view::blob_x(blob))?;
+            e.set_item("y", player_view::blob_y(blob))?;
             e.set_item("left", blob.left)?;
             e.set_item("right", blob.right)?;
             e.set_item("top", blob.top)?;
             e.set_item("bottom", blob.bottom)?;
             e.set_item("range", blob.range)?;
-            e.set_item("area", convert::blob_area(blob))?;
+            e.set_item("area", player_view::blob_area(blob))?;
             blobs.append(e)?;
         }
         d.set_item("blobs", blobs)?;

@@ -130,7 +130,6 @@ pub struct WorldConfig {
     pub show_clock_interval: u64,
 }
 
-
 /// A world: its settings and its model tree. The default settings are the worldfile crate's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WorldDesc {

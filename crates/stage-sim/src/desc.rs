@@ -15,6 +15,7 @@ pub use crate::models::fiducial::FiducialDesc;
 pub use crate::models::gripper::GripperDesc;
 pub use crate::models::position::PositionDesc;
 pub use crate::models::ranger::SensorDesc;
+pub use crate::node::Returns;
 
 // The drive and localisation words are the worldfile crate's (one vocabulary for every crate).
 pub use worldfile::models::{Drive, Localization, ModelType};
@@ -46,16 +47,8 @@ pub struct ModelDesc {
     pub default_body: bool,
     /// Children's z measured from this model's top.
     pub stack_children: bool,
-    /// Takes part in collisions.
-    pub obstacle_return: bool,
-    /// Ranger intensity; < 0 makes the model transparent to rangers.
-    pub ranger_return: f64,
-    /// Fiducial id (0 = not a fiducial).
-    pub fiducial_return: i32,
-    /// Fiducial key.
-    pub fiducial_key: i32,
-    /// Graspable by grippers.
-    pub gripper_return: bool,
+    /// What the model is to collisions and to other models' sensors.
+    pub returns: Returns,
     /// Time between updates (µs).
     pub update_interval_us: u64,
     /// Subscribed from the start.
@@ -91,11 +84,13 @@ impl ModelDesc {
             blocks: Vec::new(),
             default_body: body,
             stack_children: common.stack_children,
-            obstacle_return: common.obstacle_return,
-            ranger_return: common.ranger_return,
-            fiducial_return: common.fiducial_return as i32,
-            fiducial_key: common.fiducial_key as i32,
-            gripper_return: common.gripper_return,
+            returns: Returns {
+                obstacle: common.obstacle_return,
+                ranger: common.ranger_return,
+                fiducial: common.fiducial_return as i32,
+                fiducial_key: common.fiducial_key as i32,
+                gripper: common.gripper_return,
+            },
             update_interval_us: common.update_interval as u64 * 1000,
             alwayson: common.alwayson,
             ctrl: Vec::new(),

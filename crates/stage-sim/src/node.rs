@@ -46,16 +46,8 @@ pub struct Node {
     pub origin: Pose,
     /// Children's z measured from this model's top.
     pub stack_children: bool,
-    /// Takes part in collisions.
-    pub obstacle_return: bool,
-    /// Ranger intensity (< 0: transparent to rangers).
-    pub ranger_return: f64,
-    /// Fiducial id (0: none).
-    pub fiducial_return: i32,
-    /// Fiducial key.
-    pub fiducial_key: i32,
-    /// Graspable.
-    pub gripper_return: bool,
+    /// What the model is to collisions and to other models' sensors.
+    pub returns: Returns,
     /// Update period (µs).
     pub update_interval_us: u64,
     /// Mass (kg).
@@ -64,4 +56,20 @@ pub struct Node {
     pub blocks: Vec<LocalBlock>,
     /// Where the model was defined.
     pub source: String,
+}
+
+/// What a model is to collisions and to other models' sensors: Stage's `*_return` properties
+/// (and the fiducial key), described once for [`crate::desc::ModelDesc`] and kept in [`Node`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Returns {
+    /// Takes part in collisions (`obstacle_return`).
+    pub obstacle: bool,
+    /// Ranger intensity; < 0 makes the model transparent to rangers (`ranger_return`).
+    pub ranger: f64,
+    /// Fiducial id; 0 = not a fiducial (`fiducial_return`).
+    pub fiducial: i32,
+    /// Fiducial key: finders see only targets with their own key (`fiducial_key`).
+    pub fiducial_key: i32,
+    /// Graspable by grippers (`gripper_return`).
+    pub gripper: bool,
 }

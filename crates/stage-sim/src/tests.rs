@@ -101,10 +101,10 @@ fn ranger_return_negative_is_transparent_and_sets_intensity() {
     let r = d.add(robot("r", 0.0, 0.0, 0.0, Drive::Diff), None);
     let l = d.add(laser(1, 0.0, 8.0), Some(r));
     let mut glass = wall("glass", 1.05, 0.0, 0.1, 4.0, 1.0);
-    glass.ranger_return = -1.0;
+    glass.returns.ranger = -1.0;
     d.add(glass, None);
     let mut shiny = wall("shiny", 3.05, 0.0, 0.1, 4.0, 1.0);
-    shiny.ranger_return = 2.0;
+    shiny.returns.ranger = 2.0;
     d.add(shiny, None);
     let mut w = World::from_desc(&d, 1).unwrap();
     w.subscribe(ModelId(l as u32));
@@ -284,7 +284,7 @@ fn obstacle_return_zero_lets_robots_pass() {
     let mut d = WorldDesc::default();
     d.add(robot("r", 0.0, 0.0, 0.0, Drive::Diff), None);
     let mut floor = wall("floorplan", 1.0, 0.0, 0.2, 4.0, 1.0);
-    floor.obstacle_return = false;
+    floor.returns.obstacle = false;
     d.add(floor, None);
     let mut w = World::from_desc(&d, 1).unwrap();
     w.subscribe(ModelId(0));
@@ -403,8 +403,8 @@ fn fiducial_world(range_max_id: f64, occluder: bool, key: i32) -> (World, ModelI
     );
     d.models[f].pose = Pose::new(0.0, 0.0, -0.3, 0.0); // beam at z 0.2
     let mut t = wall("target", 2.0, 1.0, 0.3, 0.3, 1.0);
-    t.fiducial_return = 7;
-    t.fiducial_key = key;
+    t.returns.fiducial = 7;
+    t.returns.fiducial_key = key;
     t.pose.a = 0.5;
     d.add(t, None);
     if occluder {
@@ -445,8 +445,8 @@ fn gripper_picks_up_carries_and_drops_a_puck() {
     g.pose = Pose::new(0.3, 0.0, -0.5, 0.0); // on the floor in front of the robot
     let g = d.add(g, Some(r));
     let mut puck = wall("puck", 0.34, 0.0, 0.06, 0.06, 0.1);
-    puck.gripper_return = true;
-    puck.obstacle_return = false;
+    puck.returns.gripper = true;
+    puck.returns.obstacle = false;
     let p = d.add(puck, None);
     let mut w = World::from_desc(&d, 1).unwrap();
     let (rid, gid, pid) = (ModelId(r as u32), ModelId(g as u32), ModelId(p as u32));
@@ -651,7 +651,7 @@ fn pioneer_flocking_controller_installs_and_drives() {
     for i in 0..2 {
         let mut r = robot(&format!("r{i}"), 0.0, 2.0 * i as f64, 0.0, Drive::Diff);
         r.ctrl = vec!["pioneer_flocking".into()];
-        r.fiducial_return = 1;
+        r.returns.fiducial = 1;
         let ri = d.add(r, None);
         let sonar = (0..16)
             .map(|k| SensorDesc {

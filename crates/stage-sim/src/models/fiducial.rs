@@ -92,12 +92,12 @@ pub(crate) fn update(v: &View, f: u32, cfg: &FiducialDesc, d: &mut FiducialData)
     d.fiducials.clear();
     let fg = v.globals[f as usize];
     let fnode = &v.nodes[f as usize];
-    let key = fnode.fiducial_key;
+    let key = fnode.returns.fiducial_key;
     let root = v.root(f);
     let frame = v.body_frame(f);
     for &h in v.fiducial_targets {
         let hn = &v.nodes[h as usize];
-        if hn.fiducial_return == 0 || hn.fiducial_key != key || v.root(h) == root {
+        if hn.returns.fiducial == 0 || hn.returns.fiducial_key != key || v.root(h) == root {
             continue;
         }
         let hg = v.globals[h as usize];
@@ -137,7 +137,7 @@ pub(crate) fn update(v: &View, f: u32, cfg: &FiducialDesc, d: &mut FiducialData)
         }
         d.fiducials.push(Fiducial {
             id: if dist < cfg.range_max_id {
-                hn.fiducial_return
+                hn.returns.fiducial
             } else {
                 0
             },

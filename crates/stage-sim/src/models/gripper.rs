@@ -261,7 +261,7 @@ pub(crate) fn update(v: &View, m: u32, g: &mut GripperModel) {
     let [px, py, _] = g.cfg.paddle_size;
     let pos = d.paddle_pos;
     let frame = v.body_frame(m);
-    let pred = |h: u32| h != m && v.nodes[h as usize].gripper_return;
+    let pred = |h: u32| h != m && v.nodes[h as usize].returns.gripper;
     let cast = |x: f64, y: f64, a: f64, len: f64| -> Option<ModelId> {
         if len <= 0.0 {
             return None;

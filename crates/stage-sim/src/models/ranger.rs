@@ -128,7 +128,7 @@ impl RangerData {
 /// Whether model `h` stops ranger rays (a negative `ranger_return` lets them through).
 #[inline(always)]
 fn stops_rays(v: &View, h: u32) -> bool {
-    v.nodes[h as usize].ranger_return >= 0.0
+    v.nodes[h as usize].returns.ranger >= 0.0
 }
 
 /// What a transducer reads for a ray's `hit`: the range and the intensity (the model's
@@ -136,7 +136,7 @@ fn stops_rays(v: &View, h: u32) -> bool {
 #[inline(always)]
 fn reading(v: &View, hit: Option<RayHit>, max: f64) -> (f64, f64) {
     match hit {
-        Some(h) => (h.range, v.nodes[h.model as usize].ranger_return),
+        Some(h) => (h.range, v.nodes[h.model as usize].returns.ranger),
         None => (max, 0.0),
     }
 }

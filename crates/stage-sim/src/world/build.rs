@@ -63,11 +63,7 @@ impl World {
                 size: m.size,
                 origin: m.origin,
                 stack_children: m.stack_children,
-                obstacle_return: m.obstacle_return,
-                ranger_return: m.ranger_return,
-                fiducial_return: m.fiducial_return,
-                fiducial_key: m.fiducial_key,
-                gripper_return: m.gripper_return,
+                returns: m.returns,
                 update_interval_us: m.update_interval_us.max(1),
                 mass: m.mass,
                 blocks: local_blocks(m)?,
@@ -131,7 +127,7 @@ impl World {
             });
         }
         let fiducial_targets = (0..n as u32)
-            .filter(|&i| nodes[i as usize].fiducial_return != 0)
+            .filter(|&i| nodes[i as usize].returns.fiducial != 0)
             .collect();
 
         let mut world = World {

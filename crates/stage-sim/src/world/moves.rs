@@ -129,7 +129,7 @@ impl World {
                 self.space.body(plan.models[j])
             }
         };
-        let movers = (0..n).filter(|&j| self.nodes[plan.models[j] as usize].obstacle_return);
+        let movers = (0..n).filter(|&j| self.nodes[plan.models[j] as usize].returns.obstacle);
         let ground = movers.clone().any(|j| below_ground(body_after(j)));
         plan.static_hit = ground
             || movers
@@ -158,7 +158,7 @@ impl World {
                 plan.models
                     .iter()
                     .copied()
-                    .filter(|&x| nodes[x as usize].obstacle_return),
+                    .filter(|&x| nodes[x as usize].returns.obstacle),
             );
             let hit = self.space.touches_dynamic(
                 &self.subtree,

@@ -257,14 +257,14 @@ impl World {
 
     /// The model's own `fiducial_return` (Player fiducial GET_ID).
     pub fn fiducial_id(&self, m: ModelId) -> i32 {
-        self.nodes[m.index()].fiducial_return
+        self.nodes[m.index()].returns.fiducial
     }
 
     /// Sets the model's own `fiducial_return` (Player fiducial SET_ID).
     pub fn set_fiducial_id(&mut self, m: ModelId, id: i32) {
-        self.nodes[m.index()].fiducial_return = id;
+        self.nodes[m.index()].returns.fiducial = id;
         self.fiducial_targets = (0..self.nodes.len() as u32)
-            .filter(|&i| self.nodes[i as usize].fiducial_return != 0)
+            .filter(|&i| self.nodes[i as usize].returns.fiducial != 0)
             .collect();
     }
 

@@ -185,7 +185,7 @@ impl World {
         self.collect_subtree(m);
         let root = self.nodes[m as usize].root;
         let mut movers = std::mem::take(&mut self.subtree);
-        movers.retain(|&s| self.nodes[s as usize].obstacle_return);
+        movers.retain(|&s| self.nodes[s as usize].returns.obstacle);
         let ground = movers.iter().any(|&s| below_ground(self.space.body(s)));
         let hit = ground
             || self

@@ -108,7 +108,7 @@ pub(super) fn below_ground(body: &Body) -> bool {
 pub(super) fn obstacle_to(nodes: &[Node], root: u32) -> impl Fn(u32) -> bool + Copy + '_ {
     move |o| {
         let n = &nodes[o as usize];
-        n.root != root && n.obstacle_return
+        n.root != root && n.returns.obstacle
     }
 }
 

@@ -1,6 +1,6 @@
 //! Per-type model behaviour and the data each type publishes: one module per Stage model type,
 //! each owning its description (with its worldfile conversion and defaults), its state, its
-//! update and what its last unsubscription shuts down; [`KindState`] dispatches to them in one
+//! update and what its last unsubscription shuts down; `KindState` dispatches to them in one
 //! place, where a new type adds one variant and the compiler points at every arm to write.
 
 pub mod actuator;

@@ -3,7 +3,7 @@
 //!
 //! * [`driver`] — the [`Driver`] trait, the cfg [`DriverBlock`] a driver is built from, and the
 //!   [`DriverRegistry`] of factories by driver name;
-//! * [`cfg`] — cfg `driver` blocks ([`worldfile::CfgFile`]) to [`DriverBlock`]s;
+//! * [`cfg`](mod@cfg) — cfg `driver` blocks ([`worldfile::CfgFile`]) to [`DriverBlock`]s;
 //! * [`check`] — what a cfg makes of the server, built as start-up builds it but never started
 //!   (`player --check`);
 //! * [`device`] — the [`DeviceTable`] (cfg order, duplicate check, ports);

@@ -14,7 +14,7 @@
 //!   NACK. They publish no data (no `PLAYER_MAP_DATA_INFO` either).
 //! * The cells of a GET_DATA ACK travel zlib-compressed: upstream's TCP layer (not the driver)
 //!   replaces them with `compress()` of the raw cells before encoding and libplayerc
-//!   uncompresses. We do the same in the connection's outgoing queue ([`tcp_body`]), so a driver
+//!   uncompresses. We do the same in the connection's outgoing queue (`tcp_body`), so a driver
 //!   reading another driver's map inside the server would see raw cells, as upstream. The
 //!   stream is a valid zlib stream of the same cells at the same level, and identical to zlib's
 //!   for small tiles (the golden vector); for large tiles its deflate blocks may differ from

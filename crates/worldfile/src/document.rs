@@ -166,7 +166,7 @@ impl Document {
     }
 
     /// Warnings for every property no reader looked at, in entity order (Stage's
-    /// "property [x] is defined but not used").
+    /// `property [x] is defined but not used`).
     pub fn unused_property_warnings(&self) -> Vec<Warning> {
         let mut out = Vec::new();
         for (id, entity) in self.entities.iter().enumerate() {

@@ -6,7 +6,7 @@
 //! * [`lasertoranger`] (`ToRanger` + `LaserToRanger`): a laser read as a ranger;
 //! * [`sonartoranger`] (`ToRanger` + `SonarToRanger`): a sonar array read as a ranger.
 //!
-//! What upstream's two base classes share lives in [`crate::forward`]: CAPABILITIES answered
+//! What upstream's two base classes share lives in `crate::forward`: CAPABILITIES answered
 //! for the requests a converter handles, and integer/double/string property requests passed
 //! to the input device with its answer passed back.
 

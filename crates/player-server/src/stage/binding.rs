@@ -1,7 +1,7 @@
 //! How a `stage`-driver device finds its Stage model (player-cfg.md §8.3, §8.5), and what the
 //! driver made of each device it was given — the record `player --check` reports.
 //!
-//! The interface list itself is [`Kind::of`](super::Kind) with its [`Kind::binding`] rule beside
+//! The interface list itself is `Kind::of` with its `Kind::binding` rule beside
 //! it: one table, used both to build drivers and to check cfgs.
 
 use std::collections::HashSet;

@@ -19,7 +19,7 @@
 //!   client unsubscribes (Stage unsubscribes it on the first unsubscription, stopping the robot
 //!   and its sensors for every other client);
 //! * the legacy `laser`, `sonar` (on rangers) and `camera` interfaces are served, and `map`
-//!   (the named model's blocks as a grid, [`map`](self::map) module), which Stage 4.1.1 ships
+//!   (the named model's blocks as a grid, `map` module), which Stage 4.1.1 ships
 //!   but does not build;
 //! * fields Stage leaves uninitialised are 0; GET_PROPERTY "time" answers instead of crashing;
 //!   CAPABILITIES requests are answered (Stage crashes on the simulation one).

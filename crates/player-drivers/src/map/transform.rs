@@ -2,7 +2,8 @@
 //! requires a `map` device and provides one, holding the required map transformed.
 //!
 //! On its first subscriber it asks the required map for GET_INFO and then every tile (in
-//! libplayerc's order, [`MapInfo::tile_requests`](player_proto::MapInfo::tile_requests)), assembles the grid and transforms it; as
+//! libplayerc's order, [`MapInfo::tile_requests`](player_proto::MapInfo::tile_requests)),
+//! assembles the grid and transforms it; as
 //! upstream, on each setup, so a source that changed between runs is read again. Requests that
 //! arrive before the map is ready wait (deferred) and are answered once it is, or NACKed if the
 //! source cannot be read; upstream does the fetching inside `Setup` instead, which keeps the

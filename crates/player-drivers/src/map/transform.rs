@@ -3,11 +3,11 @@
 //!
 //! On its first subscriber it asks the required map for GET_INFO and then every tile (in
 //! libplayerc's order, [`MapInfo::tile_requests`](player_proto::MapInfo::tile_requests)),
-//! assembles the grid and transforms it; as
-//! upstream, on each setup, so a source that changed between runs is read again. Requests that
-//! arrive before the map is ready wait (deferred) and are answered once it is, or NACKed if the
-//! source cannot be read; upstream does the fetching inside `Setup` instead, which keeps the
-//! subscribing client waiting and the whole server with it.
+//! assembles the grid and transforms it; as upstream, on each setup, so a source that changed
+//! between runs is read again. Requests that arrive before the map is ready wait (deferred) and
+//! are answered once it is, or NACKed if the source cannot be read; upstream does the fetching
+//! inside `Setup` instead, which keeps the subscribing client waiting and the whole server with
+//! it.
 
 use player_proto::{Body, DeviceAddr, InterfaceCode, MapMsg, Message};
 use player_server::map::{self, OccupancyGrid};

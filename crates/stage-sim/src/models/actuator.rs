@@ -6,14 +6,8 @@ use crate::digest::Digest;
 use crate::pose::Pose;
 use worldfile::models as wm;
 
-/// Actuator joint type.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ActuatorKind {
-    /// Moves along `axis`.
-    Linear,
-    /// Turns about z.
-    Rotational,
-}
+/// Actuator joint type: the worldfile crate's `actuator_type` (one vocabulary for every crate).
+pub use worldfile::models::ActuatorType as ActuatorKind;
 
 /// Actuator properties (spec §13).
 #[derive(Clone, Debug, PartialEq)]
@@ -49,10 +43,7 @@ impl ActuatorDesc {
             [1.0, 0.0, 0.0]
         };
         ActuatorDesc {
-            kind: match a.actuator_type {
-                wm::ActuatorType::Linear => ActuatorKind::Linear,
-                wm::ActuatorType::Rotational => ActuatorKind::Rotational,
-            },
+            kind: a.actuator_type,
             axis,
             min_position: a.min_position,
             max_position: a.max_position,

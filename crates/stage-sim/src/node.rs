@@ -35,11 +35,11 @@ pub struct Node {
     /// Stage model type.
     pub model_type: ModelType,
     /// Parent model.
-    pub parent: Option<u32>,
+    pub parent: Option<ModelId>,
     /// Children in creation order.
-    pub children: Vec<u32>,
+    pub children: Vec<ModelId>,
     /// Root of the tree the model is in (models with the same root are "related").
-    pub root: u32,
+    pub root: ModelId,
     /// Size `[x y z]` (m).
     pub size: [f64; 3],
     /// Body offset from the pose.

@@ -2,7 +2,7 @@
 //! poses and colours at the end of the previous step, and the spatial index.
 
 use crate::color::Color;
-use crate::node::Node;
+use crate::node::{ModelId, Node};
 use crate::pose::Pose;
 use crate::space::Space;
 
@@ -12,24 +12,24 @@ pub(crate) struct View<'a> {
     pub globals: &'a [Pose],
     pub colors: &'a [Color],
     pub space: &'a Space,
-    pub fiducial_targets: &'a [u32],
+    pub fiducial_targets: &'a [ModelId],
     pub sim_time: u64,
     pub dt: f64,
 }
 
 impl View<'_> {
     #[inline]
-    pub fn root(&self, m: u32) -> u32 {
-        self.nodes[m as usize].root
+    pub fn root(&self, m: ModelId) -> ModelId {
+        self.nodes[m.index()].root
     }
     #[inline]
-    pub fn body_frame(&self, m: u32) -> Pose {
-        self.globals[m as usize].compose(&self.nodes[m as usize].origin)
+    pub fn body_frame(&self, m: ModelId) -> Pose {
+        self.globals[m.index()].compose(&self.nodes[m.index()].origin)
     }
     #[inline]
-    pub fn block_color(&self, m: u32, b: u32) -> Color {
-        self.nodes[m as usize].blocks[b as usize]
+    pub fn block_color(&self, m: ModelId, b: u32) -> Color {
+        self.nodes[m.index()].blocks[b as usize]
             .color
-            .unwrap_or(self.colors[m as usize])
+            .unwrap_or(self.colors[m.index()])
     }
 }

@@ -378,7 +378,7 @@ fn bodies(
         // what never moves is drawn under everything that does (the renderer caches it); only
         // a moving model passing under a taller static one, which collisions rule out for
         // everything solid, would be stacked differently from Stage
-        let layer = if world.space().is_static(m.0) {
+        let layer = if world.space().is_static(m) {
             if !draw_static {
                 continue;
             }
@@ -435,7 +435,7 @@ fn static_key(world: &World, gui: &WorldGui, view: &View) -> u64 {
         h.f(v);
     }
     for m in world.models() {
-        if !world.space().is_static(m.0) {
+        if !world.space().is_static(m) {
             continue;
         }
         let g = gui.get(m);

@@ -2,6 +2,7 @@
 
 use crate::color::{Color, same_rgb};
 use crate::digest::Digest;
+use crate::node::ModelId;
 use crate::pose::Pose;
 use crate::space::RayQuery;
 use crate::view::View;
@@ -114,7 +115,7 @@ impl BlobfinderModel {
 }
 
 /// One blobfinder update.
-pub(crate) fn update(v: &View, m: u32, b: &mut BlobfinderModel) {
+pub(crate) fn update(v: &View, m: ModelId, b: &mut BlobfinderModel) {
     let cfg = &b.cfg;
     let w = cfg.image[0] as usize;
     let h = cfg.image[1] as i64;

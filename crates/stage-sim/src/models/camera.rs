@@ -4,6 +4,7 @@
 
 use crate::color::Color;
 use crate::digest::Digest;
+use crate::node::ModelId;
 use crate::pose::Pose;
 use crate::space::{RayHit, RayQuery};
 use crate::view::View;
@@ -95,11 +96,11 @@ impl CameraModel {
 
 /// One camera update: viewpoint at the parent's x, y and heading (own pose without a parent),
 /// at the camera's global height, offset by pan/tilt.
-pub(crate) fn update(v: &View, m: u32, c: &mut CameraModel) {
-    let g = v.globals[m as usize];
-    let base = match v.nodes[m as usize].parent {
+pub(crate) fn update(v: &View, m: ModelId, c: &mut CameraModel) {
+    let g = v.globals[m.index()];
+    let base = match v.nodes[m.index()].parent {
         Some(p) => {
-            let pg = v.globals[p as usize];
+            let pg = v.globals[p.index()];
             Pose { z: g.z, ..pg }
         }
         None => g,
@@ -109,7 +110,7 @@ pub(crate) fn update(v: &View, m: u32, c: &mut CameraModel) {
     let [near, far] = c.cfg.range;
     let [fov_h, fov_v] = c.cfg.fov;
     let [pan, tilt] = c.cfg.pantilt;
-    let z0 = base.z + v.nodes[m as usize].size[2] / 2.0;
+    let z0 = base.z + v.nodes[m.index()].size[2] / 2.0;
     let root = v.root(m);
     c.image.width = w as u32;
     c.image.height = h as u32;

@@ -88,19 +88,19 @@ impl FiducialData {
 }
 
 /// One fiducial-finder update.
-pub(crate) fn update(v: &View, f: u32, cfg: &FiducialDesc, d: &mut FiducialData) {
+pub(crate) fn update(v: &View, f: ModelId, cfg: &FiducialDesc, d: &mut FiducialData) {
     d.fiducials.clear();
-    let fg = v.globals[f as usize];
-    let fnode = &v.nodes[f as usize];
+    let fg = v.globals[f.index()];
+    let fnode = &v.nodes[f.index()];
     let key = fnode.returns.fiducial_key;
     let root = v.root(f);
     let frame = v.body_frame(f);
     for &h in v.fiducial_targets {
-        let hn = &v.nodes[h as usize];
+        let hn = &v.nodes[h.index()];
         if hn.returns.fiducial == 0 || hn.returns.fiducial_key != key || v.root(h) == root {
             continue;
         }
-        let hg = v.globals[h as usize];
+        let hg = v.globals[h.index()];
         let dx = hg.x - fg.x;
         let dy = hg.y - fg.y;
         if dx.abs() > cfg.range_max || dy.abs() > cfg.range_max {
@@ -141,7 +141,7 @@ pub(crate) fn update(v: &View, f: u32, cfg: &FiducialDesc, d: &mut FiducialData)
             } else {
                 0
             },
-            model: ModelId(h),
+            model: h,
             range: dist,
             bearing: dtheta,
             heading: normalize(hg.a - fg.a),

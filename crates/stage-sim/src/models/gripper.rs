@@ -107,8 +107,8 @@ pub struct GripperData {
 /// A re-parenting decided during the update and applied after it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum GripAction {
-    Grasp(u32),
-    Release(u32),
+    Grasp(ModelId),
+    Release(ModelId),
 }
 
 /// Gripper state.
@@ -198,7 +198,7 @@ impl GripperModel {
 }
 
 /// One gripper update (spec §11.3).
-pub(crate) fn update(v: &View, m: u32, g: &mut GripperModel) {
+pub(crate) fn update(v: &View, m: ModelId, g: &mut GripperModel) {
     let d = &mut g.data;
     g.action = None;
     match g.cmd {
@@ -218,7 +218,7 @@ pub(crate) fn update(v: &View, m: u32, g: &mut GripperModel) {
             }
             if let Some(obj) = d.carrying {
                 if d.paddle_pos == 0.0 || d.paddle_pos < g.close_limit {
-                    g.action = Some(GripAction::Release(obj.0));
+                    g.action = Some(GripAction::Release(obj));
                     d.carrying = None;
                     g.close_limit = 1.0;
                 }
@@ -256,12 +256,12 @@ pub(crate) fn update(v: &View, m: u32, g: &mut GripperModel) {
     }
     g.body_changed |= changed;
 
-    let node = &v.nodes[m as usize];
+    let node = &v.nodes[m.index()];
     let [sx, sy, _] = node.size;
     let [px, py, _] = g.cfg.paddle_size;
     let pos = d.paddle_pos;
     let frame = v.body_frame(m);
-    let pred = |h: u32| h != m && v.nodes[h as usize].returns.gripper;
+    let pred = |h: ModelId| h != m && v.nodes[h.index()].returns.gripper;
     let cast = |x: f64, y: f64, a: f64, len: f64| -> Option<ModelId> {
         if len <= 0.0 {
             return None;
@@ -278,7 +278,7 @@ pub(crate) fn update(v: &View, m: u32, g: &mut GripperModel) {
                 },
                 pred,
             )
-            .map(|h| ModelId(h.model))
+            .map(|h| h.model)
     };
     let gap_y = (1.0 - pos) * (sy / 2.0 - sy * py);
     let beam_len = (1.0 - pos) * (sy - 2.0 * sy * py);
@@ -300,10 +300,10 @@ pub(crate) fn update(v: &View, m: u32, g: &mut GripperModel) {
     if let Some(hit) = d.contacts[0].or(d.contacts[1]) {
         d.paddles_stalled = true;
         if d.paddles == PaddleState::Closing && d.carrying.is_none() && g.action.is_none() {
-            let osy = v.nodes[hit.0 as usize].size[1];
+            let osy = v.nodes[hit.index()].size[1];
             g.close_limit = (1.0 - osy / (sy - py / 2.0)).max(0.0);
             d.carrying = Some(hit);
-            g.action = Some(GripAction::Grasp(hit.0));
+            g.action = Some(GripAction::Grasp(hit));
         }
     }
     d.time_us = v.sim_time;

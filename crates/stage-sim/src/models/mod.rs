@@ -21,7 +21,7 @@ use ranger::RangerData;
 
 use crate::block::BlockDesc;
 use crate::digest::Digest;
-use crate::node::Node;
+use crate::node::{ModelId, Node};
 use crate::pose::Pose;
 use crate::rng::SimRng;
 use crate::view::View;
@@ -179,10 +179,17 @@ impl KindState {
     /// One update of model `m` against the view of the previous step's end (phase 1); `local`
     /// is its pose in the parent frame.
     #[inline]
-    pub(crate) fn update(&mut self, v: &View, m: u32, local: &Pose, node: &Node, rng: &mut SimRng) {
+    pub(crate) fn update(
+        &mut self,
+        v: &View,
+        m: ModelId,
+        local: &Pose,
+        node: &Node,
+        rng: &mut SimRng,
+    ) {
         match self {
             KindState::Plain | KindState::LightIndicator { .. } => {}
-            KindState::Position(p) => p.update(&v.globals[m as usize], v.dt, node.mass, v.sim_time),
+            KindState::Position(p) => p.update(&v.globals[m.index()], v.dt, node.mass, v.sim_time),
             KindState::Ranger(r) => ranger::update(v, m, r, rng),
             KindState::Blobfinder(b) => blobfinder::update(v, m, b),
             KindState::Fiducial(cfg, d) => fiducial::update(v, m, cfg, d),

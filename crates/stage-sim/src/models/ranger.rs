@@ -4,6 +4,7 @@ use std::sync::Mutex;
 
 use crate::color::Color;
 use crate::digest::Digest;
+use crate::node::ModelId;
 use crate::pool::share_out;
 use crate::pose::Pose;
 use crate::rng::SimRng;
@@ -127,8 +128,8 @@ impl RangerData {
 
 /// Whether model `h` stops ranger rays (a negative `ranger_return` lets them through).
 #[inline(always)]
-fn stops_rays(v: &View, h: u32) -> bool {
-    v.nodes[h as usize].returns.ranger >= 0.0
+fn stops_rays(v: &View, h: ModelId) -> bool {
+    v.nodes[h.index()].returns.ranger >= 0.0
 }
 
 /// What a transducer reads for a ray's `hit`: the range and the intensity (the model's
@@ -136,17 +137,17 @@ fn stops_rays(v: &View, h: u32) -> bool {
 #[inline(always)]
 fn reading(v: &View, hit: Option<RayHit>, max: f64) -> (f64, f64) {
     match hit {
-        Some(h) => (h.range, v.nodes[h.model as usize].returns.ranger),
+        Some(h) => (h.range, v.nodes[h.model.index()].returns.ranger),
         None => (max, 0.0),
     }
 }
 
 /// One ray from `o` (x, y and the height for the z test): its [`reading`].
 #[inline(always)]
-fn cast_ray(v: &View, o: [f64; 3], dir: [f64; 2], max: f64, root: u32) -> (f64, f64) {
+fn cast_ray(v: &View, o: [f64; 3], dir: [f64; 2], max: f64, root: ModelId) -> (f64, f64) {
     let hit = v
         .space
-        .raycast_dir([o[0], o[1]], dir, max, Some(o[2]), root, |h| {
+        .raycast_dir([o[0], o[1]], dir, max, Some(o[2]), Some(root), |h| {
             stops_rays(v, h)
         });
     reading(v, hit, max)
@@ -159,15 +160,22 @@ fn cast_fan(
     o: [f64; 3],
     dirs: &[[f64; 2]],
     max: f64,
-    root: u32,
+    root: ModelId,
     mut out: impl FnMut(usize, f64, f64),
 ) {
-    let pred = |h: u32| stops_rays(v, h);
-    v.space
-        .raycast_fan([o[0], o[1]], dirs, max, Some(o[2]), root, pred, |i, hit| {
+    let pred = |h: ModelId| stops_rays(v, h);
+    v.space.raycast_fan(
+        [o[0], o[1]],
+        dirs,
+        max,
+        Some(o[2]),
+        Some(root),
+        pred,
+        |i, hit| {
             let (r, s) = reading(v, hit, max);
             out(i, r, s)
-        });
+        },
+    );
 }
 
 /// A transducer's first bearing and the step between bearings (rad; both 0 for one sample).
@@ -193,7 +201,7 @@ fn with_noise(sensor: &SensorDesc, mut r: f64, rng: &mut SimRng) -> f64 {
 }
 
 /// One ranger update: casts every transducer's fan from the ranger's body frame.
-pub(crate) fn update(v: &View, m: u32, d: &mut RangerData, rng: &mut SimRng) {
+pub(crate) fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
     let frame = v.body_frame(m);
     let root = v.root(m);
     d.scans.resize_with(d.sensors.len(), SensorScan::default);

@@ -1,6 +1,7 @@
 //! Contacts: whether a body's outline crosses another's (static blocks through the BVH, moving
 //! bodies through the dynamic grid), with overlapping z intervals.
 
+use crate::node::ModelId;
 use parry2d::bounding_volume::Aabb as PAabb;
 use parry2d::math::Point;
 
@@ -14,13 +15,13 @@ impl Space {
     /// `accept` admits (unrelated, `obstacle_return`). `None`: no contact.
     pub fn first_contact(
         &self,
-        movers: &[u32],
-        cand: &mut Vec<u32>,
-        accept: impl Fn(u32) -> bool,
-    ) -> Option<u32> {
-        let mut best: Option<u32> = None;
+        movers: &[ModelId],
+        cand: &mut Vec<ModelId>,
+        accept: impl Fn(ModelId) -> bool,
+    ) -> Option<ModelId> {
+        let mut best: Option<ModelId> = None;
         for &m in movers {
-            let body = &self.bodies[m as usize];
+            let body = &self.bodies[m.index()];
             if body.is_empty() {
                 continue;
             }
@@ -37,7 +38,7 @@ impl Space {
     /// Whether `body` (registered or not: a move being tried) touches a static block that
     /// `accept` admits. Static blocks do not change while robots move, so this can be asked
     /// for every robot at once, in parallel, before the moves are applied in order.
-    pub fn touches_static(&self, body: &Body, accept: impl Fn(u32) -> bool) -> bool {
+    pub fn touches_static(&self, body: &Body, accept: impl Fn(ModelId) -> bool) -> bool {
         !body.is_empty() && self.static_contact(body, None, &accept).is_some()
     }
 
@@ -45,12 +46,12 @@ impl Space {
     /// order-dependent half of [`Space::first_contact`]).
     pub fn touches_dynamic(
         &self,
-        movers: &[u32],
-        cand: &mut Vec<u32>,
-        accept: impl Fn(u32) -> bool,
+        movers: &[ModelId],
+        cand: &mut Vec<ModelId>,
+        accept: impl Fn(ModelId) -> bool,
     ) -> bool {
         movers.iter().any(|&m| {
-            let body = &self.bodies[m as usize];
+            let body = &self.bodies[m.index()];
             !body.is_empty() && self.dynamic_contact(m, body, cand, None, &accept).is_some()
         })
     }
@@ -59,9 +60,9 @@ impl Space {
     fn static_contact(
         &self,
         body: &Body,
-        bound: Option<u32>,
-        accept: &impl Fn(u32) -> bool,
-    ) -> Option<u32> {
+        bound: Option<ModelId>,
+        accept: &impl Fn(ModelId) -> bool,
+    ) -> Option<ModelId> {
         let mut best = bound;
         let mut found = None;
         let bb = body.aabb;
@@ -71,7 +72,7 @@ impl Space {
         );
         for leaf in self.statics.bvh.intersect_aabb(&pa) {
             let sb = self.statics.blocks[leaf as usize];
-            if !self.static_live[sb.model as usize]
+            if !self.static_live[sb.model.index()]
                 || best.is_some_and(|b| sb.model >= b)
                 || !accept(sb.model)
             {
@@ -93,12 +94,12 @@ impl Space {
     /// `body` (model `m`'s registered body).
     fn dynamic_contact(
         &self,
-        m: u32,
+        m: ModelId,
         body: &Body,
-        cand: &mut Vec<u32>,
-        bound: Option<u32>,
-        accept: &impl Fn(u32) -> bool,
-    ) -> Option<u32> {
+        cand: &mut Vec<ModelId>,
+        bound: Option<ModelId>,
+        accept: &impl Fn(ModelId) -> bool,
+    ) -> Option<ModelId> {
         let bb = body.aabb;
         cand.clear();
         let g = &self.grid;
@@ -128,7 +129,7 @@ impl Space {
             if bound.is_some_and(|b| o >= b) {
                 break;
             }
-            let ob = &self.bodies[o as usize];
+            let ob = &self.bodies[o.index()];
             if !ob.aabb.intersects(&bb) || !accept(o) {
                 continue;
             }

@@ -3,6 +3,7 @@
 
 use super::body::Body;
 use crate::geom::{Aabb, floor_i32};
+use crate::node::ModelId;
 
 /// The uniform grid holding dynamic bodies (model indices per cell).
 pub(super) struct DynGrid {
@@ -11,9 +12,9 @@ pub(super) struct DynGrid {
     inv_cell: f64,
     pub(super) nx: i32,
     pub(super) ny: i32,
-    pub(super) cells: Vec<Vec<u32>>,
+    pub(super) cells: Vec<Vec<ModelId>>,
     /// Models whose box leaves the grid: tested by every query.
-    pub(super) overflow: Vec<u32>,
+    pub(super) overflow: Vec<ModelId>,
     /// Registered cell range per model (`None`: not registered or in `overflow`).
     span: Vec<Option<[i32; 4]>>,
     in_overflow: Vec<bool>,
@@ -56,8 +57,8 @@ impl DynGrid {
             .then_some([lo[0], lo[1], hi[0], hi[1]])
     }
 
-    fn remove(&mut self, m: u32) {
-        if let Some([x0, y0, x1, y1]) = self.span[m as usize].take() {
+    fn remove(&mut self, m: ModelId) {
+        if let Some([x0, y0, x1, y1]) = self.span[m.index()].take() {
             for y in y0..=y1 {
                 for x in x0..=x1 {
                     let c = &mut self.cells[(y * self.nx + x) as usize];
@@ -67,23 +68,23 @@ impl DynGrid {
                 }
             }
         }
-        if self.in_overflow[m as usize] {
-            self.in_overflow[m as usize] = false;
+        if self.in_overflow[m.index()] {
+            self.in_overflow[m.index()] = false;
             self.overflow.retain(|&v| v != m);
         }
     }
 
     /// Registers (or re-registers) model `m` with box `b`.
-    pub(super) fn update(&mut self, m: u32, b: &Aabb) {
+    pub(super) fn update(&mut self, m: ModelId, b: &Aabb) {
         if b.is_empty() {
             self.remove(m);
             return;
         }
         let new = self.span_of(b);
-        if new.is_some() && new == self.span[m as usize] {
+        if new.is_some() && new == self.span[m.index()] {
             return;
         }
-        if new.is_none() && self.in_overflow[m as usize] {
+        if new.is_none() && self.in_overflow[m.index()] {
             return;
         }
         self.remove(m);
@@ -94,10 +95,10 @@ impl DynGrid {
                         self.cells[(y * self.nx + x) as usize].push(m);
                     }
                 }
-                self.span[m as usize] = new;
+                self.span[m.index()] = new;
             }
             None => {
-                self.in_overflow[m as usize] = true;
+                self.in_overflow[m.index()] = true;
                 self.overflow.push(m);
             }
         }

@@ -38,9 +38,10 @@ mod static_grid;
 mod static_index;
 
 pub use body::{Body, WorldBlock};
-pub use ray::{NO_ROOT, RayHit, RayQuery};
+pub use ray::{RayHit, RayQuery};
 
 use crate::geom::Aabb;
+use crate::node::ModelId;
 use dyn_grid::{DynGrid, dynamic_cell};
 use static_index::StaticIndex;
 
@@ -48,11 +49,11 @@ use static_index::StaticIndex;
 pub struct Space {
     bodies: Vec<Body>,
     /// Root of each model's tree (models with equal roots are related and never see each other).
-    roots: Vec<u32>,
+    roots: Vec<ModelId>,
     /// Each body's box, densely packed for the hot ray loop.
     aabbs: Vec<Aabb>,
     /// Every model ever registered in the dynamic grid (a short list is scanned directly).
-    members: Vec<u32>,
+    members: Vec<ModelId>,
     is_member: Vec<bool>,
     is_static: Vec<bool>,
     static_live: Vec<bool>,
@@ -63,7 +64,7 @@ pub struct Space {
 impl Space {
     /// Builds the indices from every model's world-space body; `dynamic[m]` says whether model
     /// `m` can move (it is in a robot's tree).
-    pub fn new(bodies: Vec<Body>, dynamic: &[bool], roots: Vec<u32>) -> Space {
+    pub fn new(bodies: Vec<Body>, dynamic: &[bool], roots: Vec<ModelId>) -> Space {
         let n = bodies.len();
         let mut bounds = Aabb::EMPTY;
         for body in &bodies {
@@ -80,8 +81,8 @@ impl Space {
         let mut is_member = vec![false; n];
         for (m, body) in bodies.iter().enumerate() {
             if dynamic[m] && !body.is_empty() {
-                grid.update(m as u32, &body.aabb);
-                members.push(m as u32);
+                grid.update(ModelId(m as u32), &body.aabb);
+                members.push(ModelId(m as u32));
                 is_member[m] = true;
             }
         }
@@ -99,13 +100,13 @@ impl Space {
     }
 
     /// Records that model `m` now belongs to the tree rooted at `root` (re-parenting).
-    pub fn set_root(&mut self, m: u32, root: u32) {
-        self.roots[m as usize] = root;
+    pub fn set_root(&mut self, m: ModelId, root: ModelId) {
+        self.roots[m.index()] = root;
     }
 
     /// The world-space body of model `m`.
-    pub fn body(&self, m: u32) -> &Body {
-        &self.bodies[m as usize]
+    pub fn body(&self, m: ModelId) -> &Body {
+        &self.bodies[m.index()]
     }
 
     /// All bodies, indexed by model.
@@ -120,8 +121,8 @@ impl Space {
 
     /// Replaces model `m`'s body after it moved, updating the dynamic index incrementally.
     /// A static body that moves leaves the static index for good and joins the grid.
-    pub fn set_body(&mut self, m: u32, body: Body) {
-        let i = m as usize;
+    pub fn set_body(&mut self, m: ModelId, body: Body) {
+        let i = m.index();
         if self.static_live[i] {
             self.static_live[i] = false;
         }
@@ -133,30 +134,30 @@ impl Space {
     }
 
     /// Mutable access to a body's storage for in-place refresh; call [`Space::commit_body`] after.
-    pub fn body_mut(&mut self, m: u32) -> &mut Body {
-        let i = m as usize;
+    pub fn body_mut(&mut self, m: ModelId) -> &mut Body {
+        let i = m.index();
         self.static_live[i] = false;
         self.is_static[i] = false;
         &mut self.bodies[i]
     }
 
     /// Re-registers model `m` in the dynamic index after [`Space::body_mut`] changed it.
-    pub fn commit_body(&mut self, m: u32) {
-        let aabb = self.bodies[m as usize].aabb;
+    pub fn commit_body(&mut self, m: ModelId) {
+        let aabb = self.bodies[m.index()].aabb;
         self.grid.update(m, &aabb);
-        self.aabbs[m as usize] = aabb;
+        self.aabbs[m.index()] = aabb;
         self.note_member(m);
     }
 
-    fn note_member(&mut self, m: u32) {
-        if !self.is_member[m as usize] && !self.bodies[m as usize].is_empty() {
-            self.is_member[m as usize] = true;
+    fn note_member(&mut self, m: ModelId) {
+        if !self.is_member[m.index()] && !self.bodies[m.index()].is_empty() {
+            self.is_member[m.index()] = true;
             self.members.push(m);
         }
     }
 
     /// Models whose bodies are registered as static (never moved).
-    pub fn is_static(&self, m: u32) -> bool {
-        self.is_static[m as usize]
+    pub fn is_static(&self, m: ModelId) -> bool {
+        self.is_static[m.index()]
     }
 }

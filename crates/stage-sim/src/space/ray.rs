@@ -2,6 +2,7 @@
 //! Dynamic bodies are tested first (walking the dynamic grid, or scanning a short list), then
 //! the static grid is walked up to the best hit so far.
 
+use crate::node::ModelId;
 use parry2d::bounding_volume::Aabb as PAabb;
 use parry2d::math::Point;
 use std::cell::Cell;
@@ -13,7 +14,7 @@ use crate::geom::{Aabb, ray_polygon, ray_segment};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayHit {
     /// Index of the model hit.
-    pub model: u32,
+    pub model: ModelId,
     /// Index of the block hit within that model.
     pub block: u32,
     /// Distance from the origin (m).
@@ -35,9 +36,6 @@ pub struct RayQuery {
     pub z: Option<f64>,
 }
 
-/// `skip_root` value that skips no tree.
-pub const NO_ROOT: u32 = u32::MAX;
-
 /// One ray as the casting steps hand it on: origin, unit direction and its inverse, reach,
 /// the height for the z test and the tree whose models it passes through.
 #[derive(Clone, Copy)]
@@ -47,7 +45,7 @@ struct Ray {
     inv: [f64; 2],
     range: f64,
     z: Option<f64>,
-    skip_root: u32,
+    skip_root: Option<ModelId>,
 }
 
 /// What the rays of one cast share: origin, reach, height for the z test and the tree they pass
@@ -59,8 +57,8 @@ struct Shared<'a> {
     o: [f64; 2],
     range: f64,
     z: Option<f64>,
-    skip_root: u32,
-    few: Option<&'a [u32]>,
+    skip_root: Option<ModelId>,
+    few: Option<&'a [ModelId]>,
     start: Option<[i32; 2]>,
 }
 
@@ -80,22 +78,22 @@ const SMALL_DYNAMIC_SET: usize = 24;
 impl Space {
     /// Casts a ray; `accept(model)` decides which models can stop it (Stage's match predicate).
     /// Returns the nearest accepted edge crossing whose block passes the z test.
-    pub fn raycast(&self, q: &RayQuery, accept: impl Fn(u32) -> bool) -> Option<RayHit> {
+    pub fn raycast(&self, q: &RayQuery, accept: impl Fn(ModelId) -> bool) -> Option<RayHit> {
         let (s, c) = q.a.sin_cos();
-        self.raycast_dir([q.x, q.y], [c, s], q.range, q.z, NO_ROOT, accept)
+        self.raycast_dir([q.x, q.y], [c, s], q.range, q.z, None, accept)
     }
 
     /// [`Space::raycast`] with the unit direction given (saves the sine/cosine per ray when a
     /// caller sweeps a fan), skipping every model whose tree root is `skip_root` (the caster's
-    /// own tree; [`NO_ROOT`] skips nothing) before `accept` is asked.
+    /// own tree; `None` skips nothing) before `accept` is asked.
     pub fn raycast_dir(
         &self,
         o: [f64; 2],
         d: [f64; 2],
         range: f64,
         z: Option<f64>,
-        skip_root: u32,
-        accept: impl Fn(u32) -> bool,
+        skip_root: Option<ModelId>,
+        accept: impl Fn(ModelId) -> bool,
     ) -> Option<RayHit> {
         let shared = Shared {
             o,
@@ -120,16 +118,16 @@ impl Space {
         dirs: &[[f64; 2]],
         range: f64,
         z: Option<f64>,
-        skip_root: u32,
-        accept: impl Fn(u32) -> bool,
+        skip_root: Option<ModelId>,
+        accept: impl Fn(ModelId) -> bool,
         mut out: impl FnMut(usize, Option<RayHit>),
     ) {
-        let mut few = [0u32; SMALL_DYNAMIC_SET];
+        let mut few = [ModelId(0); SMALL_DYNAMIC_SET];
         let mut n = 0;
         let small = self.members.len() <= SMALL_DYNAMIC_SET;
         if small {
             for &m in &self.members {
-                if self.roots[m as usize] != skip_root && accept(m) {
+                if Some(self.roots[m.index()]) != skip_root && accept(m) {
                     few[n] = m;
                     n += 1;
                 }
@@ -150,7 +148,12 @@ impl Space {
 
     /// One ray along `d` (see [`Space::raycast_dir`]).
     #[inline(always)]
-    fn cast(&self, shared: Shared, d: [f64; 2], accept: &impl Fn(u32) -> bool) -> Option<RayHit> {
+    fn cast(
+        &self,
+        shared: Shared,
+        d: [f64; 2],
+        accept: &impl Fn(ModelId) -> bool,
+    ) -> Option<RayHit> {
         let Shared {
             o,
             range,
@@ -195,8 +198,8 @@ impl Space {
                     };
                     if better
                         && z_sees(z, sb.zmin, sb.zmax)
-                        && self.static_live[sb.model as usize]
-                        && self.roots[sb.model as usize] != skip_root
+                        && self.static_live[sb.model.index()]
+                        && Some(self.roots[sb.model.index()]) != skip_root
                         && accept(sb.model)
                     {
                         best_t = t;
@@ -218,8 +221,8 @@ impl Space {
     fn dynamic_hit(
         &self,
         ray: &Ray,
-        accept: &impl Fn(u32) -> bool,
-        few: Option<&[u32]>,
+        accept: &impl Fn(ModelId) -> bool,
+        few: Option<&[ModelId]>,
     ) -> Option<RayHit> {
         let Ray {
             o,
@@ -233,11 +236,11 @@ impl Space {
         let best: Cell<Option<RayHit>> = Cell::new(None);
         // models already tested by this ray (a body spanning several grid cells is listed in
         // each): testing one again cannot change the answer, as the best hit only gets nearer
-        let tested: Cell<([u32; 8], usize)> = Cell::new(([0; 8], 0));
-        let consider = |m: u32| {
+        let tested: Cell<([ModelId; 8], usize)> = Cell::new(([ModelId(0); 8], 0));
+        let consider = |m: ModelId| {
             let tmax = best_t.get();
-            if self.roots[m as usize] == skip_root
-                || !self.aabbs[m as usize].ray_meets(o, inv, tmax)
+            if Some(self.roots[m.index()]) == skip_root
+                || !self.aabbs[m.index()].ray_meets(o, inv, tmax)
                 || !accept(m)
             {
                 return;
@@ -250,7 +253,7 @@ impl Space {
                 ids[count] = m;
                 tested.set((ids, count + 1));
             }
-            let body = &self.bodies[m as usize];
+            let body = &self.bodies[m.index()];
             let mut bt = tmax;
             let mut bb = None;
             // a lone block's box is the body's, which the ray has just been found to meet
@@ -278,7 +281,7 @@ impl Space {
                 }
             }
         };
-        let mut consider_all = |list: &[u32]| {
+        let mut consider_all = |list: &[ModelId]| {
             for &m in list {
                 consider(m);
             }
@@ -300,7 +303,7 @@ impl Space {
         o: [f64; 2],
         d: [f64; 2],
         best_t: &Cell<f64>,
-        visit: &mut impl FnMut(&[u32]),
+        visit: &mut impl FnMut(&[ModelId]),
     ) {
         let g = &self.grid;
         let gmin = g.origin;
@@ -362,7 +365,12 @@ impl Space {
 
     /// Collects every accepted crossing along a ray (any z), nearest first, up to `max_hits`:
     /// used by the camera, which resolves heights per pixel.
-    pub fn raycast_all(&self, q: &RayQuery, accept: impl Fn(u32) -> bool, out: &mut Vec<RayHit>) {
+    pub fn raycast_all(
+        &self,
+        q: &RayQuery,
+        accept: impl Fn(ModelId) -> bool,
+        out: &mut Vec<RayHit>,
+    ) {
         out.clear();
         let (s, c) = q.a.sin_cos();
         let d = [c, s];
@@ -377,7 +385,7 @@ impl Space {
         );
         for leaf in self.statics.bvh.intersect_aabb(&pa) {
             let sb = self.statics.blocks[leaf as usize];
-            if !self.static_live[sb.model as usize] || !accept(sb.model) {
+            if !self.static_live[sb.model.index()] || !accept(sb.model) {
                 continue;
             }
             for (a, b) in self.statics.edges(leaf as usize) {
@@ -390,14 +398,14 @@ impl Space {
                 }
             }
         }
-        let mut seen: Vec<u32> = Vec::new();
+        let mut seen: Vec<ModelId> = Vec::new();
         let far = Cell::new(q.range);
-        let mut visit = |m: u32| {
+        let mut visit = |m: ModelId| {
             if seen.contains(&m) || !accept(m) {
                 return;
             }
             seen.push(m);
-            let body = &self.bodies[m as usize];
+            let body = &self.bodies[m.index()];
             if body.aabb.ray_entry(o, inv, q.range).is_none() {
                 return;
             }
@@ -413,7 +421,7 @@ impl Space {
                 }
             }
         };
-        let mut visit_all = |list: &[u32]| {
+        let mut visit_all = |list: &[ModelId]| {
             for &m in list {
                 visit(m);
             }
@@ -472,7 +480,11 @@ mod tests {
             let n = bodies.len();
             // every third body is dynamic (grid), the rest static (BVH)
             let dynamic: Vec<bool> = (0..n).map(|i| i % 3 == 1).collect();
-            let space = Space::new(bodies.clone(), &dynamic, (0..n as u32).collect());
+            let space = Space::new(
+                bodies.clone(),
+                &dynamic,
+                (0..n as u32).map(ModelId).collect(),
+            );
             for k in 0..600 {
                 // half short rays (they start below the BVH root), half long ones
                 let range = if k % 2 == 0 {
@@ -507,7 +519,7 @@ mod tests {
                     }
                 }
                 assert_eq!(
-                    got.map(|h| (h.range, h.model)),
+                    got.map(|h| (h.range, h.model.0)),
                     want,
                     "{count} bodies, {q:?}"
                 );
@@ -572,8 +584,12 @@ mod tests {
         let dynamic: Vec<bool> = (0..n).map(|m| m > 0).collect();
         // models 1 and 2 are the caster's robot (root 1); model 3 never stops rays
         let roots: Vec<u32> = (0..n as u32).map(|m| if m == 2 { 1 } else { m }).collect();
-        let accept = |m: u32| m != 3;
-        let space = Space::new(bodies.clone(), &dynamic, roots.clone());
+        let accept = |m: ModelId| m.0 != 3;
+        let space = Space::new(
+            bodies.clone(),
+            &dynamic,
+            roots.iter().map(|&r| ModelId(r)).collect(),
+        );
         assert!(space.members.len() <= SMALL_DYNAMIC_SET);
         let mut fans = 0;
         while fans < 60 {
@@ -595,13 +611,21 @@ mod tests {
                 })
                 .collect();
             let mut got = vec![None; dirs.len()];
-            space.raycast_fan(o, &dirs, range, Some(0.5), 1, accept, |i, h| got[i] = h);
+            space.raycast_fan(
+                o,
+                &dirs,
+                range,
+                Some(0.5),
+                Some(ModelId(1)),
+                accept,
+                |i, h| got[i] = h,
+            );
             for (i, &d) in dirs.iter().enumerate() {
-                let single = space.raycast_dir(o, d, range, Some(0.5), 1, accept);
+                let single = space.raycast_dir(o, d, range, Some(0.5), Some(ModelId(1)), accept);
                 assert_eq!(got[i], single, "fan from {o:?}, ray {i}");
                 let mut want: Option<(f64, u32)> = None;
                 for (m, b) in bodies.iter().enumerate() {
-                    if roots[m] == 1 || !accept(m as u32) {
+                    if roots[m] == 1 || !accept(ModelId(m as u32)) {
                         continue;
                     }
                     for bi in 0..b.blocks.len() {
@@ -617,7 +641,7 @@ mod tests {
                     }
                 }
                 assert_eq!(
-                    got[i].map(|h| (h.range, h.model)),
+                    got[i].map(|h| (h.range, h.model.0)),
                     want,
                     "fan from {o:?}, ray {i}"
                 );

@@ -2,6 +2,7 @@
 //! the exposed parts of their edges in the static grid for single rays (see the module docs of
 //! `space`).
 
+use crate::node::ModelId;
 use parry2d::bounding_volume::Aabb as PAabb;
 use parry2d::math::Point;
 use parry2d::partitioning::{Bvh, BvhBuildStrategy};
@@ -14,7 +15,7 @@ use crate::geom::Aabb;
 /// A static block: its model, block index, z interval and vertex range in `StaticIndex::pts`.
 #[derive(Clone, Copy)]
 pub(super) struct StaticBlock {
-    pub(super) model: u32,
+    pub(super) model: ModelId,
     pub(super) block: u32,
     pub(super) zmin: f64,
     pub(super) zmax: f64,
@@ -56,7 +57,7 @@ impl StaticIndex {
                     Point::new((bb.max[0] + AABB_PAD) as f32, (bb.max[1] + AABB_PAD) as f32),
                 ));
                 blocks.push(StaticBlock {
-                    model: m as u32,
+                    model: ModelId(m as u32),
                     block: bi as u32,
                     zmin: wb.zmin,
                     zmax: wb.zmax,

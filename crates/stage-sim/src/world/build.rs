@@ -49,15 +49,15 @@ impl World {
             }
             let root = match m.parent {
                 Some(p) => nodes[p].root,
-                None => i as u32,
+                None => ModelId(i as u32),
             };
             if let Some(p) = m.parent {
-                nodes[p].children.push(i as u32);
+                nodes[p].children.push(ModelId(i as u32));
             }
             nodes.push(Node {
                 name: m.name.clone(),
                 model_type: m.kind.model_type(),
-                parent: m.parent.map(|p| p as u32),
+                parent: m.parent.map(|p| ModelId(p as u32)),
                 children: Vec::new(),
                 root,
                 size: m.size,
@@ -79,12 +79,10 @@ impl World {
         let mut moving_root = vec![false; n];
         for (i, m) in desc.models.iter().enumerate() {
             if matches!(m.kind, KindDesc::Position(_)) {
-                moving_root[nodes[i].root as usize] = true;
+                moving_root[nodes[i].root.index()] = true;
             }
         }
-        let dynamic: Vec<bool> = (0..n)
-            .map(|i| moving_root[nodes[i].root as usize])
-            .collect();
+        let dynamic: Vec<bool> = (0..n).map(|i| moving_root[nodes[i].root.index()]).collect();
         let mut bodies = vec![Body::default(); n];
         for i in 0..n {
             body_of(&nodes[i], &globals[i], &mut bodies[i]);
@@ -94,9 +92,9 @@ impl World {
         let mut names = HashMap::new();
         for (i, m) in desc.models.iter().enumerate() {
             for a in &m.aliases {
-                names.insert(a.clone(), i as u32);
+                names.insert(a.clone(), ModelId(i as u32));
             }
-            names.insert(m.name.clone(), i as u32);
+            names.insert(m.name.clone(), ModelId(i as u32));
         }
 
         let mut states = Vec::with_capacity(n);
@@ -105,7 +103,7 @@ impl World {
             let mut rng = SimRng::new(seed, i as u64);
             let kind = KindState::new(&m.kind, &globals[i], &mut rng);
             if matches!(kind, KindState::Position(_)) {
-                positions.push(i as u32);
+                positions.push(ModelId(i as u32));
             }
             // a kind that shapes its own body (the gripper's base and paddles, spec §11.2)
             if let Some(blocks) = kind.own_blocks(m.size) {
@@ -128,6 +126,7 @@ impl World {
         }
         let fiducial_targets = (0..n as u32)
             .filter(|&i| nodes[i as usize].returns.fiducial != 0)
+            .map(ModelId)
             .collect();
 
         let mut world = World {
@@ -161,7 +160,7 @@ impl World {
         // gripper bodies were replaced above: refresh their world outlines
         for i in 0..n {
             if matches!(world.states[i].kind, KindState::Gripper(_)) {
-                world.refresh_subtree(i as u32);
+                world.refresh_subtree(ModelId(i as u32));
             }
         }
         for (i, m) in desc.models.iter().enumerate() {
@@ -205,8 +204,8 @@ impl World {
             self.apply(c);
         }
         self.controllers.push(ControllerSlot {
-            model: inst.model.0,
-            trigger: inst.trigger.0,
+            model: inst.model,
+            trigger: inst.trigger,
             ctrl: inst.ctrl,
         });
     }

@@ -40,8 +40,8 @@ pub(crate) struct ModelState {
 }
 
 struct ControllerSlot {
-    model: u32,
-    trigger: u32,
+    model: ModelId,
+    trigger: ModelId,
     ctrl: Box<dyn Controller>,
 }
 
@@ -58,17 +58,17 @@ pub struct World {
     says: Vec<String>,
     space: Space,
     states: Vec<ModelState>,
-    names: HashMap<String, u32>,
-    positions: Vec<u32>,
-    fiducial_targets: Vec<u32>,
+    names: HashMap<String, ModelId>,
+    positions: Vec<ModelId>,
+    fiducial_targets: Vec<ModelId>,
     controllers: Vec<ControllerSlot>,
     warnings: Vec<String>,
     rays_cast: u64,
     // scratch
     due: Vec<bool>,
     updated: Vec<bool>,
-    subtree: Vec<u32>,
-    scratch: Vec<u32>,
+    subtree: Vec<ModelId>,
+    scratch: Vec<ModelId>,
     move_plans: Vec<moves::MovePlan>,
 }
 

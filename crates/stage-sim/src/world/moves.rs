@@ -11,7 +11,7 @@
 use rayon::prelude::*;
 
 use super::tree::{below_ground, body_of, global_of_parent, obstacle_to, tree_of};
-use super::{KindState, World};
+use super::{KindState, ModelId, World};
 use crate::pose::Pose;
 use crate::space::Body;
 
@@ -37,7 +37,7 @@ pub(super) struct MovePlan {
     /// The pose after the move (parent frame).
     pose: Pose,
     /// The model's tree, parents first.
-    models: Vec<u32>,
+    models: Vec<ModelId>,
     /// Each tree model's global pose after the move.
     globals: Vec<Pose>,
     /// Each tree model's outline after the move (swapped into the space when installed).
@@ -78,16 +78,16 @@ impl World {
     }
 
     /// Plans model `m`'s move from the state before any move of this step.
-    fn plan_move(&self, m: u32, dt: f64, plan: &mut MovePlan) {
+    fn plan_move(&self, m: ModelId, dt: f64, plan: &mut MovePlan) {
         plan.kind = PlanKind::Still;
-        let i = m as usize;
+        let i = m.index();
         let Some(delta) = self.move_delta(m, dt) else {
             return;
         };
         tree_of(&self.nodes, m, &mut plan.models);
         let carries_robot = plan.models[1..]
             .iter()
-            .any(|&x| matches!(self.states[x as usize].kind, KindState::Position(_)));
+            .any(|&x| matches!(self.states[x.index()].kind, KindState::Position(_)));
         if self.nodes[i].parent.is_some() || carries_robot {
             plan.kind = PlanKind::OneByOne;
             return;
@@ -100,7 +100,7 @@ impl World {
             plan.bodies.resize_with(n, Body::default);
         }
         for j in 0..n {
-            let x = plan.models[j] as usize;
+            let x = plan.models[j].index();
             let node = &self.nodes[x];
             let global = match node.parent {
                 None => plan.pose,
@@ -110,11 +110,11 @@ impl World {
                         .iter()
                         .position(|&y| y == par)
                         .expect("tree_of lists parents before their children");
-                    global_of_parent(&self.nodes[par as usize], &plan.globals[pj], &self.poses[x])
+                    global_of_parent(&self.nodes[par.index()], &plan.globals[pj], &self.poses[x])
                 }
             };
             plan.globals.push(global);
-            let refresh = self.outline_kept_fresh(x as u32);
+            let refresh = self.outline_kept_fresh(plan.models[j]);
             plan.refresh.push(refresh);
             if refresh {
                 body_of(node, &global, &mut plan.bodies[j]);
@@ -129,7 +129,7 @@ impl World {
                 self.space.body(plan.models[j])
             }
         };
-        let movers = (0..n).filter(|&j| self.nodes[plan.models[j] as usize].returns.obstacle);
+        let movers = (0..n).filter(|&j| self.nodes[plan.models[j].index()].returns.obstacle);
         let ground = movers.clone().any(|j| below_ground(body_after(j)));
         plan.static_hit = ground
             || movers
@@ -139,13 +139,13 @@ impl World {
     }
 
     /// Installs a planned move unless it touches something, then records the stall.
-    fn apply_move(&mut self, m: u32, plan: &mut MovePlan) {
-        let i = m as usize;
+    fn apply_move(&mut self, m: ModelId, plan: &mut MovePlan) {
+        let i = m.index();
         let hit = plan.static_hit || {
             let old = self.poses[i];
             self.poses[i] = plan.pose;
             for (j, &x) in plan.models.iter().enumerate() {
-                self.globals[x as usize] = plan.globals[j];
+                self.globals[x.index()] = plan.globals[j];
                 if plan.refresh[j] {
                     std::mem::swap(self.space.body_mut(x), &mut plan.bodies[j]);
                     self.space.commit_body(x);
@@ -158,7 +158,7 @@ impl World {
                 plan.models
                     .iter()
                     .copied()
-                    .filter(|&x| nodes[x as usize].returns.obstacle),
+                    .filter(|&x| nodes[x.index()].returns.obstacle),
             );
             let hit = self.space.touches_dynamic(
                 &self.subtree,

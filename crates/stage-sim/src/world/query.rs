@@ -66,7 +66,7 @@ impl World {
     /// Stage).
     pub fn set_pose(&mut self, m: ModelId, p: Pose) {
         self.poses[m.index()] = Pose::new(p.x, p.y, p.z, p.a);
-        self.refresh_subtree(m.0);
+        self.refresh_subtree(m);
     }
 
     /// Global pose of the model's pose point (with child stacking).
@@ -93,7 +93,7 @@ impl World {
 
     /// The model's body in world coordinates (for drawing; borrowed, not copied).
     pub fn body(&self, m: ModelId) -> &Body {
-        self.space.body(m.0)
+        self.space.body(m)
     }
 
     /// The model's own blocks (not its children's), as they are now, rasterised onto square
@@ -120,7 +120,7 @@ impl World {
             return None;
         }
         let mut raster = Raster::new(bb.min, cell, w as usize, h as usize);
-        let body = self.space.body(m.0);
+        let body = self.space.body(m);
         for b in 0..body.blocks.len() {
             raster.fill_polygon(body.block_pts(b));
         }
@@ -136,7 +136,7 @@ impl World {
     pub fn raycast(&self, q: &RayQuery, exclude: Option<ModelId>) -> Option<RayHit> {
         let root = exclude.map(|m| self.nodes[m.index()].root);
         self.space
-            .raycast(q, |h| Some(self.nodes[h as usize].root) != root)
+            .raycast(q, |h| Some(self.nodes[h.index()].root) != root)
     }
 
     /// Speech-bubble text.
@@ -265,6 +265,7 @@ impl World {
         self.nodes[m.index()].returns.fiducial = id;
         self.fiducial_targets = (0..self.nodes.len() as u32)
             .filter(|&i| self.nodes[i as usize].returns.fiducial != 0)
+            .map(ModelId)
             .collect();
     }
 

@@ -58,7 +58,7 @@ impl World {
             let due = &self.due;
             let run = |(i, st): (usize, &mut ModelState)| {
                 if due[i] {
-                    update_model(&view, i as u32, &poses[i], st);
+                    update_model(&view, ModelId(i as u32), &poses[i], st);
                 }
             };
             if rays >= PARALLEL_MIN_RAYS {
@@ -85,11 +85,11 @@ impl World {
                     let size = self.nodes[i].size;
                     let blocks = changed.then(|| g.blocks(size));
                     if let Some(blocks) = blocks {
-                        self.set_blocks(i as u32, &blocks);
+                        self.set_blocks(ModelId(i as u32), &blocks);
                     }
                     match action {
-                        Some(GripAction::Grasp(obj)) => self.grasp(i as u32, obj),
-                        Some(GripAction::Release(obj)) => self.release(i as u32, obj),
+                        Some(GripAction::Grasp(obj)) => self.grasp(ModelId(i as u32), obj),
+                        Some(GripAction::Release(obj)) => self.release(ModelId(i as u32), obj),
                         None => {}
                     }
                 }
@@ -102,8 +102,8 @@ impl World {
             let mut slots = std::mem::take(&mut self.controllers);
             let world = &*self;
             let run = |slot: &mut ControllerSlot| {
-                let mut cmds = Commands::new(ModelId(slot.model));
-                if world.updated[slot.trigger as usize] {
+                let mut cmds = Commands::new(slot.model);
+                if world.updated[slot.trigger.index()] {
                     slot.ctrl.update(world, &mut cmds);
                 }
                 cmds
@@ -148,22 +148,22 @@ impl World {
 
     /// Whether model `m`'s world outline is recomputed when it moves: not for models that have
     /// no blocks and no outline (their empty body stays as it is).
-    pub(super) fn outline_kept_fresh(&self, m: u32) -> bool {
-        !(self.space.body(m).is_empty() && self.nodes[m as usize].blocks.is_empty())
+    pub(super) fn outline_kept_fresh(&self, m: ModelId) -> bool {
+        !(self.space.body(m).is_empty() && self.nodes[m.index()].blocks.is_empty())
     }
 
     /// How far position model `m` moves this step (in its own frame); `None` when it does not
     /// move (unsubscribed, or no velocity).
-    pub(super) fn move_delta(&self, m: u32, dt: f64) -> Option<Pose> {
-        let st = &self.states[m as usize];
+    pub(super) fn move_delta(&self, m: ModelId, dt: f64) -> Option<Pose> {
+        let st = &self.states[m.index()];
         match &st.kind {
             KindState::Position(p) if st.subs > 0 => p.step_delta(dt),
             _ => None,
         }
     }
 
-    pub(super) fn move_model(&mut self, m: u32, dt: f64) {
-        let i = m as usize;
+    pub(super) fn move_model(&mut self, m: ModelId, dt: f64) {
+        let i = m.index();
         let Some(delta) = self.move_delta(m, dt) else {
             return;
         };
@@ -181,11 +181,11 @@ impl World {
     }
 
     /// Whether model `m`'s tree (from `m` down) touches an unrelated obstacle or the ground.
-    pub(super) fn contact(&mut self, m: u32) -> bool {
+    pub(super) fn contact(&mut self, m: ModelId) -> bool {
         self.collect_subtree(m);
-        let root = self.nodes[m as usize].root;
+        let root = self.nodes[m.index()].root;
         let mut movers = std::mem::take(&mut self.subtree);
-        movers.retain(|&s| self.nodes[s as usize].returns.obstacle);
+        movers.retain(|&s| self.nodes[s.index()].returns.obstacle);
         let ground = movers.iter().any(|&s| below_ground(self.space.body(s)));
         let hit = ground
             || self
@@ -197,16 +197,16 @@ impl World {
     }
 
     /// Collects `m` and its descendants into `self.subtree`, parents before children.
-    pub(super) fn collect_subtree(&mut self, m: u32) {
+    pub(super) fn collect_subtree(&mut self, m: ModelId) {
         tree_of(&self.nodes, m, &mut self.subtree);
     }
 
     /// Recomputes global poses and world outlines of `m` and its descendants.
-    pub(super) fn refresh_subtree(&mut self, m: u32) {
+    pub(super) fn refresh_subtree(&mut self, m: ModelId) {
         self.collect_subtree(m);
         let list = std::mem::take(&mut self.subtree);
         for &x in &list {
-            let xi = x as usize;
+            let xi = x.index();
             self.globals[xi] = global_of(&self.nodes, &self.globals, xi, &self.poses[xi]);
             if !self.outline_kept_fresh(x) {
                 continue;
@@ -219,8 +219,8 @@ impl World {
         self.subtree = list;
     }
 
-    pub(super) fn set_blocks(&mut self, m: u32, blocks: &[BlockDesc]) {
-        let n = &self.nodes[m as usize];
+    pub(super) fn set_blocks(&mut self, m: ModelId, blocks: &[BlockDesc]) {
+        let n = &self.nodes[m.index()];
         let tmp = ModelDesc {
             size: n.size,
             blocks: blocks.to_vec(),
@@ -228,31 +228,31 @@ impl World {
             ..ModelDesc::new(&n.name, KindDesc::Model)
         };
         if let Ok(b) = local_blocks(&tmp) {
-            self.nodes[m as usize].blocks = b;
+            self.nodes[m.index()].blocks = b;
             self.refresh_subtree(m);
         }
     }
 
-    pub(super) fn set_root(&mut self, m: u32, root: u32) {
+    pub(super) fn set_root(&mut self, m: ModelId, root: ModelId) {
         self.collect_subtree(m);
         let list = std::mem::take(&mut self.subtree);
         for &x in &list {
-            self.nodes[x as usize].root = root;
+            self.nodes[x.index()].root = root;
             self.space.set_root(x, root);
         }
         self.subtree = list;
     }
 
-    pub(super) fn reparent(&mut self, m: u32, parent: Option<u32>, local: Pose) {
-        let i = m as usize;
+    pub(super) fn reparent(&mut self, m: ModelId, parent: Option<ModelId>, local: Pose) {
+        let i = m.index();
         if let Some(old) = self.nodes[i].parent {
-            self.nodes[old as usize].children.retain(|&c| c != m);
+            self.nodes[old.index()].children.retain(|&c| c != m);
         }
         self.nodes[i].parent = parent;
         let root = match parent {
             Some(p) => {
-                self.nodes[p as usize].children.push(m);
-                self.nodes[p as usize].root
+                self.nodes[p.index()].children.push(m);
+                self.nodes[p.index()].root
             }
             None => m,
         };
@@ -261,23 +261,23 @@ impl World {
         self.refresh_subtree(m);
     }
 
-    pub(super) fn grasp(&mut self, gripper: u32, obj: u32) {
+    pub(super) fn grasp(&mut self, gripper: ModelId, obj: ModelId) {
         // an object already carried elsewhere (or an ancestor of the gripper) cannot be taken
         let mut a = Some(gripper);
         while let Some(x) = a {
             if x == obj {
                 return;
             }
-            a = self.nodes[x as usize].parent;
+            a = self.nodes[x.index()].parent;
         }
-        if self.nodes[obj as usize].parent.is_some() {
-            if let KindState::Gripper(g) = &mut self.states[gripper as usize].kind {
+        if self.nodes[obj.index()].parent.is_some() {
+            if let KindState::Gripper(g) = &mut self.states[gripper.index()].kind {
                 g.data.carrying = None;
                 g.close_limit = 1.0;
             }
             return;
         }
-        let sz = self.nodes[gripper as usize].size[2];
+        let sz = self.nodes[gripper.index()].size[2];
         self.reparent(
             obj,
             Some(gripper),
@@ -290,18 +290,18 @@ impl World {
         );
     }
 
-    pub(super) fn release(&mut self, gripper: u32, obj: u32) {
-        if self.nodes[obj as usize].parent != Some(gripper) {
+    pub(super) fn release(&mut self, gripper: ModelId, obj: ModelId) {
+        if self.nodes[obj.index()].parent != Some(gripper) {
             return;
         }
         // dropped at the gripper's global pose, height included (Stage quirk, spec §11.3)
-        let g = self.globals[gripper as usize];
+        let g = self.globals[gripper.index()];
         self.reparent(obj, None, g);
     }
 }
 
-pub(super) fn update_model(v: &View, m: u32, local: &Pose, st: &mut ModelState) {
-    let node = &v.nodes[m as usize];
+pub(super) fn update_model(v: &View, m: ModelId, local: &Pose, st: &mut ModelState) {
+    let node = &v.nodes[m.index()];
     st.kind.update(v, m, local, node, &mut st.rng);
     st.self_start = false;
     st.updated_at = Some(v.sim_time);

@@ -82,17 +82,17 @@ pub(super) fn body_of(node: &Node, global: &Pose, out: &mut Body) {
 pub(super) fn global_of(nodes: &[Node], globals: &[Pose], m: usize, pose: &Pose) -> Pose {
     match nodes[m].parent {
         None => *pose,
-        Some(p) => global_of_parent(&nodes[p as usize], &globals[p as usize], pose),
+        Some(p) => global_of_parent(&nodes[p.index()], &globals[p.index()], pose),
     }
 }
 
 /// `m` and its descendants into `out`, parents before children.
-pub(super) fn tree_of(nodes: &[Node], m: u32, out: &mut Vec<u32>) {
+pub(super) fn tree_of(nodes: &[Node], m: ModelId, out: &mut Vec<ModelId>) {
     out.clear();
     out.push(m);
     let mut i = 0;
     while i < out.len() {
-        let x = out[i] as usize;
+        let x = out[i].index();
         out.extend_from_slice(&nodes[x].children);
         i += 1;
     }
@@ -105,9 +105,9 @@ pub(super) fn below_ground(body: &Body) -> bool {
 
 /// Which models stop a move of the tree rooted at `root`: unrelated ones with
 /// `obstacle_return`.
-pub(super) fn obstacle_to(nodes: &[Node], root: u32) -> impl Fn(u32) -> bool + Copy + '_ {
+pub(super) fn obstacle_to(nodes: &[Node], root: ModelId) -> impl Fn(ModelId) -> bool + Copy + '_ {
     move |o| {
-        let n = &nodes[o as usize];
+        let n = &nodes[o.index()];
         n.root != root && n.returns.obstacle
     }
 }
@@ -137,7 +137,7 @@ impl World {
 
     /// The model registered under `name` (the last one registered wins, as in Stage).
     pub fn model_by_name(&self, name: &str) -> Option<ModelId> {
-        self.names.get(name).map(|&i| ModelId(i))
+        self.names.get(name).copied()
     }
 
     /// Tree and configuration data of a model.
@@ -162,21 +162,21 @@ impl World {
 
     /// The parent model.
     pub fn parent(&self, m: ModelId) -> Option<ModelId> {
-        self.nodes[m.index()].parent.map(ModelId)
+        self.nodes[m.index()].parent
     }
 
     /// Children in creation order.
     pub fn children(&self, m: ModelId) -> impl Iterator<Item = ModelId> + '_ {
-        self.nodes[m.index()].children.iter().map(|&c| ModelId(c))
+        self.nodes[m.index()].children.iter().copied()
     }
 
     /// `m` and its descendants in pre-order (how the stage driver binds devices).
     pub fn subtree(&self, m: ModelId) -> Vec<ModelId> {
         let mut out = Vec::new();
-        let mut stack = vec![m.0];
+        let mut stack = vec![m];
         while let Some(x) = stack.pop() {
-            out.push(ModelId(x));
-            for &c in self.nodes[x as usize].children.iter().rev() {
+            out.push(x);
+            for &c in self.nodes[x.index()].children.iter().rev() {
                 stack.push(c);
             }
         }

@@ -34,6 +34,60 @@ use player_server::map::OccupancyGrid;
 const SCALE: f64 = 0.05;
 const SIZE: f64 = 20.0;
 
+/// The timed filter updates of one run: seconds per phase summed, the fastest whole update
+/// and the particles kept, over every round.
+#[derive(Default)]
+struct UpdateTimes {
+    rounds: usize,
+    action: f64,
+    sensor: f64,
+    resample: f64,
+    fastest: Option<f64>,
+    kept: usize,
+}
+
+impl UpdateTimes {
+    /// One update, timed phase by phase: odometry step, laser weighting, resampling.
+    fn update(
+        &mut self,
+        odom: &OdometryModel,
+        model: &LaserModel,
+        pf: &mut ParticleFilter,
+        step: &Pose,
+        scan: &LaserScan,
+    ) {
+        let t0 = Instant::now();
+        odom.apply(pf, step);
+        let t1 = Instant::now();
+        model.update(pf, scan);
+        let t2 = Instant::now();
+        pf.resample();
+        let t3 = Instant::now();
+        self.rounds += 1;
+        self.kept += pf.samples().len();
+        self.action += (t1 - t0).as_secs_f64();
+        self.sensor += (t2 - t1).as_secs_f64();
+        self.resample += (t3 - t2).as_secs_f64();
+        let whole = (t3 - t0).as_secs_f64();
+        self.fastest = Some(self.fastest.map_or(whole, |f| f.min(whole)));
+    }
+
+    /// `ms/update` (mean), the fastest, the mean per phase and the particles kept per round.
+    fn report(&self) -> String {
+        let rounds = self.rounds.max(1);
+        let per = |t: f64| t * 1000.0 / rounds as f64;
+        format!(
+            "{:>8.2} ms/update, fastest {:.2} (action {:.2}, laser {:.2}, resample {:.2}; {} kept)",
+            per(self.action + self.sensor + self.resample),
+            self.fastest.unwrap_or(f64::NAN) * 1000.0,
+            per(self.action),
+            per(self.sensor),
+            per(self.resample),
+            self.kept / rounds
+        )
+    }
+}
+
 /// Four 10 m rooms with doorways, walls 10 cm thick.
 fn map() -> OccupancyMap {
     let n = (SIZE / SCALE) as u32;
@@ -95,36 +149,16 @@ fn bench(label: &str, max_samples: usize, beams: usize, init_cov: Matrix3<f64>) 
     let mut robot = Pose::new(-5.0, -5.0, 0.3);
     let step = Pose::new(0.2, 0.0, 0.05);
     let rounds = 10;
-    let (mut t_action, mut t_sensor, mut t_resample) = (0.0, 0.0, 0.0);
-    let mut fastest = f64::INFINITY;
-    let mut kept = 0;
+    let mut times = UpdateTimes::default();
     for _ in 0..rounds {
         pf.init_gaussian(robot, init_cov);
         robot = compose(&robot, &step);
         let s = scan(&model, &robot);
-        let t0 = Instant::now();
-        odom.apply(&mut pf, &step);
-        let t1 = Instant::now();
-        model.update(&mut pf, &s);
-        let t2 = Instant::now();
-        pf.resample();
-        let t3 = Instant::now();
-        kept += pf.samples().len();
-        t_action += (t1 - t0).as_secs_f64();
-        t_sensor += (t2 - t1).as_secs_f64();
-        t_resample += (t3 - t2).as_secs_f64();
-        fastest = fastest.min((t3 - t0).as_secs_f64());
+        times.update(&odom, &model, &mut pf, &step, &s);
     }
-    let per = |t: f64| t * 1000.0 / rounds as f64;
     println!(
-        "{label:<34} {max_samples:>7} particles {beams:>3} beams {:>8.2} ms/update, fastest \
-         {:.2} (action {:.2}, laser {:.2}, resample {:.2}; {} kept)",
-        per(t_action + t_sensor + t_resample),
-        fastest * 1000.0,
-        per(t_action),
-        per(t_sensor),
-        per(t_resample),
-        kept / rounds
+        "{label:<34} {max_samples:>7} particles {beams:>3} beams {}",
+        times.report()
     );
 }
 
@@ -275,9 +309,7 @@ fn bench_fixed(
         .expect("dump rounds header");
         f
     });
-    let (mut t_action, mut t_sensor, mut t_resample) = (0.0, 0.0, 0.0);
-    let mut fastest = f64::INFINITY;
-    let mut kept = 0;
+    let mut times = UpdateTimes::default();
     for _ in 0..ROUNDS_FIXED {
         pf.init_gaussian(robot, cov);
         let before = robot;
@@ -290,29 +322,11 @@ fn bench_fixed(
             }
             writeln!(f, "{line}").expect("dump round");
         }
-        let t0 = Instant::now();
-        odom.apply(&mut pf, &step);
-        let t1 = Instant::now();
-        model.update(&mut pf, &s);
-        let t2 = Instant::now();
-        pf.resample();
-        let t3 = Instant::now();
-        kept += pf.samples().len();
-        t_action += (t1 - t0).as_secs_f64();
-        t_sensor += (t2 - t1).as_secs_f64();
-        t_resample += (t3 - t2).as_secs_f64();
-        fastest = fastest.min((t3 - t0).as_secs_f64());
+        times.update(&odom, &model, &mut pf, &step, &s);
     }
-    let per = |t: f64| t * 1000.0 / ROUNDS_FIXED as f64;
     println!(
-        "{map_name:<6} {belief:<8} {n:>6} particles {BEAMS_180} beams {:>8.2} ms/update, \
-         fastest {:.2} (action {:.2}, laser {:.2}, resample {:.2}; {} kept)",
-        per(t_action + t_sensor + t_resample),
-        fastest * 1000.0,
-        per(t_action),
-        per(t_sensor),
-        per(t_resample),
-        kept / ROUNDS_FIXED
+        "{map_name:<6} {belief:<8} {n:>6} particles {BEAMS_180} beams {}",
+        times.report()
     );
 }
 

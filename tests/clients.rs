@@ -13,20 +13,6 @@ use std::time::{Duration, Instant};
 use common::{pioneer_odom_cfg, root, serve_cfg};
 use player_server::Pace;
 
-fn have_libplayerc() -> bool {
-    let found = Command::new("pkg-config")
-        .args(["--exists", "playerc", "playerc++"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !found {
-        eprintln!(
-            "SKIP: pkg-config finds no playerc/playerc++ (set PKG_CONFIG_PATH to a Player 3.0.2 \
-             client install to run the real-client tests)"
-        );
-    }
-    found
-}
-
 /// Builds `examples/<dir>` with its Makefile into a fresh temporary folder.
 fn build(dir: &str, program: &str) -> PathBuf {
     let out =
@@ -64,7 +50,7 @@ fn run_bounded(program: &Path, args: &[String], limit: Duration) -> Output {
 
 #[test]
 fn libplayerc_basic_client_runs_against_our_server() {
-    if !have_libplayerc() {
+    if !test_support::pkg_config_finds(&["playerc", "playerc++"], "the real-client tests") {
         return;
     }
     let program = build("c", "basic");
@@ -99,7 +85,7 @@ fn libplayerc_basic_client_runs_against_our_server() {
 
 #[test]
 fn libplayerc_plus_plus_bigbob_controller_runs_against_our_server() {
-    if !have_libplayerc() {
+    if !test_support::pkg_config_finds(&["playerc", "playerc++"], "the real-client tests") {
         return;
     }
     let program = build("bigbob", "bigbob");
@@ -135,7 +121,7 @@ fn libplayerc_plus_plus_bigbob_controller_runs_against_our_server() {
 /// test configuration, refuses a finer resolution than its rays and narrows its scan.
 #[test]
 fn libplayerc_stage_devices_client_checks_odometry_actuator_and_laser() {
-    if !have_libplayerc() {
+    if !test_support::pkg_config_finds(&["playerc", "playerc++"], "the real-client tests") {
         return;
     }
     let program = build("c", "stage_devices");

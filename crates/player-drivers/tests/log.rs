@@ -444,15 +444,7 @@ fn the_rust_log_proxy_drives_recording_and_replay() {
 #[test]
 fn libplayerc_log_proxy_drives_recording_and_replay() {
     use std::process::Command;
-    let found = Command::new("pkg-config")
-        .args(["--exists", "playerc"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !found {
-        eprintln!(
-            "SKIP: pkg-config finds no playerc (set PKG_CONFIG_PATH to a Player 3.0.2 client \
-             install to run the libplayerc log proxy test)"
-        );
+    if !test_support::pkg_config_finds(&["playerc"], "the libplayerc log proxy test") {
         return;
     }
     let dir = std::env::temp_dir().join(format!("log-libplayerc-{}", std::process::id()));

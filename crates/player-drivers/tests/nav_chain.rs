@@ -168,28 +168,13 @@ fn drive_across_the_cave(stack_port: u16, robot_port: u16) {
     drop((client, truth_client));
 }
 
-/// Whether `pkg-config` finds libplayerc (skips the real-client test with a message otherwise).
-fn have_libplayerc() -> bool {
-    let found = Command::new("pkg-config")
-        .args(["--exists", "playerc"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !found {
-        eprintln!(
-            "SKIP: pkg-config finds no playerc (set PKG_CONFIG_PATH to a Player 3.0.2 client \
-             install to run the libplayerc navigation test)"
-        );
-    }
-    found
-}
-
 /// libplayerc's planner, localize and map proxies on the one-port chain: `examples/c/nav.c`
 /// reads amcl's hypotheses and particles, sends wavefront the goal across the cave, checks
 /// the waypoints against the map, pauses the robot through the planner, waits for "done" and
 /// gives amcl a pose.
 #[test]
 fn libplayerc_drives_the_chain_through_its_planner_and_localize_proxies() {
-    if !have_libplayerc() {
+    if !test_support::pkg_config_finds(&["playerc"], "the libplayerc navigation test") {
         return;
     }
     let Some((src, dir)) = world_dir("libplayerc") else {

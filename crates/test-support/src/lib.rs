@@ -51,6 +51,25 @@ pub fn stage_worlds() -> Option<PathBuf> {
     shared("stage-worlds")
 }
 
+/// Whether `pkg-config` finds every one of `packages` (Player's client libraries, for the tests
+/// that build and run a real libplayerc program); when not, prints the skip message naming
+/// `what` would have run.
+pub fn pkg_config_finds(packages: &[&str], what: &str) -> bool {
+    let found = std::process::Command::new("pkg-config")
+        .arg("--exists")
+        .args(packages)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !found {
+        eprintln!(
+            "SKIP: pkg-config finds no {} (set PKG_CONFIG_PATH to a Player 3.0.2 client install \
+             to run {what})",
+            packages.join("/")
+        );
+    }
+    found
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -59,6 +78,11 @@ mod tests {
     fn the_root_holds_the_workspace_manifest() {
         let manifest = std::fs::read_to_string(workspace_root().join("Cargo.toml")).unwrap();
         assert!(manifest.contains("[workspace]"));
+    }
+
+    #[test]
+    fn a_package_nobody_has_is_not_found() {
+        assert!(!pkg_config_finds(&["no-such-package-anywhere"], "nothing"));
     }
 
     #[test]

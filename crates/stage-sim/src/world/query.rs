@@ -354,7 +354,7 @@ impl World {
             d.color(&self.colors[i]);
             d.bytes(self.says[i].as_bytes());
             d.u64(st.next_update);
-            d.u64(st.updated_at.map_or(u64::MAX, |t| t));
+            d.u64(st.updated_at.unwrap_or(u64::MAX));
             st.kind.digest(&mut d);
         }
         d.finish()

@@ -7,7 +7,7 @@ mod common;
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use player_client::{PlayerClient, Position2dProxy};
@@ -17,7 +17,7 @@ use player_proto::{
     BANNER, Body, DecodeLimits, DeviceAddr, DeviceReq, Framer, InterfaceCode, LogReq,
     LogSetReadState, LogSetWriteState, Message, MsgHeader, MsgType, PlayerReq, Text,
 };
-use player_server::Pace;
+use player_server::{Pace, ServerHandle};
 
 /// A client that keeps every message as it arrives, with its arrival instant.
 struct RawClient {
@@ -143,6 +143,28 @@ const DEVICES: [(InterfaceCode, u16); 3] = [
     (InterfaceCode::BLOBFINDER, 0),
 ];
 
+/// A fresh scratch folder named for the test (and the process, so parallel runs differ).
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A server recording to `file` once a client starts it (`autorecord 0`), at twice real time.
+fn serve_idle_recorder(file: &Path) -> ServerHandle {
+    common::serve_cfg(
+        &common::worlds(),
+        "rec.cfg",
+        &record_cfg(file).replace("alwayson 1", "alwayson 1 autorecord 0"),
+        Pace::RealTime { speedup: 2.0 },
+    )
+}
+
+/// A server from the replay cfg `text`, written as `dir/replay.cfg`, at real time.
+fn serve_replay(dir: &Path, text: &str) -> ServerHandle {
+    common::serve_cfg(dir, "replay.cfg", text, Pace::RealTime { speedup: 1.0 })
+}
+
 fn record_cfg(file: &Path) -> String {
     format!(
         r#"
@@ -157,8 +179,7 @@ driver( name "writelog" requires ["0:position2d:0" "0:ranger:0" "0:blobfinder:0"
 
 #[test]
 fn a_recorded_run_replays_the_same_messages_at_the_same_pace() {
-    let dir = std::env::temp_dir().join(format!("log-roundtrip-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("log-roundtrip");
     let file = dir.join("run.log");
 
     // Record: a client watches live while writelog records, and the robot drives.
@@ -203,12 +224,7 @@ fn a_recorded_run_replays_the_same_messages_at_the_same_pace() {
         r#"driver( name "readlog" filename "{}" provides ["{port}:position2d:0" "{port}:ranger:0" "{port}:blobfinder:0" "{port}:log:0"] )"#,
         file.display()
     );
-    let replay = common::serve_cfg(
-        &dir,
-        "replay.cfg",
-        &replay_cfg,
-        Pace::RealTime { speedup: 1.0 },
-    );
+    let replay = serve_replay(&dir, &replay_cfg);
     let mut client = RawClient::connect(port);
     let mut replayed = Vec::new();
     for (i, n) in DEVICES {
@@ -292,15 +308,9 @@ fn a_recorded_run_replays_the_same_messages_at_the_same_pace() {
 
 #[test]
 fn the_log_devices_start_stop_and_rewind() {
-    let dir = std::env::temp_dir().join(format!("log-device-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("log-device");
     let file = dir.join("ctl.log.gz");
-    let server = common::serve_cfg(
-        &common::worlds(),
-        "rec.cfg",
-        &record_cfg(&file).replace("alwayson 1", "alwayson 1 autorecord 0"),
-        Pace::RealTime { speedup: 2.0 },
-    );
+    let server = serve_idle_recorder(&file);
     let port = server.ports()[0];
     let mut c = RawClient::connect(port);
     let mut data = Vec::new();
@@ -342,12 +352,7 @@ fn the_log_devices_start_stop_and_rewind() {
         r#"driver( name "readlog" filename "{}" autoplay 0 provides ["{port}:position2d:0" "{port}:log:0"] )"#,
         file.display()
     );
-    let replay = common::serve_cfg(
-        &dir,
-        "replay.cfg",
-        &replay_cfg,
-        Pace::RealTime { speedup: 1.0 },
-    );
+    let replay = serve_replay(&dir, &replay_cfg);
     let mut c = RawClient::connect(port);
     let mut data = Vec::new();
     c.subscribe(InterfaceCode::LOG, 0, &mut data);
@@ -398,16 +403,10 @@ fn the_log_devices_start_stop_and_rewind() {
 #[test]
 fn the_rust_log_proxy_drives_recording_and_replay() {
     use player_client::LogProxy;
-    let dir = std::env::temp_dir().join(format!("log-proxy-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("log-proxy");
     let first = dir.join("first.log");
     let second = dir.join("second.log");
-    let server = common::serve_cfg(
-        &common::worlds(),
-        "rec.cfg",
-        &record_cfg(&first).replace("alwayson 1", "alwayson 1 autorecord 0"),
-        Pace::RealTime { speedup: 2.0 },
-    );
+    let server = serve_idle_recorder(&first);
     let client = PlayerClient::connect("localhost", server.ports()[0]).unwrap();
     let log = LogProxy::new(&client, 0).unwrap();
     let st = log.get_state().unwrap();
@@ -447,8 +446,7 @@ fn libplayerc_log_proxy_drives_recording_and_replay() {
     if !test_support::pkg_config_finds(&["playerc"], "the libplayerc log proxy test") {
         return;
     }
-    let dir = std::env::temp_dir().join(format!("log-libplayerc-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("log-libplayerc");
     let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/c");
     let status = Command::new("make")
         .arg("-s")
@@ -480,12 +478,7 @@ fn libplayerc_log_proxy_drives_recording_and_replay() {
 
     let first = dir.join("first.log");
     let second = dir.join("second.log");
-    let server = common::serve_cfg(
-        &common::worlds(),
-        "rec.cfg",
-        &record_cfg(&first).replace("alwayson 1", "alwayson 1 autorecord 0"),
-        Pace::RealTime { speedup: 2.0 },
-    );
+    let server = serve_idle_recorder(&first);
     let port = server.ports()[0];
     run(port, &["write", second.to_str().unwrap()]);
     server.shutdown();
@@ -502,12 +495,7 @@ fn libplayerc_log_proxy_drives_recording_and_replay() {
         r#"driver( name "readlog" filename "{}" autorewind 1 provides ["{port}:position2d:0" "{port}:log:0"] )"#,
         second.display()
     );
-    let replay = common::serve_cfg(
-        &dir,
-        "replay.cfg",
-        &replay_cfg,
-        Pace::RealTime { speedup: 1.0 },
-    );
+    let replay = serve_replay(&dir, &replay_cfg);
     let out = run(port, &["read"]);
     assert!(out.contains("replayed pose"), "{out}");
     replay.shutdown();

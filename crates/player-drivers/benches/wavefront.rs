@@ -9,8 +9,9 @@
 //! - the c-space update (distance to the nearest obstacle for every cell, the work the driver
 //!   does once per map, `robot_radius` 0.2 m + the default `safety_dist` 0.25 m, default
 //!   `max_radius` 1 m);
-//! - the plan: the wavefront propagated from the goal over the whole map until exhausted (as
-//!   upstream's `plan_do_global`), and the path from the start followed down the costs;
+//! - the plan (`Plan::plan_path`, the work of upstream's `plan_do_global`): the wavefront
+//!   propagated from the goal until it reaches the start, and the path from the start
+//!   followed down the costs;
 //! - the waypoints extracted from that path (upstream's `plan_update_waypoints`).
 //!
 //! The start is at the west end of the long corridor, the goals at its east end and at the
@@ -117,12 +118,14 @@ fn main() -> std::io::Result<()> {
     }
 
     for (name, goal) in GOALS {
-        let (mean, fastest, result) = time(|| plan.plan(START, goal));
-        if result.path.is_empty() {
+        let (mean, fastest, path) = time(|| plan.plan_path(START, goal));
+        if path.is_empty() {
             println!("goal {name} {goal:?}: no path from {START:?}");
             continue;
         }
-        let (wmean, wfastest, waypoints) = time(|| plan.reduce_to_waypoints(&result.path));
+        let (wmean, wfastest, waypoints) = time(|| plan.reduce_to_waypoints(&path));
+        let result = plan.plan(START, goal);
+        assert_eq!(result.path, path, "plan gives the path plan_path gives");
         let length: f64 = result
             .waypoints
             .windows(2)
@@ -131,7 +134,7 @@ fn main() -> std::io::Result<()> {
         println!(
             "plan to {name:<5} (wavefront + path) {mean:>9.1} ms, fastest {fastest:.1} \
              ({} path cells)",
-            result.path.len()
+            path.len()
         );
         println!(
             "waypoints to {name:<5}              {wmean:>9.3} ms, fastest {wfastest:.3} \

@@ -28,8 +28,10 @@
 //! retries); `request_map 0` fetches the map when the map device publishes its DATA INFO
 //! (3.0.2 only notes the announcement, and then never loads a map).
 
+mod cells;
 pub mod control;
 pub mod plan;
+mod queue;
 
 use std::sync::mpsc;
 use std::time::Duration;

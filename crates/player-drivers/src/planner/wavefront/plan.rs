@@ -6,10 +6,13 @@
 //! Everything here is plain data and pure functions, so the driver can run it on a worker
 //! thread and the tests can run it on hand-made grids.
 
-use std::cmp::{Ordering, Reverse};
-use std::collections::BinaryHeap;
+use std::cmp::Ordering;
 
-/// Cost of a cell the wavefront has not reached (upstream's `PLAN_MAX_COST`).
+use super::cells::{CellStates, FloodView, NEIGHBOURS};
+use super::queue::WaveQueue;
+
+/// Cost of a cell the wavefront has not reached (upstream's `PLAN_MAX_COST`): a cell whose
+/// cost would come to this or more is not reached.
 const MAX_COST: f32 = 1e9;
 
 /// How far along the path (in metres) a waypoint may always reach before straight-line
@@ -45,20 +48,21 @@ pub struct Plan {
     /// Upstream's `occ_dist_dyn`: the same with the laser's obstacles added; what planning
     /// uses.
     occ_dist_dyn: Vec<f32>,
-    /// Distances of the cells around an obstacle out to `max_radius` (`dist_kernel`): (di, dj,
-    /// metres).
-    kernel: Vec<(i64, i64, f32)>,
+    /// Distances of the cells around an obstacle out to `max_radius` (`dist_kernel`: (di, dj,
+    /// metres, and the penalty class of that distance, `None` if it blocks the cell).
+    kernel: Vec<(i64, i64, f32, Option<u8>)>,
     /// The region the last plan searched (`min_x, min_y, max_x, max_y`, inclusive).
     bounds: Bounds,
-    /// Each cell's cost to the goal of the plan that last reached it (`plan_cost`).
-    cost: Vec<f32>,
-    /// Each cell's next step towards that goal (`plan_next`).
-    next: Vec<Option<usize>>,
+    /// What the plans know of each cell: reached, next step, blocked, obstacle penalty,
+    /// on the local path (upstream's `plan_cell_t` but for the cost, packed).
+    cells: CellStates,
     /// The last global plan's path, start first (`path`); empty when it failed.
     path: Vec<usize>,
-    /// Cells on the last local plan's path (`lpathmark`): stepping onto them again is cheaper,
-    /// so that successive local plans keep to one route.
-    lpath_mark: Vec<bool>,
+    /// The cells of the last local plan's path, marked in `cells`: stepping onto them again is
+    /// cheaper, so that successive local plans keep to one route.
+    lpath: Vec<u32>,
+    /// The wavefront's queue, kept between plans so that its buckets keep their room.
+    queue: WaveQueue,
 }
 
 /// A grid cell index (column, row).
@@ -70,6 +74,10 @@ type Bounds = (usize, usize, usize, usize);
 /// How much cheaper a step onto the last local path is (the `hysteresis_factor` the driver
 /// gives `plan_alloc`).
 const HYSTERESIS_FACTOR: f64 = 0.5;
+
+/// How many cells ahead of the one being expanded the wavefront prefetches the neighbourhood
+/// of (far enough for memory to answer, near enough that the lines are still cached).
+const PREFETCH_AHEAD: usize = 16;
 
 /// The result of planning from a start to a goal.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -109,21 +117,26 @@ impl Plan {
             .flat_map(|dj| (-half..=half).map(move |di| (di, dj)))
             .map(|(di, dj)| (di, dj, (((di * di + dj * dj) as f64).sqrt() * scale) as f32))
             .collect();
-        let n = cells.len();
+        let distances = kernel.iter().map(|&(_, _, d)| d);
+        let cells = CellStates::new(size_x, size_y, &occ_dist, distances, &params);
+        let kernel = kernel
+            .into_iter()
+            .map(|(di, dj, d)| (di, dj, d, cells.distance_class(d)))
+            .collect();
         Some(Plan {
             size_x,
             size_y,
             origin,
             scale,
             params,
+            cells,
+            queue: WaveQueue::new(bucket_width(scale, &params)),
             occ_dist_dyn: occ_dist.clone(),
             occ_dist,
             kernel,
             bounds: (0, 0, size_x - 1, size_y - 1),
-            cost: vec![MAX_COST; n],
-            next: vec![None; n],
             path: Vec::new(),
-            lpath_mark: vec![false; n],
+            lpath: Vec::new(),
         })
     }
 
@@ -163,10 +176,6 @@ impl Plan {
         i + j * self.size_x
     }
 
-    fn cell_at(&self, k: usize) -> Cell {
-        (k % self.size_x, k / self.size_x)
-    }
-
     /// Whether the last global plan found a path (upstream's `path_count > 0`), which local
     /// plans follow.
     pub fn has_global_path(&self) -> bool {
@@ -179,6 +188,8 @@ impl Plan {
     /// the last plan searched, and points off the map are dropped.
     pub fn set_obstacles(&mut self, points: &[(f64, f64)]) {
         self.occ_dist_dyn.copy_from_slice(&self.occ_dist);
+        self.cells.restore_distances();
+        let obstacle_class = self.cells.distance_class(0.0);
         let (x0, y0, x1, y1) = self.bounds;
         for &(x, y) in points {
             let Some(c) = self.cell_of(x, y) else {
@@ -191,7 +202,9 @@ impl Plan {
                 continue;
             }
             self.occ_dist_dyn[k] = 0.0;
-            for &(di, dj, d) in &self.kernel {
+            self.cells
+                .set_distance_class(self.cells.index(c), obstacle_class);
+            for &(di, dj, d, class) in &self.kernel {
                 let (ni, nj) = (c.0 as i64 + di, c.1 as i64 + dj);
                 if ni < x0 as i64 || nj < y0 as i64 || ni > x1 as i64 || nj > y1 as i64 {
                     continue;
@@ -199,6 +212,8 @@ impl Plan {
                 let nk = ni as usize + nj as usize * self.size_x;
                 if d < self.occ_dist_dyn[nk] {
                     self.occ_dist_dyn[nk] = d;
+                    let np = self.cells.index((ni as usize, nj as usize));
+                    self.cells.set_distance_class(np, class);
                 }
             }
         }
@@ -211,18 +226,31 @@ impl Plan {
     /// leave. The plan is kept: [`Plan::plan_local`] follows its path and [`Plan::carrot`]
     /// its steps.
     pub fn plan(&mut self, start: (f64, f64), goal: (f64, f64)) -> PlanResult {
+        if self.plan_path(start, goal).is_empty() {
+            return PlanResult::default();
+        }
+        let s = self
+            .cell_of(start.0, start.1)
+            .expect("a path starts on the grid");
+        self.result_from(s)
+    }
+
+    /// The wavefront and the path of [`Plan::plan`] without the waypoints (upstream's
+    /// `plan_do_global` alone): the cells from the start to the goal, empty when there is no
+    /// path.
+    pub fn plan_path(&mut self, start: (f64, f64), goal: (f64, f64)) -> Vec<Cell> {
         self.path.clear();
         self.bounds = (0, 0, self.size_x - 1, self.size_y - 1);
         self.reset_costs();
         let (Some(s), Some(g)) = (self.cell_of(start.0, start.1), self.cell_of(goal.0, goal.1))
         else {
-            return PlanResult::default();
+            return Vec::new();
         };
         if !self.wavefront(s, g) {
-            return PlanResult::default();
+            return Vec::new();
         }
-        self.path = self.follow(self.index(s));
-        self.result_from(s)
+        self.path = self.follow(self.cells.index(s));
+        self.path.iter().map(|&p| self.cells.cell(p)).collect()
     }
 
     /// Plans from `start` to the farthest cell of the last global path that stays within
@@ -249,10 +277,13 @@ impl Plan {
             tracing::debug!("wavefront: local plan update failed");
             return None;
         }
-        let lpath = self.follow(self.index(s));
-        self.lpath_mark.fill(false);
+        let lpath = self.follow(self.cells.index(s));
+        for k in self.lpath.drain(..) {
+            self.cells.set_lpath(k as usize, false);
+        }
         for &k in &lpath {
-            self.lpath_mark[k] = true;
+            self.cells.set_lpath(k, true);
+            self.lpath.push(k as u32);
         }
         Some(self.result_from(s))
     }
@@ -261,7 +292,7 @@ impl Plan {
     /// along the path to the last cell inside the current bounds.
     fn local_goal(&self, s: Cell) -> Option<Cell> {
         let sq = |k: usize| {
-            let (i, j) = self.cell_at(k);
+            let (i, j) = self.cells.cell(k);
             let (di, dj) = (i as i64 - s.0 as i64, j as i64 - s.1 as i64);
             di * di + dj * dj
         };
@@ -274,7 +305,7 @@ impl Plan {
         let (c_min, _) = nearest?;
         let (x0, y0, x1, y1) = self.bounds;
         let inside = |k: usize| {
-            let (i, j) = self.cell_at(k);
+            let (i, j) = self.cells.cell(k);
             (x0..=x1).contains(&i) && (y0..=y1).contains(&j)
         };
         let mut c = c_min;
@@ -285,14 +316,14 @@ impl Plan {
             tracing::debug!("wavefront: global path not in local region");
             return None;
         }
-        Some(self.cell_at(self.path[c - 1]))
+        Some(self.cells.cell(self.path[c - 1]))
     }
 
     /// The cells from `k` along the next steps to the goal.
     fn follow(&self, k: usize) -> Vec<usize> {
         let mut out = vec![k];
         let mut at = k;
-        while let Some(n) = self.next[at] {
+        while let Some(n) = self.next_of(at) {
             out.push(n);
             at = n;
         }
@@ -302,9 +333,9 @@ impl Plan {
     /// The result of the plan just made, as seen from `s`.
     fn result_from(&self, s: Cell) -> PlanResult {
         let path: Vec<Cell> = self
-            .follow(self.index(s))
+            .follow(self.cells.index(s))
             .into_iter()
-            .map(|k| self.cell_at(k))
+            .map(|p| self.cells.cell(p))
             .collect();
         let waypoints = self
             .reduce_to_waypoints(&path)
@@ -314,13 +345,16 @@ impl Plan {
         PlanResult { path, waypoints }
     }
 
+    /// Cell `k`'s next step towards the goal of the plan that last reached it.
+    fn next_of(&self, k: usize) -> Option<usize> {
+        self.cells.next_of(k)
+    }
+
     /// Upstream's `plan_reset`: costs and next steps forgotten inside the current bounds.
     fn reset_costs(&mut self) {
         let (x0, y0, x1, y1) = self.bounds;
         for j in y0..=y1 {
-            let row = j * self.size_x;
-            self.cost[row + x0..=row + x1].fill(MAX_COST);
-            self.next[row + x0..=row + x1].fill(None);
+            self.cells.reset_row(j, x0, x1);
         }
     }
 
@@ -341,78 +375,74 @@ impl Plan {
         if !in_bounds(goal) || !in_bounds(start) {
             return false;
         }
-        let s = self.index(start);
-        let g = self.index(goal);
-        self.cost[g] = 0.0;
+        let s = self.cells.index(start);
+        let g = self.cells.index(goal);
+        // The start cell is free for this plan whatever is near it: it counts as `max_radius`
+        // from any obstacle (blocked too if that is below the minimum).
+        let max_r = self.params.max_radius;
+        let start_open = (max_r as f32).partial_cmp(&(self.params.abs_min_radius as f32))
+            != Some(Ordering::Less);
+        self.cells.open_for_plan(self.bounds, s, start_open, g);
         if s == g {
             return true;
         }
-        // The queue holds (cost, order) packed in one key (see `queue_key`) and the cell.
-        let mut heap = BinaryHeap::new();
-        let mut order = 0u32;
-        heap.push(Reverse((queue_key(0.0, order), g as u32)));
-        let abs_min = self.params.abs_min_radius as f32;
-        let max_r = self.params.max_radius;
-        let penalty = self.params.dist_penalty;
-        // Step lengths, computed as upstream's 3x3 kernel computes them.
-        let straight = (1f64.sqrt() * self.scale) as f32;
-        let diagonal = (2f64.sqrt() * self.scale) as f32;
-        let (bx0, by0, bx1, by1) = (x0 as i64, y0 as i64, x1 as i64, y1 as i64);
-        let size_x = self.size_x as i64;
-        'flood: while let Some(Reverse((_, cell))) = heap.pop() {
+        let (straight, diagonal) = step_lengths(self.scale);
+        let offsets = self.cells.neighbour_offsets();
+        // The neighbours as (index offset, step length, step onto the local path).
+        let neighbours: [(isize, f32, f32); 8] = std::array::from_fn(|n| {
+            let (di, dj) = NEIGHBOURS[n];
+            let step = if di != 0 && dj != 0 {
+                diagonal
+            } else {
+                straight
+            };
+            let lpath_step = (f64::from(step) * HYSTERESIS_FACTOR) as f32;
+            (offsets[n], step, lpath_step)
+        });
+        let size_x = self.size_x;
+        let Plan {
+            cells,
+            occ_dist_dyn,
+            queue,
+            ..
+        } = self;
+        let mut view = cells.flood_view();
+        queue.clear();
+        queue.push(0.0, g as u32);
+        while let Some((here, cell)) = queue.pop() {
             let cell = cell as usize;
-            let (oi, oj) = ((cell % self.size_x) as i64, (cell / self.size_x) as i64);
-            for dj in -1i64..=1 {
-                let nj = oj + dj;
-                if nj < by0 || nj > by1 {
-                    continue;
+            if let Some(soon) = queue.soon(PREFETCH_AHEAD) {
+                view.prefetch_around(soon as usize, size_x + 2);
+            }
+            // Closed neighbours are left out: reached (a reached cell keeps its cost),
+            // blocked, or outside the bounds. The rest are taken in upstream's order.
+            let mut open = view.open_neighbours(cell, size_x + 2);
+            while open != 0 {
+                let n = open.trailing_zeros() as usize;
+                open &= open - 1;
+                let (offset, step, lpath_step) = neighbours[n];
+                let p = (cell as isize + offset) as usize;
+                let state = view.state(p);
+                let on_lpath = FloodView::on_lpath(state);
+                let mut c = here + if on_lpath { lpath_step } else { step };
+                if p != s {
+                    c += view.penalty(state, || {
+                        // Unpadded, for the distances.
+                        let w = size_x + 2;
+                        occ_dist_dyn[(p % w - 1) + (p / w - 1) * size_x]
+                    });
                 }
-                for di in -1i64..=1 {
-                    let ni = oi + di;
-                    if (di == 0 && dj == 0) || ni < bx0 || ni > bx1 {
-                        continue;
+                if c < MAX_COST {
+                    // The step back to `cell` is the opposite neighbour.
+                    view.reach(p, state, 7 - n);
+                    if p == s {
+                        return true;
                     }
-                    let k = (ni + nj * size_x) as usize;
-                    // Every cost assigned is below MAX_COST: reached.
-                    if self.cost[k] < MAX_COST {
-                        continue;
-                    }
-                    // The start cell is free for this plan, whatever is near it.
-                    let d = if k == s {
-                        max_r as f32
-                    } else {
-                        self.occ_dist_dyn[k]
-                    };
-                    if d < abs_min {
-                        continue;
-                    }
-                    let step = if di != 0 && dj != 0 {
-                        diagonal
-                    } else {
-                        straight
-                    };
-                    let mut c = self.cost[cell];
-                    if self.lpath_mark[k] {
-                        c += (f64::from(step) * HYSTERESIS_FACTOR) as f32;
-                    } else {
-                        c += step;
-                    }
-                    if f64::from(d) < max_r {
-                        c += (penalty * (max_r - f64::from(d))) as f32;
-                    }
-                    if c < self.cost[k] {
-                        self.cost[k] = c;
-                        self.next[k] = Some(cell);
-                        if k == s {
-                            break 'flood;
-                        }
-                        order += 1;
-                        heap.push(Reverse((queue_key(c, order), k as u32)));
-                    }
+                    queue.push(c, p as u32);
                 }
             }
         }
-        self.next[s].is_some()
+        false
     }
 
     /// The point to steer for from world point `from` under direct velocity control
@@ -422,20 +452,20 @@ impl Plan {
     /// `dist_weight / look-ahead²`. `None` when none is clear (or `from` is off the map).
     pub fn carrot(&self, from: (f64, f64), max_dist: f64, dist_weight: f64) -> Option<(f64, f64)> {
         let s = self.cell_of(from.0, from.1)?;
-        let sk = self.index(s);
+        let sk = self.cells.index(s);
         let mut best: Option<(f64, Cell)> = None;
         let mut dist = max_dist;
         while dist >= self.scale {
             let mut at = sk;
             let mut d = self.scale;
-            while let Some(n) = self.next[at] {
+            while let Some(n) = self.next_of(at) {
                 if d >= dist {
                     break;
                 }
                 at = n;
                 d += self.scale;
             }
-            let target = self.cell_at(at);
+            let target = self.cells.cell(at);
             if let Some(obstacle_cost) = self.line_cost(s, target) {
                 let cost = obstacle_cost + dist_weight * (1.0 / (dist * dist));
                 if best.is_none_or(|(b, _)| cost < b) {
@@ -560,7 +590,10 @@ impl Plan {
                 if fi < 0 || fj < 0 || fi >= self.size_x as i64 || fj >= self.size_y as i64 {
                     return false;
                 }
-                if self.occ_dist((fi as usize, fj as usize)) < self.params.abs_min_radius as f32 {
+                if !self
+                    .cells
+                    .map_free(self.cells.index((fi as usize, fj as usize)))
+                {
                     return false;
                 }
             }
@@ -716,6 +749,25 @@ fn obstacle_distances(
     occ_dist
 }
 
+/// The wavefront's step lengths (straight, diagonal), computed as upstream's 3x3 kernel
+/// computes them.
+fn step_lengths(scale: f64) -> (f32, f32) {
+    ((1f64.sqrt() * scale) as f32, (2f64.sqrt() * scale) as f32)
+}
+
+/// The bucket width for the wavefront's queue (see [`WaveQueue::new`]): the cheapest step,
+/// when no step can cost less than nothing (so costs never decrease) and the dearest step
+/// spans at most a few thousand buckets; `None` (a binary heap) otherwise.
+fn bucket_width(scale: f64, params: &PlanParams) -> Option<f64> {
+    let (straight, diagonal) = step_lengths(scale);
+    let cheapest = f64::from((f64::from(straight) * HYSTERESIS_FACTOR) as f32);
+    // A cell entered is at least `abs_min_radius` (and 0) from obstacles.
+    let intrusion = params.max_radius - params.abs_min_radius.max(0.0);
+    let dearest = f64::from(diagonal) + (params.dist_penalty * intrusion).max(0.0);
+    (params.dist_penalty >= 0.0 && cheapest > 0.0 && dearest / cheapest <= 4096.0)
+        .then_some(cheapest)
+}
+
 /// `x` rounded down, as `x.floor() as i64` but without the library call `floor` is on
 /// baseline x86-64 (the straight-line test does this twice per step).
 fn floor(x: f64) -> i64 {
@@ -733,23 +785,10 @@ struct Root {
     denom: i128,
 }
 
-/// The wavefront queue's key for a cell reached at `cost` as the `order`-th: cheapest first,
-/// then first queued. The cost's bits are mapped so that unsigned order is `f32::total_cmp`'s
-/// order (the sign bit flipped for positives, every bit for negatives) and put above the order,
-/// so one integer comparison orders as (cost, order) would.
-fn queue_key(cost: f32, order: u32) -> u64 {
-    let bits = cost.to_bits();
-    let ordered = if bits >> 31 == 1 {
-        !bits
-    } else {
-        bits | 0x8000_0000
-    };
-    (u64::from(ordered) << 32) | u64::from(order)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::BinaryHeap;
 
     const FREE: i8 = -1;
     const OCC: i8 = 1;
@@ -960,30 +999,6 @@ mod tests {
             0.0, 0.5, -0.5, -1.0, 1.0, -2.7, 3.2, 1e12, -1e12, -0.0, 1e-300, -1e-300,
         ] {
             assert_eq!(floor(x), x.floor() as i64, "{x}");
-        }
-    }
-
-    #[test]
-    fn queue_keys_order_as_cost_then_order() {
-        let costs = [
-            -3.5f32,
-            -0.0,
-            0.0,
-            1e-30,
-            0.1,
-            0.1000001,
-            2.0,
-            1e9,
-            f32::INFINITY,
-        ];
-        for (a, &ca) in costs.iter().enumerate() {
-            for &cb in &costs {
-                for (oa, ob) in [(1u32, 2u32), (2, 1), (5, 5)] {
-                    let want = ca.total_cmp(&cb).then(oa.cmp(&ob));
-                    let got = queue_key(ca, oa).cmp(&queue_key(cb, ob));
-                    assert_eq!(got, want, "{a}: {ca} #{oa} vs {cb} #{ob}");
-                }
-            }
         }
     }
 

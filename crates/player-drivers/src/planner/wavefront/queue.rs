@@ -1,0 +1,265 @@
+//! The wavefront's priority queue: cells waiting to be expanded, cheapest first and, among
+//! equal costs, first queued first.
+//!
+//! That order is total, so any queue that keeps it exactly expands the same cells in the same
+//! sequence and gives the same paths. When every step costs something (a positive cell size
+//! and a non-negative `dist_penalty`), a cell's cost is never below the cost of the cell it
+//! was reached from, so the costs popped never decrease and a buckets heap can be used: each
+//! cost is filed by the highest bit in which it differs from the last cost popped, and a
+//! bucket is only sorted out when everything below it is empty. It moves each entry a few
+//! times at most, against the twenty-odd comparisons a binary heap makes per pop over the
+//! million cells of a building's map. Negative penalties make the costs non-monotone; those
+//! plans keep a binary heap.
+
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, VecDeque};
+
+/// `cost`'s bits mapped so that unsigned order is `f32::total_cmp`'s order: the sign bit
+/// flipped for positives, every bit for negatives.
+fn ordered_bits(cost: f32) -> u32 {
+    let bits = cost.to_bits();
+    if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 0x8000_0000
+    }
+}
+
+/// The cost [`ordered_bits`] was given.
+fn cost_of(ordered: u32) -> f32 {
+    f32::from_bits(if ordered >> 31 == 1 {
+        ordered & 0x7fff_ffff
+    } else {
+        !ordered
+    })
+}
+
+/// Cells (as grid indices) waiting with their costs.
+#[derive(Clone, Debug)]
+pub(super) enum WaveQueue {
+    /// For costs that never fall below the last one popped.
+    Monotone(BucketQueue),
+    /// For anything else: (cost bits above the push count, so that one integer comparison
+    /// orders as (cost, order) would; cell), and the pushes so far.
+    General(BinaryHeap<Reverse<(u64, u32)>>, u32),
+}
+
+impl WaveQueue {
+    /// An empty queue. `Some(width)` promises that no cost pushed is below the last popped,
+    /// and that the costs of successive cells mostly differ by at least `width` (positive),
+    /// which sizes the buckets; `None` makes no promise.
+    pub(super) fn new(monotone: Option<f64>) -> WaveQueue {
+        match monotone {
+            Some(width) => WaveQueue::Monotone(BucketQueue {
+                per_width: 1.0 / width,
+                first: 0,
+                buckets: VecDeque::new(),
+                head: 0,
+                spare: Vec::new(),
+            }),
+            None => WaveQueue::General(BinaryHeap::new(), 0),
+        }
+    }
+
+    /// Empties the queue, keeping its room.
+    pub(super) fn clear(&mut self) {
+        match self {
+            WaveQueue::Monotone(q) => q.clear(),
+            WaveQueue::General(h, order) => {
+                h.clear();
+                *order = 0;
+            }
+        }
+    }
+
+    /// Queues `cell` at `cost`, after every cell already queued at the same cost.
+    #[inline]
+    pub(super) fn push(&mut self, cost: f32, cell: u32) {
+        match self {
+            WaveQueue::Monotone(q) => q.push(cost, cell),
+            WaveQueue::General(h, order) => {
+                *order += 1;
+                let key = (u64::from(ordered_bits(cost)) << 32) | u64::from(*order);
+                h.push(Reverse((key, cell)));
+            }
+        }
+    }
+
+    /// A cell that will be popped soon: the one `ahead` places after the next in the current
+    /// bucket, if the queue knows it (for prefetching what it will need).
+    #[inline]
+    pub(super) fn soon(&self, ahead: usize) -> Option<u32> {
+        match self {
+            WaveQueue::Monotone(q) => {
+                let front = q.buckets.front()?;
+                front.get(q.head + ahead).map(|&(_, cell)| cell)
+            }
+            WaveQueue::General(..) => None,
+        }
+    }
+
+    /// The cheapest cell (the first queued of equals) and its cost, taken off the queue.
+    #[inline]
+    pub(super) fn pop(&mut self) -> Option<(f32, u32)> {
+        match self {
+            WaveQueue::Monotone(q) => q.pop(),
+            WaveQueue::General(h, _) => h
+                .pop()
+                .map(|Reverse((key, cell))| (cost_of((key >> 32) as u32), cell)),
+        }
+    }
+}
+
+/// A bucket queue for costs that never decrease (Dial's, with real costs): bucket `b` holds
+/// the costs in `[b * width, (b + 1) * width)`, in the order they were pushed. A bucket is
+/// sorted by cost (stably, so equal costs stay first in, first out) when it becomes the
+/// first, and then read from the front. A cell expanded from the first bucket costs at
+/// least `width` more, so it lands in a later bucket; one that does not (rounding, or a
+/// cheaper step than promised) is put in its place among the first bucket's rest. Each entry
+/// is written once and sorted once in a small bucket, where a binary heap compares it about
+/// twenty times across a queue of thousands.
+#[derive(Clone, Debug)]
+pub(super) struct BucketQueue {
+    /// The reciprocal of the bucket width (multiplying keeps the bucket number monotone in
+    /// the cost, which is all the order needs, and is cheaper than dividing).
+    per_width: f64,
+    /// The number of the bucket at the front of `buckets`.
+    first: u64,
+    /// Buckets `first`, `first + 1`, ...: (cost as [`ordered_bits`], cell).
+    buckets: VecDeque<Vec<(u32, u32)>>,
+    /// How many entries of the first bucket have been popped; it is sorted when this is
+    /// above zero.
+    head: usize,
+    /// Emptied buckets, kept for their room.
+    spare: Vec<Vec<(u32, u32)>>,
+}
+
+impl BucketQueue {
+    fn clear(&mut self) {
+        for mut b in self.buckets.drain(..) {
+            b.clear();
+            self.spare.push(b);
+        }
+        self.first = 0;
+        self.head = 0;
+    }
+
+    /// The bucket of `cost`.
+    #[inline]
+    fn bucket(&self, cost: f32) -> u64 {
+        // Non-negative costs only (the promise); `as` saturates anything else to 0.
+        (f64::from(cost) * self.per_width) as u64
+    }
+
+    #[inline]
+    fn push(&mut self, cost: f32, cell: u32) {
+        let key = ordered_bits(cost);
+        let b = self.bucket(cost).max(self.first);
+        let at = (b - self.first) as usize;
+        if at == 0 && self.head > 0 {
+            // The first bucket is sorted and partly read: after every cost not above this one.
+            let rest = &self.buckets[0][self.head..];
+            let place = self.head + rest.partition_point(|&(k, _)| k <= key);
+            self.buckets[0].insert(place, (key, cell));
+            return;
+        }
+        while self.buckets.len() <= at {
+            let b = self.spare.pop().unwrap_or_default();
+            self.buckets.push_back(b);
+        }
+        self.buckets[at].push((key, cell));
+    }
+
+    #[inline]
+    fn pop(&mut self) -> Option<(f32, u32)> {
+        loop {
+            let front = self.buckets.front_mut()?;
+            if self.head < front.len() {
+                if self.head == 0 {
+                    // Stable: equal costs stay in the order they were pushed.
+                    front.sort_by_key(|&(k, _)| k);
+                }
+                let (key, cell) = front[self.head];
+                self.head += 1;
+                return Some((cost_of(key), cell));
+            }
+            let mut done = self.buckets.pop_front()?;
+            done.clear();
+            self.spare.push(done);
+            self.first += 1;
+            self.head = 0;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ordered_bits_order_as_total_cmp_and_give_the_cost_back() {
+        let costs = [
+            -3.5f32,
+            -0.0,
+            0.0,
+            1e-30,
+            0.1,
+            0.1000001,
+            2.0,
+            1e9,
+            f32::INFINITY,
+        ];
+        for &a in &costs {
+            assert_eq!(cost_of(ordered_bits(a)).to_bits(), a.to_bits());
+            for &b in &costs {
+                assert_eq!(
+                    ordered_bits(a).cmp(&ordered_bits(b)),
+                    a.total_cmp(&b),
+                    "{a} {b}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn both_queues_pop_cheapest_first_then_first_queued() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut buckets = WaveQueue::new(Some(0.1));
+        let mut binary = WaveQueue::new(None);
+        let mut floor = 0f32;
+        let mut cell = 0u32;
+        let mut popped = 0;
+        let mut check = |a: Option<(f32, u32)>, b: Option<(f32, u32)>, floor: &mut f32| {
+            assert_eq!(a, b);
+            if let Some((cost, _)) = a {
+                assert!(cost >= *floor);
+                *floor = cost;
+                popped += 1;
+            }
+        };
+        for round in 0..40_000 {
+            if round == 20_000 {
+                // Reuse after clearing.
+                buckets.clear();
+                binary.clear();
+                floor = 0.0;
+            }
+            if rng.random_bool(0.55) {
+                // Costs at or above the last popped, many sharing one.
+                // Some below the bucket width, which must still come out in order.
+                let cost = floor + [0.0, 0.0, 0.01, 0.1, 0.25, 1.5, 300.0][rng.random_range(0..7)];
+                cell += 1;
+                buckets.push(cost, cell);
+                binary.push(cost, cell);
+            } else {
+                check(buckets.pop(), binary.pop(), &mut floor);
+            }
+        }
+        while let Some(a) = buckets.pop() {
+            check(Some(a), binary.pop(), &mut floor);
+        }
+        assert_eq!(binary.pop(), None);
+        assert!(popped > 10_000, "{popped}");
+    }
+}

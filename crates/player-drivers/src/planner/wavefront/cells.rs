@@ -55,23 +55,23 @@ pub(super) const NEIGHBOURS: [(i8, i8); 8] = [
 
 /// A set of cells as one bit each.
 #[derive(Clone, Debug, PartialEq)]
-struct Bits(Vec<u64>);
+struct Bits(Vec<u8>);
 
 impl Bits {
     fn new(n: usize) -> Bits {
-        // One word more, so that three bits from any cell can be read as two words.
-        Bits(vec![0; n.div_ceil(64) + 1])
+        // One byte more, so that three bits from any cell can be read as two bytes.
+        Bits(vec![0; n.div_ceil(8) + 1])
     }
 
     #[inline]
     fn get(&self, k: usize) -> bool {
-        self.0[k / 64] >> (k % 64) & 1 != 0
+        self.0[k / 8] >> (k % 8) & 1 != 0
     }
 
     #[inline]
     fn set(&mut self, k: usize, on: bool) {
-        let (w, b) = (k / 64, k % 64);
-        self.0[w] = (self.0[w] & !(1 << b)) | (u64::from(on) << b);
+        let (w, b) = (k / 8, k % 8);
+        self.0[w] = (self.0[w] & !(1 << b)) | (u8::from(on) << b);
     }
 }
 
@@ -296,7 +296,7 @@ impl CellStates {
 /// The cells' states and the penalty table as the wavefront's loop uses them.
 pub(super) struct FloodView<'a> {
     states: &'a mut [u16],
-    open: &'a mut [u64],
+    open: &'a mut [u8],
     penalties: &'a [f32],
     max_radius: f64,
     dist_penalty: f64,
@@ -307,11 +307,12 @@ impl FloodView<'_> {
     /// row length). Taking all eight at once spares a hard-to-predict branch per neighbour.
     #[inline]
     pub(super) fn open_neighbours(&self, p: usize, width: usize) -> u32 {
-        // Cells q, q + 1 and q + 2 as bits 0 to 2.
+        // Cells q, q + 1 and q + 2 as bits 0 to 2: at most bits 7 to 9 of the two bytes
+        // from q's.
         let three = |q: usize| -> u32 {
-            let (w, b) = (q / 64, q % 64);
-            let pair = u128::from(self.open[w]) | (u128::from(self.open[w + 1]) << 64);
-            (pair >> b) as u32 & 7
+            let w = q / 8;
+            let pair = u32::from(u16::from_le_bytes([self.open[w], self.open[w + 1]]));
+            (pair >> (q % 8)) & 7
         };
         let below = three(p - width - 1);
         let level = three(p - 1);
@@ -354,7 +355,7 @@ impl FloodView<'_> {
     #[inline]
     pub(super) fn reach(&mut self, p: usize, state: u16, back: usize) {
         self.states[p] = (state & !NEXT_MASK) | ((back as u16 + 1) << NEXT_SHIFT);
-        self.open[p / 64] &= !(1 << (p % 64));
+        self.open[p / 8] &= !(1 << (p % 8));
     }
 
     /// The penalty for entering a cell in `state` whose distance to obstacles is `d` (asked

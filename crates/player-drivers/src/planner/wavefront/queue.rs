@@ -12,7 +12,7 @@
 //! plans keep a binary heap.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, VecDeque};
+use std::collections::BinaryHeap;
 
 /// `cost`'s bits mapped so that unsigned order is `f32::total_cmp`'s order: the sign bit
 /// flipped for positives, every bit for negatives.
@@ -50,13 +50,7 @@ impl WaveQueue {
     /// which sizes the buckets; `None` makes no promise.
     pub(super) fn new(monotone: Option<f64>) -> WaveQueue {
         match monotone {
-            Some(width) => WaveQueue::Monotone(BucketQueue {
-                per_width: 1.0 / width,
-                first: 0,
-                buckets: VecDeque::new(),
-                head: 0,
-                spare: Vec::new(),
-            }),
+            Some(width) => WaveQueue::Monotone(BucketQueue::new(width)),
             None => WaveQueue::General(BinaryHeap::new(), 0),
         }
     }
@@ -90,10 +84,7 @@ impl WaveQueue {
     #[inline]
     pub(super) fn soon(&self, ahead: usize) -> Option<u32> {
         match self {
-            WaveQueue::Monotone(q) => {
-                let front = q.buckets.front()?;
-                front.get(q.head + ahead).map(|&(_, cell)| cell)
-            }
+            WaveQueue::Monotone(q) => q.soon(ahead),
             WaveQueue::General(..) => None,
         }
     }
@@ -117,31 +108,41 @@ impl WaveQueue {
 /// least `width` more, so it lands in a later bucket; one that does not (rounding, or a
 /// cheaper step than promised) is put in its place among the first bucket's rest. Each entry
 /// is written once and sorted once in a small bucket, where a binary heap compares it about
-/// twenty times across a queue of thousands.
+/// twenty times across a queue of thousands. The buckets in use (from the first to the
+/// farthest a step can reach) live in a ring that grows when a step reaches past it.
 #[derive(Clone, Debug)]
 pub(super) struct BucketQueue {
     /// The reciprocal of the bucket width (multiplying keeps the bucket number monotone in
     /// the cost, which is all the order needs, and is cheaper than dividing).
     per_width: f64,
-    /// The number of the bucket at the front of `buckets`.
+    /// The number of the first bucket.
     first: u64,
-    /// Buckets `first`, `first + 1`, ...: (cost as [`ordered_bits`], cell).
-    buckets: VecDeque<Vec<(u32, u32)>>,
+    /// Bucket `b` at `ring[b & (ring.len() - 1)]`, for `b` from `first` on: (cost as
+    /// [`ordered_bits`], cell).
+    ring: Vec<Vec<(u32, u32)>>,
     /// How many entries of the first bucket have been popped; it is sorted when this is
     /// above zero.
     head: usize,
-    /// Emptied buckets, kept for their room.
-    spare: Vec<Vec<(u32, u32)>>,
+    /// Entries queued and not popped.
+    count: usize,
 }
 
 impl BucketQueue {
-    fn clear(&mut self) {
-        for mut b in self.buckets.drain(..) {
-            b.clear();
-            self.spare.push(b);
+    fn new(width: f64) -> BucketQueue {
+        BucketQueue {
+            per_width: 1.0 / width,
+            first: 0,
+            ring: vec![Vec::new(); 64],
+            head: 0,
+            count: 0,
         }
+    }
+
+    fn clear(&mut self) {
+        self.ring.iter_mut().for_each(Vec::clear);
         self.first = 0;
         self.head = 0;
+        self.count = 0;
     }
 
     /// The bucket of `cost`.
@@ -151,29 +152,49 @@ impl BucketQueue {
         (f64::from(cost) * self.per_width) as u64
     }
 
+    /// Makes the ring hold buckets `first` to `first + ahead`.
+    #[cold]
+    fn grow(&mut self, ahead: usize) {
+        let size = (ahead + 1).next_power_of_two() * 2;
+        let old = std::mem::take(&mut self.ring);
+        let old_mask = old.len() - 1;
+        let mut ring = vec![Vec::new(); size];
+        let mut old = old;
+        for b in self.first..self.first + old.len() as u64 {
+            ring[b as usize & (size - 1)] = std::mem::take(&mut old[b as usize & old_mask]);
+        }
+        self.ring = ring;
+    }
+
     #[inline]
     fn push(&mut self, cost: f32, cell: u32) {
         let key = ordered_bits(cost);
         let b = self.bucket(cost).max(self.first);
-        let at = (b - self.first) as usize;
-        if at == 0 && self.head > 0 {
+        let ahead = (b - self.first) as usize;
+        self.count += 1;
+        if ahead == 0 && self.head > 0 {
             // The first bucket is sorted and partly read: after every cost not above this one.
-            let rest = &self.buckets[0][self.head..];
-            let place = self.head + rest.partition_point(|&(k, _)| k <= key);
-            self.buckets[0].insert(place, (key, cell));
+            let mask = self.ring.len() - 1;
+            let front = &mut self.ring[b as usize & mask];
+            let place = self.head + front[self.head..].partition_point(|&(k, _)| k <= key);
+            front.insert(place, (key, cell));
             return;
         }
-        while self.buckets.len() <= at {
-            let b = self.spare.pop().unwrap_or_default();
-            self.buckets.push_back(b);
+        if ahead >= self.ring.len() {
+            self.grow(ahead);
         }
-        self.buckets[at].push((key, cell));
+        let mask = self.ring.len() - 1;
+        self.ring[b as usize & mask].push((key, cell));
     }
 
     #[inline]
     fn pop(&mut self) -> Option<(f32, u32)> {
+        if self.count == 0 {
+            return None;
+        }
+        let mask = self.ring.len() - 1;
         loop {
-            let front = self.buckets.front_mut()?;
+            let front = &mut self.ring[self.first as usize & mask];
             if self.head < front.len() {
                 if self.head == 0 {
                     // Stable: equal costs stay in the order they were pushed.
@@ -181,14 +202,20 @@ impl BucketQueue {
                 }
                 let (key, cell) = front[self.head];
                 self.head += 1;
+                self.count -= 1;
                 return Some((cost_of(key), cell));
             }
-            let mut done = self.buckets.pop_front()?;
-            done.clear();
-            self.spare.push(done);
+            front.clear();
             self.first += 1;
             self.head = 0;
         }
+    }
+
+    /// The cell `ahead` places after the next in the first bucket, if it is there.
+    #[inline]
+    fn soon(&self, ahead: usize) -> Option<u32> {
+        let front = &self.ring[self.first as usize & (self.ring.len() - 1)];
+        front.get(self.head + ahead).map(|&(_, cell)| cell)
     }
 }
 

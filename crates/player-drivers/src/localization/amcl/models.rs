@@ -46,6 +46,10 @@ impl OdometryModel {
     }
 }
 
+/// Exponents below which `f64::exp` rounds to exactly 0 (`exp(-745.2)` is below half the
+/// smallest subnormal).
+const EXP_IS_ZERO: f64 = -745.2;
+
 /// The likelihood of one range reading given the range the map predicts: a Gaussian of
 /// standard deviation `sigma` around the prediction on top of a floor `bad` for readings the
 /// map cannot explain; a reading and a prediction both at or past `range_max` agree fully.
@@ -54,7 +58,13 @@ pub fn beam_likelihood(obs: f64, predicted: f64, range_max: f64, sigma: f64, bad
         return 1.0;
     }
     let z = obs - predicted;
-    bad + (1.0 - bad) * (-(z * z) / (2.0 * sigma * sigma)).exp()
+    let exponent = -(z * z) / (2.0 * sigma * sigma);
+    // Below this `exp` is exactly 0 (its slow underflow path, taken for every beam of a
+    // badly placed particle, is skipped; the result is the same).
+    if exponent < EXP_IS_ZERO {
+        return bad + (1.0 - bad) * 0.0;
+    }
+    bad + (1.0 - bad) * exponent.exp()
 }
 
 /// A laser scan as the model uses it: (range, bearing) pairs and the laser's maximum range.
@@ -106,21 +116,37 @@ impl LaserModel {
 
     /// The likelihood of `scan` taken from a robot at `robot`.
     pub fn likelihood(&self, scan: &LaserScan, robot: &Pose) -> f64 {
-        let pose = compose(robot, &self.laser_pose);
-        let cast_to = scan.range_max + 1.0;
-        let origin = self.map.ray_origin(pose.x, pose.y);
+        self.likelihood_of(&self.beams_used(scan), scan.range_max, robot)
+    }
+
+    /// The beams of `scan` that are scored, as (range, sine and cosine of the bearing): the
+    /// same for every particle, so their trigonometry is done once per scan.
+    fn beams_used(&self, scan: &LaserScan) -> Vec<(f64, f64, f64)> {
         scan.beams
             .iter()
             .step_by(self.beam_step(scan.beams.len()))
             .map(|&(obs, bearing)| {
-                let predicted = self.map.calc_range_from(&origin, pose.z + bearing, cast_to);
-                beam_likelihood(
-                    obs,
-                    predicted,
-                    scan.range_max,
-                    self.range_sigma,
-                    self.range_bad,
-                )
+                let (s, c) = bearing.sin_cos();
+                (obs, s, c)
+            })
+            .collect()
+    }
+
+    /// [`LaserModel::likelihood`] of the beams [`LaserModel::beams_used`] picked. Each beam's
+    /// direction in the map is the laser's heading turned by the bearing, by the angle-sum
+    /// formulas (which agree with the sine and cosine of the summed angle to a few units in
+    /// the last place).
+    fn likelihood_of(&self, beams: &[(f64, f64, f64)], range_max: f64, robot: &Pose) -> f64 {
+        let pose = compose(robot, &self.laser_pose);
+        let cast_to = range_max + 1.0;
+        let origin = self.map.ray_origin(pose.x, pose.y);
+        let (sh, ch) = pose.z.sin_cos();
+        beams
+            .iter()
+            .map(|&(obs, sb, cb)| {
+                let (s, c) = (sh * cb + ch * sb, ch * cb - sh * sb);
+                let predicted = self.map.calc_range_along(&origin, s, c, cast_to);
+                beam_likelihood(obs, predicted, range_max, self.range_sigma, self.range_bad)
             })
             .product()
     }
@@ -131,7 +157,8 @@ impl LaserModel {
         if self.max_beams < 2 {
             return false;
         }
-        pf.update_sensor(|p| self.likelihood(scan, p));
+        let beams = self.beams_used(scan);
+        pf.update_sensor(|p| self.likelihood_of(&beams, scan.range_max, p));
         true
     }
 }
@@ -302,6 +329,12 @@ mod tests {
         assert_eq!(beam_likelihood(8.0, 9.0, 8.0, 0.1, 0.1), 1.0);
         assert!((beam_likelihood(8.0, 2.0, 8.0, 0.1, 0.1) - 0.1).abs() < 1e-12);
         assert_eq!(beam_likelihood(2.0, 2.0, 8.0, 0.1, 0.1), 1.0);
+        // Far off: exactly the floor, as `exp` gives it, on both sides of the short cut.
+        assert_eq!(EXP_IS_ZERO.exp(), 0.0);
+        for z in [3.0, 3.8, 3.9, 4.0, 50.0] {
+            let want = 0.1 + 0.9 * (-(z * z) / (2.0 * 0.1 * 0.1f64)).exp();
+            assert_eq!(beam_likelihood(2.0 + z, 2.0, 80.0, 0.1, 0.1), want, "{z}");
+        }
         // Fewer than two beams: the laser does nothing.
         model.max_beams = 1;
         let mut pf = filter(10);

@@ -20,16 +20,17 @@ use super::pose::Pose;
 /// upstream's fixed cluster table.
 pub const MAX_CLUSTERS: usize = 100;
 
-/// Fewest particles per thread when weighing (below this, threads cost more than they save).
-const PARALLEL_CHUNK: usize = 1024;
+/// Fewest particles per thread when weighing: a particle's full scan costs tens of
+/// microseconds, a thread's start about as much as one or two particles, so below this the
+/// threads cost more than they save.
+const PARALLEL_CHUNK: usize = 128;
 
-/// How many threads weigh particles: all cores but one, left to the server and simulation
-/// (found once; at least 1).
+/// How many threads weigh particles: every core (found once; at least 1). An update is a
+/// burst after each scan; the simulation and the server take little of a core between
+/// bursts when they run in real time, which is when amcl runs.
 fn sensor_threads() -> usize {
     static THREADS: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
-    *THREADS.get_or_init(|| {
-        std::thread::available_parallelism().map_or(1, |n| n.get().saturating_sub(1).max(1))
-    })
+    *THREADS.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
 /// One weighted pose.
@@ -167,10 +168,10 @@ impl ParticleFilter {
     /// set whose total comes to zero (or is not a number) is made uniform instead, with a
     /// warning: the observation fits no particle.
     ///
-    /// Likelihoods (ray casting, the filter's main cost) are computed on several threads for
-    /// large sets on machines with more than two cores; each particle's weight depends only on
-    /// its own pose and the total is summed in order afterwards, so the result does not depend
-    /// on the thread count.
+    /// Likelihoods (ray casting, the filter's main cost) are computed on every core for
+    /// sets of a few hundred particles and more; each particle's weight depends only on its
+    /// own pose and the total is summed in order afterwards, so the result does not depend on
+    /// the thread count.
     pub fn update_sensor(&mut self, model: impl Fn(&Pose) -> f64 + Sync) {
         self.update_sensor_on(model, sensor_threads());
     }

@@ -311,32 +311,14 @@ impl FloodView<'_> {
         // from q's.
         let three = |q: usize| -> u32 {
             let w = q / 8;
-            let pair = u32::from(u16::from_le_bytes([self.open[w], self.open[w + 1]]));
+            let bytes = &self.open[w..w + 2];
+            let pair = u32::from(u16::from_le_bytes([bytes[0], bytes[1]]));
             (pair >> (q % 8)) & 7
         };
         let below = three(p - width - 1);
         let level = three(p - 1);
         let above = three(p + width - 1);
         below | (level & 1) << 3 | (level >> 2) << 4 | above << 5
-    }
-
-    /// Asks the processor to bring the states of cell `p`'s neighbourhood (the rows above,
-    /// at and below it, `width` apart) towards the cache, ahead of the cell's expansion.
-    #[inline]
-    pub(super) fn prefetch_around(&self, p: usize, width: usize) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            for q in [p - width, p, p + width] {
-                if let Some(s) = self.states.get(q) {
-                    // SAFETY: a prefetch is only a hint: it neither reads nor writes what the
-                    // pointer points to and cannot fault, and SSE is part of every x86-64.
-                    unsafe { _mm_prefetch::<_MM_HINT_T0>(std::ptr::from_ref(s).cast()) };
-                }
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = (p, width);
     }
 
     /// Cell `p`'s state.

@@ -9,7 +9,7 @@
 use std::cmp::Ordering;
 
 use super::cells::{CellStates, FloodView, NEIGHBOURS};
-use super::queue::WaveQueue;
+use super::queue::{WaveOrder, WaveQueue};
 
 /// Cost of a cell the wavefront has not reached (upstream's `PLAN_MAX_COST`): a cell whose
 /// cost would come to this or more is not reached.
@@ -74,10 +74,6 @@ type Bounds = (usize, usize, usize, usize);
 /// How much cheaper a step onto the last local path is (the `hysteresis_factor` the driver
 /// gives `plan_alloc`).
 const HYSTERESIS_FACTOR: f64 = 0.5;
-
-/// How many cells ahead of the one being expanded the wavefront prefetches the neighbourhood
-/// of (far enough for memory to answer, near enough that the lines are still cached).
-const PREFETCH_AHEAD: usize = 16;
 
 /// The result of planning from a start to a goal.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -399,50 +395,17 @@ impl Plan {
             let lpath_step = (f64::from(step) * HYSTERESIS_FACTOR) as f32;
             (offsets[n], step, lpath_step)
         });
-        let size_x = self.size_x;
-        let Plan {
-            cells,
-            occ_dist_dyn,
-            queue,
-            ..
-        } = self;
-        let mut view = cells.flood_view();
-        queue.clear();
-        queue.push(0.0, g as u32);
-        while let Some((here, cell)) = queue.pop() {
-            let cell = cell as usize;
-            if let Some(soon) = queue.soon(PREFETCH_AHEAD) {
-                view.prefetch_around(soon as usize, size_x + 2);
-            }
-            // Closed neighbours are left out: reached (a reached cell keeps its cost),
-            // blocked, or outside the bounds. The rest are taken in upstream's order.
-            let mut open = view.open_neighbours(cell, size_x + 2);
-            while open != 0 {
-                let n = open.trailing_zeros() as usize;
-                open &= open - 1;
-                let (offset, step, lpath_step) = neighbours[n];
-                let p = (cell as isize + offset) as usize;
-                let state = view.state(p);
-                let on_lpath = FloodView::on_lpath(state);
-                let mut c = here + if on_lpath { lpath_step } else { step };
-                if p != s {
-                    c += view.penalty(state, || {
-                        // Unpadded, for the distances.
-                        let w = size_x + 2;
-                        occ_dist_dyn[(p % w - 1) + (p / w - 1) * size_x]
-                    });
-                }
-                if c < MAX_COST {
-                    // The step back to `cell` is the opposite neighbour.
-                    view.reach(p, state, 7 - n);
-                    if p == s {
-                        return true;
-                    }
-                    queue.push(c, p as u32);
-                }
-            }
+        let mut flood = Flood {
+            view: self.cells.flood_view(),
+            neighbours,
+            start: s,
+            occ_dist_dyn: &self.occ_dist_dyn,
+            size_x: self.size_x,
+        };
+        match &mut self.queue {
+            WaveQueue::Monotone(q) => flood.run(q, g),
+            WaveQueue::General(q) => flood.run(q, g),
         }
-        false
     }
 
     /// The point to steer for from world point `from` under direct velocity control
@@ -747,6 +710,66 @@ fn obstacle_distances(
         }
     }
     occ_dist
+}
+
+/// One wavefront's loop and what it reads (see [`Plan::wavefront`]), run on the queue the
+/// plan has.
+struct Flood<'a> {
+    view: FloodView<'a>,
+    /// The neighbours as (index offset, step length, step onto the local path).
+    neighbours: [(isize, f32, f32); 8],
+    /// The start cell, where the wavefront stops.
+    start: usize,
+    /// Distances, for penalties the states do not hold.
+    occ_dist_dyn: &'a [f32],
+    size_x: usize,
+}
+
+impl Flood<'_> {
+    /// Floods from `goal`; whether the start was reached.
+    fn run(&mut self, queue: &mut impl WaveOrder, goal: usize) -> bool {
+        let Flood {
+            view,
+            neighbours,
+            start,
+            occ_dist_dyn,
+            size_x,
+        } = self;
+        let (s, size_x) = (*start, *size_x);
+        queue.clear();
+        queue.push(0.0, goal as u32);
+        while let Some((here, cell)) = queue.pop() {
+            let cell = cell as usize;
+            // Closed neighbours are left out: reached (a reached cell keeps its cost),
+            // blocked, or outside the bounds. The rest are taken in upstream's order.
+            let mut open = view.open_neighbours(cell, size_x + 2);
+            while open != 0 {
+                let n = open.trailing_zeros() as usize;
+                open &= open - 1;
+                let (offset, step, lpath_step) = neighbours[n];
+                let p = (cell as isize + offset) as usize;
+                let state = view.state(p);
+                let on_lpath = FloodView::on_lpath(state);
+                let mut c = here + if on_lpath { lpath_step } else { step };
+                if p != s {
+                    c += view.penalty(state, || {
+                        // Unpadded, for the distances.
+                        let w = size_x + 2;
+                        occ_dist_dyn[(p % w - 1) + (p / w - 1) * size_x]
+                    });
+                }
+                if c < MAX_COST {
+                    // The step back to `cell` is the opposite neighbour.
+                    view.reach(p, state, 7 - n);
+                    if p == s {
+                        return true;
+                    }
+                    queue.push(c, p as u32);
+                }
+            }
+        }
+        false
+    }
 }
 
 /// The wavefront's step lengths (straight, diagonal), computed as upstream's 3x3 kernel

@@ -34,14 +34,26 @@ fn cost_of(ordered: u32) -> f32 {
     })
 }
 
-/// Cells (as grid indices) waiting with their costs.
+/// A queue of cells (as grid indices) waiting with their costs, popped cheapest first and,
+/// among equal costs, first queued first.
+pub(super) trait WaveOrder {
+    /// Empties the queue, keeping its room.
+    fn clear(&mut self);
+    /// Queues `cell` at `cost`, after every cell already queued at the same cost.
+    fn push(&mut self, cost: f32, cell: u32);
+    /// The cheapest cell (the first queued of equals) and its cost, taken off the queue.
+    fn pop(&mut self) -> Option<(f32, u32)>;
+}
+
+/// The wavefront's queue: buckets where costs never decrease, a binary heap otherwise. The
+/// wavefront takes the one it has and runs on it directly, so a push or a pop dispatches on
+/// nothing.
 #[derive(Clone, Debug)]
 pub(super) enum WaveQueue {
     /// For costs that never fall below the last one popped.
     Monotone(BucketQueue),
-    /// For anything else: (cost bits above the push count, so that one integer comparison
-    /// orders as (cost, order) would; cell), and the pushes so far.
-    General(BinaryHeap<Reverse<(u64, u32)>>, u32),
+    /// For anything else.
+    General(HeapQueue),
 }
 
 impl WaveQueue {
@@ -51,53 +63,37 @@ impl WaveQueue {
     pub(super) fn new(monotone: Option<f64>) -> WaveQueue {
         match monotone {
             Some(width) => WaveQueue::Monotone(BucketQueue::new(width)),
-            None => WaveQueue::General(BinaryHeap::new(), 0),
+            None => WaveQueue::General(HeapQueue::default()),
         }
     }
+}
 
-    /// Empties the queue, keeping its room.
-    pub(super) fn clear(&mut self) {
-        match self {
-            WaveQueue::Monotone(q) => q.clear(),
-            WaveQueue::General(h, order) => {
-                h.clear();
-                *order = 0;
-            }
-        }
+/// A binary heap of (cost bits above the push count, so that one integer comparison orders
+/// as (cost, order) would; cell), and the pushes so far.
+#[derive(Clone, Debug, Default)]
+pub(super) struct HeapQueue {
+    heap: BinaryHeap<Reverse<(u64, u32)>>,
+    order: u32,
+}
+
+impl WaveOrder for HeapQueue {
+    fn clear(&mut self) {
+        self.heap.clear();
+        self.order = 0;
     }
 
-    /// Queues `cell` at `cost`, after every cell already queued at the same cost.
     #[inline]
-    pub(super) fn push(&mut self, cost: f32, cell: u32) {
-        match self {
-            WaveQueue::Monotone(q) => q.push(cost, cell),
-            WaveQueue::General(h, order) => {
-                *order += 1;
-                let key = (u64::from(ordered_bits(cost)) << 32) | u64::from(*order);
-                h.push(Reverse((key, cell)));
-            }
-        }
+    fn push(&mut self, cost: f32, cell: u32) {
+        self.order += 1;
+        let key = (u64::from(ordered_bits(cost)) << 32) | u64::from(self.order);
+        self.heap.push(Reverse((key, cell)));
     }
 
-    /// A cell that will be popped soon: the one `ahead` places after the next in the current
-    /// bucket, if the queue knows it (for prefetching what it will need).
     #[inline]
-    pub(super) fn soon(&self, ahead: usize) -> Option<u32> {
-        match self {
-            WaveQueue::Monotone(q) => q.soon(ahead),
-            WaveQueue::General(..) => None,
-        }
-    }
-
-    /// The cheapest cell (the first queued of equals) and its cost, taken off the queue.
-    #[inline]
-    pub(super) fn pop(&mut self) -> Option<(f32, u32)> {
-        match self {
-            WaveQueue::Monotone(q) => q.pop(),
-            WaveQueue::General(h, _) => h
-                .pop()
-                .map(|Reverse((key, cell))| (cost_of((key >> 32) as u32), cell)),
-        }
+    fn pop(&mut self) -> Option<(f32, u32)> {
+        self.heap
+            .pop()
+            .map(|Reverse((key, cell))| (cost_of((key >> 32) as u32), cell))
     }
 }
 
@@ -138,7 +134,8 @@ impl BucketQueue {
         }
     }
 
-    fn clear(&mut self) {
+    /// Empties the queue, keeping its room.
+    pub(super) fn clear_buckets(&mut self) {
         self.ring.iter_mut().for_each(Vec::clear);
         self.first = 0;
         self.head = 0;
@@ -148,8 +145,9 @@ impl BucketQueue {
     /// The bucket of `cost`.
     #[inline]
     fn bucket(&self, cost: f32) -> u64 {
-        // Non-negative costs only (the promise); `as` saturates anything else to 0.
-        (f64::from(cost) * self.per_width) as u64
+        // Non-negative costs only (the promise); `as` saturates anything else to 0. (Through
+        // i64: the conversion to a signed integer is one instruction, to an unsigned one not.)
+        ((f64::from(cost) * self.per_width) as i64).max(0) as u64
     }
 
     /// Makes the ring hold buckets `first` to `first + ahead`.
@@ -166,29 +164,41 @@ impl BucketQueue {
         self.ring = ring;
     }
 
-    #[inline]
-    fn push(&mut self, cost: f32, cell: u32) {
+    #[inline(always)]
+    fn push_cell(&mut self, cost: f32, cell: u32) {
         let key = ordered_bits(cost);
         let b = self.bucket(cost).max(self.first);
         let ahead = (b - self.first) as usize;
         self.count += 1;
-        if ahead == 0 && self.head > 0 {
-            // The first bucket is sorted and partly read: after every cost not above this one.
-            let mask = self.ring.len() - 1;
-            let front = &mut self.ring[b as usize & mask];
-            let place = self.head + front[self.head..].partition_point(|&(k, _)| k <= key);
-            front.insert(place, (key, cell));
+        if (ahead == 0 && self.head > 0) || ahead >= self.ring.len() {
+            self.push_rare(ahead, key, cell);
             return;
-        }
-        if ahead >= self.ring.len() {
-            self.grow(ahead);
         }
         let mask = self.ring.len() - 1;
         self.ring[b as usize & mask].push((key, cell));
     }
 
-    #[inline]
-    fn pop(&mut self) -> Option<(f32, u32)> {
+    /// [`BucketQueue::push_cell`] into the first bucket once it is being read, or past the
+    /// ring.
+    #[cold]
+    #[inline(never)]
+    fn push_rare(&mut self, ahead: usize, key: u32, cell: u32) {
+        if ahead == 0 {
+            // The first bucket is sorted and partly read: after every cost not above this one.
+            let head = self.head;
+            let mask = self.ring.len() - 1;
+            let front = &mut self.ring[self.first as usize & mask];
+            let place = head + front[head..].partition_point(|&(k, _)| k <= key);
+            front.insert(place, (key, cell));
+            return;
+        }
+        self.grow(ahead);
+        let mask = self.ring.len() - 1;
+        self.ring[(self.first as usize + ahead) & mask].push((key, cell));
+    }
+
+    #[inline(always)]
+    fn pop_cell(&mut self) -> Option<(f32, u32)> {
         if self.count == 0 {
             return None;
         }
@@ -197,8 +207,7 @@ impl BucketQueue {
             let front = &mut self.ring[self.first as usize & mask];
             if self.head < front.len() {
                 if self.head == 0 {
-                    // Stable: equal costs stay in the order they were pushed.
-                    front.sort_by_key(|&(k, _)| k);
+                    sort_bucket(front);
                 }
                 let (key, cell) = front[self.head];
                 self.head += 1;
@@ -210,12 +219,41 @@ impl BucketQueue {
             self.head = 0;
         }
     }
+}
 
-    /// The cell `ahead` places after the next in the first bucket, if it is there.
+/// Sorts a bucket by cost, stably (equal costs stay in the order they were pushed). Buckets
+/// are mostly a few dozen entries pushed nearly in order, which an insertion sort takes in
+/// about one comparison each; longer ones go to the library's merge sort.
+fn sort_bucket(bucket: &mut [(u32, u32)]) {
+    if bucket.len() > 48 {
+        bucket.sort_by_key(|&(k, _)| k);
+        return;
+    }
+    for n in 1..bucket.len() {
+        let entry = bucket[n];
+        let mut at = n;
+        // Only past strictly greater keys: an equal key stays behind the earlier one.
+        while at > 0 && bucket[at - 1].0 > entry.0 {
+            bucket[at] = bucket[at - 1];
+            at -= 1;
+        }
+        bucket[at] = entry;
+    }
+}
+
+impl WaveOrder for BucketQueue {
+    fn clear(&mut self) {
+        self.clear_buckets();
+    }
+
     #[inline]
-    fn soon(&self, ahead: usize) -> Option<u32> {
-        let front = &self.ring[self.first as usize & (self.ring.len() - 1)];
-        front.get(self.head + ahead).map(|&(_, cell)| cell)
+    fn push(&mut self, cost: f32, cell: u32) {
+        self.push_cell(cost, cell);
+    }
+
+    #[inline]
+    fn pop(&mut self) -> Option<(f32, u32)> {
+        self.pop_cell()
     }
 }
 
@@ -252,8 +290,8 @@ mod tests {
     fn both_queues_pop_cheapest_first_then_first_queued() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let mut buckets = WaveQueue::new(Some(0.1));
-        let mut binary = WaveQueue::new(None);
+        let mut buckets = BucketQueue::new(0.1);
+        let mut binary = HeapQueue::default();
         let mut floor = 0f32;
         let mut cell = 0u32;
         let mut popped = 0;

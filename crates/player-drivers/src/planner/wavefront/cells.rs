@@ -96,7 +96,7 @@ pub(super) struct CellStates {
     /// `distances[c - 1]`.
     distances: Vec<u32>,
     /// The penalty of each class (index 0: none), computed as upstream rounds it.
-    penalties: Vec<f32>,
+    penalties: Box<[f32; 256]>,
     abs_min: f32,
     max_radius: f64,
     dist_penalty: f64,
@@ -123,12 +123,12 @@ impl CellStates {
         distances.sort_unstable();
         distances.dedup();
         distances.truncate(usize::from(ESCAPE) - 1);
-        let penalties = std::iter::once(0.0)
-            .chain(distances.iter().map(|&bits| {
-                let d = f64::from(f32::from_bits(bits));
-                (params.dist_penalty * (params.max_radius - d)) as f32
-            }))
-            .collect();
+        // Indexed by a class byte, so a full table of 256 needs no bounds test.
+        let mut penalties = Box::new([0.0f32; 256]);
+        for (c, &bits) in distances.iter().enumerate() {
+            let d = f64::from(f32::from_bits(bits));
+            penalties[c + 1] = (params.dist_penalty * (params.max_radius - d)) as f32;
+        }
         let padded = (size_x + 2) * (size_y + 2);
         let mut cells = CellStates {
             size_x,
@@ -297,7 +297,7 @@ impl CellStates {
 pub(super) struct FloodView<'a> {
     states: &'a mut [u16],
     open: &'a mut [u8],
-    penalties: &'a [f32],
+    penalties: &'a [f32; 256],
     max_radius: f64,
     dist_penalty: f64,
 }

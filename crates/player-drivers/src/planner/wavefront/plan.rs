@@ -401,6 +401,8 @@ impl Plan {
             start: s,
             occ_dist_dyn: &self.occ_dist_dyn,
             size_x: self.size_x,
+            bounded: (self.size_x * self.size_y) as f64 * dearest_step(self.scale, &self.params)
+                < f64::from(MAX_COST) / 2.0,
         };
         match &mut self.queue {
             WaveQueue::Monotone(q) => flood.run(q, g),
@@ -723,6 +725,9 @@ struct Flood<'a> {
     /// Distances, for penalties the states do not hold.
     occ_dist_dyn: &'a [f32],
     size_x: usize,
+    /// No cost can reach [`MAX_COST`] on this grid (the cells times the dearest step stay
+    /// below it), so the test is left out.
+    bounded: bool,
 }
 
 impl Flood<'_> {
@@ -734,8 +739,9 @@ impl Flood<'_> {
             start,
             occ_dist_dyn,
             size_x,
+            bounded,
         } = self;
-        let (s, size_x) = (*start, *size_x);
+        let (s, size_x, bounded) = (*start, *size_x, *bounded);
         queue.clear();
         queue.push(0.0, goal as u32);
         while let Some((here, cell)) = queue.pop() {
@@ -758,7 +764,7 @@ impl Flood<'_> {
                         occ_dist_dyn[(p % w - 1) + (p / w - 1) * size_x]
                     });
                 }
-                if c < MAX_COST {
+                if bounded || c < MAX_COST {
                     // The step back to `cell` is the opposite neighbour.
                     view.reach(p, state, 7 - n);
                     if p == s {
@@ -778,6 +784,15 @@ fn step_lengths(scale: f64) -> (f32, f32) {
     ((1f64.sqrt() * scale) as f32, (2f64.sqrt() * scale) as f32)
 }
 
+/// The most a step of the wavefront can add to a cost: the diagonal and the largest
+/// penalty (a cell entered is at least `abs_min_radius`, and 0, from obstacles). NaN for
+/// NaN parameters.
+fn dearest_step(scale: f64, params: &PlanParams) -> f64 {
+    let (_, diagonal) = step_lengths(scale);
+    let intrusion = params.max_radius - params.abs_min_radius.max(0.0);
+    f64::from(diagonal) + (params.dist_penalty * intrusion).max(0.0)
+}
+
 /// Buckets per cheapest step in the wavefront's queue: any number keeps the order exact (a
 /// step then always lands in a later bucket); narrower buckets hold fewer cells each and
 /// sort faster, at the price of more (mostly empty) buckets to pass over. 16 measured best
@@ -788,11 +803,9 @@ const BUCKETS_PER_STEP: f64 = 16.0;
 /// cheapest step, when no step can cost less than nothing (so costs never decrease) and the
 /// dearest step spans at most a few thousand buckets; `None` (a binary heap) otherwise.
 fn bucket_width(scale: f64, params: &PlanParams) -> Option<f64> {
-    let (straight, diagonal) = step_lengths(scale);
+    let (straight, _) = step_lengths(scale);
     let cheapest = f64::from((f64::from(straight) * HYSTERESIS_FACTOR) as f32);
-    // A cell entered is at least `abs_min_radius` (and 0) from obstacles.
-    let intrusion = params.max_radius - params.abs_min_radius.max(0.0);
-    let dearest = f64::from(diagonal) + (params.dist_penalty * intrusion).max(0.0);
+    let dearest = dearest_step(scale, params);
     let width = cheapest / BUCKETS_PER_STEP;
     (params.dist_penalty >= 0.0 && width > 0.0 && dearest / width <= 32768.0).then_some(width)
 }

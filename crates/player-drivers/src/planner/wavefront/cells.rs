@@ -305,7 +305,7 @@ pub(super) struct FloodView<'a> {
 impl FloodView<'_> {
     /// Which of cell `p`'s [`NEIGHBOURS`] may be entered, as bits 0 to 7 (`width`: the padded
     /// row length). Taking all eight at once spares a hard-to-predict branch per neighbour.
-    #[inline]
+    #[inline(always)]
     pub(super) fn open_neighbours(&self, p: usize, width: usize) -> u32 {
         // Cells q, q + 1 and q + 2 as bits 0 to 2: at most bits 7 to 9 of the two bytes
         // from q's.
@@ -322,7 +322,7 @@ impl FloodView<'_> {
     }
 
     /// Cell `p`'s state.
-    #[inline]
+    #[inline(always)]
     pub(super) fn state(&self, p: usize) -> u16 {
         self.states[p]
     }
@@ -334,7 +334,7 @@ impl FloodView<'_> {
     }
 
     /// Marks cell `p` (in `state`) reached from its neighbour `back`, and closes it.
-    #[inline]
+    #[inline(always)]
     pub(super) fn reach(&mut self, p: usize, state: u16, back: usize) {
         self.states[p] = (state & !NEXT_MASK) | ((back as u16 + 1) << NEXT_SHIFT);
         self.open[p / 8] &= !(1 << (p % 8));
@@ -343,7 +343,7 @@ impl FloodView<'_> {
     /// The penalty for entering a cell in `state` whose distance to obstacles is `d` (asked
     /// only when its class is [`ESCAPE`]): upstream's `dist_penalty * (max_radius - d)` where
     /// `d` is below `max_radius`, rounded to `f32`.
-    #[inline]
+    #[inline(always)]
     pub(super) fn penalty(&self, state: u16, d: impl FnOnce() -> f32) -> f32 {
         let class = (state & CLASS_MASK) as u8;
         if class == ESCAPE {

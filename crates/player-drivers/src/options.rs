@@ -1,8 +1,10 @@
 //! Reading a driver's cfg options the way Player's `ConfigFile` accessors do, but strictly: a
 //! value that is not a number is an error naming the option, where `atof`/`atoi` would read 0.
 //!
-//! Lengths are in metres: Player multiplies `ReadLength` values by the cfg's `unit_length`
-//! (metres unless the cfg sets it), which [`DriverBlock`] does not carry yet.
+//! Units as Player's: a length or an angle written in the cfg is multiplied by the cfg's
+//! `unit_length` (metres unless the cfg sets `cm` or `mm`) or `unit_angle` (degrees unless it
+//! sets `radians`), which the block carries; a default is never scaled (Player returns it as
+//! given, in metres and radians).
 
 use player_server::DriverBlock;
 
@@ -26,9 +28,9 @@ fn element<T: std::str::FromStr>(
     })
 }
 
-/// `ReadLength(key)`: a length in metres.
+/// `ReadLength(key)`: a length, in metres.
 pub fn length(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Error> {
-    element(block, key, 0, "a length")
+    tuple_length(block, key, 0)
 }
 
 /// A length that must be given and positive, such as a map's resolution: `why` says what it
@@ -56,7 +58,7 @@ pub fn tuple_length(
     key: &'static str,
     index: usize,
 ) -> Result<Option<f64>, Error> {
-    element(block, key, index, "a length")
+    Ok(element::<f64>(block, key, index, "a length")?.map(|v| v * block.units.length))
 }
 
 /// `ReadInt(key)`.
@@ -69,19 +71,19 @@ pub fn float(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Erro
     element(block, key, 0, "a number")
 }
 
-/// `ReadAngle(key)`: written in degrees (Player's default `unit_angle`), returned in radians.
+/// `ReadAngle(key)`: an angle, in radians (written in degrees unless the cfg's `unit_angle`
+/// says radians).
 pub fn angle(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Error> {
-    Ok(element::<f64>(block, key, 0, "an angle")?.map(f64::to_radians))
+    tuple_angle(block, key, 0)
 }
 
-/// `ReadTupleAngle(key, index)`: element `index` of a tuple of angles, written in degrees and
-/// returned in radians.
+/// `ReadTupleAngle(key, index)`: element `index` of a tuple of angles, in radians.
 pub fn tuple_angle(
     block: &DriverBlock,
     key: &'static str,
     index: usize,
 ) -> Result<Option<f64>, Error> {
-    Ok(element::<f64>(block, key, index, "an angle")?.map(f64::to_radians))
+    Ok(element::<f64>(block, key, index, "an angle")?.map(|v| v * block.units.angle))
 }
 
 /// `ReadString(key)`.
@@ -126,5 +128,21 @@ pub(crate) mod tests {
         );
         assert!(int(&b, "r").is_err());
         assert_eq!(string(&b, "n"), Some("3"));
+    }
+
+    #[test]
+    fn lengths_and_angles_follow_the_cfg_units_and_defaults_do_not() {
+        let mut b = block("x", &[("r", "250"), ("n", "1.5"), ("o", "100 200 0.5")]);
+        b.units = worldfile::Units {
+            length: 0.001,
+            angle: 1.0,
+        };
+        assert_eq!(length(&b, "r").unwrap(), Some(0.25));
+        assert_eq!(tuple_length(&b, "o", 1).unwrap(), Some(0.2));
+        assert_eq!(angle(&b, "n").unwrap(), Some(1.5));
+        assert_eq!(tuple_angle(&b, "o", 2).unwrap(), Some(0.5));
+        // Plain numbers are not lengths.
+        assert_eq!(float(&b, "r").unwrap(), Some(250.0));
+        assert_eq!(length(&b, "absent").unwrap(), None);
     }
 }

@@ -95,6 +95,7 @@ pub fn driver_block(
         requires,
         alwayson: spec.alwayson,
         options,
+        units: cfg.doc.units,
     })
 }
 
@@ -210,6 +211,21 @@ mod tests {
         // Already keyed, or no host name: nothing to suggest.
         assert_eq!(hint("odometry:robot::position2d:0"), None);
         assert_eq!(hint("position2d:0"), None);
+    }
+
+    #[test]
+    fn blocks_carry_the_cfg_units() {
+        let metric = parse("driver( name \"mapfile\" provides [\"map:0\"] resolution 0.1 )\n");
+        assert_eq!(
+            driver_blocks(&metric, 6665).unwrap()[0].units,
+            worldfile::Units::default()
+        );
+        let cfg = parse(
+            "unit_length \"cm\"\nunit_angle \"radians\"\n\
+             driver( name \"mapfile\" provides [\"map:0\"] resolution 10 )\n",
+        );
+        let units = driver_blocks(&cfg, 6665).unwrap()[0].units;
+        assert_eq!((units.length, units.angle), (0.01, 1.0));
     }
 
     #[test]

@@ -79,6 +79,9 @@ pub struct DriverBlock {
     pub alwayson: Option<bool>,
     /// Every other field, as its list of values (e.g. `model`, `worldfile`).
     pub options: BTreeMap<String, Vec<String>>,
+    /// The cfg's `unit_length` and `unit_angle`: Player's `ReadLength` and `ReadAngle` scale
+    /// the values written by them (metres and degrees unless the cfg says otherwise).
+    pub units: worldfile::Units,
 }
 
 impl DriverBlock {

@@ -81,10 +81,12 @@ impl Settings {
         Ok(Settings {
             interpolate: flag("interpolate", d.interpolate)?,
             max_scans: max_scans as usize,
-            update_dist: tuple(0)?.unwrap_or(d.update_dist),
-            // Player reads cfg angles in degrees; a negative value only switches it off.
-            update_angle: tuple(1)?
-                .map_or(d.update_angle, |a| if a < 0.0 { a } else { a.to_radians() }),
+            // A length and an angle (Player's ReadTupleLength and ReadTupleAngle, in the cfg's
+            // units); a negative value only switches the test off.
+            update_dist: tuple(0)?.map_or(d.update_dist, |v| v * block.units.length),
+            update_angle: tuple(1)?.map_or(d.update_angle, |a| {
+                if a < 0.0 { a } else { a * block.units.angle }
+            }),
             update_interval: block
                 .option_parse("update_interval")?
                 .unwrap_or(d.update_interval),

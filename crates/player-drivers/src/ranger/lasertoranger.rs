@@ -94,10 +94,13 @@ impl ForcedConfig {
                 ))
             })?;
         }
+        // Angles in the cfg's angle unit (Player's ReadTupleAngle); the ranges are plain
+        // numbers (ReadTupleFloat), not scaled by `unit_length`.
+        let angle = |v: f64| (v * block.units.angle) as f32;
         Ok(Some(ForcedConfig {
-            min_angle: v[0].to_radians() as f32,
-            max_angle: v[1].to_radians() as f32,
-            angular_res: v[2].to_radians() as f32,
+            min_angle: angle(v[0]),
+            max_angle: angle(v[1]),
+            angular_res: angle(v[2]),
             max_range: v[3] as f32,
             range_res: v[4] as f32,
         }))

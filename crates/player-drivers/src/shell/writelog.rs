@@ -161,6 +161,7 @@ pub fn recording_block(blocks: &[DriverBlock], file: &Path, port: u16) -> Option
         ]
         .into_iter()
         .collect(),
+        units: Default::default(),
     })
 }
 

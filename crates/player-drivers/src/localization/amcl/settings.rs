@@ -102,12 +102,14 @@ fn count(block: &DriverBlock, key: &str, default: usize) -> Result<usize, Driver
     }
 }
 
-/// A pose tuple `[x y a]`: lengths, then an angle in degrees; absent elements keep `default`.
+/// A pose tuple `[x y a]`: lengths, then an angle (in the cfg's units: metres and degrees
+/// unless it says otherwise); absent elements keep `default`.
 fn pose(block: &DriverBlock, key: &str, default: Pose) -> Result<Pose, DriverError> {
+    let (length, angle) = (block.units.length, block.units.angle);
     Ok(Pose::new(
-        element(block, key, 0)?.unwrap_or(default.x),
-        element(block, key, 1)?.unwrap_or(default.y),
-        element(block, key, 2)?.map_or(default.z, f64::to_radians),
+        element(block, key, 0)?.map_or(default.x, |v| v * length),
+        element(block, key, 1)?.map_or(default.y, |v| v * length),
+        element(block, key, 2)?.map_or(default.z, |v| v * angle),
     ))
 }
 
@@ -118,6 +120,12 @@ impl Settings {
         let d = Settings::default();
         let float = |key: &str, default: f64| -> Result<f64, DriverError> {
             Ok(block.option_parse::<f64>(key)?.unwrap_or(default))
+        };
+        // Player's ReadLength: in the cfg's length unit.
+        let length = |key: &str, default: f64| -> Result<f64, DriverError> {
+            Ok(block
+                .option_parse::<f64>(key)?
+                .map_or(default, |v| v * block.units.length))
         };
         let pf_min_samples = count(block, "pf_min_samples", d.pf_min_samples)?;
         let pf_max_samples = count(block, "pf_max_samples", d.pf_max_samples)?;
@@ -175,7 +183,7 @@ impl Settings {
         };
         // The beam models divide by these: zero or negative spreads make every weight NaN.
         let spread = |key: &str, default: f64| -> Result<f64, DriverError> {
-            let v = float(key, default)?;
+            let v = length(key, default)?;
             if v > 0.0 && v.is_finite() {
                 Ok(v)
             } else {
@@ -191,15 +199,16 @@ impl Settings {
             pf_z,
             init_pose: pose(block, "init_pose", d.init_pose)?,
             init_pose_var: pose(block, "init_pose_var", d.init_pose_var)?,
-            update_dist: element(block, "update_thresh", 0)?.unwrap_or(d.update_dist),
+            update_dist: element(block, "update_thresh", 0)?
+                .map_or(d.update_dist, |v| v * block.units.length),
             update_angle: element(block, "update_thresh", 1)?
-                .map_or(d.update_angle, f64::to_radians),
+                .map_or(d.update_angle, |v| v * block.units.angle),
             odom_drift,
             laser_max_beams: count(block, "laser_max_beams", d.laser_max_beams)?,
             laser_range_var: spread("laser_range_var", d.laser_range_var)?,
             laser_range_bad: float("laser_range_bad", d.laser_range_bad)?,
             sonar_poses,
-            sonar_range_max: float("sonar_range_max", d.sonar_range_max)?,
+            sonar_range_max: length("sonar_range_max", d.sonar_range_max)?,
             sonar_range_var: spread("sonar_range_var", d.sonar_range_var)?,
             sonar_range_bad: float("sonar_range_bad", d.sonar_range_bad)?,
             seed,

@@ -105,10 +105,6 @@ impl Default for Settings {
     }
 }
 
-fn angle(block: &DriverBlock, key: &'static str, index: usize) -> Result<Option<f64>, Error> {
-    Ok(options::tuple_length(block, key, index)?.map(f64::to_radians))
-}
-
 fn buffer(block: &DriverBlock, key: &'static str) -> Result<Option<usize>, Error> {
     match options::int(block, key)? {
         Some(n) if n < 1 => Err(Error::BadOption {
@@ -128,7 +124,7 @@ impl Settings {
             Ok(options::tuple_length(block, k, i)?.unwrap_or(def))
         };
         let ang = |k: &'static str, i: usize, def: f64| -> Result<f64, Error> {
-            Ok(angle(block, k, i)?.unwrap_or(def))
+            Ok(options::tuple_angle(block, k, i)?.unwrap_or(def))
         };
         let bad = match block.options.get("sonar_bad_transducers") {
             None => Vec::new(),

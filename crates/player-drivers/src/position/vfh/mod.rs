@@ -35,6 +35,8 @@ pub mod algorithm;
 pub mod navigator;
 pub mod ranges;
 
+use std::f64::consts::PI;
+
 use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserMsg, Message, Pose3d, Position2dCmd,
     Position2dData, Position2dMsg, Position2dReq, SonarData, SonarMsg, SonarReq,
@@ -120,10 +122,24 @@ impl Settings {
         let int = |key: &str, default: i64| -> Result<i64, DriverError> {
             Ok(block.option_parse::<i64>(key)?.unwrap_or(default))
         };
-        // Angles are written in degrees; whole deg/s, as upstream rounds them.
-        let deg = |key: &str, default: f64| float(key, default);
+        // Player's ReadLength and ReadAngle: in the cfg's units (metres and degrees unless it
+        // says otherwise), returned in metres and radians.
+        let len = |key: &str, default: f64| -> Result<f64, DriverError> {
+            Ok(block
+                .option_parse::<f64>(key)?
+                .map_or(default, |v| v * block.units.length))
+        };
+        let rad = |key: &str, default: f64| -> Result<f64, DriverError> {
+            Ok(block
+                .option_parse::<f64>(key)?
+                .map_or(default, |v| v * block.units.angle))
+        };
+        // Turn rates are kept in whole deg/s: upstream's rint(RTOD(ReadAngle(key, DTOR(d)))).
+        let deg = |key: &str, default: f64| -> Result<f64, DriverError> {
+            Ok(rad(key, default * PI / 180.0)? * 180.0 / PI)
+        };
 
-        let cell_size = float("cell_size", 0.1)?;
+        let cell_size = len("cell_size", 0.1)?;
         if !(cell_size > 0.0 && cell_size.is_finite()) {
             return Err(DriverError::new(format!(
                 "option `cell_size` must be a positive length, not {cell_size}"
@@ -142,9 +158,9 @@ impl Settings {
                 "option `sector_angle` must be between 1 and 360 degrees, not {sector_angle}"
             )));
         }
-        let safety_dist_0ms = float("safety_dist_0ms", 0.1)? * 1e3;
-        let safety_dist_1ms = float("safety_dist_1ms", safety_dist_0ms / 1e3)? * 1e3;
-        let max_speed_m = float("max_speed", 0.2)?;
+        let safety_dist_0ms = len("safety_dist_0ms", 0.1)? * 1e3;
+        let safety_dist_1ms = len("safety_dist_1ms", safety_dist_0ms / 1e3)? * 1e3;
+        let max_speed_m = len("max_speed", 0.2)?;
         if !(0.0..=MAX_SPEED_LIMIT).contains(&max_speed_m) {
             return Err(DriverError::new(format!(
                 "option `max_speed` must be between 0 and {MAX_SPEED_LIMIT} m/s, not {max_speed_m}"
@@ -152,10 +168,10 @@ impl Settings {
         }
         let max_speed = whole(1e3 * max_speed_m);
         let max_speed_narrow_opening =
-            whole(1e3 * float("max_speed_narrow_opening", f64::from(max_speed) / 1e3)?);
+            whole(1e3 * len("max_speed_narrow_opening", f64::from(max_speed) / 1e3)?);
         let max_speed_wide_opening =
-            whole(1e3 * float("max_speed_wide_opening", f64::from(max_speed) / 1e3)?);
-        let max_acceleration = whole(1e3 * float("max_acceleration", 0.2)?);
+            whole(1e3 * len("max_speed_wide_opening", f64::from(max_speed) / 1e3)?);
+        let max_acceleration = whole(1e3 * len("max_acceleration", 0.2)?);
         let min_turnrate = whole(deg("min_turnrate", 10.0)?);
         let max_turnrate_0ms = whole(deg("max_turnrate_0ms", 40.0)?);
         let max_turnrate_1ms = whole(deg("max_turnrate_1ms", f64::from(max_turnrate_0ms))?);
@@ -187,11 +203,11 @@ impl Settings {
                 weight_current_dir: float("weight_current_dir", 3.0)? as f32,
             },
             goal: GoalSettings {
-                distance_epsilon: float("distance_epsilon", 0.5)?,
-                angle_epsilon: deg("angle_epsilon", 10.0)?.to_radians(),
-                escape_speed: float("escape_speed", 0.0)?,
+                distance_epsilon: len("distance_epsilon", 0.5)?,
+                angle_epsilon: rad("angle_epsilon", 10f64.to_radians())?,
+                escape_speed: len("escape_speed", 0.0)?,
                 escape_time: float("escape_time", 0.0)?,
-                escape_max_turnrate: deg("escape_max_turnrate", 0.0)?.to_radians(),
+                escape_max_turnrate: rad("escape_max_turnrate", 0.0)?,
             },
             synchronous: int("synchronous", 0)? != 0,
         })

@@ -140,6 +140,32 @@ fn angles_are_read_in_degrees_and_lengths_in_metres() {
 }
 
 #[test]
+fn a_cfg_in_millimetres_and_radians_is_read_as_player_reads_it() {
+    let mut b = stage_block();
+    b.units = worldfile::Units {
+        length: 0.001,
+        angle: 1.0,
+    };
+    set(&mut b, "cell_size", "50");
+    set(&mut b, "max_speed", "300");
+    set(&mut b, "max_turnrate_0ms", "1");
+    set(&mut b, "angle_epsilon", "0.1");
+    set(&mut b, "escape_time", "2");
+    set(&mut b, "free_space_cutoff_0ms", "1000");
+    set(&mut b, "sector_angle", "5");
+    let s = Settings::from_block(&b).unwrap();
+    assert_eq!(s.algorithm.cell_width, 50.0);
+    assert_eq!(s.algorithm.max_speed, 300);
+    // 1 rad/s is 57.3 deg/s, kept whole.
+    assert_eq!(s.algorithm.max_turnrate_0ms, 57);
+    assert_eq!(s.goal.angle_epsilon, 0.1);
+    // Plain numbers (seconds, cutoffs, integer degrees) are not scaled.
+    assert_eq!(s.goal.escape_time, 2.0);
+    assert_eq!(s.algorithm.free_space_cutoff_0ms, 1000.0);
+    assert_eq!(s.algorithm.sector_angle, 5);
+}
+
+#[test]
 fn bad_options_are_refused_with_their_name() {
     for (key, value) in [
         ("sector_angle", "0"),

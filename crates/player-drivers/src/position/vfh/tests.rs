@@ -146,13 +146,17 @@ fn a_cfg_in_millimetres_and_radians_is_read_as_player_reads_it() {
         length: 0.001,
         angle: 1.0,
     };
-    set(&mut b, "cell_size", "50");
-    set(&mut b, "max_speed", "300");
-    set(&mut b, "max_turnrate_0ms", "1");
-    set(&mut b, "angle_epsilon", "0.1");
-    set(&mut b, "escape_time", "2");
-    set(&mut b, "free_space_cutoff_0ms", "1000");
-    set(&mut b, "sector_angle", "5");
+    for (key, value) in [
+        ("cell_size", "50"),
+        ("max_speed", "300"),
+        ("max_turnrate_0ms", "1"),
+        ("angle_epsilon", "0.1"),
+        ("escape_time", "2"),
+        ("free_space_cutoff_0ms", "1000"),
+        ("sector_angle", "5"),
+    ] {
+        set(&mut b, key, value);
+    }
     let s = Settings::from_block(&b).unwrap();
     assert_eq!(s.algorithm.cell_width, 50.0);
     assert_eq!(s.algorithm.max_speed, 300);

@@ -133,9 +133,7 @@ fn invert(a: Pose2d) -> Pose2d {
     }
 }
 
-fn normalize(a: f64) -> f64 {
-    a.sin().atan2(a.cos())
-}
+use player_drivers::angle::normalize;
 
 /// One goal's figures.
 #[derive(Debug, Default)]

@@ -24,6 +24,7 @@
 
 #![warn(missing_docs)]
 
+pub mod angle;
 mod error;
 mod forward;
 pub mod laser;

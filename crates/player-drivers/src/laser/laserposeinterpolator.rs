@@ -19,6 +19,7 @@ use player_proto::{
 };
 use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
 
+use crate::angle::{angle_diff, normalize};
 use crate::forward::Waiting;
 
 /// The Player name of this driver.
@@ -93,22 +94,6 @@ impl Settings {
             send_all_scans: flag("send_all_scans", d.send_all_scans)?,
         })
     }
-}
-
-/// `a` in (-pi, pi].
-fn normalize(a: f64) -> f64 {
-    a.sin().atan2(a.cos())
-}
-
-/// The signed smallest difference `a - b` between two headings.
-fn angle_diff(a: f64, b: f64) -> f64 {
-    let (a, b) = (normalize(a), normalize(b));
-    let d1 = a - b;
-    let mut d2 = 2.0 * std::f64::consts::PI - d1.abs();
-    if d1 > 0.0 {
-        d2 = -d2;
-    }
-    if d1.abs() < d2.abs() { d1 } else { d2 }
 }
 
 /// The pose at time `t` on the straight line from `p0` (at `t0`) to `p1` (at `t1`).

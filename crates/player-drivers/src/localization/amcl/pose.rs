@@ -8,7 +8,7 @@ pub type Pose = Vector3<f64>;
 
 /// `a` wrapped into (-pi, pi], the way the filter keeps headings after every composition.
 pub fn normalize_angle(a: f64) -> f64 {
-    a.sin().atan2(a.cos())
+    crate::angle::normalize(a)
 }
 
 /// The pose `local`, given in the frame of `frame`, expressed in the frame `frame` lives in

@@ -21,6 +21,8 @@
 
 use std::f64::consts::PI;
 
+use crate::angle::normalize;
+
 /// Number of sectors of the nearness diagram (a multiple of 4).
 pub const SECTORS: usize = 180;
 
@@ -102,11 +104,6 @@ fn sector_distance(s1: usize, s2: usize) -> usize {
     } else {
         (s2 + SECTORS - s1) % SECTORS
     }
-}
-
-/// `a` in (-pi, pi].
-pub fn normalize(a: f64) -> f64 {
-    a.sin().atan2(a.cos())
 }
 
 /// The bisector of the smaller angle between two directions.

@@ -32,6 +32,7 @@ use player_server::{
     RequestTicket,
 };
 
+use crate::angle::{angle_diff, normalize};
 use crate::error::Error;
 use crate::forward::{Waiting, passed_on};
 use crate::options;
@@ -197,14 +198,6 @@ pub fn threshold(v: f64, min: f64, max: f64) -> f64 {
     } else {
         v.max(-max).min(-min)
     }
-}
-
-/// The signed smallest difference `a - b` between two headings.
-pub fn angle_diff(a: f64, b: f64) -> f64 {
-    let d = alg::normalize(a) - alg::normalize(b);
-    let other = 2.0 * std::f64::consts::PI - d.abs();
-    let other = if d > 0.0 { -other } else { other };
-    if d.abs() < other.abs() { d } else { other }
 }
 
 /// A sensor reading in the robot frame, carried into the odometric frame at `odom`.
@@ -439,7 +432,7 @@ impl Navigator {
             let backwards = self.dir_backwards;
             if backwards {
                 // ND thinks the robot faces the other way, with its geometry reversed.
-                pose.a = alg::normalize(pose.a + std::f64::consts::PI);
+                pose.a = normalize(pose.a + std::f64::consts::PI);
             }
             let robot = self.robot(!backwards).expect("geometry known");
             let Ok(step) = alg::iterate(

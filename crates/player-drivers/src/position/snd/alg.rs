@@ -12,6 +12,8 @@
 
 use std::f64::consts::PI;
 
+use crate::angle::normalize;
+
 /// The tuning of the algorithm (the driver's options).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SndParams {
@@ -54,10 +56,6 @@ pub enum Command {
         /// Turn rate.
         w: f64,
     },
-}
-
-fn normalize(a: f64) -> f64 {
-    a.sin().atan2(a.cos())
 }
 
 /// `i` wrapped into `0..n`.

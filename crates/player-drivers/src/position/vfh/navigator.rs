@@ -56,17 +56,7 @@ struct Goal {
 
 /// Signed smallest difference `a - b` between two headings in degrees.
 fn angle_diff_deg(a: f64, b: f64) -> f64 {
-    let norm = |r: f64| r.sin().atan2(r.cos());
-    let d1 = norm(a.to_radians()) - norm(b.to_radians());
-    let mut d2 = 2.0 * std::f64::consts::PI - d1.abs();
-    if d1 > 0.0 {
-        d2 = -d2;
-    }
-    if d1.abs() < d2.abs() {
-        d1.to_degrees()
-    } else {
-        d2.to_degrees()
-    }
+    crate::angle::angle_diff(a.to_radians(), b.to_radians()).to_degrees()
 }
 
 /// The goal-seeking state of one vfh device.

@@ -15,6 +15,16 @@ use super::queue::{WaveOrder, WaveQueue};
 /// cost would come to this or more is not reached.
 const MAX_COST: f32 = 1e9;
 
+/// Sight tests left in a waypoint search from which two threads share them (fewer cost
+/// less than a thread's start).
+const PARALLEL_SIGHT_TESTS: usize = 64;
+
+/// Whether the machine has a second core for waypoint searches (found once).
+fn waypoint_threads() -> usize {
+    static THREADS: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *THREADS.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
 /// How far along the path (in metres) a waypoint may always reach before straight-line
 /// reachability is tested (upstream's fixed 0.5 m in `plan_update_waypoints`).
 const WAYPOINT_FREE_RUN: f64 = 0.5;
@@ -515,14 +525,16 @@ impl Plan {
             if at == last {
                 break;
             }
+            // The free run, then the first step whose next cell is out of sight (once the run
+            // is past the free length it stays past it).
             let mut run = 0.0;
             let mut k = at;
-            while k < last {
-                if run > WAYPOINT_FREE_RUN && !self.reachable(path[at], path[k + 1]) {
-                    break;
-                }
+            while k < last && run <= WAYPOINT_FREE_RUN {
                 run += self.scale;
                 k += 1;
+            }
+            if k < last {
+                k = self.first_out_of_sight(path, at, k);
             }
             if k == at {
                 break;
@@ -530,6 +542,37 @@ impl Plan {
             at = k;
         }
         out
+    }
+
+    /// The first `k` from `from` on (below the path's last index) whose next cell cannot be
+    /// reached in a straight line from `path[at]`, or the last index if every one can. Long
+    /// searches are shared between two threads, one taking the even steps and one the odd,
+    /// each stopping at its first miss or once the other has found an earlier one; the answer
+    /// is the same as one thread's.
+    fn first_out_of_sight(&self, path: &[Cell], at: usize, from: usize) -> usize {
+        use std::sync::atomic::{AtomicUsize, Ordering as Atomic};
+        let last = path.len() - 1;
+        let misses = |k: usize| !self.reachable(path[at], path[k + 1]);
+        if last - from < PARALLEL_SIGHT_TESTS || waypoint_threads() < 2 {
+            return (from..last).find(|&k| misses(k)).unwrap_or(last);
+        }
+        let first = AtomicUsize::new(last);
+        let search = |start: usize| {
+            for k in (start..last).step_by(2) {
+                if k > first.load(Atomic::Relaxed) {
+                    return;
+                }
+                if misses(k) {
+                    first.fetch_min(k, Atomic::Relaxed);
+                    return;
+                }
+            }
+        };
+        std::thread::scope(|scope| {
+            scope.spawn(|| search(from + 1));
+            search(from);
+        });
+        first.into_inner()
     }
 
     /// Whether the straight line from cell `a` to cell `b` stays clear of the c-space
@@ -1243,6 +1286,69 @@ mod tests {
             assert!(p.reachable(pair[0], pair[1]));
         }
         assert!(!p.reachable((1, 4), (5, 1)));
+    }
+
+    /// Upstream's `plan_update_waypoints` loop as first written, one sight test after the
+    /// other: the reference the shared search must match.
+    fn reference_waypoints(p: &Plan, path: &[Cell]) -> Vec<Cell> {
+        let mut out = Vec::new();
+        let last = path.len() - 1;
+        let mut at = 0;
+        loop {
+            out.push(path[at]);
+            if at == last {
+                break;
+            }
+            let mut run = 0.0;
+            let mut k = at;
+            while k < last {
+                if run > WAYPOINT_FREE_RUN && !p.reachable(path[at], path[k + 1]) {
+                    break;
+                }
+                run += p.scale;
+                k += 1;
+            }
+            if k == at {
+                break;
+            }
+            at = k;
+        }
+        out
+    }
+
+    #[test]
+    fn shared_waypoint_searches_find_the_reference_waypoints() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+        let mut long = 0;
+        for round in 0..12 {
+            let (w, h) = (260, 140);
+            let cells = random_grid(&mut rng, w, h, [0.002, 0.01, 0.03][round % 3]);
+            let params = PlanParams {
+                abs_min_radius: 0.1,
+                max_radius: 0.5,
+                dist_penalty: 1.0,
+            };
+            let mut plan = Plan::new(w, h, 0.1, (0.0, 0.0), &cells, params).unwrap();
+            for _ in 0..4 {
+                let s = (rng.random_range(0..w / 4), rng.random_range(0..h));
+                let g = (rng.random_range(3 * w / 4..w), rng.random_range(0..h));
+                let path = plan.plan_path(plan.world_of(s), plan.world_of(g));
+                if path.is_empty() {
+                    continue;
+                }
+                long += usize::from(path.len() > 2 * PARALLEL_SIGHT_TESTS);
+                assert_eq!(
+                    plan.reduce_to_waypoints(&path),
+                    reference_waypoints(&plan, &path),
+                    "round {round}: {s:?} -> {g:?}"
+                );
+            }
+        }
+        assert!(
+            long > 20,
+            "only {long} paths long enough to share the search"
+        );
     }
 
     /// A corridor 9 cells wide and 30 long, walls along both sides.

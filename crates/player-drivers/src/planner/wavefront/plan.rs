@@ -1291,27 +1291,27 @@ mod tests {
     /// Upstream's `plan_update_waypoints` loop as first written, one sight test after the
     /// other: the reference the shared search must match.
     fn reference_waypoints(p: &Plan, path: &[Cell]) -> Vec<Cell> {
-        let mut out = Vec::new();
         let last = path.len() - 1;
-        let mut at = 0;
-        loop {
-            out.push(path[at]);
-            if at == last {
-                break;
-            }
+        // From waypoint `at`: every step after the free run tested in turn.
+        let next = |at: usize| -> usize {
             let mut run = 0.0;
-            let mut k = at;
-            while k < last {
-                if run > WAYPOINT_FREE_RUN && !p.reachable(path[at], path[k + 1]) {
-                    break;
-                }
-                run += p.scale;
-                k += 1;
-            }
+            (at..last)
+                .find(|&k| {
+                    let blocked = run > WAYPOINT_FREE_RUN && !p.reachable(path[at], path[k + 1]);
+                    run += p.scale;
+                    blocked
+                })
+                .unwrap_or(last)
+        };
+        let mut out = vec![path[0]];
+        let mut at = 0;
+        while at < last {
+            let k = next(at);
             if k == at {
                 break;
             }
             at = k;
+            out.push(path[at]);
         }
         out
     }

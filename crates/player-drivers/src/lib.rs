@@ -40,6 +40,13 @@ mod testing;
 
 pub use error::Error;
 
+/// The cores this process may run on (found once; at least 1), for the drivers that share a
+/// burst of work between threads (amcl's weighing, wavefront's waypoint search).
+pub(crate) fn cores() -> usize {
+    static CORES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
 use player_server::DriverRegistry;
 
 /// Registers every driver of this crate under its Player 3.0.2 name.

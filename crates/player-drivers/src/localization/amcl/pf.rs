@@ -25,12 +25,11 @@ pub const MAX_CLUSTERS: usize = 100;
 /// threads cost more than they save.
 const PARALLEL_CHUNK: usize = 128;
 
-/// How many threads weigh particles: every core (found once; at least 1). An update is a
-/// burst after each scan; the simulation and the server take little of a core between
-/// bursts when they run in real time, which is when amcl runs.
+/// How many threads weigh particles: every core. An update is a burst after each scan; the
+/// simulation and the server take little of a core between bursts when they run in real
+/// time, which is when amcl runs.
 fn sensor_threads() -> usize {
-    static THREADS: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
-    *THREADS.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+    crate::cores()
 }
 
 /// One weighted pose.

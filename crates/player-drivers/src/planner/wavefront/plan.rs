@@ -19,12 +19,6 @@ const MAX_COST: f32 = 1e9;
 /// less than a thread's start).
 const PARALLEL_SIGHT_TESTS: usize = 64;
 
-/// Whether the machine has a second core for waypoint searches (found once).
-fn waypoint_threads() -> usize {
-    static THREADS: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
-    *THREADS.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-}
-
 /// How far along the path (in metres) a waypoint may always reach before straight-line
 /// reachability is tested (upstream's fixed 0.5 m in `plan_update_waypoints`).
 const WAYPOINT_FREE_RUN: f64 = 0.5;
@@ -232,13 +226,8 @@ impl Plan {
     /// leave. The plan is kept: [`Plan::plan_local`] follows its path and [`Plan::carrot`]
     /// its steps.
     pub fn plan(&mut self, start: (f64, f64), goal: (f64, f64)) -> PlanResult {
-        if self.plan_path(start, goal).is_empty() {
-            return PlanResult::default();
-        }
-        let s = self
-            .cell_of(start.0, start.1)
-            .expect("a path starts on the grid");
-        self.result_from(s)
+        let path = self.plan_path(start, goal);
+        self.result_of(path)
     }
 
     /// The wavefront and the path of [`Plan::plan`] without the waypoints (upstream's
@@ -291,7 +280,8 @@ impl Plan {
             self.cells.set_lpath(k, true);
             self.lpath.push(k as u32);
         }
-        Some(self.result_from(s))
+        let path = lpath.into_iter().map(|p| self.cells.cell(p)).collect();
+        Some(self.result_of(path))
     }
 
     /// Upstream's `_plan_find_local_goal`: the global path's cell nearest `s` (in cells), then
@@ -329,31 +319,22 @@ impl Plan {
     fn follow(&self, k: usize) -> Vec<usize> {
         let mut out = vec![k];
         let mut at = k;
-        while let Some(n) = self.next_of(at) {
+        while let Some(n) = self.cells.next_of(at) {
             out.push(n);
             at = n;
         }
         out
     }
 
-    /// The result of the plan just made, as seen from `s`.
-    fn result_from(&self, s: Cell) -> PlanResult {
-        let path: Vec<Cell> = self
-            .follow(self.cells.index(s))
-            .into_iter()
-            .map(|p| self.cells.cell(p))
-            .collect();
+    /// A plan's result from its path (start first; empty when there is none): the path and
+    /// its waypoints in world coordinates.
+    fn result_of(&self, path: Vec<Cell>) -> PlanResult {
         let waypoints = self
             .reduce_to_waypoints(&path)
             .into_iter()
             .map(|c| self.world_of(c))
             .collect();
         PlanResult { path, waypoints }
-    }
-
-    /// Cell `k`'s next step towards the goal of the plan that last reached it.
-    fn next_of(&self, k: usize) -> Option<usize> {
-        self.cells.next_of(k)
     }
 
     /// Upstream's `plan_reset`: costs and next steps forgotten inside the current bounds.
@@ -433,7 +414,7 @@ impl Plan {
         while dist >= self.scale {
             let mut at = sk;
             let mut d = self.scale;
-            while let Some(n) = self.next_of(at) {
+            while let Some(n) = self.cells.next_of(at) {
                 if d >= dist {
                     break;
                 }
@@ -553,7 +534,7 @@ impl Plan {
         use std::sync::atomic::{AtomicUsize, Ordering as Atomic};
         let last = path.len() - 1;
         let misses = |k: usize| !self.reachable(path[at], path[k + 1]);
-        if last - from < PARALLEL_SIGHT_TESTS || waypoint_threads() < 2 {
+        if last - from < PARALLEL_SIGHT_TESTS || crate::cores() < 2 {
             return (from..last).find(|&k| misses(k)).unwrap_or(last);
         }
         let first = AtomicUsize::new(last);

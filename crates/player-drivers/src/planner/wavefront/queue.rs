@@ -134,14 +134,6 @@ impl BucketQueue {
         }
     }
 
-    /// Empties the queue, keeping its room.
-    pub(super) fn clear_buckets(&mut self) {
-        self.ring.iter_mut().for_each(Vec::clear);
-        self.first = 0;
-        self.head = 0;
-        self.count = 0;
-    }
-
     /// The bucket of `cost`.
     #[inline]
     fn bucket(&self, cost: f32) -> u64 {
@@ -154,32 +146,16 @@ impl BucketQueue {
     #[cold]
     fn grow(&mut self, ahead: usize) {
         let size = (ahead + 1).next_power_of_two() * 2;
-        let old = std::mem::take(&mut self.ring);
+        let mut old = std::mem::take(&mut self.ring);
         let old_mask = old.len() - 1;
         let mut ring = vec![Vec::new(); size];
-        let mut old = old;
         for b in self.first..self.first + old.len() as u64 {
             ring[b as usize & (size - 1)] = std::mem::take(&mut old[b as usize & old_mask]);
         }
         self.ring = ring;
     }
 
-    #[inline(always)]
-    fn push_cell(&mut self, cost: f32, cell: u32) {
-        let key = ordered_bits(cost);
-        let b = self.bucket(cost).max(self.first);
-        let ahead = (b - self.first) as usize;
-        self.count += 1;
-        if (ahead == 0 && self.head > 0) || ahead >= self.ring.len() {
-            self.push_rare(ahead, key, cell);
-            return;
-        }
-        let mask = self.ring.len() - 1;
-        self.ring[b as usize & mask].push((key, cell));
-    }
-
-    /// [`BucketQueue::push_cell`] into the first bucket once it is being read, or past the
-    /// ring.
+    /// A push into the first bucket once it is being read, or past the ring.
     #[cold]
     #[inline(never)]
     fn push_rare(&mut self, ahead: usize, key: u32, cell: u32) {
@@ -196,34 +172,11 @@ impl BucketQueue {
         let mask = self.ring.len() - 1;
         self.ring[(self.first as usize + ahead) & mask].push((key, cell));
     }
-
-    #[inline(always)]
-    fn pop_cell(&mut self) -> Option<(f32, u32)> {
-        if self.count == 0 {
-            return None;
-        }
-        let mask = self.ring.len() - 1;
-        loop {
-            let front = &mut self.ring[self.first as usize & mask];
-            if self.head < front.len() {
-                if self.head == 0 {
-                    sort_bucket(front);
-                }
-                let (key, cell) = front[self.head];
-                self.head += 1;
-                self.count -= 1;
-                return Some((cost_of(key), cell));
-            }
-            front.clear();
-            self.first += 1;
-            self.head = 0;
-        }
-    }
 }
 
 /// Sorts a bucket by cost, stably (equal costs stay in the order they were pushed). Buckets
-/// are mostly a few dozen entries pushed nearly in order, which an insertion sort takes in
-/// about one comparison each; longer ones go to the library's merge sort.
+/// hold around ten entries on a building's map, few enough for an insertion sort; longer
+/// ones go to the library's merge sort.
 fn sort_bucket(bucket: &mut [(u32, u32)]) {
     if bucket.len() > 48 {
         bucket.sort_by_key(|&(k, _)| k);
@@ -243,17 +196,47 @@ fn sort_bucket(bucket: &mut [(u32, u32)]) {
 
 impl WaveOrder for BucketQueue {
     fn clear(&mut self) {
-        self.clear_buckets();
+        self.ring.iter_mut().for_each(Vec::clear);
+        self.first = 0;
+        self.head = 0;
+        self.count = 0;
     }
 
-    #[inline]
+    #[inline(always)]
     fn push(&mut self, cost: f32, cell: u32) {
-        self.push_cell(cost, cell);
+        let key = ordered_bits(cost);
+        let b = self.bucket(cost).max(self.first);
+        let ahead = (b - self.first) as usize;
+        self.count += 1;
+        if (ahead == 0 && self.head > 0) || ahead >= self.ring.len() {
+            self.push_rare(ahead, key, cell);
+            return;
+        }
+        let mask = self.ring.len() - 1;
+        self.ring[b as usize & mask].push((key, cell));
     }
 
-    #[inline]
+    #[inline(always)]
     fn pop(&mut self) -> Option<(f32, u32)> {
-        self.pop_cell()
+        if self.count == 0 {
+            return None;
+        }
+        let mask = self.ring.len() - 1;
+        loop {
+            let front = &mut self.ring[self.first as usize & mask];
+            if self.head < front.len() {
+                if self.head == 0 {
+                    sort_bucket(front);
+                }
+                let (key, cell) = front[self.head];
+                self.head += 1;
+                self.count -= 1;
+                return Some((cost_of(key), cell));
+            }
+            front.clear();
+            self.first += 1;
+            self.head = 0;
+        }
     }
 }
 

@@ -133,7 +133,7 @@ fn invert(a: Pose2d) -> Pose2d {
     }
 }
 
-use player_drivers::angle::normalize;
+use pose::angle::normalize_atan2 as normalize;
 
 /// One goal's figures.
 #[derive(Debug, Default)]

@@ -24,7 +24,6 @@
 
 #![warn(missing_docs)]
 
-pub mod angle;
 mod error;
 mod forward;
 pub mod laser;

@@ -13,19 +13,6 @@ use crate::numeric::{Prefix, atof, atoi};
 /// A 2D-plus-height pose `[x y z a]` in metres and radians (heading normalised to [-π, π]).
 pub type Pose = [f64; 4];
 
-/// Normalises an angle to [-π, π] the way Stage does.
-pub fn normalize_angle(mut a: f64) -> f64 {
-    if !a.is_finite() {
-        return a;
-    }
-    // Stage loops adding/subtracting 2π; the remainder gives the same result without a loop.
-    use std::f64::consts::PI;
-    if !(-PI..=PI).contains(&a) {
-        a = (a + PI).rem_euclid(2.0 * PI) - PI;
-    }
-    a
-}
-
 /// Reads properties of one entity, collecting warnings.
 pub struct Reader<'d, 'w> {
     doc: &'d Document,
@@ -291,7 +278,7 @@ impl<'d, 'w> Reader<'d, 'w> {
     pub fn pose(&mut self, name: &str) -> Result<Option<Pose>, Error> {
         Ok(self
             .raw_pose(name)?
-            .map(|p| [p[0], p[1], p[2], normalize_angle(p[3])]))
+            .map(|p| [p[0], p[1], p[2], pose::angle::normalize(p[3])]))
     }
 
     /// A pose as [`Reader::pose`] with the heading as written (Stage keeps ranger transducer
@@ -514,16 +501,5 @@ mod tests {
             Some(ColorSpec::Random)
         );
         assert_eq!(Reader::new(&d, 5, &mut w).color(true).unwrap(), None);
-    }
-
-    #[test]
-    fn normalize() {
-        use std::f64::consts::PI;
-        assert!(
-            (normalize_angle(3.0 * PI) - PI).abs() < 1e-12
-                || (normalize_angle(3.0 * PI) + PI).abs() < 1e-12
-        );
-        assert_eq!(normalize_angle(0.5), 0.5);
-        assert!((normalize_angle(-1.5 * PI) - 0.5 * PI).abs() < 1e-12);
     }
 }

@@ -19,7 +19,7 @@ use crate::models::{
     ActuatorType, CommonSpec, DefaultBody, GripperSpec, Lift, ModelType, Paddles, PositionSpec,
     PowerPackSpec, SensorSpec, TypeSpec,
 };
-use crate::reader::{Pose, Reader, normalize_angle};
+use crate::reader::{Pose, Reader};
 use crate::source::SourceLoc;
 use crate::table::property_table;
 
@@ -310,15 +310,16 @@ impl WorldSpec {
     }
 }
 
-/// `p ⊕ q`: `q`, given in `p`'s frame, expressed in `p`'s parent frame.
+/// `p ⊕ q`: `q`, given in `p`'s frame, expressed in `p`'s parent frame (the shared
+/// [`pose::Pose::compose`], on the file's `[x y z a]` arrays as they are).
 pub fn compose(p: Pose, q: Pose) -> Pose {
-    let (s, c) = p[3].sin_cos();
-    [
-        p[0] + q[0] * c - q[1] * s,
-        p[1] + q[0] * s + q[1] * c,
-        p[2] + q[2],
-        normalize_angle(p[3] + q[3]),
-    ]
+    let frame = |p: Pose| pose::Pose {
+        x: p[0],
+        y: p[1],
+        z: p[2],
+        a: p[3],
+    };
+    frame(p).compose(&frame(q)).to_array()
 }
 
 /// A model being built: its blocks are kept in block units until the end.
@@ -606,7 +607,7 @@ impl<'d> Resolver<'d> {
                         pose[1] += (a.axis[0] * s + a.axis[1] * c) * start;
                         pose[2] += a.axis[2] * start;
                     }
-                    ActuatorType::Rotational => pose[3] = normalize_angle(pose[3] + start),
+                    ActuatorType::Rotational => pose[3] = pose::angle::normalize(pose[3] + start),
                 }
             }
         }

@@ -19,8 +19,8 @@ use player_proto::{
 };
 use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
 
-use crate::angle::{angle_diff, normalize};
 use crate::forward::Waiting;
+use pose::angle::{diff as angle_diff, normalize_atan2 as normalize};
 
 /// The Player name of this driver.
 pub const NAME: &str = "laserposeinterpolator";

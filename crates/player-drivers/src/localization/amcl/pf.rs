@@ -383,7 +383,7 @@ mod tests {
         let target = Pose::new(0.8, -0.6, 0.3);
         let sensor = |p: &Pose| {
             let d2 = (p.x - target.x).powi(2) + (p.y - target.y).powi(2);
-            let da = super::super::pose::normalize_angle(p.z - target.z);
+            let da = ::pose::angle::normalize_atan2(p.z - target.z);
             (-d2 / (2.0 * 0.2f64.powi(2)) - da * da / (2.0 * 0.2f64.powi(2))).exp()
         };
         // Resampling the spread belief as it is keeps many particles: it covers many cells.

@@ -6,11 +6,6 @@ use nalgebra::Vector3;
 /// A planar pose or pose change: x (m), y (m), heading (rad).
 pub type Pose = Vector3<f64>;
 
-/// `a` wrapped into (-pi, pi], the way the filter keeps headings after every composition.
-pub fn normalize_angle(a: f64) -> f64 {
-    crate::angle::normalize(a)
-}
-
 /// The pose `local`, given in the frame of `frame`, expressed in the frame `frame` lives in
 /// (an odometry step applied to a particle, a sensor mounted on a robot).
 pub fn compose(frame: &Pose, local: &Pose) -> Pose {
@@ -18,7 +13,7 @@ pub fn compose(frame: &Pose, local: &Pose) -> Pose {
     Pose::new(
         frame.x + local.x * c - local.y * s,
         frame.y + local.x * s + local.y * c,
-        normalize_angle(frame.z + local.z),
+        ::pose::angle::normalize_atan2(frame.z + local.z),
     )
 }
 
@@ -30,7 +25,7 @@ pub fn relative(frame: &Pose, pose: &Pose) -> Pose {
     Pose::new(
         dx * c + dy * s,
         -dx * s + dy * c,
-        normalize_angle(pose.z - frame.z),
+        ::pose::angle::normalize_atan2(pose.z - frame.z),
     )
 }
 

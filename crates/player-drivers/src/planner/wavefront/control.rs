@@ -72,14 +72,7 @@ pub enum Motion {
 }
 
 /// Upstream's `angle_diff`: the signed difference `a - b`, in (-pi, pi].
-pub fn angle_diff(a: f64, b: f64) -> f64 {
-    let d = (a - b).rem_euclid(2.0 * std::f64::consts::PI);
-    if d > std::f64::consts::PI {
-        d - 2.0 * std::f64::consts::PI
-    } else {
-        d
-    }
-}
+pub use ::pose::angle::diff_rem_euclid as angle_diff;
 
 /// Maps a pose from the localisation frame to the output device's frame, given where both
 /// place the robot now (upstream's `LocalizeToPosition`): the waypoints are planned in the map

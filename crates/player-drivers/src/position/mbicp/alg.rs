@@ -10,7 +10,6 @@
 //! window, trims the worst pairs, and solves the linearised least squares in the metric.
 
 use nalgebra::{Matrix3, Vector3};
-use std::f64::consts::PI;
 
 /// The residual the first iteration's error ratio is taken against (upstream's constant).
 const BIG_INITIAL_ERROR: f64 = 1_000_000.0;
@@ -60,9 +59,7 @@ impl Frame {
 }
 
 /// `a` in (-pi, pi], the way upstream folds angles.
-pub fn normalize(a: f64) -> f64 {
-    a + 2.0 * PI * ((PI - a) / (2.0 * PI)).floor()
-}
+pub use ::pose::angle::fold_floor as normalize;
 
 /// The matcher's tuning, with Player 3.0.2's driver defaults.
 #[derive(Clone, Debug, PartialEq)]
@@ -391,6 +388,7 @@ pub fn match_scans(reference: &[Reading], new: &[Reading], guess: Frame, p: &Par
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use std::f64::consts::PI;
 
     /// Walls of a 6 m x 4 m room with a box and a pillar, so no displacement is ambiguous.
     fn walls() -> Vec<[f64; 4]> {

@@ -21,7 +21,7 @@
 
 use std::f64::consts::PI;
 
-use crate::angle::normalize;
+use pose::angle::normalize_atan2 as normalize;
 
 /// Number of sectors of the nearness diagram (a multiple of 4).
 pub const SECTORS: usize = 180;

@@ -32,10 +32,10 @@ use player_server::{
     RequestTicket,
 };
 
-use crate::angle::{angle_diff, normalize};
 use crate::error::Error;
 use crate::forward::{Waiting, passed_on};
 use crate::options;
+use pose::angle::{diff as angle_diff, normalize_atan2 as normalize};
 
 use alg::{NdParams, Pose, Robot, Velocities};
 

@@ -12,7 +12,7 @@
 
 use std::f64::consts::PI;
 
-use crate::angle::normalize;
+use pose::angle::normalize_atan2 as normalize;
 
 /// The tuning of the algorithm (the driver's options).
 #[derive(Clone, Debug, PartialEq)]

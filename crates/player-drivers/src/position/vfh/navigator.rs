@@ -56,7 +56,7 @@ struct Goal {
 
 /// Signed smallest difference `a - b` between two headings in degrees.
 fn angle_diff_deg(a: f64, b: f64) -> f64 {
-    crate::angle::angle_diff(a.to_radians(), b.to_radians()).to_degrees()
+    pose::angle::diff(a.to_radians(), b.to_radians()).to_degrees()
 }
 
 /// The goal-seeking state of one vfh device.

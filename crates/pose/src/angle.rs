@@ -7,6 +7,7 @@ use std::f64::consts::PI;
 /// Stage's fold into `[-π, π]`: add or subtract a whole turn until inside. Used for every pose
 /// Stage stores (the worldfile's, the simulator's). Non-finite input is returned as it is; a
 /// huge one is first reduced with a remainder so the loop stays short.
+#[inline]
 pub fn normalize(mut a: f64) -> f64 {
     if !a.is_finite() {
         return a;

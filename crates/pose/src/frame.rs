@@ -29,6 +29,7 @@ impl Pose {
     };
 
     /// A pose from its four components (the heading is normalised).
+    #[inline]
     pub fn new(x: f64, y: f64, z: f64, a: f64) -> Pose {
         Pose {
             x,
@@ -39,6 +40,7 @@ impl Pose {
     }
 
     /// A pose from the worldfile's `[x y z a]` (m, rad).
+    #[inline]
     pub fn from_array(p: [f64; 4]) -> Pose {
         Pose::new(p[0], p[1], p[2], p[3])
     }
@@ -49,6 +51,7 @@ impl Pose {
     }
 
     /// `self ⊕ q`: `q`, given in this pose's frame, expressed in this pose's parent frame.
+    #[inline]
     pub fn compose(&self, q: &Pose) -> Pose {
         let (s, c) = self.a.sin_cos();
         Pose {
@@ -68,6 +71,7 @@ impl Pose {
 
     /// The inverse of [`Pose::compose`]: `g` (parent frame) expressed in this pose's frame.
     /// Used by re-parenting (Stage's `GlobalToLocal`), which ignores stacking.
+    #[inline]
     pub fn relative(&self, g: &Pose) -> Pose {
         let (s, c) = self.a.sin_cos();
         let dx = g.x - self.x;

@@ -182,36 +182,64 @@ pub trait Xdr: Sized + Clone + fmt::Debug + 'static {
     fn arbitrary() -> proptest::strategy::BoxedStrategy<Self>;
 }
 
-/// Bulk array conversion for fixed-size scalars: one bounds check per array instead of one per
-/// element, which lets the compiler vectorise the byte swapping (ranges, images of floats).
-macro_rules! bulk_scalar {
-    ($size:literal, $from:expr, $to:expr) => {
-        fn decode_many(r: &mut Reader<'_>, n: usize) -> Result<Vec<Self>, Error> {
-            let len = n.checked_mul($size).ok_or_else(|| {
-                Error::malformed(Problem::Truncated {
-                    needed: usize::MAX,
-                    available: r.remaining(),
-                })
-            })?;
-            let bytes = r.take(len)?;
-            Ok(bytes
-                .chunks_exact($size)
-                .map(|c| {
-                    let mut word = [0u8; $size];
-                    word.copy_from_slice(c);
-                    $from(word)
-                })
-                .collect())
-        }
-
-        fn encode_many(items: &[Self], out: &mut Vec<u8>) -> Result<(), Error> {
-            let start = out.len();
-            out.resize(start + items.len() * $size, 0);
-            for (dst, item) in out[start..].chunks_exact_mut($size).zip(items) {
-                dst.copy_from_slice(&$to(*item));
+/// Implements [`Xdr`] and [`Elem`] for a 4- or 8-byte scalar: `$from`/`$to` convert between
+/// the value and its big-endian bytes, `$value`/`$parse` between the value and its field-map
+/// view. Arrays convert in bulk: one bounds check per array instead of one per element, which
+/// lets the compiler vectorise the byte swapping (ranges, images of floats).
+macro_rules! fixed_scalar {
+    (
+        $t:ty, $size:literal, $from:expr, $to:expr,
+        value: |$x:ident| $value:expr,
+        parse: |$v:ident| $parse:expr,
+        arbitrary: $arb:expr $(,)?
+    ) => {
+        impl Xdr for $t {
+            const MIN_SIZE: usize = $size;
+            fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
+                out.extend_from_slice(&$to(*self));
+                Ok(())
             }
-            Ok(())
+            fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
+                r.array::<$size>().map($from)
+            }
+            fn to_value(&self) -> Value {
+                let $x = *self;
+                $value
+            }
+            fn from_value($v: &Value) -> Result<Self, Error> {
+                $parse
+            }
+            fn decode_many(r: &mut Reader<'_>, n: usize) -> Result<Vec<Self>, Error> {
+                let len = n.checked_mul($size).ok_or_else(|| {
+                    Error::malformed(Problem::Truncated {
+                        needed: usize::MAX,
+                        available: r.remaining(),
+                    })
+                })?;
+                let bytes = r.take(len)?;
+                Ok(bytes
+                    .chunks_exact($size)
+                    .map(|c| {
+                        let mut word = [0u8; $size];
+                        word.copy_from_slice(c);
+                        $from(word)
+                    })
+                    .collect())
+            }
+            fn encode_many(items: &[Self], out: &mut Vec<u8>) -> Result<(), Error> {
+                let start = out.len();
+                out.resize(start + items.len() * $size, 0);
+                for (dst, item) in out[start..].chunks_exact_mut($size).zip(items) {
+                    dst.copy_from_slice(&$to(*item));
+                }
+                Ok(())
+            }
+            #[cfg(test)]
+            fn arbitrary() -> BoxedStrategy<Self> {
+                $arb.boxed()
+            }
         }
+        impl Elem for $t {}
     };
 }
 
@@ -292,51 +320,16 @@ widened!(i16, "int16_t", |w| w as i32, any::<i16>());
 impl Elem for u16 {}
 impl Elem for i16 {}
 
-impl Xdr for u32 {
-    bulk_scalar!(4, u32::from_be_bytes, u32::to_be_bytes);
-    const MIN_SIZE: usize = 4;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        out.extend_from_slice(&self.to_be_bytes());
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        r.word()
-    }
-    fn to_value(&self) -> Value {
-        Value::Int(i64::from(*self))
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        Ok(v.int_in(0, i64::from(u32::MAX), "uint32_t")? as u32)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        any::<u32>().boxed()
-    }
-}
-impl Elem for u32 {}
-
-impl Xdr for i32 {
-    bulk_scalar!(4, i32::from_be_bytes, i32::to_be_bytes);
-    const MIN_SIZE: usize = 4;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        out.extend_from_slice(&self.to_be_bytes());
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        r.word().map(|w| w as i32)
-    }
-    fn to_value(&self) -> Value {
-        Value::Int(i64::from(*self))
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        Ok(v.int_in(i64::from(i32::MIN), i64::from(i32::MAX), "int32_t")? as i32)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        any::<i32>().boxed()
-    }
-}
-impl Elem for i32 {}
+fixed_scalar!(u32, 4, u32::from_be_bytes, u32::to_be_bytes,
+    value: |x| Value::Int(i64::from(x)),
+    parse: |v| Ok(v.int_in(0, i64::from(u32::MAX), "uint32_t")? as u32),
+    arbitrary: any::<u32>(),
+);
+fixed_scalar!(i32, 4, i32::from_be_bytes, i32::to_be_bytes,
+    value: |x| Value::Int(i64::from(x)),
+    parse: |v| Ok(v.int_in(i64::from(i32::MIN), i64::from(i32::MAX), "int32_t")? as i32),
+    arbitrary: any::<i32>(),
+);
 
 /// f32 → f64 keeping NaN payloads bit for bit (hardware conversion quiets signalling NaNs,
 /// and a float member may hold any bits: libplayerc sends some uninitialised).
@@ -361,22 +354,9 @@ fn narrow_f64(x: f64) -> f32 {
     }
 }
 
-impl Xdr for f32 {
-    bulk_scalar!(4, |w| f32::from_bits(u32::from_be_bytes(w)), |x: f32| x
-        .to_bits()
-        .to_be_bytes());
-    const MIN_SIZE: usize = 4;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        out.extend_from_slice(&self.to_bits().to_be_bytes());
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        r.word().map(f32::from_bits)
-    }
-    fn to_value(&self) -> Value {
-        Value::Float(widen_f32(*self))
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
+fixed_scalar!(f32, 4, |w| f32::from_bits(u32::from_be_bytes(w)), |x: f32| x.to_bits().to_be_bytes(),
+    value: |x| Value::Float(widen_f32(x)),
+    parse: |v| {
         let x = v.number()?;
         let f = narrow_f64(x);
         // The vectors only hold exactly representable values; anything else is a mistake.
@@ -386,39 +366,15 @@ impl Xdr for f32 {
             )));
         }
         Ok(f)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        // Every bit pattern, NaN payloads included: the codec must carry them unchanged.
-        any::<u32>().prop_map(f32::from_bits).boxed()
-    }
-}
-impl Elem for f32 {}
-
-impl Xdr for f64 {
-    bulk_scalar!(8, |w| f64::from_bits(u64::from_be_bytes(w)), |x: f64| x
-        .to_bits()
-        .to_be_bytes());
-    const MIN_SIZE: usize = 8;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        out.extend_from_slice(&self.to_bits().to_be_bytes());
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        r.hyper().map(f64::from_bits)
-    }
-    fn to_value(&self) -> Value {
-        Value::Float(*self)
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        v.number()
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        any::<u64>().prop_map(f64::from_bits).boxed()
-    }
-}
-impl Elem for f64 {}
+    },
+    // Every bit pattern, NaN payloads included: the codec must carry them unchanged.
+    arbitrary: any::<u32>().prop_map(f32::from_bits),
+);
+fixed_scalar!(f64, 8, |w| f64::from_bits(u64::from_be_bytes(w)), |x: f64| x.to_bits().to_be_bytes(),
+    value: |x| Value::Float(x),
+    parse: |v| v.number(),
+    arbitrary: any::<u64>().prop_map(f64::from_bits),
+);
 
 impl Xdr for InterfaceCode {
     const MIN_SIZE: usize = 4;

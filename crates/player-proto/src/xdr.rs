@@ -468,100 +468,76 @@ impl<T: Elem> Counted for Vec<T> {
     }
 }
 
-/// Byte-packed `uint8_t` array (`xdr_bytes`): images, intensities, bumper states, raw values.
-impl Xdr for Vec<u8> {
-    const MIN_SIZE: usize = 8;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        put_len(out, self.len())?;
-        put_opaque(out, self);
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        let n = r.array_len(None, 1)?;
-        r.opaque(n).map(<[u8]>::to_vec)
-    }
-    fn to_value(&self) -> Value {
-        Value::List(self.iter().map(|&b| Value::Int(i64::from(b))).collect())
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        v.list()?
-            .iter()
-            .map(|b| b.int_in(0, 255, "uint8_t").map(|b| b as u8))
-            .collect()
-    }
-    fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
-        put_counted(name, self.len(), self.to_value(), out);
-    }
-    fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
-        take_counted(name, members)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        Self::arbitrary_max(13)
-    }
+/// Implements [`Xdr`] and [`Counted`] for a byte-packed array of an 8-bit type (`xdr_bytes`):
+/// a length word, one byte per element, zero padding. `$bytes` gives the slice's wire bytes,
+/// `$elems` the elements of received bytes, `$min..=$max` bounds the field-map integers.
+macro_rules! byte_packed {
+    (
+        $t:ty, $c:literal, $min:literal..=$max:literal,
+        bytes: |$s:ident| $bytes:expr,
+        elems: |$b:ident| $elems:expr $(,)?
+    ) => {
+        impl Xdr for Vec<$t> {
+            const MIN_SIZE: usize = 8;
+            fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
+                put_len(out, self.len())?;
+                let $s: &[$t] = self;
+                put_opaque(out, &$bytes);
+                Ok(())
+            }
+            fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
+                let n = r.array_len(None, 1)?;
+                let $b = r.opaque(n)?;
+                Ok($elems)
+            }
+            fn to_value(&self) -> Value {
+                Value::List(self.iter().map(|&e| Value::Int(i64::from(e))).collect())
+            }
+            fn from_value(v: &Value) -> Result<Self, Error> {
+                v.list()?
+                    .iter()
+                    .map(|e| e.int_in($min, $max, $c).map(|e| e as $t))
+                    .collect()
+            }
+            fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
+                put_counted(name, self.len(), self.to_value(), out);
+            }
+            fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
+                take_counted(name, members)
+            }
+            #[cfg(test)]
+            fn arbitrary() -> BoxedStrategy<Self> {
+                Self::arbitrary_max(13)
+            }
+        }
+
+        impl Counted for Vec<$t> {
+            fn count(&self) -> usize {
+                self.len()
+            }
+            fn decode_max(r: &mut Reader<'_>, max: usize) -> Result<Self, Error> {
+                let n = r.array_len(Some(max), 1)?;
+                let $b = r.opaque(n)?;
+                Ok($elems)
+            }
+            #[cfg(test)]
+            fn arbitrary_max(max: usize) -> BoxedStrategy<Self> {
+                proptest::collection::vec(any::<$t>(), 0..=max.min(13)).boxed()
+            }
+        }
+    };
 }
 
-impl Counted for Vec<u8> {
-    fn count(&self) -> usize {
-        self.len()
-    }
-    fn decode_max(r: &mut Reader<'_>, max: usize) -> Result<Self, Error> {
-        let n = r.array_len(Some(max), 1)?;
-        r.opaque(n).map(<[u8]>::to_vec)
-    }
-    #[cfg(test)]
-    fn arbitrary_max(max: usize) -> BoxedStrategy<Self> {
-        proptest::collection::vec(any::<u8>(), 0..=max.min(13)).boxed()
-    }
-}
-
-/// Byte-packed `int8_t` array (map cells: -1 free, 0 unknown, +1 occupied).
-impl Xdr for Vec<i8> {
-    const MIN_SIZE: usize = 8;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        put_len(out, self.len())?;
-        let bytes: Vec<u8> = self.iter().map(|&c| c as u8).collect();
-        put_opaque(out, &bytes);
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        let n = r.array_len(None, 1)?;
-        Ok(r.opaque(n)?.iter().map(|&b| b as i8).collect())
-    }
-    fn to_value(&self) -> Value {
-        Value::List(self.iter().map(|&c| Value::Int(i64::from(c))).collect())
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        v.list()?
-            .iter()
-            .map(|c| c.int_in(-128, 127, "int8_t").map(|c| c as i8))
-            .collect()
-    }
-    fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
-        put_counted(name, self.len(), self.to_value(), out);
-    }
-    fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
-        take_counted(name, members)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        proptest::collection::vec(any::<i8>(), 0..=13).boxed()
-    }
-}
-
-impl Counted for Vec<i8> {
-    fn count(&self) -> usize {
-        self.len()
-    }
-    fn decode_max(r: &mut Reader<'_>, max: usize) -> Result<Self, Error> {
-        let n = r.array_len(Some(max), 1)?;
-        Ok(r.opaque(n)?.iter().map(|&b| b as i8).collect())
-    }
-    #[cfg(test)]
-    fn arbitrary_max(max: usize) -> BoxedStrategy<Self> {
-        proptest::collection::vec(any::<i8>(), 0..=max.min(13)).boxed()
-    }
-}
+// Images, intensities, bumper states, raw values: the bytes as they are.
+byte_packed!(u8, "uint8_t", 0..=255,
+    bytes: |s| Cow::Borrowed(s),
+    elems: |b| b.to_vec(),
+);
+// Map cells (-1 free, 0 unknown, +1 occupied): two's complement bytes.
+byte_packed!(i8, "int8_t", -128..=127,
+    bytes: |s| Cow::<[u8]>::Owned(s.iter().map(|&c| c as u8).collect()),
+    elems: |b| b.iter().map(|&b| b as i8).collect(),
+);
 
 /// Fixed array without a count member (`xdr_vector`): exactly N elements, no length word.
 impl<T: Elem + Default + Copy, const N: usize> Xdr for [T; N] {

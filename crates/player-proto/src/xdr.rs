@@ -396,6 +396,19 @@ impl Xdr for InterfaceCode {
     }
 }
 
+/// The field-map members of an array with a count member (`name_count`, then `name`):
+/// [`Xdr::put_member`] and [`Xdr::take_member`] of every counted array's impl.
+macro_rules! counted_members {
+    () => {
+        fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
+            put_counted(name, self.len(), self.to_value(), out);
+        }
+        fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
+            take_counted(name, members)
+        }
+    };
+}
+
 /// Shared by the counted-array impls: `name_count` then `name`, as in the C struct.
 fn put_counted(name: &str, count: usize, value: Value, out: &mut Vec<(String, Value)>) {
     out.push((format!("{name}_count"), Value::Int(count as i64)));
@@ -437,12 +450,7 @@ impl<T: Elem> Xdr for Vec<T> {
     fn from_value(v: &Value) -> Result<Self, Error> {
         v.list()?.iter().map(T::from_value).collect()
     }
-    fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
-        put_counted(name, self.len(), self.to_value(), out);
-    }
-    fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
-        take_counted(name, members)
-    }
+    counted_members!();
     #[cfg(test)]
     fn arbitrary() -> BoxedStrategy<Self> {
         Self::arbitrary_max(5)
@@ -499,12 +507,7 @@ macro_rules! byte_packed {
                     .map(|e| e.int_in($min, $max, $c).map(|e| e as $t))
                     .collect()
             }
-            fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
-                put_counted(name, self.len(), self.to_value(), out);
-            }
-            fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
-                take_counted(name, members)
-            }
+            counted_members!();
             #[cfg(test)]
             fn arbitrary() -> BoxedStrategy<Self> {
                 Self::arbitrary_max(13)
@@ -662,12 +665,7 @@ impl Xdr for Text {
             ))),
         }
     }
-    fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
-        put_counted(name, self.len(), self.to_value(), out);
-    }
-    fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
-        take_counted(name, members)
-    }
+    counted_members!();
     #[cfg(test)]
     fn arbitrary() -> BoxedStrategy<Self> {
         Self::arbitrary_max(13)

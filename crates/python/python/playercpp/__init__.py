@@ -57,6 +57,16 @@ def _field(name):
     return get
 
 
+def _element(name):
+    """A libplayerc++ indexed getter (``GetRange(i)``, ...) that returns element ``i`` of the
+    playerc proxy's array field ``name``: one line per getter instead of a method each."""
+
+    def get(self, aIndex):
+        return getattr(self._dev, name)[aIndex]
+
+    return get
+
+
 class _forward:
     """A libplayerc++ method that passes its arguments to the playerc proxy's ``method`` and
     raises :class:`PlayerError` (naming the method) when that fails: one line per such method
@@ -265,25 +275,13 @@ class RangerProxy(ClientProxy):
     GetElementCount = _field("element_count")
     GetDevicePose = _field("device_pose")
     GetDeviceSize = _field("device_size")
-
-    def GetElementPose(self, aIndex):
-        return self._dev.element_poses[aIndex]
-
-    def GetElementSize(self, aIndex):
-        return self._dev.element_sizes[aIndex]
-
+    GetElementPose = _element("element_poses")
+    GetElementSize = _element("element_sizes")
     GetRangeCount = _field("ranges_count")
-
-    def GetRange(self, aIndex):
-        return self._dev.ranges[aIndex]
-
-    def __getitem__(self, aIndex):
-        return self.GetRange(aIndex)
-
+    GetRange = _element("ranges")
+    __getitem__ = GetRange
     GetIntensityCount = _field("intensities_count")
-
-    def GetIntensity(self, aIndex):
-        return self._dev.intensities[aIndex]
+    GetIntensity = _element("intensities")
 
     def SetPower(self, aEnable):
         self._ok("SetPower", self._dev.power_config(1 if aEnable else 0))
@@ -326,11 +324,8 @@ class LaserProxy(ClientProxy):
     def GetBearing(self, aIndex):
         return self._dev.scan[aIndex][1]
 
-    def __getitem__(self, aIndex):
-        return self.GetRange(aIndex)
-
-    def GetIntensity(self, aIndex):
-        return self._dev.intensity[aIndex]
+    __getitem__ = GetRange
+    GetIntensity = _element("intensity")
 
     def GetPoint(self, aIndex):
         x, y = self._dev.point[aIndex]
@@ -371,13 +366,8 @@ class SonarProxy(ClientProxy):
     _playerc = _pc.playerc_sonar
 
     GetCount = _field("scan_count")
-
-    def GetScan(self, aIndex):
-        return self._dev.scan[aIndex]
-
-    def __getitem__(self, aIndex):
-        return self.GetScan(aIndex)
-
+    GetScan = _element("scan")
+    __getitem__ = GetScan
     GetPoseCount = _field("pose_count")
 
     def GetPose(self, aIndex):
@@ -393,13 +383,8 @@ class BlobfinderProxy(ClientProxy):
     _playerc = _pc.playerc_blobfinder
 
     GetCount = _field("blobs_count")
-
-    def GetBlob(self, aIndex):
-        return self._dev.blobs[aIndex]
-
-    def __getitem__(self, aIndex):
-        return self.GetBlob(aIndex)
-
+    GetBlob = _element("blobs")
+    __getitem__ = GetBlob
     GetWidth = _field("width")
     GetHeight = _field("height")
 
@@ -410,12 +395,8 @@ class FiducialProxy(ClientProxy):
     _playerc = _pc.playerc_fiducial
 
     GetCount = _field("fiducials_count")
-
-    def GetFiducialItem(self, aIndex):
-        return self._dev.fiducials[aIndex]
-
-    def __getitem__(self, aIndex):
-        return self.GetFiducialItem(aIndex)
+    GetFiducialItem = _element("fiducials")
+    __getitem__ = GetFiducialItem
 
     def GetSensorPose(self):
         return self._dev.fiducial_geom.pose
@@ -601,9 +582,7 @@ class LocalizeProxy(ClientProxy):
     GetPendingCount = _field("pending_count")
     GetPendingTime = _field("pending_time")
     GetHypothCount = _field("hypoth_count")
-
-    def GetHypoth(self, aIndex):
-        return self._dev.hypoths[aIndex]
+    GetHypoth = _element("hypoths")
 
     def GetParticles(self):
         self._ok("GetParticles", self._dev.get_particles())

@@ -124,6 +124,16 @@ fn wall_seconds() -> f64 {
         .unwrap_or(0.0)
 }
 
+/// The rule action of libplayerc++'s `SetReplaceRule(replace, ...)`: keep only the newest
+/// queued message (`replace`) or all of them.
+pub(crate) fn replace_action(replace: bool) -> i32 {
+    if replace {
+        PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
+    } else {
+        PLAYER_PLAYER_MSG_REPLACE_RULE_ACCEPT
+    }
+}
+
 /// The address libplayerc writes into player-interface requests.
 fn player_addr() -> DeviceAddr {
     DeviceAddr::new(0, 0, InterfaceCode::PLAYER, 0)
@@ -242,12 +252,7 @@ impl PlayerClient {
         subtype: i32,
         interf: i32,
     ) -> Result<(), ClientError> {
-        let action = if replace {
-            PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
-        } else {
-            PLAYER_PLAYER_MSG_REPLACE_RULE_ACCEPT
-        };
-        self.add_replace_rule(interf, -1, msg_type, subtype, action)
+        self.add_replace_rule(interf, -1, msg_type, subtype, replace_action(replace))
     }
 
     /// `playerc_client_set_replace_rule`: any rule, any action (0 accept, 1 replace,

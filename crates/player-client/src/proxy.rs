@@ -4,13 +4,10 @@
 //! A proxy subscribes when created and unsubscribes when dropped. Data accessors return the
 //! values of the latest DATA received by [`PlayerClient::read`] (`None` before the first).
 
-use player_proto::constants::{
-    PLAYER_GRIPPER_STATE_CLOSED, PLAYER_PLAYER_MSG_REPLACE_RULE_ACCEPT,
-    PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE,
-};
+use player_proto::constants::PLAYER_GRIPPER_STATE_CLOSED;
 use player_proto::*;
 
-use crate::client::PlayerClient;
+use crate::client::{PlayerClient, replace_action};
 use crate::error::ClientError;
 
 /// A subscribed device: the part every typed proxy shares.
@@ -122,17 +119,12 @@ impl ClientProxy {
         msg_type: i32,
         subtype: i32,
     ) -> Result<(), ClientError> {
-        let action = if replace {
-            PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
-        } else {
-            PLAYER_PLAYER_MSG_REPLACE_RULE_ACCEPT
-        };
         self.client.add_replace_rule(
             i32::from(self.interf.0),
             i32::from(self.index),
             msg_type,
             subtype,
-            action,
+            replace_action(replace),
         )
     }
 
@@ -302,12 +294,24 @@ macro_rules! proxy {
     };
 }
 
-/// Pulls the typed ACK body out of a reply, or a `BadReply` error.
-macro_rules! ack_body {
-    ($proxy:expr, $reply:expr, $pat:pat => $out:expr, $what:literal) => {
-        match $reply {
+/// Sends a request and pulls the typed ACK body out of the reply (`$pat => $out`), or a
+/// `BadReply` error naming `$what`.
+macro_rules! request_ack {
+    ($proxy:expr, $req:expr, $pat:pat => $out:expr, $what:literal) => {
+        match $proxy.request($req)? {
             Some($pat) => Ok($out),
             _ => Err($proxy.bad_reply($what)),
+        }
+    };
+}
+
+/// The latest DATA of subtype `$sub` as `$out` (`None` before the first or when the body is
+/// not `$pat`).
+macro_rules! latest_data {
+    ($proxy:expr, $sub:expr, $pat:pat => $out:expr) => {
+        match $proxy.latest($sub) {
+            Some($pat) => Some($out),
+            _ => None,
         }
     };
 }
@@ -321,10 +325,8 @@ proxy!(
 impl Position2dProxy {
     /// The latest odometry state.
     pub fn state(&self) -> Option<Position2dDataState> {
-        match self.latest(Position2dData::STATE)? {
-            Body::Position2d(Position2dMsg::Data(Position2dData::State(s))) => Some(s),
-            _ => None,
-        }
+        latest_data!(self, Position2dData::STATE,
+            Body::Position2d(Position2dMsg::Data(Position2dData::State(s))) => s)
     }
 
     /// Pose (m, m, rad); zero before the first data.
@@ -399,8 +401,7 @@ impl Position2dProxy {
 
     /// The base's geometry (`RequestGeom`).
     pub fn request_geom(&self) -> Result<Position2dGeom, ClientError> {
-        let reply = self.request(Position2dReq::GetGeom(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, Position2dReq::GetGeom(None),
             Body::Position2d(Position2dMsg::Ack(Position2dReq::GetGeom(Some(g)))) => g,
             "position2d GET_GEOM")
     }
@@ -416,10 +417,8 @@ proxy!(
 impl PlannerProxy {
     /// The latest planner state.
     pub fn data(&self) -> Option<PlannerData> {
-        match self.latest(PlannerDataMsg::STATE)? {
-            Body::Planner(PlannerMsg::Data(PlannerDataMsg::State(d))) => Some(d),
-            _ => None,
-        }
+        latest_data!(self, PlannerDataMsg::STATE,
+            Body::Planner(PlannerMsg::Data(PlannerDataMsg::State(d))) => d)
     }
 
     /// Where the robot is (m, m, rad; libplayerc's `px, py, pa`).
@@ -471,8 +470,7 @@ impl PlannerProxy {
 
     /// The plan's waypoints (`playerc_planner_get_waypoints`).
     pub fn request_waypoints(&self) -> Result<Vec<Pose2d>, ClientError> {
-        let reply = self.request(PlannerReq::GetWaypoints(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, PlannerReq::GetWaypoints(None),
             Body::Planner(PlannerMsg::Ack(PlannerReq::GetWaypoints(Some(w)))) => w.waypoints,
             "planner GET_WAYPOINTS")
     }
@@ -497,10 +495,8 @@ proxy!(
 impl LocalizeProxy {
     /// The latest hypotheses (libplayerc's `hypoths`, `pending_count`, `pending_time`).
     pub fn data(&self) -> Option<LocalizeDataHypoths> {
-        match self.latest(LocalizeData::HYPOTHS)? {
-            Body::Localize(LocalizeMsg::Data(LocalizeData::Hypoths(h))) => Some(h),
-            _ => None,
-        }
+        latest_data!(self, LocalizeData::HYPOTHS,
+            Body::Localize(LocalizeMsg::Data(LocalizeData::Hypoths(h))) => h)
     }
 
     /// The hypotheses of the latest data, as libplayerc's `hypoths` array (empty before the
@@ -526,8 +522,7 @@ impl LocalizeProxy {
 
     /// The filter's particles, their mean and variance (`playerc_localize_get_particles`).
     pub fn request_particles(&self) -> Result<LocalizeGetParticles, ClientError> {
-        let reply = self.request(LocalizeReq::GetParticles(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, LocalizeReq::GetParticles(None),
             Body::Localize(LocalizeMsg::Ack(LocalizeReq::GetParticles(Some(p)))) => p,
             "localize GET_PARTICLES")
     }
@@ -542,40 +537,35 @@ proxy!(
 impl RangerProxy {
     /// The latest ranges (m).
     pub fn ranges(&self) -> Vec<f64> {
-        match self.latest(RangerData::RANGE) {
-            Some(Body::Ranger(RangerMsg::Data(RangerData::Range(r)))) => r.ranges,
-            _ => Vec::new(),
-        }
+        latest_data!(self, RangerData::RANGE,
+            Body::Ranger(RangerMsg::Data(RangerData::Range(r))) => r.ranges)
+        .unwrap_or_default()
     }
 
     /// The latest intensities.
     pub fn intensities(&self) -> Vec<f64> {
-        match self.latest(RangerData::INTNS) {
-            Some(Body::Ranger(RangerMsg::Data(RangerData::Intns(r)))) => r.intensities,
-            _ => Vec::new(),
-        }
+        latest_data!(self, RangerData::INTNS,
+            Body::Ranger(RangerMsg::Data(RangerData::Intns(r))) => r.intensities)
+        .unwrap_or_default()
     }
 
     /// The sensor geometry (`RequestGeom`).
     pub fn request_geom(&self) -> Result<RangerGeom, ClientError> {
-        let reply = self.request(RangerReq::GetGeom(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, RangerReq::GetGeom(None),
             Body::Ranger(RangerMsg::Ack(RangerReq::GetGeom(Some(g)))) => g,
             "ranger GET_GEOM")
     }
 
     /// The scan configuration (`RequestConfigure`).
     pub fn request_config(&self) -> Result<RangerConfig, ClientError> {
-        let reply = self.request(RangerReq::GetConfig(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, RangerReq::GetConfig(None),
             Body::Ranger(RangerMsg::Ack(RangerReq::GetConfig(Some(c)))) => c,
             "ranger GET_CONFIG")
     }
 
     /// Changes the configuration (`Configure`); returns what the device applied.
     pub fn configure(&self, config: RangerConfig) -> Result<RangerConfig, ClientError> {
-        let reply = self.request(RangerReq::SetConfig(Some(config)))?;
-        ack_body!(self, reply,
+        request_ack!(self, RangerReq::SetConfig(Some(config)),
             Body::Ranger(RangerMsg::Ack(RangerReq::SetConfig(Some(c)))) => c,
             "ranger SET_CONFIG")
     }
@@ -590,10 +580,8 @@ proxy!(
 impl LaserProxy {
     /// The latest scan.
     pub fn scan(&self) -> Option<LaserDataScan> {
-        match self.latest(LaserData::SCAN)? {
-            Body::Laser(LaserMsg::Data(LaserData::Scan(s))) => Some(s),
-            _ => None,
-        }
+        latest_data!(self, LaserData::SCAN,
+            Body::Laser(LaserMsg::Data(LaserData::Scan(s))) => s)
     }
 
     /// The latest ranges (m).
@@ -604,24 +592,20 @@ impl LaserProxy {
     /// The latest pose-stamped scan (SCANPOSE, e.g. from `laserposeinterpolator`): libplayerc
     /// keeps its pose as the laser's `robot_pose`.
     pub fn scan_pose(&self) -> Option<LaserDataScanpose> {
-        match self.latest(LaserData::SCANPOSE)? {
-            Body::Laser(LaserMsg::Data(LaserData::ScanPose(s))) => Some(s),
-            _ => None,
-        }
+        latest_data!(self, LaserData::SCANPOSE,
+            Body::Laser(LaserMsg::Data(LaserData::ScanPose(s))) => s)
     }
 
     /// The scanner geometry (`RequestGeom`).
     pub fn request_geom(&self) -> Result<LaserGeom, ClientError> {
-        let reply = self.request(LaserReq::GetGeom(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, LaserReq::GetGeom(None),
             Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(g)))) => g,
             "laser GET_GEOM")
     }
 
     /// The scan configuration (`RequestConfigure`).
     pub fn request_config(&self) -> Result<LaserConfig, ClientError> {
-        let reply = self.request(LaserReq::GetConfig(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, LaserReq::GetConfig(None),
             Body::Laser(LaserMsg::Ack(LaserReq::GetConfig(Some(c)))) => c,
             "laser GET_CONFIG")
     }
@@ -631,8 +615,7 @@ impl LaserProxy {
     /// SICK LMS200 echoes the request; a ranger served as a laser reports the rays it
     /// chose); a device that cannot do it refuses ([`ClientError::Nack`]).
     pub fn configure(&self, config: LaserConfig) -> Result<LaserConfig, ClientError> {
-        let reply = self.request(LaserReq::SetConfig(Some(config)))?;
-        ack_body!(self, reply,
+        request_ack!(self, LaserReq::SetConfig(Some(config)),
             Body::Laser(LaserMsg::Ack(LaserReq::SetConfig(Some(c)))) => c,
             "laser SET_CONFIG")
     }
@@ -647,16 +630,14 @@ proxy!(
 impl SonarProxy {
     /// The latest ranges (m).
     pub fn ranges(&self) -> Vec<f32> {
-        match self.latest(SonarData::RANGES) {
-            Some(Body::Sonar(SonarMsg::Data(SonarData::Ranges(r)))) => r.ranges,
-            _ => Vec::new(),
-        }
+        latest_data!(self, SonarData::RANGES,
+            Body::Sonar(SonarMsg::Data(SonarData::Ranges(r))) => r.ranges)
+        .unwrap_or_default()
     }
 
     /// The transducer poses (`RequestGeom`).
     pub fn request_geom(&self) -> Result<SonarGeom, ClientError> {
-        let reply = self.request(SonarReq::GetGeom(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, SonarReq::GetGeom(None),
             Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g)))) => g,
             "sonar GET_GEOM")
     }
@@ -671,10 +652,8 @@ proxy!(
 impl BlobfinderProxy {
     /// The latest detection frame.
     pub fn data(&self) -> Option<BlobfinderDataBlobs> {
-        match self.latest(BlobfinderData::BLOBS)? {
-            Body::Blobfinder(BlobfinderMsg::Data(BlobfinderData::Blobs(b))) => Some(b),
-            _ => None,
-        }
+        latest_data!(self, BlobfinderData::BLOBS,
+            Body::Blobfinder(BlobfinderMsg::Data(BlobfinderData::Blobs(b))) => b)
     }
 
     /// The latest blobs.
@@ -692,16 +671,14 @@ proxy!(
 impl FiducialProxy {
     /// The latest detections.
     pub fn fiducials(&self) -> Vec<FiducialItem> {
-        match self.latest(FiducialData::SCAN) {
-            Some(Body::Fiducial(FiducialMsg::Data(FiducialData::Scan(s)))) => s.fiducials,
-            _ => Vec::new(),
-        }
+        latest_data!(self, FiducialData::SCAN,
+            Body::Fiducial(FiducialMsg::Data(FiducialData::Scan(s))) => s.fiducials)
+        .unwrap_or_default()
     }
 
     /// The detector geometry (`RequestGeometry`).
     pub fn request_geometry(&self) -> Result<FiducialGeom, ClientError> {
-        let reply = self.request(FiducialReq::GetGeom(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, FiducialReq::GetGeom(None),
             Body::Fiducial(FiducialMsg::Ack(FiducialReq::GetGeom(Some(g)))) => g,
             "fiducial GET_GEOM")
     }
@@ -716,10 +693,8 @@ proxy!(
 impl GripperProxy {
     /// The latest state.
     pub fn data(&self) -> Option<GripperDataState> {
-        match self.latest(GripperData::STATE)? {
-            Body::Gripper(GripperMsg::Data(GripperData::State(s))) => Some(s),
-            _ => None,
-        }
+        latest_data!(self, GripperData::STATE,
+            Body::Gripper(GripperMsg::Data(GripperData::State(s))) => s)
     }
 
     /// `PLAYER_GRIPPER_STATE_*` of the latest data (0 before any).
@@ -754,8 +729,7 @@ impl GripperProxy {
 
     /// The gripper geometry (`RequestGeometry`).
     pub fn request_geometry(&self) -> Result<GripperGeom, ClientError> {
-        let reply = self.request(GripperReq::GetGeom(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, GripperReq::GetGeom(None),
             Body::Gripper(GripperMsg::Ack(GripperReq::GetGeom(Some(g)))) => g,
             "gripper GET_GEOM")
     }
@@ -770,11 +744,11 @@ proxy!(
 impl SimulationProxy {
     /// A model's pose in its parent's frame (`GetPose2d`).
     pub fn get_pose2d(&self, name: &str) -> Result<Pose2d, ClientError> {
-        let reply = self.request(SimulationReq::GetPose2d(Some(SimulationPose2dReq {
+        let req = SimulationReq::GetPose2d(Some(SimulationPose2dReq {
             name: Text::new(name),
             pose: Pose2d::default(),
-        })))?;
-        ack_body!(self, reply,
+        }));
+        request_ack!(self, req,
             Body::Simulation(SimulationMsg::Ack(SimulationReq::GetPose2d(Some(r)))) => r.pose,
             "simulation GET_POSE2D")
     }
@@ -794,11 +768,11 @@ impl SimulationProxy {
 
     /// A model's 3D pose and the simulation time in µs (`GetPose3d`).
     pub fn get_pose3d(&self, name: &str) -> Result<(Pose3d, f64), ClientError> {
-        let reply = self.request(SimulationReq::GetPose3d(Some(SimulationPose3dReq {
+        let req = SimulationReq::GetPose3d(Some(SimulationPose3dReq {
             name: Text::new(name),
             ..SimulationPose3dReq::default()
-        })))?;
-        ack_body!(self, reply,
+        }));
+        request_ack!(self, req,
             Body::Simulation(SimulationMsg::Ack(SimulationReq::GetPose3d(Some(r)))) => (r.pose, r.simtime),
             "simulation GET_POSE3D")
     }
@@ -820,13 +794,13 @@ impl SimulationProxy {
         prop: &str,
         size: usize,
     ) -> Result<Vec<u8>, ClientError> {
-        let reply = self.request(SimulationReq::GetProperty(Some(SimulationPropertyReq {
+        let req = SimulationReq::GetProperty(Some(SimulationPropertyReq {
             name: Text::new(name),
             prop: Text::new(prop),
             index: 0,
             value: vec![0; size],
-        })))?;
-        ack_body!(self, reply,
+        }));
+        request_ack!(self, req,
             Body::Simulation(SimulationMsg::Ack(SimulationReq::GetProperty(Some(r)))) => r.value,
             "simulation GET_PROPERTY")
     }
@@ -928,10 +902,8 @@ proxy!(
 impl ActArrayProxy {
     /// The latest actuator states.
     pub fn data(&self) -> Option<ActarrayDataState> {
-        match self.latest(ActarrayData::STATE)? {
-            Body::Actarray(ActarrayMsg::Data(ActarrayData::State(s))) => Some(s),
-            _ => None,
-        }
+        latest_data!(self, ActarrayData::STATE,
+            Body::Actarray(ActarrayMsg::Data(ActarrayData::State(s))) => s)
     }
 
     /// Moves one joint to a position (`MoveTo`).
@@ -951,8 +923,7 @@ impl ActArrayProxy {
 
     /// The array geometry (`RequestGeometry`).
     pub fn request_geometry(&self) -> Result<ActarrayGeom, ClientError> {
-        let reply = self.request(ActarrayReq::GetGeom(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, ActarrayReq::GetGeom(None),
             Body::Actarray(ActarrayMsg::Ack(ActarrayReq::GetGeom(Some(g)))) => g,
             "actarray GET_GEOM")
     }
@@ -967,10 +938,8 @@ proxy!(
 impl CameraProxy {
     /// The latest image.
     pub fn image(&self) -> Option<CameraDataState> {
-        match self.latest(CameraData::STATE)? {
-            Body::Camera(CameraMsg::Data(CameraData::State(s))) => Some(s),
-            _ => None,
-        }
+        latest_data!(self, CameraData::STATE,
+            Body::Camera(CameraMsg::Data(CameraData::State(s))) => s)
     }
 }
 
@@ -1008,8 +977,7 @@ impl OccupancyMap {
 impl MapProxy {
     /// The map's metadata (GET_INFO).
     pub fn request_info(&self) -> Result<MapInfo, ClientError> {
-        let reply = self.request(MapReq::GetInfo(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, MapReq::GetInfo(None),
             Body::Map(MapMsg::Ack(MapReq::GetInfo(Some(i)))) => i,
             "map GET_INFO")
     }
@@ -1023,15 +991,8 @@ impl MapProxy {
         width: u32,
         height: u32,
     ) -> Result<Vec<i8>, ClientError> {
-        let want = MapTile {
-            col,
-            row,
-            width,
-            height,
-            data: Vec::new(),
-        };
-        let reply = self.request(MapReq::GetData(Some(want)))?;
-        let zipped = ack_body!(self, reply,
+        let want = MapTile::request(col, row, width, height);
+        let zipped = request_ack!(self, MapReq::GetData(Some(want)),
             Body::Map(MapMsg::Ack(MapReq::GetData(Some(t)))) => t,
             "map GET_DATA")?;
         let cells = width as usize * height as usize;
@@ -1067,8 +1028,7 @@ impl MapProxy {
 
     /// The vector map (GET_VECTOR, `playerc_map_get_vector`); grid map drivers NACK it.
     pub fn get_vector(&self) -> Result<MapDataVector, ClientError> {
-        let reply = self.request(MapReq::GetVector(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, MapReq::GetVector(None),
             Body::Map(MapMsg::Ack(MapReq::GetVector(Some(v)))) => v,
             "map GET_VECTOR")
     }
@@ -1133,8 +1093,7 @@ impl LogProxy {
 
     /// The device's kind and whether it runs (`playerc_log_get_state`).
     pub fn get_state(&self) -> Result<LogState, ClientError> {
-        let reply = self.request(LogReq::GetState(None))?;
-        ack_body!(self, reply,
+        request_ack!(self, LogReq::GetState(None),
             Body::Log(LogMsg::Ack(LogReq::GetState(Some(s)))) => LogState {
                 log_type: s.log_type,
                 state: s.state != 0,

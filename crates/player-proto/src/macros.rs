@@ -283,6 +283,26 @@ macro_rules! kind_enum {
     };
 }
 
+/// `From<$from> for Body`: wraps the value in the interface's message enum variant `$wrap`
+/// (none for the message enum itself) and that in `Body::$iface`.
+macro_rules! body_from {
+    ($from:ty => $iface:ident) => {
+        impl From<$from> for Body {
+            fn from(m: $from) -> Body {
+                Body::$iface(m)
+            }
+        }
+    };
+    ($(#[$attr:meta])* $from:ty => $iface:ident($wrap:path)) => {
+        $(#[$attr])*
+        impl From<$from> for Body {
+            fn from(m: $from) -> Body {
+                Body::$iface($wrap(m))
+            }
+        }
+    };
+}
+
 /// The function table: one section per interface, one row per message.
 macro_rules! message_table {
     (
@@ -498,41 +518,16 @@ macro_rules! message_table {
                 }
             }
 
-            impl From<$imsg> for Body {
-                fn from(m: $imsg) -> Body {
-                    Body::$iface(m)
-                }
-            }
-
+            body_from!($imsg => $iface);
+            $( body_from!($denum => $iface($imsg::Data)); )?
+            $( body_from!($cenum => $iface($imsg::Cmd)); )?
             $(
-                impl From<$denum> for Body {
-                    fn from(m: $denum) -> Body {
-                        Body::$iface($imsg::Data(m))
-                    }
-                }
+                body_from!(
+                    /// A REQ converts to the request itself; build ACK/NACK replies explicitly.
+                    $renum => $iface($imsg::Req)
+                );
             )?
-            $(
-                impl From<$cenum> for Body {
-                    fn from(m: $cenum) -> Body {
-                        Body::$iface($imsg::Cmd(m))
-                    }
-                }
-            )?
-            $(
-                /// A REQ converts to the request itself; build ACK/NACK replies explicitly.
-                impl From<$renum> for Body {
-                    fn from(m: $renum) -> Body {
-                        Body::$iface($imsg::Req(m))
-                    }
-                }
-            )?
-            $(
-                impl From<$senum> for Body {
-                    fn from(m: $senum) -> Body {
-                        Body::$iface($imsg::Synch(m))
-                    }
-                }
-            )?
+            $( body_from!($senum => $iface($imsg::Synch)); )?
         )+
 
         /// A typed message body: which message it is (interface, type, subtype) and its struct.

@@ -182,36 +182,64 @@ pub trait Xdr: Sized + Clone + fmt::Debug + 'static {
     fn arbitrary() -> proptest::strategy::BoxedStrategy<Self>;
 }
 
-/// Bulk array conversion for fixed-size scalars: one bounds check per array instead of one per
-/// element, which lets the compiler vectorise the byte swapping (ranges, images of floats).
-macro_rules! bulk_scalar {
-    ($size:literal, $from:expr, $to:expr) => {
-        fn decode_many(r: &mut Reader<'_>, n: usize) -> Result<Vec<Self>, Error> {
-            let len = n.checked_mul($size).ok_or_else(|| {
-                Error::malformed(Problem::Truncated {
-                    needed: usize::MAX,
-                    available: r.remaining(),
-                })
-            })?;
-            let bytes = r.take(len)?;
-            Ok(bytes
-                .chunks_exact($size)
-                .map(|c| {
-                    let mut word = [0u8; $size];
-                    word.copy_from_slice(c);
-                    $from(word)
-                })
-                .collect())
-        }
-
-        fn encode_many(items: &[Self], out: &mut Vec<u8>) -> Result<(), Error> {
-            let start = out.len();
-            out.resize(start + items.len() * $size, 0);
-            for (dst, item) in out[start..].chunks_exact_mut($size).zip(items) {
-                dst.copy_from_slice(&$to(*item));
+/// Implements [`Xdr`] and [`Elem`] for a 4- or 8-byte scalar: `$from`/`$to` convert between
+/// the value and its big-endian bytes, `$value`/`$parse` between the value and its field-map
+/// view. Arrays convert in bulk: one bounds check per array instead of one per element, which
+/// lets the compiler vectorise the byte swapping (ranges, images of floats).
+macro_rules! fixed_scalar {
+    (
+        $t:ty, $size:literal, $from:expr, $to:expr,
+        value: |$x:ident| $value:expr,
+        parse: |$v:ident| $parse:expr,
+        arbitrary: $arb:expr $(,)?
+    ) => {
+        impl Xdr for $t {
+            const MIN_SIZE: usize = $size;
+            fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
+                out.extend_from_slice(&$to(*self));
+                Ok(())
             }
-            Ok(())
+            fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
+                r.array::<$size>().map($from)
+            }
+            fn to_value(&self) -> Value {
+                let $x = *self;
+                $value
+            }
+            fn from_value($v: &Value) -> Result<Self, Error> {
+                $parse
+            }
+            fn decode_many(r: &mut Reader<'_>, n: usize) -> Result<Vec<Self>, Error> {
+                let len = n.checked_mul($size).ok_or_else(|| {
+                    Error::malformed(Problem::Truncated {
+                        needed: usize::MAX,
+                        available: r.remaining(),
+                    })
+                })?;
+                let bytes = r.take(len)?;
+                Ok(bytes
+                    .chunks_exact($size)
+                    .map(|c| {
+                        let mut word = [0u8; $size];
+                        word.copy_from_slice(c);
+                        $from(word)
+                    })
+                    .collect())
+            }
+            fn encode_many(items: &[Self], out: &mut Vec<u8>) -> Result<(), Error> {
+                let start = out.len();
+                out.resize(start + items.len() * $size, 0);
+                for (dst, item) in out[start..].chunks_exact_mut($size).zip(items) {
+                    dst.copy_from_slice(&$to(*item));
+                }
+                Ok(())
+            }
+            #[cfg(test)]
+            fn arbitrary() -> BoxedStrategy<Self> {
+                $arb.boxed()
+            }
         }
+        impl Elem for $t {}
     };
 }
 
@@ -292,51 +320,16 @@ widened!(i16, "int16_t", |w| w as i32, any::<i16>());
 impl Elem for u16 {}
 impl Elem for i16 {}
 
-impl Xdr for u32 {
-    bulk_scalar!(4, u32::from_be_bytes, u32::to_be_bytes);
-    const MIN_SIZE: usize = 4;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        out.extend_from_slice(&self.to_be_bytes());
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        r.word()
-    }
-    fn to_value(&self) -> Value {
-        Value::Int(i64::from(*self))
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        Ok(v.int_in(0, i64::from(u32::MAX), "uint32_t")? as u32)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        any::<u32>().boxed()
-    }
-}
-impl Elem for u32 {}
-
-impl Xdr for i32 {
-    bulk_scalar!(4, i32::from_be_bytes, i32::to_be_bytes);
-    const MIN_SIZE: usize = 4;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        out.extend_from_slice(&self.to_be_bytes());
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        r.word().map(|w| w as i32)
-    }
-    fn to_value(&self) -> Value {
-        Value::Int(i64::from(*self))
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        Ok(v.int_in(i64::from(i32::MIN), i64::from(i32::MAX), "int32_t")? as i32)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        any::<i32>().boxed()
-    }
-}
-impl Elem for i32 {}
+fixed_scalar!(u32, 4, u32::from_be_bytes, u32::to_be_bytes,
+    value: |x| Value::Int(i64::from(x)),
+    parse: |v| Ok(v.int_in(0, i64::from(u32::MAX), "uint32_t")? as u32),
+    arbitrary: any::<u32>(),
+);
+fixed_scalar!(i32, 4, i32::from_be_bytes, i32::to_be_bytes,
+    value: |x| Value::Int(i64::from(x)),
+    parse: |v| Ok(v.int_in(i64::from(i32::MIN), i64::from(i32::MAX), "int32_t")? as i32),
+    arbitrary: any::<i32>(),
+);
 
 /// f32 → f64 keeping NaN payloads bit for bit (hardware conversion quiets signalling NaNs,
 /// and a float member may hold any bits: libplayerc sends some uninitialised).
@@ -361,22 +354,9 @@ fn narrow_f64(x: f64) -> f32 {
     }
 }
 
-impl Xdr for f32 {
-    bulk_scalar!(4, |w| f32::from_bits(u32::from_be_bytes(w)), |x: f32| x
-        .to_bits()
-        .to_be_bytes());
-    const MIN_SIZE: usize = 4;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        out.extend_from_slice(&self.to_bits().to_be_bytes());
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        r.word().map(f32::from_bits)
-    }
-    fn to_value(&self) -> Value {
-        Value::Float(widen_f32(*self))
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
+fixed_scalar!(f32, 4, |w| f32::from_bits(u32::from_be_bytes(w)), |x: f32| x.to_bits().to_be_bytes(),
+    value: |x| Value::Float(widen_f32(x)),
+    parse: |v| {
         let x = v.number()?;
         let f = narrow_f64(x);
         // The vectors only hold exactly representable values; anything else is a mistake.
@@ -386,39 +366,15 @@ impl Xdr for f32 {
             )));
         }
         Ok(f)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        // Every bit pattern, NaN payloads included: the codec must carry them unchanged.
-        any::<u32>().prop_map(f32::from_bits).boxed()
-    }
-}
-impl Elem for f32 {}
-
-impl Xdr for f64 {
-    bulk_scalar!(8, |w| f64::from_bits(u64::from_be_bytes(w)), |x: f64| x
-        .to_bits()
-        .to_be_bytes());
-    const MIN_SIZE: usize = 8;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        out.extend_from_slice(&self.to_bits().to_be_bytes());
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        r.hyper().map(f64::from_bits)
-    }
-    fn to_value(&self) -> Value {
-        Value::Float(*self)
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        v.number()
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        any::<u64>().prop_map(f64::from_bits).boxed()
-    }
-}
-impl Elem for f64 {}
+    },
+    // Every bit pattern, NaN payloads included: the codec must carry them unchanged.
+    arbitrary: any::<u32>().prop_map(f32::from_bits),
+);
+fixed_scalar!(f64, 8, |w| f64::from_bits(u64::from_be_bytes(w)), |x: f64| x.to_bits().to_be_bytes(),
+    value: |x| Value::Float(x),
+    parse: |v| v.number(),
+    arbitrary: any::<u64>().prop_map(f64::from_bits),
+);
 
 impl Xdr for InterfaceCode {
     const MIN_SIZE: usize = 4;
@@ -438,6 +394,19 @@ impl Xdr for InterfaceCode {
     fn arbitrary() -> BoxedStrategy<Self> {
         any::<u16>().prop_map(InterfaceCode).boxed()
     }
+}
+
+/// The field-map members of an array with a count member (`name_count`, then `name`):
+/// [`Xdr::put_member`] and [`Xdr::take_member`] of every counted array's impl.
+macro_rules! counted_members {
+    () => {
+        fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
+            put_counted(name, self.len(), self.to_value(), out);
+        }
+        fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
+            take_counted(name, members)
+        }
+    };
 }
 
 /// Shared by the counted-array impls: `name_count` then `name`, as in the C struct.
@@ -481,12 +450,7 @@ impl<T: Elem> Xdr for Vec<T> {
     fn from_value(v: &Value) -> Result<Self, Error> {
         v.list()?.iter().map(T::from_value).collect()
     }
-    fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
-        put_counted(name, self.len(), self.to_value(), out);
-    }
-    fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
-        take_counted(name, members)
-    }
+    counted_members!();
     #[cfg(test)]
     fn arbitrary() -> BoxedStrategy<Self> {
         Self::arbitrary_max(5)
@@ -512,100 +476,71 @@ impl<T: Elem> Counted for Vec<T> {
     }
 }
 
-/// Byte-packed `uint8_t` array (`xdr_bytes`): images, intensities, bumper states, raw values.
-impl Xdr for Vec<u8> {
-    const MIN_SIZE: usize = 8;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        put_len(out, self.len())?;
-        put_opaque(out, self);
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        let n = r.array_len(None, 1)?;
-        r.opaque(n).map(<[u8]>::to_vec)
-    }
-    fn to_value(&self) -> Value {
-        Value::List(self.iter().map(|&b| Value::Int(i64::from(b))).collect())
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        v.list()?
-            .iter()
-            .map(|b| b.int_in(0, 255, "uint8_t").map(|b| b as u8))
-            .collect()
-    }
-    fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
-        put_counted(name, self.len(), self.to_value(), out);
-    }
-    fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
-        take_counted(name, members)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        Self::arbitrary_max(13)
-    }
+/// Implements [`Xdr`] and [`Counted`] for a byte-packed array of an 8-bit type (`xdr_bytes`):
+/// a length word, one byte per element, zero padding. `$bytes` gives the slice's wire bytes,
+/// `$elems` the elements of received bytes, `$min..=$max` bounds the field-map integers.
+macro_rules! byte_packed {
+    (
+        $t:ty, $c:literal, $min:literal..=$max:literal,
+        bytes: |$s:ident| $bytes:expr,
+        elems: |$b:ident| $elems:expr $(,)?
+    ) => {
+        impl Xdr for Vec<$t> {
+            const MIN_SIZE: usize = 8;
+            fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
+                put_len(out, self.len())?;
+                let $s: &[$t] = self;
+                put_opaque(out, &$bytes);
+                Ok(())
+            }
+            fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
+                let n = r.array_len(None, 1)?;
+                let $b = r.opaque(n)?;
+                Ok($elems)
+            }
+            fn to_value(&self) -> Value {
+                Value::List(self.iter().map(|&e| Value::Int(i64::from(e))).collect())
+            }
+            fn from_value(v: &Value) -> Result<Self, Error> {
+                v.list()?
+                    .iter()
+                    .map(|e| e.int_in($min, $max, $c).map(|e| e as $t))
+                    .collect()
+            }
+            counted_members!();
+            #[cfg(test)]
+            fn arbitrary() -> BoxedStrategy<Self> {
+                Self::arbitrary_max(13)
+            }
+        }
+
+        impl Counted for Vec<$t> {
+            fn count(&self) -> usize {
+                self.len()
+            }
+            fn decode_max(r: &mut Reader<'_>, max: usize) -> Result<Self, Error> {
+                let n = r.array_len(Some(max), 1)?;
+                let $b = r.opaque(n)?;
+                Ok($elems)
+            }
+            #[cfg(test)]
+            fn arbitrary_max(max: usize) -> BoxedStrategy<Self> {
+                proptest::collection::vec(any::<$t>(), 0..=max.min(13)).boxed()
+            }
+        }
+    };
 }
 
-impl Counted for Vec<u8> {
-    fn count(&self) -> usize {
-        self.len()
-    }
-    fn decode_max(r: &mut Reader<'_>, max: usize) -> Result<Self, Error> {
-        let n = r.array_len(Some(max), 1)?;
-        r.opaque(n).map(<[u8]>::to_vec)
-    }
-    #[cfg(test)]
-    fn arbitrary_max(max: usize) -> BoxedStrategy<Self> {
-        proptest::collection::vec(any::<u8>(), 0..=max.min(13)).boxed()
-    }
-}
-
-/// Byte-packed `int8_t` array (map cells: -1 free, 0 unknown, +1 occupied).
-impl Xdr for Vec<i8> {
-    const MIN_SIZE: usize = 8;
-    fn encode(&self, out: &mut Vec<u8>) -> Result<(), Error> {
-        put_len(out, self.len())?;
-        let bytes: Vec<u8> = self.iter().map(|&c| c as u8).collect();
-        put_opaque(out, &bytes);
-        Ok(())
-    }
-    fn decode(r: &mut Reader<'_>) -> Result<Self, Error> {
-        let n = r.array_len(None, 1)?;
-        Ok(r.opaque(n)?.iter().map(|&b| b as i8).collect())
-    }
-    fn to_value(&self) -> Value {
-        Value::List(self.iter().map(|&c| Value::Int(i64::from(c))).collect())
-    }
-    fn from_value(v: &Value) -> Result<Self, Error> {
-        v.list()?
-            .iter()
-            .map(|c| c.int_in(-128, 127, "int8_t").map(|c| c as i8))
-            .collect()
-    }
-    fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
-        put_counted(name, self.len(), self.to_value(), out);
-    }
-    fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
-        take_counted(name, members)
-    }
-    #[cfg(test)]
-    fn arbitrary() -> BoxedStrategy<Self> {
-        proptest::collection::vec(any::<i8>(), 0..=13).boxed()
-    }
-}
-
-impl Counted for Vec<i8> {
-    fn count(&self) -> usize {
-        self.len()
-    }
-    fn decode_max(r: &mut Reader<'_>, max: usize) -> Result<Self, Error> {
-        let n = r.array_len(Some(max), 1)?;
-        Ok(r.opaque(n)?.iter().map(|&b| b as i8).collect())
-    }
-    #[cfg(test)]
-    fn arbitrary_max(max: usize) -> BoxedStrategy<Self> {
-        proptest::collection::vec(any::<i8>(), 0..=max.min(13)).boxed()
-    }
-}
+// Images, intensities, bumper states, raw values: the bytes as they are.
+byte_packed!(u8, "uint8_t", 0..=255,
+    bytes: |s| Cow::Borrowed(s),
+    elems: |b| b.to_vec(),
+);
+// Map cells (-1 free, 0 unknown, +1 occupied): two's complement bytes.
+byte_packed!(i8, "int8_t", -128..=127,
+    bytes: |s| Cow::<[u8]>::Owned(s.iter().map(|&c| c as u8).collect()),
+    elems: |b| b.iter().map(|&b| b as i8).collect(),
+);
 
 /// Fixed array without a count member (`xdr_vector`): exactly N elements, no length word.
 impl<T: Elem + Default + Copy, const N: usize> Xdr for [T; N] {
@@ -730,12 +665,7 @@ impl Xdr for Text {
             ))),
         }
     }
-    fn put_member(&self, name: &str, out: &mut Vec<(String, Value)>) {
-        put_counted(name, self.len(), self.to_value(), out);
-    }
-    fn take_member(name: &str, members: &[(String, Value)]) -> Result<Self, Error> {
-        take_counted(name, members)
-    }
+    counted_members!();
     #[cfg(test)]
     fn arbitrary() -> BoxedStrategy<Self> {
         Self::arbitrary_max(13)

@@ -88,22 +88,23 @@ def bench_reads(player, seconds):
                       playerc_blobfinder(c, 0)):
             assert proxy.subscribe(PLAYERC_OPEN_MODE) == 0
         # PULL: one round (the latest of every device) per read.
-        n, t0 = 0, time.perf_counter()
-        while time.perf_counter() - t0 < seconds:
-            assert c.read() is not None
-            n += 1
-        pull = n / (time.perf_counter() - t0)
+        pull = reads_per_second(c, seconds)
         # PUSH: every DATA message as published, one per read.
         assert c.datamode(PLAYER_DATAMODE_PUSH) == 0
-        n, t0 = 0, time.perf_counter()
-        while time.perf_counter() - t0 < seconds:
-            assert c.read() is not None
-            n += 1
-        push = n / (time.perf_counter() - t0)
+        push = reads_per_second(c, seconds)
         c.disconnect()
     finally:
         stop(proc)
     return push, pull
+
+
+def reads_per_second(client, seconds):
+    """How many ``client.read()`` calls return a message per second, over ``seconds``."""
+    n, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        assert client.read() is not None
+        n += 1
+    return n / (time.perf_counter() - t0)
 
 
 def bench_world(world, seconds):

@@ -9,8 +9,9 @@
 use std::time::Duration;
 
 use player_client::{
-    ClientError, DataMode, FiducialProxy, GripperProxy, LaserProxy, LocalizeProxy, MapProxy,
-    PlannerProxy, PlayerClient, Position2dProxy, RangerProxy, SimulationProxy, SonarProxy,
+    ClientError, DataMode, FiducialProxy, Graphics2dProxy, GripperProxy, LaserProxy, LocalizeProxy,
+    MapProxy, PlannerProxy, PlayerClient, Position2dProxy, RangerProxy, SimulationProxy,
+    SonarProxy, SpeechProxy,
 };
 use player_proto::*;
 use pyo3::prelude::*;
@@ -95,6 +96,12 @@ impl Connection {
     ) -> PyResult<T> {
         let client = self.client()?;
         py.allow_threads(move || f(&client)).map_err(client_err)
+    }
+
+    /// Runs `f` on the client without releasing the GIL: for commands through player-client's
+    /// proxies (never answered, so nothing to wait for).
+    fn send<T>(&self, f: impl FnOnce(&PlayerClient) -> Result<T, ClientError>) -> PyResult<T> {
+        f(&self.client()?).map_err(client_err)
     }
 
     /// Sends a command (never answered).
@@ -608,18 +615,12 @@ impl Connection {
 
     /// `playerc_speech_say`.
     fn speech_say(&self, index: u16, text: &str) -> PyResult<()> {
-        self.command(
-            InterfaceCode::SPEECH,
-            index,
-            SpeechCmd::Say(SpeechCmdSay {
-                string: Text::new(text),
-            }),
-        )
+        self.send(|c| SpeechProxy::attach(c, index).say(text))
     }
 
     /// `playerc_graphics2d_clear`.
     fn graphics2d_clear(&self, index: u16) -> PyResult<()> {
-        self.command(InterfaceCode::GRAPHICS2D, index, Graphics2dCmd::Clear)
+        self.send(|c| Graphics2dProxy::attach(c, index).clear())
     }
 
     /// `playerc_graphics2d_draw_points`; `color` is `(alpha, red, green, blue)`.
@@ -629,11 +630,7 @@ impl Connection {
         pts: Vec<(f64, f64)>,
         rgba: (u8, u8, u8, u8),
     ) -> PyResult<()> {
-        let cmd = Graphics2dCmd::Points(Graphics2dCmdPoints {
-            points: points(pts),
-            color: color(rgba),
-        });
-        self.command(InterfaceCode::GRAPHICS2D, index, cmd)
+        self.send(|c| Graphics2dProxy::attach(c, index).draw_points(points(pts), color(rgba)))
     }
 
     /// `playerc_graphics2d_draw_polyline`.
@@ -643,11 +640,7 @@ impl Connection {
         pts: Vec<(f64, f64)>,
         rgba: (u8, u8, u8, u8),
     ) -> PyResult<()> {
-        let cmd = Graphics2dCmd::Polyline(Graphics2dCmdPolyline {
-            points: points(pts),
-            color: color(rgba),
-        });
-        self.command(InterfaceCode::GRAPHICS2D, index, cmd)
+        self.send(|c| Graphics2dProxy::attach(c, index).draw_polyline(points(pts), color(rgba)))
     }
 
     /// `playerc_graphics2d_draw_polygon`.

@@ -68,6 +68,18 @@ impl MapTile {
         }
     }
 
+    /// The GET_DATA request for the `width × height` cells from (`col`, `row`): the tile
+    /// without its cells, which the reply fills in.
+    pub fn request(col: u32, row: u32, width: u32, height: u32) -> MapTile {
+        MapTile {
+            col,
+            row,
+            width,
+            height,
+            data: Vec::new(),
+        }
+    }
+
     /// The tile with its zlib-compressed cells inflated (a GET_DATA ACK read from TCP), or
     /// `None` when they do not inflate to exactly `width × height` cells. At most one cell
     /// more is ever read, so a hostile stream cannot make the reader allocate more.
@@ -98,13 +110,12 @@ impl MapInfo {
         (0..rows).flat_map(move |r| {
             (0..cols).map(move |c| {
                 let (col, row) = (c * MAP_TILE_SIZE, r * MAP_TILE_SIZE);
-                MapTile {
+                MapTile::request(
                     col,
                     row,
-                    width: MAP_TILE_SIZE.min(width - col),
-                    height: MAP_TILE_SIZE.min(height - row),
-                    data: Vec::new(),
-                }
+                    MAP_TILE_SIZE.min(width - col),
+                    MAP_TILE_SIZE.min(height - row),
+                )
             })
         })
     }

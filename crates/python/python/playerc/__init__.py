@@ -365,6 +365,17 @@ class playerc_client:
 # --- proxies ------------------------------------------------------------------------------------
 
 
+def _command(method, what):
+    """A playerc function that sends the command ``what`` through the connection's
+    ``method`` (``gripper_cmd``, ``simulation_cmd``) and returns 0 or -1: one line per
+    command instead of a method each."""
+
+    def send(self):
+        return self._call(getattr(self._conn(), method), self.index, what)
+
+    return send
+
+
 class _device:
     """What every proxy shares (``playerc_device_t``): subscribe/unsubscribe and ``info``."""
 
@@ -722,20 +733,11 @@ class playerc_gripper(_device):
         self.beams = 0
         self.stored = 0
 
-    def open_cmd(self):
-        return self._call(self._conn().gripper_cmd, self.index, "open")
-
-    def close_cmd(self):
-        return self._call(self._conn().gripper_cmd, self.index, "close")
-
-    def stop_cmd(self):
-        return self._call(self._conn().gripper_cmd, self.index, "stop")
-
-    def store_cmd(self):
-        return self._call(self._conn().gripper_cmd, self.index, "store")
-
-    def retrieve_cmd(self):
-        return self._call(self._conn().gripper_cmd, self.index, "retrieve")
+    open_cmd = _command("gripper_cmd", "open")
+    close_cmd = _command("gripper_cmd", "close")
+    stop_cmd = _command("gripper_cmd", "stop")
+    store_cmd = _command("gripper_cmd", "store")
+    retrieve_cmd = _command("gripper_cmd", "retrieve")
 
     def get_geom(self):
         g = self._answer("gripper_get_geom")
@@ -796,14 +798,9 @@ class playerc_simulation(_device):
         v = self._answer("simulation_get_property", name, property, value_len)
         return [-1, b""] if v is None else [0, v]
 
-    def pause(self):
-        return self._call(self._conn().simulation_cmd, self.index, "pause")
-
-    def reset(self):
-        return self._call(self._conn().simulation_cmd, self.index, "reset")
-
-    def save(self):
-        return self._call(self._conn().simulation_cmd, self.index, "save")
+    pause = _command("simulation_cmd", "pause")
+    reset = _command("simulation_cmd", "reset")
+    save = _command("simulation_cmd", "save")
 
 
 class playerc_speech(_device):

@@ -57,6 +57,39 @@ def _field(name):
     return get
 
 
+def _element(name):
+    """A libplayerc++ indexed getter (``GetRange(i)``, ...) that returns element ``i`` of the
+    playerc proxy's array field ``name``: one line per getter instead of a method each."""
+
+    def get(self, aIndex):
+        return getattr(self._dev, name)[aIndex]
+
+    return get
+
+
+class _forward:
+    """A libplayerc++ method that passes its arguments to the playerc proxy's ``method`` and
+    raises :class:`PlayerError` (naming the method) when that fails: one line per such method
+    instead of a method each."""
+
+    def __init__(self, method):
+        self._method = method
+        self._name = method
+
+    def __set_name__(self, owner, name):
+        self._name = name
+
+    def __get__(self, proxy, owner=None):
+        if proxy is None:
+            return self
+
+        def call(*args):
+            proxy._ok(self._name, getattr(proxy._dev, self._method)(*args))
+
+        call.__name__ = self._name
+        return call
+
+
 class PlayerError(_native.PlayerError):
     """libplayerc++'s ``PlayerCc::PlayerError``: ``GetErrorStr()``, ``GetErrorFun()``."""
 
@@ -207,11 +240,8 @@ class Position2dProxy(ClientProxy):
             p = args[0]
             self._ok("GoTo", self._dev.set_cmd_pose(p.px, p.py, p.pa, 1))
 
-    def SetCarlike(self, aXSpeed, aDriveAngle):
-        self._ok("SetCarlike", self._dev.set_cmd_car(aXSpeed, aDriveAngle))
-
-    def RequestGeom(self):
-        self._ok("RequestGeom", self._dev.get_geom())
+    SetCarlike = _forward("set_cmd_car")
+    RequestGeom = _forward("get_geom")
 
     def GetSize(self):
         return _pc.player_bbox3d_t(self._dev.size[1], self._dev.size[0], 0.0)
@@ -219,14 +249,12 @@ class Position2dProxy(ClientProxy):
     def GetPose(self):
         return _pc.player_pose3d_t(self._dev.pose[0], self._dev.pose[1], 0, 0, 0, self._dev.pose[2])
 
-    def SetMotorEnable(self, enable):
-        self._ok("SetMotorEnable", self._dev.enable(enable))
+    SetMotorEnable = _forward("enable")
 
     def ResetOdometry(self):
         self._ok("ResetOdometry", self._dev.set_odom(0.0, 0.0, 0.0))
 
-    def SetOdometry(self, aX, aY, aYaw):
-        self._ok("SetOdometry", self._dev.set_odom(aX, aY, aYaw))
+    SetOdometry = _forward("set_odom")
 
     GetXPos = _field("px")
     GetYPos = _field("py")
@@ -247,25 +275,13 @@ class RangerProxy(ClientProxy):
     GetElementCount = _field("element_count")
     GetDevicePose = _field("device_pose")
     GetDeviceSize = _field("device_size")
-
-    def GetElementPose(self, aIndex):
-        return self._dev.element_poses[aIndex]
-
-    def GetElementSize(self, aIndex):
-        return self._dev.element_sizes[aIndex]
-
+    GetElementPose = _element("element_poses")
+    GetElementSize = _element("element_sizes")
     GetRangeCount = _field("ranges_count")
-
-    def GetRange(self, aIndex):
-        return self._dev.ranges[aIndex]
-
-    def __getitem__(self, aIndex):
-        return self.GetRange(aIndex)
-
+    GetRange = _element("ranges")
+    __getitem__ = GetRange
     GetIntensityCount = _field("intensities_count")
-
-    def GetIntensity(self, aIndex):
-        return self._dev.intensities[aIndex]
+    GetIntensity = _element("intensities")
 
     def SetPower(self, aEnable):
         self._ok("SetPower", self._dev.power_config(1 if aEnable else 0))
@@ -273,8 +289,7 @@ class RangerProxy(ClientProxy):
     def SetIntensityData(self, aEnable):
         self._ok("SetIntensityData", self._dev.intns_config(1 if aEnable else 0))
 
-    def RequestGeom(self):
-        self._ok("RequestGeom", self._dev.get_geom())
+    RequestGeom = _forward("get_geom")
 
     def Configure(self, aMinAngle, aMaxAngle, aAngularRes, aMinRange, aMaxRange, aRangeRes,
                   aFrequency):
@@ -309,11 +324,8 @@ class LaserProxy(ClientProxy):
     def GetBearing(self, aIndex):
         return self._dev.scan[aIndex][1]
 
-    def __getitem__(self, aIndex):
-        return self.GetRange(aIndex)
-
-    def GetIntensity(self, aIndex):
-        return self._dev.intensity[aIndex]
+    __getitem__ = GetRange
+    GetIntensity = _element("intensity")
 
     def GetPoint(self, aIndex):
         x, y = self._dev.point[aIndex]
@@ -327,8 +339,7 @@ class LaserProxy(ClientProxy):
     GetMaxAngle = _field("max_angle")
     GetID = _field("laser_id")
 
-    def RequestGeom(self):
-        self._ok("RequestGeom", self._dev.get_geom())
+    RequestGeom = _forward("get_geom")
 
     def RequestConfigure(self):
         self._ok("RequestConfigure", self._dev.get_config()[0])
@@ -355,21 +366,15 @@ class SonarProxy(ClientProxy):
     _playerc = _pc.playerc_sonar
 
     GetCount = _field("scan_count")
-
-    def GetScan(self, aIndex):
-        return self._dev.scan[aIndex]
-
-    def __getitem__(self, aIndex):
-        return self.GetScan(aIndex)
-
+    GetScan = _element("scan")
+    __getitem__ = GetScan
     GetPoseCount = _field("pose_count")
 
     def GetPose(self, aIndex):
         x, y, a = self._dev.poses[aIndex]
         return _pc.player_pose3d_t(x, y, 0.0, 0.0, 0.0, a)
 
-    def RequestGeom(self):
-        self._ok("RequestGeom", self._dev.get_geom())
+    RequestGeom = _forward("get_geom")
 
 
 class BlobfinderProxy(ClientProxy):
@@ -378,13 +383,8 @@ class BlobfinderProxy(ClientProxy):
     _playerc = _pc.playerc_blobfinder
 
     GetCount = _field("blobs_count")
-
-    def GetBlob(self, aIndex):
-        return self._dev.blobs[aIndex]
-
-    def __getitem__(self, aIndex):
-        return self.GetBlob(aIndex)
-
+    GetBlob = _element("blobs")
+    __getitem__ = GetBlob
     GetWidth = _field("width")
     GetHeight = _field("height")
 
@@ -395,12 +395,8 @@ class FiducialProxy(ClientProxy):
     _playerc = _pc.playerc_fiducial
 
     GetCount = _field("fiducials_count")
-
-    def GetFiducialItem(self, aIndex):
-        return self._dev.fiducials[aIndex]
-
-    def __getitem__(self, aIndex):
-        return self.GetFiducialItem(aIndex)
+    GetFiducialItem = _element("fiducials")
+    __getitem__ = GetFiducialItem
 
     def GetSensorPose(self):
         return self._dev.fiducial_geom.pose
@@ -408,8 +404,7 @@ class FiducialProxy(ClientProxy):
     def GetSensorSize(self):
         return self._dev.fiducial_geom.size
 
-    def RequestGeometry(self):
-        self._ok("RequestGeometry", self._dev.get_geom())
+    RequestGeometry = _forward("get_geom")
 
 
 class GripperProxy(ClientProxy):
@@ -426,23 +421,12 @@ class GripperProxy(ClientProxy):
     GetOuterSize = _field("outer_size")
     GetInnerSize = _field("inner_size")
 
-    def RequestGeometry(self):
-        self._ok("RequestGeometry", self._dev.get_geom())
-
-    def Open(self):
-        self._ok("Open", self._dev.open_cmd())
-
-    def Close(self):
-        self._ok("Close", self._dev.close_cmd())
-
-    def Stop(self):
-        self._ok("Stop", self._dev.stop_cmd())
-
-    def Store(self):
-        self._ok("Store", self._dev.store_cmd())
-
-    def Retrieve(self):
-        self._ok("Retrieve", self._dev.retrieve_cmd())
+    RequestGeometry = _forward("get_geom")
+    Open = _forward("open_cmd")
+    Close = _forward("close_cmd")
+    Stop = _forward("stop_cmd")
+    Store = _forward("store_cmd")
+    Retrieve = _forward("retrieve_cmd")
 
 
 class SimulationProxy(ClientProxy):
@@ -450,8 +434,7 @@ class SimulationProxy(ClientProxy):
 
     _playerc = _pc.playerc_simulation
 
-    def SetPose2d(self, identifier, x, y, a):
-        self._ok("SetPose2d", self._dev.set_pose2d(identifier, x, y, a))
+    SetPose2d = _forward("set_pose2d")
 
     def GetPose2d(self, identifier, *ignored_refs):
         """``(x, y, a)``: Python has no output references."""
@@ -473,8 +456,7 @@ class SpeechProxy(ClientProxy):
 
     _playerc = _pc.playerc_speech
 
-    def Say(self, aStr):
-        self._ok("Say", self._dev.say(aStr))
+    Say = _forward("say")
 
 
 class Graphics2dProxy(ClientProxy):
@@ -490,8 +472,7 @@ class Graphics2dProxy(ClientProxy):
             r, g, b, a = args
             self._ok("Color", self._dev.setcolor((a, r, g, b)))
 
-    def Clear(self):
-        self._ok("Clear", self._dev.clear())
+    Clear = _forward("clear")
 
     def DrawPoints(self, pts, count=None):
         self._ok("DrawPoints", self._dev.draw_points(_pts(pts), count))
@@ -537,8 +518,7 @@ class MapProxy(ClientProxy):
 
     _playerc = _pc.playerc_map
 
-    def RequestMap(self):
-        self._ok("RequestMap", self._dev.get_map())
+    RequestMap = _forward("get_map")
 
     def GetCellIndex(self, x, y):
         return y * self._dev.width + x
@@ -565,14 +545,9 @@ class PlannerProxy(ClientProxy):
 
     _playerc = _pc.playerc_planner
 
-    def SetGoalPose(self, aGx, aGy, aGa):
-        self._ok("SetGoalPose", self._dev.set_cmd_pose(aGx, aGy, aGa))
-
-    def RequestWaypoints(self):
-        self._ok("RequestWaypoints", self._dev.get_waypoints())
-
-    def SetEnable(self, aEnable):
-        self._ok("SetEnable", self._dev.enable(aEnable))
+    SetGoalPose = _forward("set_cmd_pose")
+    RequestWaypoints = _forward("get_waypoints")
+    SetEnable = _forward("enable")
 
     GetPathValid = _field("path_valid")
     GetPathDone = _field("path_done")
@@ -607,9 +582,7 @@ class LocalizeProxy(ClientProxy):
     GetPendingCount = _field("pending_count")
     GetPendingTime = _field("pending_time")
     GetHypothCount = _field("hypoth_count")
-
-    def GetHypoth(self, aIndex):
-        return self._dev.hypoths[aIndex]
+    GetHypoth = _element("hypoths")
 
     def GetParticles(self):
         self._ok("GetParticles", self._dev.get_particles())
@@ -620,8 +593,7 @@ class LocalizeProxy(ClientProxy):
 
     GetNumParticles = _field("num_particles")
 
-    def SetPose(self, pose, cov):
-        self._ok("SetPose", self._dev.set_pose(pose, cov))
+    SetPose = _forward("set_pose")
 
 
 __all__ = [n for n in dir() if not n.startswith("_")]

@@ -598,6 +598,11 @@ class Client:
 # --- the in-process simulator --------------------------------------------------------------
 
 
+def _native_value(name, doc):
+    """A read-only property that is the native world's attribute ``name``."""
+    return property(lambda world: getattr(world._w, name), doc=doc)
+
+
 class World:
     """A Stage world simulated in this process: ``World(path, seed=0)``.
 
@@ -614,24 +619,12 @@ class World:
         """Advances ``n`` steps; False once the world's ``quit_time`` is reached."""
         return self._w.step(n)
 
-    @property
-    def time(self) -> float:
-        """Simulated seconds."""
-        return self._w.time
-
-    @property
-    def seed(self) -> int:
-        return self._w.seed
-
-    @property
-    def steps(self) -> int:
-        """Steps taken so far."""
-        return self._w.steps
-
-    @property
-    def interval(self) -> float:
-        """Simulated seconds per step (the world's ``interval_sim``)."""
-        return self._w.interval
+    time = _native_value("time", "Simulated seconds (float).")
+    seed = _native_value("seed", "The seed the world was built with (int).")
+    steps = _native_value("steps", "Steps taken so far (int).")
+    interval = _native_value(
+        "interval", "Simulated seconds per step (float; the world's ``interval_sim``)."
+    )
 
     @property
     def quit_time(self) -> float:

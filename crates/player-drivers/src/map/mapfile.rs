@@ -85,7 +85,7 @@ impl MapFileOptions {
             (Some(x), Some(y)) => Some([x, y]),
             (Some(_), None) => {
                 return Err(Error::BadOption {
-                    option: "origin",
+                    option: "origin".into(),
                     value: block.options["origin"].join(" "),
                     why: "needs [x y] (and an angle, which is ignored)".into(),
                 });

@@ -36,6 +36,7 @@ use player_server::{
 };
 
 use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
+use crate::options;
 
 /// The name cfg files use.
 pub const NAME: &str = "lasertoranger";
@@ -86,23 +87,18 @@ impl ForcedConfig {
                 values.len()
             )));
         }
-        let mut v = [0f64; 5];
-        for (slot, text) in v.iter_mut().zip(values) {
-            *slot = text.parse().map_err(|_| {
-                DriverError::new(format!(
-                    "option `force_config` has an invalid value \"{text}\""
-                ))
-            })?;
-        }
         // Angles in the cfg's angle unit (Player's ReadTupleAngle); the ranges are plain
-        // numbers (ReadTupleFloat), not scaled by `unit_length`.
-        let angle = |v: f64| (v * block.units.angle) as f32;
+        // numbers (ReadTupleFloat), not scaled by `unit_length`. All five are there.
+        let angle =
+            |i| options::tuple_angle(block, "force_config", i).map(|v| v.unwrap_or(0.0) as f32);
+        let float =
+            |i| options::tuple_float(block, "force_config", i).map(|v| v.unwrap_or(0.0) as f32);
         Ok(Some(ForcedConfig {
-            min_angle: angle(v[0]),
-            max_angle: angle(v[1]),
-            angular_res: angle(v[2]),
-            max_range: v[3] as f32,
-            range_res: v[4] as f32,
+            min_angle: angle(0)?,
+            max_angle: angle(1)?,
+            angular_res: angle(2)?,
+            max_range: float(3)?,
+            range_res: float(4)?,
         }))
     }
 }

@@ -42,6 +42,7 @@ use player_server::{
 
 use super::logformat::{self, Line, LineError};
 use super::writelog::is_gzip;
+use crate::options;
 
 /// The name cfg files use.
 pub const NAME: &str = "readlog";
@@ -209,15 +210,12 @@ impl ReadLog {
         File::open(&path).map_err(|e| {
             DriverError::new(format!("unable to open log file [{}]: {e}", path.display()))
         })?;
-        let speed: f64 = block.option_parse("speed")?.unwrap_or(1.0);
+        let speed = options::float(block, "speed")?.unwrap_or(1.0);
         if speed.is_nan() || speed <= 0.0 {
             return Err(DriverError::new(format!(
                 "option `speed` must be positive (1 = the recorded pace), not {speed}"
             )));
         }
-        let flag = |key: &str, default: i64| -> Result<bool, DriverError> {
-            Ok(block.option_parse::<i64>(key)?.unwrap_or(default) != 0)
-        };
         let mut log_addr = None;
         let mut provided = Vec::new();
         for p in &block.provides {
@@ -230,8 +228,8 @@ impl ReadLog {
         Ok(ReadLog {
             path,
             speed,
-            autoplay: flag("autoplay", 1)?,
-            autorewind: flag("autorewind", 0)?,
+            autoplay: options::flag(block, "autoplay")?.unwrap_or(true),
+            autorewind: options::flag(block, "autorewind")?.unwrap_or(false),
             log_addr,
             provided,
             shared: Arc::new(Shared {

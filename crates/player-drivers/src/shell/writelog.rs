@@ -40,6 +40,7 @@ use player_server::{
 };
 
 use super::logformat::{self, FILE_HEADER, WriteOptions};
+use crate::options;
 
 /// The name cfg files use.
 pub const NAME: &str = "writelog";
@@ -225,7 +226,7 @@ impl WriteLog {
             .unwrap_or(0);
         let stamp = timestamp_text(now);
         let flag = |key: &str, default: i64| -> Result<bool, DriverError> {
-            Ok(block.option_parse::<i64>(key)?.unwrap_or(default) > 0)
+            Ok(options::int(block, key)?.unwrap_or(default) > 0)
         };
         let basename = block.option("basename").unwrap_or("writelog_");
         let extension = block.option("extension").unwrap_or(".log");

@@ -52,6 +52,7 @@ use player_server::{
     RequestTicket,
 };
 
+use crate::forward::refuse_own_device;
 use engine::{Engine, EngineConfig, Input, Output};
 use map::OccupancyMap;
 use models::{LaserModel, LaserScan, OdometryModel, SonarModel};
@@ -182,9 +183,11 @@ impl Amcl {
         };
         let laser = sensor(InterfaceCode::LASER, "laser")?;
         let sonar = sensor(InterfaceCode::SONAR, "sonar")?;
-        let me = |a: &DeviceAddr| block.provides.iter().any(|p| p.addr.same_device(a));
-        if me(&odometry) || laser.is_some_and(|l| me(&l.device)) {
-            return Err(DriverError::new("attempt to subscribe to self"));
+        let inputs: Vec<DeviceAddr> = std::iter::once(odometry)
+            .chain(laser.map(|l| l.device))
+            .collect();
+        for p in &block.provides {
+            refuse_own_device(p.addr, &inputs)?;
         }
         Ok(Amcl {
             settings: Settings::from_block(block)?,

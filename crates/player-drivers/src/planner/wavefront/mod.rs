@@ -121,8 +121,8 @@ impl WavefrontOptions {
     /// Reads the options of a `wavefront` block.
     pub fn from_block(block: &DriverBlock) -> Result<WavefrontOptions, Error> {
         let d = WavefrontOptions::default();
-        let flag = |key: &'static str, default: bool| -> Result<bool, Error> {
-            Ok(options::int(block, key)?.map_or(default, |v| v != 0))
+        let flag = |key: &str, default: bool| -> Result<bool, Error> {
+            Ok(options::flag(block, key)?.unwrap_or(default))
         };
         let o = WavefrontOptions {
             safety_dist: options::length(block, "safety_dist")?.unwrap_or(d.safety_dist),
@@ -142,14 +142,14 @@ impl WavefrontOptions {
         };
         if !(o.update_rate > 0.0 && o.update_rate.is_finite()) {
             return Err(Error::BadOption {
-                option: "update_rate",
+                option: "update_rate".into(),
                 value: o.update_rate.to_string(),
                 why: "must be a positive rate in Hz".into(),
             });
         }
         if !(o.max_radius.is_finite() && o.max_radius > 0.0) {
             return Err(Error::BadOption {
-                option: "max_radius",
+                option: "max_radius".into(),
                 value: o.max_radius.to_string(),
                 why: "must be positive".into(),
             });

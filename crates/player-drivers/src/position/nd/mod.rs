@@ -34,7 +34,7 @@ use player_server::{
 
 use crate::angle::{angle_diff, normalize};
 use crate::error::Error;
-use crate::forward::{Waiting, passed_on};
+use crate::forward::{Waiting, passed_on, refuse_own_device};
 use crate::options;
 
 use alg::{NdParams, Pose, Robot, Velocities};
@@ -109,7 +109,7 @@ impl Default for Settings {
 fn buffer(block: &DriverBlock, key: &'static str) -> Result<Option<usize>, Error> {
     match options::int(block, key)? {
         Some(n) if n < 1 => Err(Error::BadOption {
-            option: key,
+            option: key.into(),
             value: n.to_string(),
             why: "must be at least 1".into(),
         }),
@@ -133,7 +133,7 @@ impl Settings {
                 .iter()
                 .map(|t| {
                     t.parse::<usize>().map_err(|_| Error::BadOption {
-                        option: "sonar_bad_transducers",
+                        option: "sonar_bad_transducers".into(),
                         value: t.clone(),
                         why: "not a transducer index".into(),
                     })
@@ -499,9 +499,7 @@ impl Nd {
                 "ND needs at least one sonar or one laser (e.g. \"laser:0\")",
             ));
         }
-        if output.same_device(&addr) || input.same_device(&addr) {
-            return Err(DriverError::new("attempt to subscribe to self"));
-        }
+        refuse_own_device(addr, &[output, input])?;
         Ok(Nd {
             addr,
             output,

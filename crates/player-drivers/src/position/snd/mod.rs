@@ -24,7 +24,7 @@ use player_proto::{
 use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
 
 use crate::error::Error;
-use crate::forward::Waiting;
+use crate::forward::{Waiting, refuse_own_device};
 use crate::options;
 
 use alg::{Command, Scan, SndParams};
@@ -155,9 +155,7 @@ impl Snd {
         let output = block
             .required(InterfaceCode::POSITION2D, Some("output"))?
             .addr;
-        if input.same_device(&addr) || output.same_device(&addr) {
-            return Err(DriverError::new("attempt to subscribe to self"));
-        }
+        refuse_own_device(addr, &[input, output])?;
         Ok(Snd {
             addr,
             input,

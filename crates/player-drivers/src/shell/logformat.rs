@@ -719,6 +719,14 @@ impl<'a> Fields<'a> {
     }
 }
 
+fn pose2d(f: &mut Fields<'_>) -> Result<Pose2d, LineError> {
+    Ok(Pose2d {
+        px: f.f64()?,
+        py: f.f64()?,
+        pa: f.f64()?,
+    })
+}
+
 fn pose3d(f: &mut Fields<'_>) -> Result<Pose3d, LineError> {
     Ok(Pose3d {
         px: f.f64()?,
@@ -788,11 +796,7 @@ fn laser_scan_fields(
 ) -> Result<(LaserDataScan, Pose2d), LineError> {
     let id = f.i32()? as u32;
     let pose = if with_pose {
-        Pose2d {
-            px: f.f64()?,
-            py: f.f64()?,
-            pa: f.f64()?,
-        }
+        pose2d(f)?
     } else {
         Pose2d::default()
     };
@@ -935,16 +939,8 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             ack_body(SonarReq::GetGeom(Some(sonar_geom(&mut f)?)))
         }
         (InterfaceCode::POSITION2D, true, _, 1) => {
-            let pos = Pose2d {
-                px: f.f64()?,
-                py: f.f64()?,
-                pa: f.f64()?,
-            };
-            let vel = Pose2d {
-                px: f.f64()?,
-                py: f.f64()?,
-                pa: f.f64()?,
-            };
+            let pos = pose2d(&mut f)?;
+            let vel = pose2d(&mut f)?;
             let stall = f.u8()?;
             Position2dData::State(Position2dDataState { pos, vel, stall }).into()
         }
@@ -964,11 +960,7 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             let mut hypoths = Vec::with_capacity(n);
             for _ in 0..n {
                 hypoths.push(LocalizeHypoth {
-                    mean: Pose2d {
-                        px: f.f64()?,
-                        py: f.f64()?,
-                        pa: f.f64()?,
-                    },
+                    mean: pose2d(&mut f)?,
                     cov: [f.f64()?, f.f64()?, f.f64()?],
                     alpha: f.f64()?,
                 });
@@ -981,21 +973,13 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             .into()
         }
         (InterfaceCode::LOCALIZE, _, true, 2) => {
-            let mean = Pose2d {
-                px: f.f64()?,
-                py: f.f64()?,
-                pa: f.f64()?,
-            };
+            let mean = pose2d(&mut f)?;
             let variance = f.f64()?;
             let n = f.count(4)?;
             let mut particles = Vec::with_capacity(n);
             for _ in 0..n {
                 particles.push(LocalizeParticle {
-                    pose: Pose2d {
-                        px: f.f64()?,
-                        py: f.f64()?,
-                        pa: f.f64()?,
-                    },
+                    pose: pose2d(&mut f)?,
                     alpha: f.f64()?,
                 });
             }

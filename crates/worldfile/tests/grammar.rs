@@ -353,7 +353,10 @@ fn units_and_test_flag() {
 #[test]
 fn unknown_unit_words_are_warnings_naming_the_words_stage_takes() {
     let d = world("unit_length \"furlong\"\nunit_angle \"grad\"\n").unwrap();
-    assert_eq!((d.units.length, d.units.angle), (1.0, std::f64::consts::PI / 180.0));
+    assert_eq!(
+        (d.units.length, d.units.angle),
+        (1.0, std::f64::consts::PI / 180.0)
+    );
     let messages: Vec<&str> = d.warnings.iter().map(|w| w.message.as_str()).collect();
     assert_eq!(
         messages,

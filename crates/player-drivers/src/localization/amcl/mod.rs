@@ -464,9 +464,10 @@ impl Amcl {
         let Some(run) = self.run.as_mut() else {
             return;
         };
-        match (which, reply) {
-            (Which::Laser, Ok(msg)) => match msg.body {
-                Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(g)))) => {
+        let body = reply.as_ref().map(|msg| &msg.body);
+        match which {
+            Which::Laser => match body {
+                Ok(Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(g))))) => {
                     tracing::debug!(
                         "amcl: laser geometry {:.3} {:.3} {:.1} deg",
                         g.pose.px,
@@ -475,22 +476,19 @@ impl Amcl {
                     );
                     run.laser_pose = Some(Pose::new(g.pose.px, g.pose.py, g.pose.pyaw));
                 }
-                other => {
+                answer => {
+                    let why = match answer {
+                        Ok(other) => format!("({})", other.constant()),
+                        Err(e) => format!("from {device} ({e})"),
+                    };
                     tracing::warn!(
-                        "amcl: failed to get laser geometry ({}); assuming the laser sits at the robot's origin",
-                        other.constant()
+                        "amcl: failed to get laser geometry {why}; assuming the laser sits at the robot's origin"
                     );
                     run.laser_pose = Some(Pose::zeros());
                 }
             },
-            (Which::Laser, Err(e)) => {
-                tracing::warn!(
-                    "amcl: failed to get laser geometry from {device} ({e}); assuming the laser sits at the robot's origin"
-                );
-                run.laser_pose = Some(Pose::zeros());
-            }
-            (Which::Sonar, Ok(msg)) => match msg.body {
-                Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g)))) => {
+            Which::Sonar => match body {
+                Ok(Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g))))) => {
                     run.sonar_poses = Some(
                         g.poses
                             .iter()
@@ -498,20 +496,20 @@ impl Amcl {
                             .collect(),
                     );
                 }
-                other => {
+                answer => {
+                    let why = match answer {
+                        Ok(other) => format!(
+                            "unexpected sonar geometry answer {} from {device}",
+                            other.constant()
+                        ),
+                        Err(e) => format!("failed to get sonar geometry from {device} ({e})"),
+                    };
                     tracing::error!(
-                        "amcl: unexpected sonar geometry answer {} from {device}: the sonar is not used (give `scount` and `spose[i]`)",
-                        other.constant()
+                        "amcl: {why}: the sonar is not used (give `scount` and `spose[i]`)"
                     );
                     run.sonar_poses = Some(Vec::new());
                 }
             },
-            (Which::Sonar, Err(e)) => {
-                tracing::error!(
-                    "amcl: failed to get sonar geometry from {device} ({e}): the sonar is not used (give `scount` and `spose[i]`)"
-                );
-                run.sonar_poses = Some(Vec::new());
-            }
         }
     }
 

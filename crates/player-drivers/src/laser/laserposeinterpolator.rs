@@ -17,7 +17,7 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScan, LaserDataScanpose, LaserMsg,
     Message, Pose2d, Position2dData, Position2dMsg,
 };
-use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
+use player_server::{Context, Driver, DriverBlock, DriverError, PendingReply};
 
 use crate::angle::{angle_diff, normalize};
 use crate::forward::{Waiting, refuse_own_device};
@@ -234,11 +234,6 @@ impl Driver for LaserPoseInterpolator {
     }
 
     crate::forward::pass_requests_to!(laser);
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, LaserPoseInterpolator::from_block);
 }
 
 #[cfg(test)]

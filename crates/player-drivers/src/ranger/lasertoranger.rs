@@ -31,8 +31,7 @@ use player_proto::{
     RangerDataIntnsstamped, RangerDataRange, RangerDataRangestamped, RangerGeom, RangerReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
 use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
@@ -40,11 +39,6 @@ use crate::options;
 
 /// The name cfg files use.
 pub const NAME: &str = "lasertoranger";
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, LaserToRanger::from_block);
-}
 
 /// The ranger requests this driver answers (its CAPABILITIES).
 const HANDLED: [u8; 5] = [

@@ -36,9 +36,7 @@ use flate2::read::MultiGzDecoder;
 use player_proto::{
     Body, DeviceAddr, InterfaceCode, LogMsg, LogReq, Message, MsgType, PLAYER_LOG_TYPE_READ,
 };
-use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply,
-};
+use player_server::{Context, Driver, DriverBlock, DriverError, DriverWaker, Reply};
 
 use super::logformat::{self, Line, LineError};
 use super::writelog::is_gzip;
@@ -49,11 +47,6 @@ pub const NAME: &str = "readlog";
 
 /// Messages the worker may have ready before it waits for the driver to publish them.
 const OUTBOX_LIMIT: usize = 1024;
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, ReadLog::from_block);
-}
 
 /// A line of a log that could not be replayed, with where it is.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]

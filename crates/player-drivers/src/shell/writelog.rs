@@ -36,7 +36,7 @@ use player_proto::{
     Message, MsgType, PLAYER_LOG_TYPE_WRITE, Position2dReq, RangerReq, SonarReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply, RequestError, RequestTicket,
+    Context, Driver, DriverBlock, DriverError, Reply, RequestError, RequestTicket,
 };
 
 use super::logformat::{self, FILE_HEADER, WriteOptions};
@@ -44,11 +44,6 @@ use crate::options;
 
 /// The name cfg files use.
 pub const NAME: &str = "writelog";
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, WriteLog::from_block);
-}
 
 /// An open log: plain text (flushed after every line, as upstream) or gzip.
 enum Sink {

@@ -48,8 +48,7 @@ use player_proto::{
 };
 use player_server::map::OccupancyGrid;
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, DriverWaker, Reply, RequestError, RequestTicket,
 };
 
 use crate::forward::refuse_own_device;
@@ -746,11 +745,6 @@ impl Driver for Amcl {
     fn update(&mut self, ctx: &mut Context<'_>) {
         self.collect(ctx);
     }
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Amcl::from_block);
 }
 
 #[cfg(test)]

@@ -44,8 +44,7 @@ use player_proto::{
 };
 use player_server::map::OccupancyGrid;
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, DriverWaker, Reply, RequestError, RequestTicket,
 };
 
 use crate::error::Error;
@@ -820,11 +819,6 @@ impl Driver for Wavefront {
     fn step(&self) -> Option<Duration> {
         Some(Duration::from_secs_f64(1.0 / self.opts.update_rate))
     }
-}
-
-/// Registers `wavefront`.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Wavefront::from_block);
 }
 
 #[cfg(test)]

@@ -28,7 +28,7 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScanpose, LaserMsg, Message, Pose2d,
     Position2dCmd, Position2dCmdVel, Position2dData, Position2dMsg,
 };
-use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
+use player_server::{Context, Driver, DriverBlock, DriverError, PendingReply};
 
 use crate::forward::{Waiting, refuse_own_device};
 use crate::options;
@@ -290,11 +290,6 @@ impl Driver for Mbicp {
     }
 
     crate::forward::pass_requests_to!(odom);
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Mbicp::from_block);
 }
 
 #[cfg(test)]

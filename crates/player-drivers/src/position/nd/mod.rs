@@ -28,8 +28,7 @@ use player_proto::{
     Position2dMsg, Position2dReq, SonarData, SonarMsg, SonarReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
 use crate::angle::{angle_diff, normalize};
@@ -719,11 +718,6 @@ impl Driver for Nd {
     fn step(&self) -> Option<Duration> {
         Some(CYCLE)
     }
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Nd::from_block);
 }
 
 #[cfg(test)]

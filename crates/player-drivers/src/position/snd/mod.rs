@@ -21,7 +21,7 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserMsg, Message, Pose2d, Position2dCmd,
     Position2dCmdVel, Position2dData, Position2dMsg,
 };
-use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
+use player_server::{Context, Driver, DriverBlock, DriverError, PendingReply};
 
 use crate::error::Error;
 use crate::forward::{Waiting, refuse_own_device};
@@ -239,11 +239,6 @@ impl Driver for Snd {
     }
 
     crate::forward::pass_requests_to!(output);
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Snd::from_block);
 }
 
 #[cfg(test)]

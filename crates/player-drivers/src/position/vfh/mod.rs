@@ -42,8 +42,7 @@ use player_proto::{
     Position2dData, Position2dMsg, Position2dReq, SonarData, SonarMsg, SonarReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
 use crate::forward::{Waiting, refuse_own_device};
@@ -446,11 +445,6 @@ impl Driver for VfhDriver {
             }
         }
     }
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, VfhDriver::from_block);
 }
 
 #[cfg(test)]

@@ -19,8 +19,8 @@ pub enum Error {
     /// An option's value cannot be used.
     #[error("option `{option}` has an invalid value \"{value}\": {why}")]
     BadOption {
-        /// The option's name.
-        option: &'static str,
+        /// The option's name (an element of an indexed family, such as `spose[3]`, included).
+        option: String,
         /// The value as written.
         value: String,
         /// What is wrong with it.

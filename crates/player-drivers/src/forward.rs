@@ -10,7 +10,19 @@
 use std::collections::HashMap;
 
 use player_proto::{Body, Message, UniversalMsg, UniversalReq};
-use player_server::{Context, PendingReply, Reply, RequestError, RequestTicket};
+use player_server::{Context, DriverError, PendingReply, Reply, RequestError, RequestTicket};
+
+/// Upstream's "attempt to subscribe to self": a driver whose `provided` device is also one of
+/// the `inputs` it subscribes to would forward requests to itself and wait forever.
+pub(crate) fn refuse_own_device(
+    provided: player_proto::DeviceAddr,
+    inputs: &[player_proto::DeviceAddr],
+) -> Result<(), DriverError> {
+    if inputs.iter().any(|i| i.same_device(&provided)) {
+        return Err(DriverError::new("attempt to subscribe to self"));
+    }
+    Ok(())
+}
 
 /// What a driver is waiting for, by the ticket of the request it sent.
 #[derive(Debug)]

@@ -1,6 +1,7 @@
 //! Player 3.0.2's drivers other than `stage`, one module per driver as in Player's
-//! `server/drivers/`. Each module exposes a `register` function; [`register_all`] adds every
-//! driver of this crate to a [`DriverRegistry`] under its Player name.
+//! `server/drivers/`. Each module names its driver (`NAME`) and builds it from a cfg block
+//! (`from_block`); [`register_all`] adds every driver of this crate to a [`DriverRegistry`]
+//! under its Player name.
 //!
 //! * [`ranger`] — `rangertolaser`, `lasertoranger`, `sonartoranger`: Player 3's ranger
 //!   interface to and from Player 2's laser and sonar;
@@ -48,22 +49,43 @@ pub(crate) fn cores() -> usize {
 
 use player_server::DriverRegistry;
 
-/// Registers every driver of this crate under its Player 3.0.2 name.
+/// Registers every driver of this crate under its Player 3.0.2 name (each module's `NAME`),
+/// built by its type's `from_block`.
 pub fn register_all(registry: &mut DriverRegistry) {
-    ranger::rangertolaser::register(registry);
-    ranger::lasertoranger::register(registry);
-    ranger::sonartoranger::register(registry);
-    shell::passthrough::register(registry);
-    shell::relay::register(registry);
-    shell::writelog::register(registry);
-    shell::readlog::register(registry);
-    laser::laserposeinterpolator::register(registry);
-    map::mapfile::register(registry);
+    use laser::laserposeinterpolator;
+    use localization::amcl;
+    use map::mapfile;
+    use planner::wavefront;
+    use position::{mbicp, nd, snd, vfh};
+    use ranger::{lasertoranger, rangertolaser, sonartoranger};
+    use shell::{passthrough, readlog, relay, writelog};
+
+    registry.register_driver(
+        rangertolaser::NAME,
+        rangertolaser::RangerToLaser::from_block,
+    );
+    registry.register_driver(
+        lasertoranger::NAME,
+        lasertoranger::LaserToRanger::from_block,
+    );
+    registry.register_driver(
+        sonartoranger::NAME,
+        sonartoranger::SonarToRanger::from_block,
+    );
+    registry.register_driver(passthrough::NAME, passthrough::Passthrough::from_block);
+    registry.register_driver(relay::NAME, relay::Relay::from_block);
+    registry.register_driver(writelog::NAME, writelog::WriteLog::from_block);
+    registry.register_driver(readlog::NAME, readlog::ReadLog::from_block);
+    registry.register_driver(
+        laserposeinterpolator::NAME,
+        laserposeinterpolator::LaserPoseInterpolator::from_block,
+    );
+    registry.register_driver(mapfile::NAME, mapfile::MapFile::from_block);
     map::transform::register(registry);
-    position::vfh::register(registry);
-    position::mbicp::register(registry);
-    position::nd::register(registry);
-    position::snd::register(registry);
-    localization::amcl::register(registry);
-    planner::wavefront::register(registry);
+    registry.register_driver(vfh::NAME, vfh::VfhDriver::from_block);
+    registry.register_driver(mbicp::NAME, mbicp::Mbicp::from_block);
+    registry.register_driver(nd::NAME, nd::Nd::from_block);
+    registry.register_driver(snd::NAME, snd::Snd::from_block);
+    registry.register_driver(amcl::NAME, amcl::Amcl::from_block);
+    registry.register_driver(wavefront::NAME, wavefront::Wavefront::from_block);
 }

@@ -14,7 +14,7 @@ use crate::error::Error;
 /// (Player's tuple accessors return their default then).
 fn element<T: std::str::FromStr>(
     block: &DriverBlock,
-    key: &'static str,
+    key: &str,
     index: usize,
     what: &str,
 ) -> Result<Option<T>, Error> {
@@ -22,14 +22,26 @@ fn element<T: std::str::FromStr>(
         return Ok(None);
     };
     text.parse().map(Some).map_err(|_| Error::BadOption {
-        option: key,
+        option: key.to_string(),
         value: text.clone(),
         why: format!("not {what}"),
     })
 }
 
+/// Element `index` of option `key` as a number written in the cfg's `unit` (`what` it is,
+/// for the error), returned in metres or radians.
+fn scaled(
+    block: &DriverBlock,
+    key: &str,
+    index: usize,
+    what: &str,
+    unit: f64,
+) -> Result<Option<f64>, Error> {
+    Ok(element::<f64>(block, key, index, what)?.map(|v| v * unit))
+}
+
 /// `ReadLength(key)`: a length, in metres.
-pub fn length(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Error> {
+pub fn length(block: &DriverBlock, key: &str) -> Result<Option<f64>, Error> {
     tuple_length(block, key, 0)
 }
 
@@ -44,7 +56,7 @@ pub fn positive_length(
     let value = length(block, key)?.ok_or(Error::MissingOption { option: key, why })?;
     if !(value > 0.0 && value.is_finite()) {
         return Err(Error::BadOption {
-            option: key,
+            option: key.to_string(),
             value: value.to_string(),
             why: format!("must be a positive length ({unit})"),
         });
@@ -53,37 +65,39 @@ pub fn positive_length(
 }
 
 /// `ReadTupleLength(key, index)`: element `index` of a tuple of lengths.
-pub fn tuple_length(
-    block: &DriverBlock,
-    key: &'static str,
-    index: usize,
-) -> Result<Option<f64>, Error> {
-    Ok(element::<f64>(block, key, index, "a length")?.map(|v| v * block.units.length))
+pub fn tuple_length(block: &DriverBlock, key: &str, index: usize) -> Result<Option<f64>, Error> {
+    scaled(block, key, index, "a length", block.units.length)
 }
 
 /// `ReadInt(key)`.
-pub fn int(block: &DriverBlock, key: &'static str) -> Result<Option<i64>, Error> {
+pub fn int(block: &DriverBlock, key: &str) -> Result<Option<i64>, Error> {
     element(block, key, 0, "an integer")
 }
 
+/// A switch written as an integer: on unless it is 0 (Player's `ReadInt(key, d) != 0`).
+pub fn flag(block: &DriverBlock, key: &str) -> Result<Option<bool>, Error> {
+    Ok(int(block, key)?.map(|v| v != 0))
+}
+
 /// `ReadFloat(key)`: a plain number.
-pub fn float(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Error> {
-    element(block, key, 0, "a number")
+pub fn float(block: &DriverBlock, key: &str) -> Result<Option<f64>, Error> {
+    tuple_float(block, key, 0)
+}
+
+/// `ReadTupleFloat(key, index)`: element `index` of a tuple of plain numbers.
+pub fn tuple_float(block: &DriverBlock, key: &str, index: usize) -> Result<Option<f64>, Error> {
+    element(block, key, index, "a number")
 }
 
 /// `ReadAngle(key)`: an angle, in radians (written in degrees unless the cfg's `unit_angle`
 /// says radians).
-pub fn angle(block: &DriverBlock, key: &'static str) -> Result<Option<f64>, Error> {
+pub fn angle(block: &DriverBlock, key: &str) -> Result<Option<f64>, Error> {
     tuple_angle(block, key, 0)
 }
 
 /// `ReadTupleAngle(key, index)`: element `index` of a tuple of angles, in radians.
-pub fn tuple_angle(
-    block: &DriverBlock,
-    key: &'static str,
-    index: usize,
-) -> Result<Option<f64>, Error> {
-    Ok(element::<f64>(block, key, index, "an angle")?.map(|v| v * block.units.angle))
+pub fn tuple_angle(block: &DriverBlock, key: &str, index: usize) -> Result<Option<f64>, Error> {
+    scaled(block, key, index, "an angle", block.units.angle)
 }
 
 /// `ReadString(key)`.

@@ -428,6 +428,17 @@ mod tests {
         })))
     }
 
+    /// A DEV request opening (`access`) the device `interf`:0 of this port.
+    fn dev_request(
+        t: &DeviceTable,
+        q: &mut OutQueue,
+        subs: &mut Subs,
+        interf: InterfaceCode,
+        access: u8,
+    ) -> Vec<Message> {
+        exchange(t, q, subs, MsgType::Req, dev(interf, 0, access), 0)
+    }
+
     #[test]
     fn devlist_lists_this_port_in_table_order() {
         let t = table();
@@ -508,14 +519,7 @@ mod tests {
             | Body::Player(PlayerMsg::Nack(PlayerReq::Dev(Some(d)))) => d.clone(),
             other => panic!("{other:?}"),
         };
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            dev(InterfaceCode::POSITION2D, 0, 1),
-            0,
-        );
+        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 1);
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespAck);
         assert_eq!(out[0].header.size, 36);
         let d = access_of(&out[0]);
@@ -524,56 +528,21 @@ mod tests {
         assert_eq!(d.addr.robot, 6665);
         assert_eq!(subs.held, [DeviceIndex(1)]);
         // Close: access 2; closing again: not subscribed → access 3, still an ACK.
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            dev(InterfaceCode::POSITION2D, 0, 2),
-            0,
-        );
+        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 2);
         assert_eq!(access_of(&out[0]).access, 2);
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            dev(InterfaceCode::POSITION2D, 0, 2),
-            0,
-        );
+        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 2);
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespAck);
         assert_eq!(access_of(&out[0]).access, 3);
         // Unknown access mode → ACK with access 3.
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            dev(InterfaceCode::POSITION2D, 0, 9),
-            0,
-        );
+        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 9);
         assert_eq!(access_of(&out[0]).access, 3);
         // A refusing driver → ACK with access 3.
         subs.refuse = true;
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            dev(InterfaceCode::POSITION2D, 0, 1),
-            0,
-        );
+        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 1);
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespAck);
         assert_eq!(access_of(&out[0]).access, 3);
         // Unknown device (exists on another port only) → NACK with a 28-byte body.
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            dev(InterfaceCode::GRIPPER, 0, 1),
-            0,
-        );
+        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::GRIPPER, 1);
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespNack);
         assert_eq!(out[0].header.size, 28);
         let d = access_of(&out[0]);

@@ -103,37 +103,48 @@ fn read_globals(doc: &mut Document) -> Result<(), Error> {
             return Err(Error::at(ErrorKind::TestFile, &doc.sources, p.loc, "test"));
         }
     }
-    if let Some(p) = doc.property(0, "unit_length") {
-        p.mark_used();
-        match p.values.first().map(|v| &*v.text) {
-            Some("m") => doc.units.length = 1.0,
-            Some("cm") => doc.units.length = 0.01,
-            Some("mm") => doc.units.length = 0.001,
-            other => warnings.push(Warning::at(
-                doc.loc(p.loc),
-                format!(
-                    "unit_length {:?} is not \"m\", \"cm\" or \"mm\"; using metres as Stage does",
-                    other.unwrap_or("")
-                ),
-            )),
-        }
+    if let Some(f) = unit_factor(doc, "unit_length", LENGTH_UNITS, "metres", &mut warnings) {
+        doc.units.length = f;
     }
-    if let Some(p) = doc.property(0, "unit_angle") {
-        p.mark_used();
-        match p.values.first().map(|v| &*v.text) {
-            Some("degrees") => doc.units.angle = std::f64::consts::PI / 180.0,
-            Some("radians") => doc.units.angle = 1.0,
-            other => warnings.push(Warning::at(
-                doc.loc(p.loc),
-                format!(
-                    "unit_angle {:?} is not \"degrees\" or \"radians\"; using degrees as Stage does",
-                    other.unwrap_or("")
-                ),
-            )),
-        }
+    if let Some(f) = unit_factor(doc, "unit_angle", ANGLE_UNITS, "degrees", &mut warnings) {
+        doc.units.angle = f;
     }
     doc.warnings.extend(warnings);
     Ok(())
+}
+
+/// The words `unit_length` takes, with metres per unit.
+const LENGTH_UNITS: &[(&str, f64)] = &[("m", 1.0), ("cm", 0.01), ("mm", 0.001)];
+/// The words `unit_angle` takes, with radians per unit.
+const ANGLE_UNITS: &[(&str, f64)] = &[("degrees", std::f64::consts::PI / 180.0), ("radians", 1.0)];
+
+/// The factor of the unit word written as the top-level property `key`, marking it used;
+/// `None` when it is absent, or (with a warning, the unit staying Stage's `default`) when the
+/// word is not one of `units`.
+fn unit_factor(
+    doc: &Document,
+    key: &str,
+    units: &[(&str, f64)],
+    default: &str,
+    warnings: &mut Vec<Warning>,
+) -> Option<f64> {
+    let p = doc.property(0, key)?;
+    p.mark_used();
+    let word = p.values.first().map(|v| &*v.text);
+    if let Some(&(_, factor)) = units.iter().find(|(name, _)| Some(*name) == word) {
+        return Some(factor);
+    }
+    let names: Vec<String> = units.iter().map(|(name, _)| format!("{name:?}")).collect();
+    let (last, rest) = names.split_last().expect("a unit table is not empty");
+    warnings.push(Warning::at(
+        doc.loc(p.loc),
+        format!(
+            "{key} {:?} is not {} or {last}; using {default} as Stage does",
+            word.unwrap_or(""),
+            rest.join(", ")
+        ),
+    ));
+    None
 }
 
 fn is_blank(kind: TokenKind) -> bool {

@@ -350,6 +350,23 @@ fn units_and_test_flag() {
     assert!(world("test 0\n").is_ok());
 }
 
+#[test]
+fn unknown_unit_words_are_warnings_naming_the_words_stage_takes() {
+    let d = world("unit_length \"furlong\"\nunit_angle \"grad\"\n").unwrap();
+    assert_eq!(
+        (d.units.length, d.units.angle),
+        (1.0, std::f64::consts::PI / 180.0)
+    );
+    let messages: Vec<&str> = d.warnings.iter().map(|w| w.message.as_str()).collect();
+    assert_eq!(
+        messages,
+        [
+            "unit_length \"furlong\" is not \"m\", \"cm\" or \"mm\"; using metres as Stage does",
+            "unit_angle \"grad\" is not \"degrees\" or \"radians\"; using degrees as Stage does",
+        ]
+    );
+}
+
 // ---- include --------------------------------------------------------------------------------
 
 fn load(path: &Path, dialect: Dialect, stage_path: Vec<PathBuf>) -> Result<Document, Error> {

@@ -17,9 +17,10 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScan, LaserDataScanpose, LaserMsg,
     Message, Pose2d, Position2dData, Position2dMsg,
 };
-use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
+use player_server::{Context, Driver, DriverBlock, DriverError, PendingReply};
 
-use crate::forward::Waiting;
+use crate::forward::{Waiting, refuse_own_device};
+use crate::options;
 use pose::angle::{diff as angle_diff, normalize_atan2 as normalize};
 
 /// The Player name of this driver.
@@ -59,39 +60,26 @@ impl Settings {
     /// Reads the options of a cfg block (absent ones keep Player's defaults).
     pub fn from_block(block: &DriverBlock) -> Result<Settings, DriverError> {
         let d = Settings::default();
-        let flag = |key: &str, default: bool| -> Result<bool, DriverError> {
-            Ok(block.option_parse::<i64>(key)?.map_or(default, |v| v != 0))
-        };
-        let thresh = block.options.get("update_thresh");
-        let tuple = |i: usize| -> Result<Option<f64>, DriverError> {
-            match thresh.and_then(|v| v.get(i)) {
-                None => Ok(None),
-                Some(t) => t.parse().map(Some).map_err(|_| {
-                    DriverError::new(format!(
-                        "option `update_thresh` has an invalid value \"{t}\""
-                    ))
-                }),
-            }
-        };
-        let max_scans = block.option_parse::<i64>("max_scans")?.unwrap_or(100);
+        let max_scans = options::int(block, "max_scans")?.unwrap_or(100);
         if max_scans < 1 {
             return Err(DriverError::new(format!(
                 "option `max_scans` must be at least 1, not {max_scans}"
             )));
         }
         Ok(Settings {
-            interpolate: flag("interpolate", d.interpolate)?,
+            interpolate: options::flag(block, "interpolate")?.unwrap_or(d.interpolate),
             max_scans: max_scans as usize,
             // A length and an angle (Player's ReadTupleLength and ReadTupleAngle, in the cfg's
             // units); a negative value only switches the test off.
-            update_dist: tuple(0)?.map_or(d.update_dist, |v| v * block.units.length),
-            update_angle: tuple(1)?.map_or(d.update_angle, |a| {
-                if a < 0.0 { a } else { a * block.units.angle }
-            }),
-            update_interval: block
-                .option_parse("update_interval")?
-                .unwrap_or(d.update_interval),
-            send_all_scans: flag("send_all_scans", d.send_all_scans)?,
+            update_dist: options::tuple_length(block, "update_thresh", 0)?.unwrap_or(d.update_dist),
+            update_angle: options::tuple_float(block, "update_thresh", 1)?.map_or(
+                d.update_angle,
+                |a| {
+                    if a < 0.0 { a } else { a * block.units.angle }
+                },
+            ),
+            update_interval: options::float(block, "update_interval")?.unwrap_or(d.update_interval),
+            send_all_scans: options::flag(block, "send_all_scans")?.unwrap_or(d.send_all_scans),
         })
     }
 }
@@ -204,9 +192,7 @@ impl LaserPoseInterpolator {
     pub fn from_block(block: &DriverBlock) -> Result<LaserPoseInterpolator, DriverError> {
         let addr = block.provided(InterfaceCode::LASER)?;
         let laser = block.required(InterfaceCode::LASER, None)?.addr;
-        if laser.same_device(&addr) {
-            return Err(DriverError::new("attempt to subscribe to self"));
-        }
+        refuse_own_device(addr, &[laser])?;
         let position = block.required(InterfaceCode::POSITION2D, None)?.addr;
         Ok(LaserPoseInterpolator {
             addr,
@@ -248,11 +234,6 @@ impl Driver for LaserPoseInterpolator {
     }
 
     crate::forward::pass_requests_to!(laser);
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, LaserPoseInterpolator::from_block);
 }
 
 #[cfg(test)]

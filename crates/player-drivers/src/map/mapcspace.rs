@@ -52,7 +52,7 @@ impl CspaceOptions {
         })?;
         if !(robot_radius >= 0.0 && robot_radius.is_finite()) {
             return Err(Error::BadOption {
-                option: "robot_radius",
+                option: "robot_radius".into(),
                 value: robot_radius.to_string(),
                 why: "must be a length of 0 or more".into(),
             });
@@ -61,7 +61,7 @@ impl CspaceOptions {
             None | Some("circle") => RobotShape::Circle,
             Some(other) => {
                 return Err(Error::BadOption {
-                    option: "robot_shape",
+                    option: "robot_shape".into(),
                     value: other.into(),
                     why: "unknown robot shape (the only one is \"circle\")".into(),
                 });

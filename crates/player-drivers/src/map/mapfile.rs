@@ -30,7 +30,7 @@ use std::path::PathBuf;
 use image::DynamicImage;
 use player_proto::{DeviceAddr, InterfaceCode, Message, Pose2d};
 use player_server::map::{self, OccupancyGrid};
-use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply};
+use player_server::{Context, Driver, DriverBlock, DriverError, Reply};
 
 use crate::error::Error;
 use crate::options;
@@ -42,11 +42,6 @@ pub const NAME: &str = "mapfile";
 const OCCUPIED_ABOVE: f64 = 0.95;
 /// Below this `occ` a cell is free.
 const FREE_BELOW: f64 = 0.1;
-
-/// Registers `mapfile`.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, MapFile::from_block);
-}
 
 /// The options of a `mapfile` block.
 #[derive(Clone, Debug, PartialEq)]
@@ -85,7 +80,7 @@ impl MapFileOptions {
             (Some(x), Some(y)) => Some([x, y]),
             (Some(_), None) => {
                 return Err(Error::BadOption {
-                    option: "origin",
+                    option: "origin".into(),
                     value: block.options["origin"].join(" "),
                     why: "needs [x y] (and an angle, which is ignored)".into(),
                 });

@@ -31,19 +31,14 @@ use player_proto::{
     RangerDataIntnsstamped, RangerDataRange, RangerDataRangestamped, RangerGeom, RangerReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
 use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
+use crate::options;
 
 /// The name cfg files use.
 pub const NAME: &str = "lasertoranger";
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, LaserToRanger::from_block);
-}
 
 /// The ranger requests this driver answers (its CAPABILITIES).
 const HANDLED: [u8; 5] = [
@@ -86,23 +81,18 @@ impl ForcedConfig {
                 values.len()
             )));
         }
-        let mut v = [0f64; 5];
-        for (slot, text) in v.iter_mut().zip(values) {
-            *slot = text.parse().map_err(|_| {
-                DriverError::new(format!(
-                    "option `force_config` has an invalid value \"{text}\""
-                ))
-            })?;
-        }
         // Angles in the cfg's angle unit (Player's ReadTupleAngle); the ranges are plain
-        // numbers (ReadTupleFloat), not scaled by `unit_length`.
-        let angle = |v: f64| (v * block.units.angle) as f32;
+        // numbers (ReadTupleFloat), not scaled by `unit_length`. All five are there.
+        let angle =
+            |i| options::tuple_angle(block, "force_config", i).map(|v| v.unwrap_or(0.0) as f32);
+        let float =
+            |i| options::tuple_float(block, "force_config", i).map(|v| v.unwrap_or(0.0) as f32);
         Ok(Some(ForcedConfig {
-            min_angle: angle(v[0]),
-            max_angle: angle(v[1]),
-            angular_res: angle(v[2]),
-            max_range: v[3] as f32,
-            range_res: v[4] as f32,
+            min_angle: angle(0)?,
+            max_angle: angle(1)?,
+            angular_res: angle(2)?,
+            max_range: float(3)?,
+            range_res: float(4)?,
         }))
     }
 }

@@ -46,5 +46,5 @@ pub(crate) fn provided(
 /// Upstream's `buggy_geom` option (default 0): zero the z, roll and pitch of geometry read from
 /// drivers that leave those fields uninitialised.
 pub(crate) fn buggy_geom(block: &DriverBlock) -> Result<bool, DriverError> {
-    Ok(block.option_parse::<i64>("buggy_geom")?.unwrap_or(0) != 0)
+    Ok(crate::options::flag(block, "buggy_geom")?.unwrap_or(false))
 }

@@ -29,19 +29,13 @@ use player_proto::{
     RangerIntnsConfig, RangerMsg, RangerPowerConfig, RangerReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
 use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "rangertolaser";
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, RangerToLaser::from_block);
-}
 
 /// The laser requests this driver answers (its CAPABILITIES).
 const HANDLED: [u8; 4] = [

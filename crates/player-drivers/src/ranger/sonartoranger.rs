@@ -21,19 +21,13 @@ use player_proto::{
     SonarMsg, SonarPowerConfig, SonarReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
 use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "sonartoranger";
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, SonarToRanger::from_block);
-}
 
 /// The ranger requests this driver lists in its CAPABILITIES (upstream answers GET_CONFIG
 /// too but does not list it).

@@ -702,6 +702,16 @@ impl<'a> Fields<'a> {
         Ok(n)
     }
 
+    /// A count, then that many items of `per` fields each, each read by `item`.
+    fn list<T>(
+        &mut self,
+        per: usize,
+        mut item: impl FnMut(&mut Self) -> Result<T, LineError>,
+    ) -> Result<Vec<T>, LineError> {
+        let n = self.count(per)?;
+        (0..n).map(|_| item(self)).collect()
+    }
+
     /// Fails when fields remain (a count smaller than its list).
     fn end(&self) -> Result<(), LineError> {
         if self.at != self.tokens.len() {
@@ -717,6 +727,14 @@ impl<'a> Fields<'a> {
     fn remaining(&self) -> usize {
         self.tokens.len() - self.at
     }
+}
+
+fn pose2d(f: &mut Fields<'_>) -> Result<Pose2d, LineError> {
+    Ok(Pose2d {
+        px: f.f64()?,
+        py: f.f64()?,
+        pa: f.f64()?,
+    })
 }
 
 fn pose3d(f: &mut Fields<'_>) -> Result<Pose3d, LineError> {
@@ -741,10 +759,8 @@ fn bbox_wlh(f: &mut Fields<'_>) -> Result<Bbox3d, LineError> {
 fn ranger_geom_fields(f: &mut Fields<'_>) -> Result<RangerGeom, LineError> {
     let pose = pose3d(f)?;
     let size = bbox_wlh(f)?;
-    let n = f.count(6)?;
-    let element_poses = (0..n).map(|_| pose3d(f)).collect::<Result<_, _>>()?;
-    let n = f.count(3)?;
-    let element_sizes = (0..n).map(|_| bbox_wlh(f)).collect::<Result<_, _>>()?;
+    let element_poses = f.list(6, pose3d)?;
+    let element_sizes = f.list(3, bbox_wlh)?;
     Ok(RangerGeom {
         pose,
         size,
@@ -788,11 +804,7 @@ fn laser_scan_fields(
 ) -> Result<(LaserDataScan, Pose2d), LineError> {
     let id = f.i32()? as u32;
     let pose = if with_pose {
-        Pose2d {
-            px: f.f64()?,
-            py: f.f64()?,
-            pa: f.f64()?,
-        }
+        pose2d(f)?
     } else {
         Pose2d::default()
     };
@@ -884,18 +896,15 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             ack_body(LaserReq::GetGeom(Some(g)))
         }
         (InterfaceCode::RANGER, true, _, 1) => {
-            let n = f.count(1)?;
-            let ranges = (0..n).map(|_| f.f64()).collect::<Result<_, _>>()?;
+            let ranges = f.list(1, Fields::f64)?;
             RangerData::Range(RangerDataRange { ranges }).into()
         }
         (InterfaceCode::RANGER, true, _, 3) => {
-            let n = f.count(1)?;
-            let intensities = (0..n).map(|_| f.f64()).collect::<Result<_, _>>()?;
+            let intensities = f.list(1, Fields::f64)?;
             RangerData::Intns(RangerDataIntns { intensities }).into()
         }
         (InterfaceCode::RANGER, true, _, 2) => {
-            let n = f.count(1)?;
-            let ranges = (0..n).map(|_| f.f64()).collect::<Result<_, _>>()?;
+            let ranges = f.list(1, Fields::f64)?;
             let (have_geom, geom, have_config, config) = stamped_fields(&mut f)?;
             RangerData::RangeStamped(RangerDataRangestamped {
                 data: RangerDataRange { ranges },
@@ -907,8 +916,7 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             .into()
         }
         (InterfaceCode::RANGER, true, _, 4) => {
-            let n = f.count(1)?;
-            let intensities = (0..n).map(|_| f.f64()).collect::<Result<_, _>>()?;
+            let intensities = f.list(1, Fields::f64)?;
             let (have_geom, geom, have_config, config) = stamped_fields(&mut f)?;
             RangerData::IntnsStamped(RangerDataIntnsstamped {
                 data: RangerDataIntns { intensities },
@@ -926,8 +934,7 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             ack_body(RangerReq::GetConfig(Some(ranger_config_fields(&mut f)?)))
         }
         (InterfaceCode::SONAR, true, _, 1) => {
-            let n = f.count(1)?;
-            let ranges = (0..n).map(|_| f.f32()).collect::<Result<_, _>>()?;
+            let ranges = f.list(1, Fields::f32)?;
             SonarData::Ranges(SonarDataRanges { ranges }).into()
         }
         (InterfaceCode::SONAR, true, _, 2) => SonarData::Geom(sonar_geom(&mut f)?).into(),
@@ -935,16 +942,8 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             ack_body(SonarReq::GetGeom(Some(sonar_geom(&mut f)?)))
         }
         (InterfaceCode::POSITION2D, true, _, 1) => {
-            let pos = Pose2d {
-                px: f.f64()?,
-                py: f.f64()?,
-                pa: f.f64()?,
-            };
-            let vel = Pose2d {
-                px: f.f64()?,
-                py: f.f64()?,
-                pa: f.f64()?,
-            };
+            let pos = pose2d(&mut f)?;
+            let vel = pose2d(&mut f)?;
             let stall = f.u8()?;
             Position2dData::State(Position2dDataState { pos, vel, stall }).into()
         }
@@ -960,19 +959,13 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
         (InterfaceCode::LOCALIZE, true, _, 1) => {
             let pending_count = f.u32()?;
             let pending_time = f.f64()?;
-            let n = f.count(7)?;
-            let mut hypoths = Vec::with_capacity(n);
-            for _ in 0..n {
-                hypoths.push(LocalizeHypoth {
-                    mean: Pose2d {
-                        px: f.f64()?,
-                        py: f.f64()?,
-                        pa: f.f64()?,
-                    },
+            let hypoths = f.list(7, |f| {
+                Ok(LocalizeHypoth {
+                    mean: pose2d(f)?,
                     cov: [f.f64()?, f.f64()?, f.f64()?],
                     alpha: f.f64()?,
-                });
-            }
+                })
+            })?;
             LocalizeData::Hypoths(LocalizeDataHypoths {
                 pending_count,
                 pending_time,
@@ -981,24 +974,14 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             .into()
         }
         (InterfaceCode::LOCALIZE, _, true, 2) => {
-            let mean = Pose2d {
-                px: f.f64()?,
-                py: f.f64()?,
-                pa: f.f64()?,
-            };
+            let mean = pose2d(&mut f)?;
             let variance = f.f64()?;
-            let n = f.count(4)?;
-            let mut particles = Vec::with_capacity(n);
-            for _ in 0..n {
-                particles.push(LocalizeParticle {
-                    pose: Pose2d {
-                        px: f.f64()?,
-                        py: f.f64()?,
-                        pa: f.f64()?,
-                    },
+            let particles = f.list(4, |f| {
+                Ok(LocalizeParticle {
+                    pose: pose2d(f)?,
                     alpha: f.f64()?,
-                });
-            }
+                })
+            })?;
             ack_body(LocalizeReq::GetParticles(Some(LocalizeGetParticles {
                 mean,
                 variance,
@@ -1008,10 +991,8 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
         (InterfaceCode::BLOBFINDER, true, _, 1) => {
             let width = f.u32()?;
             let height = f.u32()?;
-            let n = f.count(10)?;
-            let mut blobs = Vec::with_capacity(n);
-            for _ in 0..n {
-                blobs.push(BlobfinderBlob {
+            let blobs = f.list(10, |f| {
+                Ok(BlobfinderBlob {
                     id: f.i32()? as u32,
                     color: f.i32()? as u32,
                     area: f.i32()? as u32,
@@ -1022,8 +1003,8 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
                     top: f.i32()? as u32,
                     bottom: f.i32()? as u32,
                     range: f.f32()?,
-                });
-            }
+                })
+            })?;
             BlobfinderData::Blobs(BlobfinderDataBlobs {
                 width,
                 height,
@@ -1032,15 +1013,13 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             .into()
         }
         (InterfaceCode::FIDUCIAL, true, _, 1) => {
-            let n = f.count(13)?;
-            let mut fiducials = Vec::with_capacity(n);
-            for _ in 0..n {
-                fiducials.push(FiducialItem {
+            let fiducials = f.list(13, |f| {
+                Ok(FiducialItem {
                     id: f.i32()?,
-                    pose: pose3d(&mut f)?,
-                    upose: pose3d(&mut f)?,
-                });
-            }
+                    pose: pose3d(f)?,
+                    upose: pose3d(f)?,
+                })
+            })?;
             FiducialData::Scan(FiducialDataScan { fiducials }).into()
         }
         (InterfaceCode::FIDUCIAL, _, true, 1) => {
@@ -1089,17 +1068,15 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             .into()
         }
         (InterfaceCode::ACTARRAY, true, _, 1) => {
-            let n = f.count(5)?;
-            let mut actuators = Vec::with_capacity(n);
-            for _ in 0..n {
-                actuators.push(ActarrayActuator {
+            let actuators = f.list(5, |f| {
+                Ok(ActarrayActuator {
                     position: f.f32()?,
                     speed: f.f32()?,
                     acceleration: f.f32()?,
                     current: f.f32()?,
                     state: f.u8()?,
-                });
-            }
+                })
+            })?;
             let motor_state = f.u8()?;
             ActarrayData::State(ActarrayDataState {
                 actuators,
@@ -1120,16 +1097,14 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
 }
 
 fn sonar_geom(f: &mut Fields<'_>) -> Result<SonarGeom, LineError> {
-    let n = f.count(3)?;
-    let mut poses = Vec::with_capacity(n);
-    for _ in 0..n {
-        poses.push(Pose3d {
+    let poses = f.list(3, |f| {
+        Ok(Pose3d {
             px: f.f64()?,
             py: f.f64()?,
             pyaw: f.f64()?,
             ..Default::default()
-        });
-    }
+        })
+    })?;
     Ok(SonarGeom { poses })
 }
 

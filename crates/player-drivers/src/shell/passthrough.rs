@@ -22,19 +22,13 @@
 
 use player_proto::{Body, DeviceAddr, Message};
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
 use crate::forward::Waiting;
 
 /// The name cfg files use.
 pub const NAME: &str = "passthrough";
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Passthrough::from_block);
-}
 
 /// One provided device and the device it stands for.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -36,23 +36,17 @@ use flate2::read::MultiGzDecoder;
 use player_proto::{
     Body, DeviceAddr, InterfaceCode, LogMsg, LogReq, Message, MsgType, PLAYER_LOG_TYPE_READ,
 };
-use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply,
-};
+use player_server::{Context, Driver, DriverBlock, DriverError, DriverWaker, Reply};
 
 use super::logformat::{self, Line, LineError};
 use super::writelog::is_gzip;
+use crate::options;
 
 /// The name cfg files use.
 pub const NAME: &str = "readlog";
 
 /// Messages the worker may have ready before it waits for the driver to publish them.
 const OUTBOX_LIMIT: usize = 1024;
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, ReadLog::from_block);
-}
 
 /// A line of a log that could not be replayed, with where it is.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -209,15 +203,12 @@ impl ReadLog {
         File::open(&path).map_err(|e| {
             DriverError::new(format!("unable to open log file [{}]: {e}", path.display()))
         })?;
-        let speed: f64 = block.option_parse("speed")?.unwrap_or(1.0);
+        let speed = options::float(block, "speed")?.unwrap_or(1.0);
         if speed.is_nan() || speed <= 0.0 {
             return Err(DriverError::new(format!(
                 "option `speed` must be positive (1 = the recorded pace), not {speed}"
             )));
         }
-        let flag = |key: &str, default: i64| -> Result<bool, DriverError> {
-            Ok(block.option_parse::<i64>(key)?.unwrap_or(default) != 0)
-        };
         let mut log_addr = None;
         let mut provided = Vec::new();
         for p in &block.provides {
@@ -230,8 +221,8 @@ impl ReadLog {
         Ok(ReadLog {
             path,
             speed,
-            autoplay: flag("autoplay", 1)?,
-            autorewind: flag("autorewind", 0)?,
+            autoplay: options::flag(block, "autoplay")?.unwrap_or(true),
+            autorewind: options::flag(block, "autorewind")?.unwrap_or(false),
             log_addr,
             provided,
             shared: Arc::new(Shared {

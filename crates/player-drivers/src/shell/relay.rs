@@ -9,15 +9,10 @@
 use player_proto::{
     Body, DeviceAddr, InterfaceCode, Message, OpaqueCmd, OpaqueDataMsg, OpaqueMsg, OpaqueReq,
 };
-use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply};
+use player_server::{Context, Driver, DriverBlock, DriverError, Reply};
 
 /// The name cfg files use.
 pub const NAME: &str = "relay";
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Relay::from_block);
-}
 
 /// The driver: one `opaque` device.
 #[derive(Debug)]

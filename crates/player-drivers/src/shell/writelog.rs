@@ -36,18 +36,14 @@ use player_proto::{
     Message, MsgType, PLAYER_LOG_TYPE_WRITE, Position2dReq, RangerReq, SonarReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, Reply, RequestError, RequestTicket,
+    Context, Driver, DriverBlock, DriverError, Reply, RequestError, RequestTicket,
 };
 
 use super::logformat::{self, FILE_HEADER, WriteOptions};
+use crate::options;
 
 /// The name cfg files use.
 pub const NAME: &str = "writelog";
-
-/// Registers the driver under [`NAME`].
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, WriteLog::from_block);
-}
 
 /// An open log: plain text (flushed after every line, as upstream) or gzip.
 enum Sink {
@@ -225,7 +221,7 @@ impl WriteLog {
             .unwrap_or(0);
         let stamp = timestamp_text(now);
         let flag = |key: &str, default: i64| -> Result<bool, DriverError> {
-            Ok(block.option_parse::<i64>(key)?.unwrap_or(default) > 0)
+            Ok(options::int(block, key)?.unwrap_or(default) > 0)
         };
         let basename = block.option("basename").unwrap_or("writelog_");
         let extension = block.option("extension").unwrap_or(".log");

@@ -48,10 +48,10 @@ use player_proto::{
 };
 use player_server::map::OccupancyGrid;
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, DriverWaker, Reply, RequestError, RequestTicket,
 };
 
+use crate::forward::refuse_own_device;
 use engine::{Engine, EngineConfig, Input, Output};
 use map::OccupancyMap;
 use models::{LaserModel, LaserScan, OdometryModel, SonarModel};
@@ -182,9 +182,11 @@ impl Amcl {
         };
         let laser = sensor(InterfaceCode::LASER, "laser")?;
         let sonar = sensor(InterfaceCode::SONAR, "sonar")?;
-        let me = |a: &DeviceAddr| block.provides.iter().any(|p| p.addr.same_device(a));
-        if me(&odometry) || laser.is_some_and(|l| me(&l.device)) {
-            return Err(DriverError::new("attempt to subscribe to self"));
+        let inputs: Vec<DeviceAddr> = std::iter::once(odometry)
+            .chain(laser.map(|l| l.device))
+            .collect();
+        for p in &block.provides {
+            refuse_own_device(p.addr, &inputs)?;
         }
         Ok(Amcl {
             settings: Settings::from_block(block)?,
@@ -461,9 +463,10 @@ impl Amcl {
         let Some(run) = self.run.as_mut() else {
             return;
         };
-        match (which, reply) {
-            (Which::Laser, Ok(msg)) => match msg.body {
-                Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(g)))) => {
+        let body = reply.as_ref().map(|msg| &msg.body);
+        match which {
+            Which::Laser => match body {
+                Ok(Body::Laser(LaserMsg::Ack(LaserReq::GetGeom(Some(g))))) => {
                     tracing::debug!(
                         "amcl: laser geometry {:.3} {:.3} {:.1} deg",
                         g.pose.px,
@@ -472,22 +475,19 @@ impl Amcl {
                     );
                     run.laser_pose = Some(Pose::new(g.pose.px, g.pose.py, g.pose.pyaw));
                 }
-                other => {
+                answer => {
+                    let why = match answer {
+                        Ok(other) => format!("({})", other.constant()),
+                        Err(e) => format!("from {device} ({e})"),
+                    };
                     tracing::warn!(
-                        "amcl: failed to get laser geometry ({}); assuming the laser sits at the robot's origin",
-                        other.constant()
+                        "amcl: failed to get laser geometry {why}; assuming the laser sits at the robot's origin"
                     );
                     run.laser_pose = Some(Pose::zeros());
                 }
             },
-            (Which::Laser, Err(e)) => {
-                tracing::warn!(
-                    "amcl: failed to get laser geometry from {device} ({e}); assuming the laser sits at the robot's origin"
-                );
-                run.laser_pose = Some(Pose::zeros());
-            }
-            (Which::Sonar, Ok(msg)) => match msg.body {
-                Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g)))) => {
+            Which::Sonar => match body {
+                Ok(Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g))))) => {
                     run.sonar_poses = Some(
                         g.poses
                             .iter()
@@ -495,20 +495,20 @@ impl Amcl {
                             .collect(),
                     );
                 }
-                other => {
+                answer => {
+                    let why = match answer {
+                        Ok(other) => format!(
+                            "unexpected sonar geometry answer {} from {device}",
+                            other.constant()
+                        ),
+                        Err(e) => format!("failed to get sonar geometry from {device} ({e})"),
+                    };
                     tracing::error!(
-                        "amcl: unexpected sonar geometry answer {} from {device}: the sonar is not used (give `scount` and `spose[i]`)",
-                        other.constant()
+                        "amcl: {why}: the sonar is not used (give `scount` and `spose[i]`)"
                     );
                     run.sonar_poses = Some(Vec::new());
                 }
             },
-            (Which::Sonar, Err(e)) => {
-                tracing::error!(
-                    "amcl: failed to get sonar geometry from {device} ({e}): the sonar is not used (give `scount` and `spose[i]`)"
-                );
-                run.sonar_poses = Some(Vec::new());
-            }
         }
     }
 
@@ -745,11 +745,6 @@ impl Driver for Amcl {
     fn update(&mut self, ctx: &mut Context<'_>) {
         self.collect(ctx);
     }
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Amcl::from_block);
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ use nalgebra::Matrix3;
 use player_server::{DriverBlock, DriverError};
 
 use super::pose::Pose;
+use crate::options;
 
 /// Most particles accepted for `pf_max_samples`: a GET_PARTICLES answer of this many (32
 /// bytes each) stays within Player's 32 MiB message bound.
@@ -78,22 +79,9 @@ impl Default for Settings {
     }
 }
 
-/// Element `index` of option `key` as a number (`None` when the option or the element is
-/// absent, which Player answers with the default).
-fn element(block: &DriverBlock, key: &str, index: usize) -> Result<Option<f64>, DriverError> {
-    match block.options.get(key).and_then(|v| v.get(index)) {
-        None => Ok(None),
-        Some(text) => text.parse().map(Some).map_err(|_| {
-            DriverError::new(format!(
-                "option `{key}` has an invalid value \"{text}\" (element {index})"
-            ))
-        }),
-    }
-}
-
 /// A count option: a non-negative integer.
 fn count(block: &DriverBlock, key: &str, default: usize) -> Result<usize, DriverError> {
-    match block.option_parse::<i64>(key)? {
+    match options::int(block, key)? {
         None => Ok(default),
         Some(n) if n >= 0 => Ok(n as usize),
         Some(n) => Err(DriverError::new(format!(
@@ -105,11 +93,10 @@ fn count(block: &DriverBlock, key: &str, default: usize) -> Result<usize, Driver
 /// A pose tuple `[x y a]`: lengths, then an angle (in the cfg's units: metres and degrees
 /// unless it says otherwise); absent elements keep `default`.
 fn pose(block: &DriverBlock, key: &str, default: Pose) -> Result<Pose, DriverError> {
-    let (length, angle) = (block.units.length, block.units.angle);
     Ok(Pose::new(
-        element(block, key, 0)?.map_or(default.x, |v| v * length),
-        element(block, key, 1)?.map_or(default.y, |v| v * length),
-        element(block, key, 2)?.map_or(default.z, |v| v * angle),
+        options::tuple_length(block, key, 0)?.unwrap_or(default.x),
+        options::tuple_length(block, key, 1)?.unwrap_or(default.y),
+        options::tuple_angle(block, key, 2)?.unwrap_or(default.z),
     ))
 }
 
@@ -118,15 +105,6 @@ impl Settings {
     /// naming the option.
     pub fn from_block(block: &DriverBlock) -> Result<Settings, DriverError> {
         let d = Settings::default();
-        let float = |key: &str, default: f64| -> Result<f64, DriverError> {
-            Ok(block.option_parse::<f64>(key)?.unwrap_or(default))
-        };
-        // Player's ReadLength: in the cfg's length unit.
-        let length = |key: &str, default: f64| -> Result<f64, DriverError> {
-            Ok(block
-                .option_parse::<f64>(key)?
-                .map_or(default, |v| v * block.units.length))
-        };
         let pf_min_samples = count(block, "pf_min_samples", d.pf_min_samples)?;
         let pf_max_samples = count(block, "pf_max_samples", d.pf_max_samples)?;
         if pf_max_samples == 0 || pf_max_samples > MAX_SAMPLES_LIMIT {
@@ -139,8 +117,8 @@ impl Settings {
                 "option `pf_min_samples` ({pf_min_samples}) exceeds `pf_max_samples` ({pf_max_samples})"
             )));
         }
-        let pf_err = float("pf_err", d.pf_err)?;
-        let pf_z = float("pf_z", d.pf_z)?;
+        let pf_err = options::float(block, "pf_err")?.unwrap_or(d.pf_err);
+        let pf_z = options::float(block, "pf_z")?.unwrap_or(d.pf_z);
         if !(pf_err > 0.0 && pf_err.is_finite() && pf_z.is_finite()) {
             return Err(DriverError::new(format!(
                 "options `pf_err` ({pf_err}) must be positive and `pf_z` ({pf_z}) a number"
@@ -150,12 +128,12 @@ impl Settings {
         for row in 0..3 {
             let key = format!("odom_drift[{row}]");
             for col in 0..3 {
-                if let Some(v) = element(block, &key, col)? {
+                if let Some(v) = options::tuple_float(block, &key, col)? {
                     odom_drift[(row, col)] = v;
                 }
             }
         }
-        let sonar_poses = match block.option_parse::<i64>("scount")? {
+        let sonar_poses = match options::int(block, "scount")? {
             None => None,
             Some(n) if n < 1 => {
                 return Err(DriverError::new(format!(
@@ -183,7 +161,7 @@ impl Settings {
         };
         // The beam models divide by these: zero or negative spreads make every weight NaN.
         let spread = |key: &str, default: f64| -> Result<f64, DriverError> {
-            let v = length(key, default)?;
+            let v = options::length(block, key)?.unwrap_or(default);
             if v > 0.0 && v.is_finite() {
                 Ok(v)
             } else {
@@ -199,18 +177,18 @@ impl Settings {
             pf_z,
             init_pose: pose(block, "init_pose", d.init_pose)?,
             init_pose_var: pose(block, "init_pose_var", d.init_pose_var)?,
-            update_dist: element(block, "update_thresh", 0)?
-                .map_or(d.update_dist, |v| v * block.units.length),
-            update_angle: element(block, "update_thresh", 1)?
-                .map_or(d.update_angle, |v| v * block.units.angle),
+            update_dist: options::tuple_length(block, "update_thresh", 0)?.unwrap_or(d.update_dist),
+            update_angle: options::tuple_angle(block, "update_thresh", 1)?
+                .unwrap_or(d.update_angle),
             odom_drift,
             laser_max_beams: count(block, "laser_max_beams", d.laser_max_beams)?,
             laser_range_var: spread("laser_range_var", d.laser_range_var)?,
-            laser_range_bad: float("laser_range_bad", d.laser_range_bad)?,
+            laser_range_bad: options::float(block, "laser_range_bad")?.unwrap_or(d.laser_range_bad),
             sonar_poses,
-            sonar_range_max: length("sonar_range_max", d.sonar_range_max)?,
+            sonar_range_max: options::length(block, "sonar_range_max")?
+                .unwrap_or(d.sonar_range_max),
             sonar_range_var: spread("sonar_range_var", d.sonar_range_var)?,
-            sonar_range_bad: float("sonar_range_bad", d.sonar_range_bad)?,
+            sonar_range_bad: options::float(block, "sonar_range_bad")?.unwrap_or(d.sonar_range_bad),
             seed,
         })
     }

@@ -44,8 +44,7 @@ use player_proto::{
 };
 use player_server::map::OccupancyGrid;
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, DriverWaker, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, DriverWaker, Reply, RequestError, RequestTicket,
 };
 
 use crate::error::Error;
@@ -121,8 +120,8 @@ impl WavefrontOptions {
     /// Reads the options of a `wavefront` block.
     pub fn from_block(block: &DriverBlock) -> Result<WavefrontOptions, Error> {
         let d = WavefrontOptions::default();
-        let flag = |key: &'static str, default: bool| -> Result<bool, Error> {
-            Ok(options::int(block, key)?.map_or(default, |v| v != 0))
+        let flag = |key: &str, default: bool| -> Result<bool, Error> {
+            Ok(options::flag(block, key)?.unwrap_or(default))
         };
         let o = WavefrontOptions {
             safety_dist: options::length(block, "safety_dist")?.unwrap_or(d.safety_dist),
@@ -142,14 +141,14 @@ impl WavefrontOptions {
         };
         if !(o.update_rate > 0.0 && o.update_rate.is_finite()) {
             return Err(Error::BadOption {
-                option: "update_rate",
+                option: "update_rate".into(),
                 value: o.update_rate.to_string(),
                 why: "must be a positive rate in Hz".into(),
             });
         }
         if !(o.max_radius.is_finite() && o.max_radius > 0.0) {
             return Err(Error::BadOption {
-                option: "max_radius",
+                option: "max_radius".into(),
                 value: o.max_radius.to_string(),
                 why: "must be positive".into(),
             });
@@ -820,11 +819,6 @@ impl Driver for Wavefront {
     fn step(&self) -> Option<Duration> {
         Some(Duration::from_secs_f64(1.0 / self.opts.update_rate))
     }
-}
-
-/// Registers `wavefront`.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Wavefront::from_block);
 }
 
 #[cfg(test)]

@@ -28,9 +28,10 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserDataScanpose, LaserMsg, Message, Pose2d,
     Position2dCmd, Position2dCmdVel, Position2dData, Position2dMsg,
 };
-use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
+use player_server::{Context, Driver, DriverBlock, DriverError, PendingReply};
 
-use crate::forward::Waiting;
+use crate::forward::{Waiting, refuse_own_device};
+use crate::options;
 use alg::{Frame, Outcome, Params, Reading};
 
 /// The Player name of this driver.
@@ -61,10 +62,10 @@ impl Settings {
         let d = Settings::default();
         let p = &d.params;
         let float = |key: &str, default: f64| -> Result<f64, DriverError> {
-            Ok(block.option_parse::<f64>(key)?.unwrap_or(default))
+            Ok(options::float(block, key)?.unwrap_or(default))
         };
         let count = |key: &str, default: usize, least: i64| -> Result<usize, DriverError> {
-            match block.option_parse::<i64>(key)? {
+            match options::int(block, key)? {
                 None => Ok(default),
                 Some(v) if v >= least => Ok(v as usize),
                 Some(v) => Err(DriverError::new(format!(
@@ -80,8 +81,7 @@ impl Settings {
             laser_step: count("laserStep", p.laser_step, 1)?,
             max_dist_inter: float("MaxDistInter", p.max_dist_inter)?,
             filter: float("filter", p.filter)?,
-            projection_filter: block
-                .option_parse::<i64>("ProjectionFilter")?
+            projection_filter: options::int(block, "ProjectionFilter")?
                 .map_or(p.projection_filter, |v| v == 1),
             asoc_error: float("AsocError", p.asoc_error)?,
             max_iter: count("MaxIter", p.max_iter, 0)?,
@@ -214,9 +214,7 @@ impl Mbicp {
     pub fn from_block(block: &DriverBlock) -> Result<Mbicp, DriverError> {
         let addr = block.provided(InterfaceCode::POSITION2D)?;
         let odom = block.required(InterfaceCode::POSITION2D, None)?.addr;
-        if odom.same_device(&addr) {
-            return Err(DriverError::new("attempt to subscribe to self"));
-        }
+        refuse_own_device(addr, &[odom])?;
         let laser = block.required(InterfaceCode::LASER, None)?.addr;
         Ok(Mbicp {
             addr,
@@ -292,11 +290,6 @@ impl Driver for Mbicp {
     }
 
     crate::forward::pass_requests_to!(odom);
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Mbicp::from_block);
 }
 
 #[cfg(test)]

@@ -28,12 +28,11 @@ use player_proto::{
     Position2dMsg, Position2dReq, SonarData, SonarMsg, SonarReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
 use crate::error::Error;
-use crate::forward::{Waiting, passed_on};
+use crate::forward::{Waiting, passed_on, refuse_own_device};
 use crate::options;
 use pose::angle::{diff as angle_diff, normalize_atan2 as normalize};
 
@@ -109,7 +108,7 @@ impl Default for Settings {
 fn buffer(block: &DriverBlock, key: &'static str) -> Result<Option<usize>, Error> {
     match options::int(block, key)? {
         Some(n) if n < 1 => Err(Error::BadOption {
-            option: key,
+            option: key.into(),
             value: n.to_string(),
             why: "must be at least 1".into(),
         }),
@@ -133,7 +132,7 @@ impl Settings {
                 .iter()
                 .map(|t| {
                     t.parse::<usize>().map_err(|_| Error::BadOption {
-                        option: "sonar_bad_transducers",
+                        option: "sonar_bad_transducers".into(),
                         value: t.clone(),
                         why: "not a transducer index".into(),
                     })
@@ -499,9 +498,7 @@ impl Nd {
                 "ND needs at least one sonar or one laser (e.g. \"laser:0\")",
             ));
         }
-        if output.same_device(&addr) || input.same_device(&addr) {
-            return Err(DriverError::new("attempt to subscribe to self"));
-        }
+        refuse_own_device(addr, &[output, input])?;
         Ok(Nd {
             addr,
             output,
@@ -721,11 +718,6 @@ impl Driver for Nd {
     fn step(&self) -> Option<Duration> {
         Some(CYCLE)
     }
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Nd::from_block);
 }
 
 #[cfg(test)]

@@ -21,10 +21,10 @@ use player_proto::{
     Body, DeviceAddr, InterfaceCode, LaserData, LaserMsg, Message, Pose2d, Position2dCmd,
     Position2dCmdVel, Position2dData, Position2dMsg,
 };
-use player_server::{Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply};
+use player_server::{Context, Driver, DriverBlock, DriverError, PendingReply};
 
 use crate::error::Error;
-use crate::forward::Waiting;
+use crate::forward::{Waiting, refuse_own_device};
 use crate::options;
 
 use alg::{Command, Scan, SndParams};
@@ -155,9 +155,7 @@ impl Snd {
         let output = block
             .required(InterfaceCode::POSITION2D, Some("output"))?
             .addr;
-        if input.same_device(&addr) || output.same_device(&addr) {
-            return Err(DriverError::new("attempt to subscribe to self"));
-        }
+        refuse_own_device(addr, &[input, output])?;
         Ok(Snd {
             addr,
             input,
@@ -241,11 +239,6 @@ impl Driver for Snd {
     }
 
     crate::forward::pass_requests_to!(output);
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, Snd::from_block);
 }
 
 #[cfg(test)]

@@ -42,11 +42,11 @@ use player_proto::{
     Position2dData, Position2dMsg, Position2dReq, SonarData, SonarMsg, SonarReq,
 };
 use player_server::{
-    Context, Driver, DriverBlock, DriverError, DriverRegistry, PendingReply, Reply, RequestError,
-    RequestTicket,
+    Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
-use crate::forward::Waiting;
+use crate::forward::{Waiting, refuse_own_device};
+use crate::options;
 use algorithm::{Params, Vfh};
 use navigator::{GoalSettings, Navigator, Odometry};
 use ranges::HalfDegreeRanges;
@@ -116,70 +116,62 @@ impl Settings {
     ///
     /// As upstream, speeds are kept in whole mm/s and turn rates in whole deg/s.
     pub fn from_block(block: &DriverBlock) -> Result<Settings, DriverError> {
-        let float = |key: &str, default: f64| -> Result<f64, DriverError> {
-            Ok(block.option_parse::<f64>(key)?.unwrap_or(default))
-        };
-        let int = |key: &str, default: i64| -> Result<i64, DriverError> {
-            Ok(block.option_parse::<i64>(key)?.unwrap_or(default))
-        };
-        // Player's ReadLength and ReadAngle: in the cfg's units (metres and degrees unless it
-        // says otherwise), returned in metres and radians.
-        let len = |key: &str, default: f64| -> Result<f64, DriverError> {
-            Ok(block
-                .option_parse::<f64>(key)?
-                .map_or(default, |v| v * block.units.length))
-        };
-        let rad = |key: &str, default: f64| -> Result<f64, DriverError> {
-            Ok(block
-                .option_parse::<f64>(key)?
-                .map_or(default, |v| v * block.units.angle))
-        };
         // Turn rates are kept in whole deg/s: upstream's rint(RTOD(ReadAngle(key, DTOR(d)))).
         let deg = |key: &str, default: f64| -> Result<f64, DriverError> {
-            Ok(rad(key, default * PI / 180.0)? * 180.0 / PI)
+            Ok(options::angle(block, key)?.unwrap_or(default * PI / 180.0) * 180.0 / PI)
         };
 
-        let cell_size = len("cell_size", 0.1)?;
+        let cell_size = options::length(block, "cell_size")?.unwrap_or(0.1);
         if !(cell_size > 0.0 && cell_size.is_finite()) {
             return Err(DriverError::new(format!(
                 "option `cell_size` must be a positive length, not {cell_size}"
             )));
         }
-        let window_diameter = int("window_diameter", 61)?;
+        let window_diameter = options::int(block, "window_diameter")?.unwrap_or(61);
         if !(1..=MAX_WINDOW_DIAMETER).contains(&window_diameter) {
             return Err(DriverError::new(format!(
                 "option `window_diameter` must be between 1 and {MAX_WINDOW_DIAMETER} cells, \
                  not {window_diameter}"
             )));
         }
-        let sector_angle = int("sector_angle", 5)?;
+        let sector_angle = options::int(block, "sector_angle")?.unwrap_or(5);
         if !(1..=360).contains(&sector_angle) {
             return Err(DriverError::new(format!(
                 "option `sector_angle` must be between 1 and 360 degrees, not {sector_angle}"
             )));
         }
-        let safety_dist_0ms = len("safety_dist_0ms", 0.1)? * 1e3;
-        let safety_dist_1ms = len("safety_dist_1ms", safety_dist_0ms / 1e3)? * 1e3;
-        let max_speed_m = len("max_speed", 0.2)?;
+        let safety_dist_0ms = options::length(block, "safety_dist_0ms")?.unwrap_or(0.1) * 1e3;
+        let safety_dist_1ms =
+            options::length(block, "safety_dist_1ms")?.unwrap_or(safety_dist_0ms / 1e3) * 1e3;
+        let max_speed_m = options::length(block, "max_speed")?.unwrap_or(0.2);
         if !(0.0..=MAX_SPEED_LIMIT).contains(&max_speed_m) {
             return Err(DriverError::new(format!(
                 "option `max_speed` must be between 0 and {MAX_SPEED_LIMIT} m/s, not {max_speed_m}"
             )));
         }
         let max_speed = whole(1e3 * max_speed_m);
-        let max_speed_narrow_opening =
-            whole(1e3 * len("max_speed_narrow_opening", f64::from(max_speed) / 1e3)?);
-        let max_speed_wide_opening =
-            whole(1e3 * len("max_speed_wide_opening", f64::from(max_speed) / 1e3)?);
-        let max_acceleration = whole(1e3 * len("max_acceleration", 0.2)?);
+        let max_speed_narrow_opening = whole(
+            1e3 * options::length(block, "max_speed_narrow_opening")?
+                .unwrap_or(f64::from(max_speed) / 1e3),
+        );
+        let max_speed_wide_opening = whole(
+            1e3 * options::length(block, "max_speed_wide_opening")?
+                .unwrap_or(f64::from(max_speed) / 1e3),
+        );
+        let max_acceleration =
+            whole(1e3 * options::length(block, "max_acceleration")?.unwrap_or(0.2));
         let min_turnrate = whole(deg("min_turnrate", 10.0)?);
         let max_turnrate_0ms = whole(deg("max_turnrate_0ms", 40.0)?);
         let max_turnrate_1ms = whole(deg("max_turnrate_1ms", f64::from(max_turnrate_0ms))?);
-        let free_space_cutoff_0ms = float("free_space_cutoff_0ms", 2_000_000.0)?;
-        let obs_cutoff_0ms = float("obs_cutoff_0ms", free_space_cutoff_0ms)?;
-        let free_space_cutoff_1ms = float("free_space_cutoff_1ms", free_space_cutoff_0ms)?;
+        let free_space_cutoff_0ms =
+            options::float(block, "free_space_cutoff_0ms")?.unwrap_or(2_000_000.0);
+        let obs_cutoff_0ms =
+            options::float(block, "obs_cutoff_0ms")?.unwrap_or(free_space_cutoff_0ms);
+        let free_space_cutoff_1ms =
+            options::float(block, "free_space_cutoff_1ms")?.unwrap_or(free_space_cutoff_0ms);
         // Upstream's default for the 1 m/s obstacle cutoff is the 1 m/s free-space one.
-        let obs_cutoff_1ms = float("obs_cutoff_1ms", free_space_cutoff_1ms)?;
+        let obs_cutoff_1ms =
+            options::float(block, "obs_cutoff_1ms")?.unwrap_or(free_space_cutoff_1ms);
         Ok(Settings {
             algorithm: Params {
                 cell_width: (cell_size * 1e3) as f32,
@@ -194,22 +186,29 @@ impl Settings {
                 min_turnrate,
                 max_turnrate_0ms,
                 max_turnrate_1ms,
-                min_turn_radius_safety_factor: float("min_turn_radius_safety_factor", 1.0)?,
+                min_turn_radius_safety_factor: options::float(
+                    block,
+                    "min_turn_radius_safety_factor",
+                )?
+                .unwrap_or(1.0),
                 free_space_cutoff_0ms: free_space_cutoff_0ms as f32,
                 obs_cutoff_0ms: obs_cutoff_0ms as f32,
                 free_space_cutoff_1ms: free_space_cutoff_1ms as f32,
                 obs_cutoff_1ms: obs_cutoff_1ms as f32,
-                weight_desired_dir: float("weight_desired_dir", 5.0)? as f32,
-                weight_current_dir: float("weight_current_dir", 3.0)? as f32,
+                weight_desired_dir: options::float(block, "weight_desired_dir")?.unwrap_or(5.0)
+                    as f32,
+                weight_current_dir: options::float(block, "weight_current_dir")?.unwrap_or(3.0)
+                    as f32,
             },
             goal: GoalSettings {
-                distance_epsilon: len("distance_epsilon", 0.5)?,
-                angle_epsilon: rad("angle_epsilon", 10f64.to_radians())?,
-                escape_speed: len("escape_speed", 0.0)?,
-                escape_time: float("escape_time", 0.0)?,
-                escape_max_turnrate: rad("escape_max_turnrate", 0.0)?,
+                distance_epsilon: options::length(block, "distance_epsilon")?.unwrap_or(0.5),
+                angle_epsilon: options::angle(block, "angle_epsilon")?
+                    .unwrap_or(10f64.to_radians()),
+                escape_speed: options::length(block, "escape_speed")?.unwrap_or(0.0),
+                escape_time: options::float(block, "escape_time")?.unwrap_or(0.0),
+                escape_max_turnrate: options::angle(block, "escape_max_turnrate")?.unwrap_or(0.0),
             },
-            synchronous: int("synchronous", 0)? != 0,
+            synchronous: options::int(block, "synchronous")?.unwrap_or(0) != 0,
         })
     }
 }
@@ -264,9 +263,7 @@ impl VfhDriver {
         let addr = block.provided(InterfaceCode::POSITION2D)?;
         // An absent key matches entries of any key, as Player's ReadDeviceAddr with NULL.
         let odom = block.required(InterfaceCode::POSITION2D, None)?.addr;
-        if odom.same_device(&addr) {
-            return Err(DriverError::new("attempt to subscribe to self"));
-        }
+        refuse_own_device(addr, &[odom])?;
         let (laser, sonar) = super::laser_and_sonar(block)?;
         let sensor = match (laser, sonar) {
             (Some(l), None) => RangeSensor::Laser(l),
@@ -448,11 +445,6 @@ impl Driver for VfhDriver {
             }
         }
     }
-}
-
-/// Registers the driver under its Player name.
-pub fn register(registry: &mut DriverRegistry) {
-    registry.register_driver(NAME, VfhDriver::from_block);
 }
 
 #[cfg(test)]

@@ -47,25 +47,18 @@ pub const PARTICLE: Rgba8 = Rgba8::rgb(255, 120, 0);
 pub const ELLIPSE_SIGMAS: f64 = 2.0;
 
 fn at(p: Pose2, x: f64, y: f64) -> [f64; 2] {
-    let (s, c) = p.a.sin_cos();
-    [p.x + x * c - y * s, p.y + x * s + y * c]
+    let (x, y) = p.frame().transform_xy(x, y);
+    [x, y]
 }
 
 /// Pose `b` (given in `a`'s frame) in the frame `a` is given in.
 pub fn compose(a: Pose2, b: Pose2) -> Pose2 {
-    let [x, y] = at(a, b.x, b.y);
-    Pose2 { x, y, a: a.a + b.a }
+    Pose2::of_frame(a.frame().compose(&b.frame()))
 }
 
 /// Pose `p` (in the frame `frame` is given in) in `frame`'s own frame: [`compose`] undone.
 pub fn relative(frame: Pose2, p: Pose2) -> Pose2 {
-    let (s, c) = frame.a.sin_cos();
-    let (dx, dy) = (p.x - frame.x, p.y - frame.y);
-    Pose2 {
-        x: dx * c + dy * s,
-        y: -dx * s + dy * c,
-        a: p.a - frame.a,
-    }
+    Pose2::of_frame(frame.frame().relative(&p.frame()))
 }
 
 /// The map's cells as rectangles in [`Layer::Static`], which the renderer keeps as a texture

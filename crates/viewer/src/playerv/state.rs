@@ -50,6 +50,27 @@ pub struct Pose2 {
     pub a: f64,
 }
 
+impl Pose2 {
+    /// The same pose as a frame of the shared pose arithmetic (at height 0).
+    pub fn frame(self) -> pose::Pose {
+        pose::Pose {
+            x: self.x,
+            y: self.y,
+            z: 0.0,
+            a: self.a,
+        }
+    }
+
+    /// The planar part of a frame.
+    pub fn of_frame(f: pose::Pose) -> Pose2 {
+        Pose2 {
+            x: f.x,
+            y: f.y,
+            a: f.a,
+        }
+    }
+}
+
 /// One sensor's scan in the robot's frame: where the rays start and where each one ended.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Scan {

@@ -226,15 +226,6 @@ fn pose2(p: &Pose3d) -> Pose2 {
     }
 }
 
-fn compose(a: Pose2, b: Pose2) -> Pose2 {
-    let (s, c) = a.a.sin_cos();
-    Pose2 {
-        x: a.x + b.x * c - b.y * s,
-        y: a.y + b.x * s + b.y * c,
-        a: a.a + b.a,
-    }
-}
-
 /// Scans of a ranger from its ranges, geometry and configuration: one sensor sweeping
 /// `min_angle..max_angle` (a laser), or one range per element (a sonar ring), as Stage's
 /// ranger driver reports them (element poses relative to the device pose).
@@ -260,7 +251,7 @@ pub fn ranger_scans(
             .iter()
             .zip(ranges)
             .map(|(e, &r)| Scan {
-                origin: compose(device, *e),
+                origin: super::scene::compose(device, *e),
                 bearings: vec![0.0],
                 ranges: vec![r],
                 max_range,
@@ -268,7 +259,7 @@ pub fn ranger_scans(
             })
             .collect();
     }
-    let origin = compose(device, elems.first().copied().unwrap_or_default());
+    let origin = super::scene::compose(device, elems.first().copied().unwrap_or_default());
     let n = ranges.len();
     let (min, res) = match config {
         Some(c) if c.angular_res.is_finite() && c.angular_res > 0.0 => (c.min_angle, c.angular_res),

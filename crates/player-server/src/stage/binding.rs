@@ -1,8 +1,8 @@
 //! How a `stage`-driver device finds its Stage model (player-cfg.md §8.3, §8.5), and what the
 //! driver made of each device it was given — the record `player --check` reports.
 //!
-//! The interface list itself is `Kind::of` with its `Kind::binding` rule beside
-//! it: one table, used both to build drivers and to check cfgs.
+//! Each interface's rule is its module's `Interface::binding`, found through the driver's one
+//! list of interfaces (`stage/mod.rs`): the same rules build drivers and check cfgs.
 
 use std::collections::HashSet;
 use std::fmt;
@@ -11,7 +11,7 @@ use player_proto::{DeviceAddr, InterfaceCode};
 use worldfile::models::TypeSpec;
 use worldfile::{ModelId, ModelSpec, ModelType, WorldSpec};
 
-use super::Kind;
+use super::Served;
 
 /// What a `stage`-driver device binds to, by interface.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,7 +43,7 @@ pub enum RangerShape {
 /// `camera` (on camera models) that Stage 4 dropped and that Player 2 clients still use, and
 /// `map` (the named model's blocks as a grid).
 pub fn stage_binding(interface: InterfaceCode) -> Option<StageBinding> {
-    Kind::of(interface).map(Kind::binding)
+    Served::new(interface).map(|s| s.interface().binding())
 }
 
 /// Why a stage-driver device could not be served.

@@ -11,7 +11,45 @@ use player_proto::{
 };
 use stage_sim::{Color, ModelId};
 
+use super::{Interface, Sender, StageBinding, Writing};
 use crate::driver::ClientId;
+
+/// A `graphics2d` device.
+pub(super) type Graphics2d = Graphics<false>;
+
+/// A `graphics3d` device.
+pub(super) type Graphics3d = Graphics<true>;
+
+/// A `graphics2d` (`THREE_D` false) or `graphics3d` device: bound to the named model itself,
+/// it keeps what each client draws in [`Drawings`] until the client clears it or unsubscribes.
+#[derive(Debug, Default)]
+pub(super) struct Graphics<const THREE_D: bool>;
+
+impl<const THREE_D: bool> Interface for Graphics<THREE_D> {
+    fn code(&self) -> InterfaceCode {
+        if THREE_D {
+            InterfaceCode::GRAPHICS3D
+        } else {
+            InterfaceCode::GRAPHICS2D
+        }
+    }
+
+    fn binding(&self) -> StageBinding {
+        StageBinding::Named
+    }
+
+    /// A figure (or CLEAR) from a client; a command that came from no client draws nothing.
+    fn command(&mut self, b: &mut Writing<'_>, sender: &Sender<'_>, body: &Body) -> bool {
+        match sender.client {
+            Some(client) => command(sender.drawings, b.model, client, body),
+            None => false,
+        }
+    }
+
+    fn client_unsubscribed(&mut self, drawings: &SharedDrawings, model: ModelId, client: ClientId) {
+        forget(drawings, model, self.code(), client);
+    }
+}
 
 /// Most figures one client keeps on one model: a client that draws every cycle without
 /// clearing loses its oldest figures instead of growing the server without bound.
@@ -128,12 +166,7 @@ fn pts2(p: &[player_proto::Point2d]) -> Vec<[f64; 2]> {
 
 /// Applies one graphics command from `client` on `model`; false for commands that are not
 /// graphics commands.
-pub(super) fn command(
-    drawings: &SharedDrawings,
-    model: ModelId,
-    client: ClientId,
-    body: &Body,
-) -> bool {
+fn command(drawings: &SharedDrawings, model: ModelId, client: ClientId, body: &Body) -> bool {
     let (interface, figure) = match body {
         Body::Graphics2d(Graphics2dMsg::Cmd(c)) => (
             InterfaceCode::GRAPHICS2D,
@@ -197,12 +230,7 @@ pub(super) fn command(
 }
 
 /// Discards what `client` drew on `model` through `interface` (it unsubscribed).
-pub(super) fn forget(
-    drawings: &SharedDrawings,
-    model: ModelId,
-    interface: InterfaceCode,
-    client: ClientId,
-) {
+fn forget(drawings: &SharedDrawings, model: ModelId, interface: InterfaceCode, client: ClientId) {
     drawings
         .lock()
         .unwrap_or_else(|p| p.into_inner())

@@ -3,29 +3,68 @@
 use std::ops::Deref;
 
 use player_proto::{
-    Bbox3d, Body, RangerConfig, RangerData, RangerDataIntns, RangerDataRange, RangerGeom,
-    RangerMsg, RangerReq,
+    Bbox3d, Body, InterfaceCode, RangerConfig, RangerData, RangerDataIntns, RangerDataRange,
+    RangerGeom, RangerMsg, RangerReq,
 };
-use stage_sim::World;
-use worldfile::TypeSpec;
+use stage_sim::{ModelId, World};
+use worldfile::{ModelType, TypeSpec};
 
-use super::{Bound, Out, spec_pose3d};
+use super::{Bound, Interface, Out, RangerShape, StageBinding, Writing, spec_pose3d};
 use crate::driver::Reply;
 
-/// RANGE then INTNS, each only when it has values (none before the first scan). One
-/// transducer: all its samples; several: the first sample of each.
-pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(data) = b.world.ranger_scans(b.model) else {
-        return;
-    };
-    let ranges = super::convert::ranger_ranges(data);
-    if !ranges.is_empty() {
-        out.publish(RangerData::Range(RangerDataRange { ranges }));
+/// A `ranger` device.
+#[derive(Debug, Default)]
+pub(super) struct Ranger;
+
+impl Interface for Ranger {
+    fn code(&self) -> InterfaceCode {
+        InterfaceCode::RANGER
     }
-    let intensities = super::convert::ranger_intensities(data);
-    if !intensities.is_empty() {
-        out.publish(RangerData::Intns(RangerDataIntns { intensities }));
+
+    fn binding(&self) -> StageBinding {
+        StageBinding::Model(ModelType::Ranger, RangerShape::Any)
     }
+
+    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
+        scan_time(world, model)
+    }
+
+    /// RANGE then INTNS, each only when it has values (none before the first scan). One
+    /// transducer: all its samples; several: the first sample of each.
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
+        let Some(data) = b.world.ranger_scans(b.model) else {
+            return;
+        };
+        let ranges = super::convert::ranger_ranges(data);
+        if !ranges.is_empty() {
+            out.publish(RangerData::Range(RangerDataRange { ranges }));
+        }
+        let intensities = super::convert::ranger_intensities(data);
+        if !intensities.is_empty() {
+            out.publish(RangerData::Intns(RangerDataIntns { intensities }));
+        }
+    }
+
+    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
+        match body {
+            Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(None))) => {
+                Reply::ack(RangerReq::GetGeom(Some(geometry(b))))
+            }
+            Body::Ranger(RangerMsg::Req(RangerReq::GetConfig(None))) => match config(b) {
+                Some(c) => Reply::ack(RangerReq::GetConfig(Some(c))),
+                // Stage crashes on a ranger without transducers.
+                None => Reply::Nack,
+            },
+            // POWER, INTNS, SET_CONFIG: NACK, as Stage.
+            _ => Reply::NotHandled,
+        }
+    }
+}
+
+/// Simulated time (µs) of a ranger's newest scan: when the interfaces on rangers (`ranger`,
+/// `laser`, `sonar`) publish.
+pub(super) fn scan_time(world: &World, model: ModelId) -> Option<u64> {
+    world.ranger_scans(model).map(|s| s.time_us)
 }
 
 /// The transducers as written in the worldfile (poses exactly as Stage reports them, heading
@@ -66,7 +105,7 @@ pub(super) fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> RangerGeom
 }
 
 /// GET_CONFIG: the first transducer only, with Stage's `fov / samples` resolution.
-pub(super) fn config<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<RangerConfig> {
+fn config<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<RangerConfig> {
     let data = b.world.ranger_scans(b.model)?;
     let s = data.sensors.first()?;
     let interval_us = b.world.node(b.model).update_interval_us.max(1);
@@ -79,19 +118,4 @@ pub(super) fn config<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<Range
         range_res: b.world.config().resolution,
         frequency: 1e6 / interval_us as f64,
     })
-}
-
-pub(super) fn request<W: Deref<Target = World>>(b: &Bound<'_, W>, body: &Body) -> Reply {
-    match body {
-        Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(None))) => {
-            Reply::ack(RangerReq::GetGeom(Some(geometry(b))))
-        }
-        Body::Ranger(RangerMsg::Req(RangerReq::GetConfig(None))) => match config(b) {
-            Some(c) => Reply::ack(RangerReq::GetConfig(Some(c))),
-            // Stage crashes on a ranger without transducers.
-            None => Reply::Nack,
-        },
-        // POWER, INTNS, SET_CONFIG: NACK, as Stage.
-        _ => Reply::NotHandled,
-    }
 }

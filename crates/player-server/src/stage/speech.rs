@@ -1,15 +1,29 @@
 //! `speech` on any model: CMD_SAY sets the model's speech bubble text (player-protocol.md
 //! §6.10). No data, no requests.
 
-use player_proto::{Body, SpeechCmd, SpeechMsg};
+use player_proto::{Body, InterfaceCode, SpeechCmd, SpeechMsg};
 
-use super::Writing;
+use super::{Interface, Sender, StageBinding, Writing};
 
-/// SAY: the text without its terminating NUL.
-pub(super) fn command(b: &mut Writing<'_>, body: &Body) -> bool {
-    let Body::Speech(SpeechMsg::Cmd(SpeechCmd::Say(say))) = body else {
-        return false;
-    };
-    b.world.say(b.model, &say.string.to_str_lossy());
-    true
+/// A `speech` device.
+#[derive(Debug, Default)]
+pub(super) struct Speech;
+
+impl Interface for Speech {
+    fn code(&self) -> InterfaceCode {
+        InterfaceCode::SPEECH
+    }
+
+    fn binding(&self) -> StageBinding {
+        StageBinding::Named
+    }
+
+    /// SAY: the text without its terminating NUL.
+    fn command(&mut self, b: &mut Writing<'_>, _sender: &Sender<'_>, body: &Body) -> bool {
+        let Body::Speech(SpeechMsg::Cmd(SpeechCmd::Say(say))) = body else {
+            return false;
+        };
+        b.world.say(b.model, &say.string.to_str_lossy());
+        true
+    }
 }

@@ -9,12 +9,12 @@ use player_proto::constants::{
 };
 use player_proto::{
     ActarrayActuator, ActarrayActuatorgeom, ActarrayCmd, ActarrayData, ActarrayDataState,
-    ActarrayGeom, ActarrayMsg, ActarrayReq, Body, InterfaceCode, Orientation3d, Point3d,
+    ActarrayGeom, ActarrayMsg, ActarrayReq, Body, Orientation3d, Point3d,
 };
-use stage_sim::{ModelId, World};
-use worldfile::{ModelType, TypeSpec};
+use stage_sim::World;
+use worldfile::TypeSpec;
 
-use super::{Bound, Interface, Out, RangerShape, Sender, StageBinding, Writing};
+use super::{Bound, Interface, Out, Sender, Writing};
 use crate::driver::Reply;
 
 /// An `actarray` device.
@@ -22,25 +22,11 @@ use crate::driver::Reply;
 pub(super) struct Actarray;
 
 impl Interface for Actarray {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::ACTARRAY
-    }
-
-    fn binding(&self) -> StageBinding {
-        StageBinding::Model(ModelType::Actuator, RangerShape::Any)
-    }
-
-    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
-        world.actuator(model).map(|s| s.time_us)
-    }
-
     /// DATA STATE: one actuator, as Stage's plugin fills it: the position, the goal as the speed
     /// (a position goal clamped to the joint's limits, a speed goal as commanded), moving while
     /// that goal is non-zero; acceleration and current are 0 (Stage models neither).
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
-        let Some(a) = b.world.actuator(b.model) else {
-            return;
-        };
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let a = out.new_sample(b.world.actuator(b.model), |s| s.time_us)?;
         out.publish(ActarrayData::State(ActarrayDataState {
             actuators: vec![ActarrayActuator {
                 position: a.position as f32,
@@ -55,6 +41,7 @@ impl Interface for Actarray {
             }],
             motor_state: 0,
         }));
+        Some(())
     }
 
     fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {

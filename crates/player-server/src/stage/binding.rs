@@ -43,7 +43,7 @@ pub enum RangerShape {
 /// `camera` (on camera models) that Stage 4 dropped and that Player 2 clients still use, and
 /// `map` (the named model's blocks as a grid).
 pub fn stage_binding(interface: InterfaceCode) -> Option<StageBinding> {
-    Served::new(interface).map(|s| s.interface().binding())
+    Served::binding_of(interface)
 }
 
 /// Why a stage-driver device could not be served.

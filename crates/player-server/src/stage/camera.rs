@@ -2,37 +2,22 @@
 //! raw RGB888 (player-protocol.md §6.7). Stage 4.1.1's plugin had this commented out.
 
 use player_proto::constants::{PLAYER_CAMERA_COMPRESS_RAW, PLAYER_CAMERA_FORMAT_RGB888};
-use player_proto::{CameraData, CameraDataState, InterfaceCode};
-use stage_sim::{ModelId, World};
-use worldfile::ModelType;
+use player_proto::{CameraData, CameraDataState};
+use stage_sim::World;
 
-use super::{Bound, Interface, Out, RangerShape, StageBinding};
+use super::{Bound, Interface, Out};
 
 /// A `camera` device.
 #[derive(Debug, Default)]
 pub(super) struct Camera;
 
 impl Interface for Camera {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::CAMERA
-    }
-
-    fn binding(&self) -> StageBinding {
-        StageBinding::Model(ModelType::Camera, RangerShape::Any)
-    }
-
-    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
-        world.camera_image(model).map(|s| s.time_us)
-    }
-
     /// DATA STATE: the latest image, alpha dropped (the sky, transparent in the simulator, is
     /// black).
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
-        let Some(img) = b.world.camera_image(b.model) else {
-            return;
-        };
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let img = out.new_sample(b.world.camera_image(b.model), |s| s.time_us)?;
         if img.width == 0 || img.height == 0 {
-            return;
+            return None;
         }
         let image = img
             .rgba
@@ -48,5 +33,6 @@ impl Interface for Camera {
             compression: PLAYER_CAMERA_COMPRESS_RAW,
             image,
         }));
+        Some(())
     }
 }

@@ -4,12 +4,11 @@ use std::ops::Deref;
 
 use player_proto::{
     Bbox2d, Bbox3d, Body, FiducialData, FiducialDataScan, FiducialGeom, FiducialId, FiducialItem,
-    FiducialMsg, FiducialReq, InterfaceCode, Pose3d,
+    FiducialMsg, FiducialReq, Pose3d,
 };
-use stage_sim::{ModelId, World};
-use worldfile::ModelType;
+use stage_sim::World;
 
-use super::{Bound, Interface, Out, RangerShape, StageBinding, Writing};
+use super::{Bound, Interface, Out, Writing};
 use crate::driver::Reply;
 
 /// A `fiducial` device.
@@ -17,25 +16,11 @@ use crate::driver::Reply;
 pub(super) struct Fiducial;
 
 impl Interface for Fiducial {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::FIDUCIAL
-    }
-
-    fn binding(&self) -> StageBinding {
-        StageBinding::Model(ModelType::Fiducial, RangerShape::Any)
-    }
-
-    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
-        world.fiducials(model).map(|s| s.time_us)
-    }
-
     /// DATA SCAN, also when nothing is seen: per detection its id and its position in the sensor
     /// frame (range and bearing) with the target's relative heading; `upose` (left uninitialised
     /// by Stage) is zero.
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
-        let Some(data) = b.world.fiducials(b.model) else {
-            return;
-        };
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let data = out.new_sample(b.world.fiducials(b.model), |s| s.time_us)?;
         let fiducials = data
             .fiducials
             .iter()
@@ -51,6 +36,7 @@ impl Interface for Fiducial {
             })
             .collect();
         out.publish(FiducialData::Scan(FiducialDataScan { fiducials }));
+        Some(())
     }
 
     fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {

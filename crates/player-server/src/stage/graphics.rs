@@ -11,33 +11,15 @@ use player_proto::{
 };
 use stage_sim::{Color, ModelId};
 
-use super::{Interface, Sender, StageBinding, Writing};
+use super::{Interface, Sender, Writing};
 use crate::driver::ClientId;
 
-/// A `graphics2d` device.
-pub(super) type Graphics2d = Graphics<false>;
-
-/// A `graphics3d` device.
-pub(super) type Graphics3d = Graphics<true>;
-
-/// A `graphics2d` (`THREE_D` false) or `graphics3d` device: bound to the named model itself,
-/// it keeps what each client draws in [`Drawings`] until the client clears it or unsubscribes.
+/// A `graphics2d` or `graphics3d` device: bound to the named model itself, it keeps what each
+/// client draws in [`Drawings`] until the client clears it or unsubscribes.
 #[derive(Debug, Default)]
-pub(super) struct Graphics<const THREE_D: bool>;
+pub(super) struct Graphics;
 
-impl<const THREE_D: bool> Interface for Graphics<THREE_D> {
-    fn code(&self) -> InterfaceCode {
-        if THREE_D {
-            InterfaceCode::GRAPHICS3D
-        } else {
-            InterfaceCode::GRAPHICS2D
-        }
-    }
-
-    fn binding(&self) -> StageBinding {
-        StageBinding::Named
-    }
-
+impl Interface for Graphics {
     /// A figure (or CLEAR) from a client; a command that came from no client draws nothing.
     fn command(&mut self, b: &mut Writing<'_>, sender: &Sender<'_>, body: &Body) -> bool {
         match sender.client {
@@ -46,8 +28,8 @@ impl<const THREE_D: bool> Interface for Graphics<THREE_D> {
         }
     }
 
-    fn client_unsubscribed(&mut self, drawings: &SharedDrawings, model: ModelId, client: ClientId) {
-        forget(drawings, model, self.code(), client);
+    fn client_unsubscribed(&mut self, drawings: &SharedDrawings, left: DrawingKey) {
+        forget(drawings, &left);
     }
 }
 
@@ -229,17 +211,13 @@ fn command(drawings: &SharedDrawings, model: ModelId, client: ClientId, body: &B
     true
 }
 
-/// Discards what `client` drew on `model` through `interface` (it unsubscribed).
-fn forget(drawings: &SharedDrawings, model: ModelId, interface: InterfaceCode, client: ClientId) {
+/// Discards what a client drew on a model through an interface (it unsubscribed).
+fn forget(drawings: &SharedDrawings, key: &DrawingKey) {
     drawings
         .lock()
         .unwrap_or_else(|p| p.into_inner())
         .lists
-        .remove(&DrawingKey {
-            model,
-            interface,
-            client,
-        });
+        .remove(key);
 }
 
 #[cfg(test)]
@@ -284,7 +262,14 @@ mod tests {
         assert_eq!(d.lock().unwrap().len(), MAX_FIGURES + 1);
         assert!(command(&d, m, ClientId(1), &Graphics2dCmd::Clear.into()));
         assert_eq!(d.lock().unwrap().len(), 1);
-        forget(&d, m, InterfaceCode::GRAPHICS2D, ClientId(2));
+        forget(
+            &d,
+            &DrawingKey {
+                model: m,
+                interface: InterfaceCode::GRAPHICS2D,
+                client: ClientId(2),
+            },
+        );
         assert!(d.lock().unwrap().is_empty());
         assert!(!command(
             &d,

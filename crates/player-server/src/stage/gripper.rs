@@ -7,12 +7,11 @@ use player_proto::constants::{
 };
 use player_proto::{
     Bbox3d, Body, GripperCmd as PlayerGripperCmd, GripperData, GripperDataState, GripperGeom,
-    GripperMsg, GripperReq, InterfaceCode,
+    GripperMsg, GripperReq,
 };
-use stage_sim::{GripperCmd, ModelId, PaddleState, World};
-use worldfile::ModelType;
+use stage_sim::{GripperCmd, PaddleState, World};
 
-use super::{Bound, Interface, Out, RangerShape, Sender, StageBinding, Writing};
+use super::{Bound, Interface, Out, Sender, Writing};
 use crate::driver::Reply;
 
 /// Player's `beams` bits: 0x04 for break beam 0, 0x08 for break beam 1.
@@ -23,23 +22,9 @@ const BEAM_BITS: [u32; 2] = [0x04, 0x08];
 pub(super) struct Gripper;
 
 impl Interface for Gripper {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::GRIPPER
-    }
-
-    fn binding(&self) -> StageBinding {
-        StageBinding::Model(ModelType::Gripper, RangerShape::Any)
-    }
-
-    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
-        world.gripper_state(model).map(|s| s.time_us)
-    }
-
     /// DATA STATE: paddle state, the break-beam bits; `stored` is always 0 in Stage.
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
-        let Some(s) = b.world.gripper_state(b.model) else {
-            return;
-        };
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let s = out.new_sample(b.world.gripper_state(b.model), |s| s.time_us)?;
         let state = match s.paddles {
             PaddleState::Open => PLAYER_GRIPPER_STATE_OPEN,
             PaddleState::Closed => PLAYER_GRIPPER_STATE_CLOSED,
@@ -56,6 +41,7 @@ impl Interface for Gripper {
             beams,
             stored: 0,
         }));
+        Some(())
     }
 
     fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {

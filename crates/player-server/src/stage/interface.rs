@@ -10,42 +10,29 @@ use std::fmt;
 use std::ops::Deref;
 use std::sync::RwLockWriteGuard;
 
-use player_proto::{Bbox3d, Body, DeviceAddr, InterfaceCode, Pose3d};
+use player_proto::{Bbox3d, Body, DeviceAddr, Pose3d};
 use stage_sim::{ModelId, World};
 use worldfile::WorldSpec;
 
-use super::binding::StageBinding;
-use super::graphics::SharedDrawings;
+use super::graphics::{DrawingKey, SharedDrawings};
 use super::{pose3d, size_bbox};
 use crate::driver::{ClientId, Context, Reply};
 
-/// Everything the `stage` driver does for one Player interface: which interface it is, what a
-/// device of it binds to, and how it publishes data, answers requests, takes commands and
-/// forgets a client that unsubscribed. Only [`Interface::code`] and [`Interface::binding`]
-/// must be written; each other method's default is "nothing": no data, every request left to
-/// the server's NACK (as Stage does for requests it does not know), every command ignored.
+/// What the `stage` driver does for one Player interface: how a device of it publishes data,
+/// answers requests, takes commands and forgets a client that unsubscribed. Each method's
+/// default is "nothing": no data, every request left to the server's NACK (as Stage does for
+/// requests it does not know), every command ignored. Which Player interface it serves and
+/// what a device of it binds to are its line in the driver's list (`stage/mod.rs`).
 ///
 /// Subscriptions are the driver's, the same for every interface: the first subscription to a
 /// device starts its bound model updating and the last unsubscription stops it.
 pub(crate) trait Interface: fmt::Debug + Send {
-    /// The Player interface this serves.
-    fn code(&self) -> InterfaceCode;
-
-    /// What a device of this interface binds to (player-cfg.md §8.3, §8.5): the rule both the
-    /// driver and `player --check` use.
-    fn binding(&self) -> StageBinding;
-
-    /// Simulated time (µs) of the bound model's newest sample: the driver publishes (with
-    /// [`Interface::publish`]) each time it grows. `None`: nothing to publish.
-    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
-        let _ = (world, model);
-        None
-    }
-
-    /// Publishes the bound model's newest sample (called once per new sample time, only while
-    /// the device is subscribed).
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
+    /// Publishes the bound model's sample once, when it is new: the implementation takes it
+    /// through [`Out::new_sample`] before publishing. Called every driver update while the
+    /// device is subscribed; `None` when it published nothing.
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
         let _ = (b, out);
+        None
     }
 
     /// Answers a request to a device bound to a model.
@@ -54,7 +41,8 @@ pub(crate) trait Interface: fmt::Debug + Send {
         Reply::NotHandled
     }
 
-    /// Answers a request to a device bound to the world itself ([`StageBinding::World`]).
+    /// Answers a request to a device bound to the world itself
+    /// ([`StageBinding::World`](super::StageBinding::World)).
     fn world_request(&mut self, world: &mut World, body: &Body) -> Reply {
         let _ = (world, body);
         Reply::NotHandled
@@ -67,47 +55,57 @@ pub(crate) trait Interface: fmt::Debug + Send {
         false
     }
 
-    /// A client unsubscribed from this device (bound to `model`): forget what it left.
-    fn client_unsubscribed(&mut self, drawings: &SharedDrawings, model: ModelId, client: ClientId) {
-        let _ = (drawings, model, client);
+    /// A client unsubscribed from this device: `left` names the client, the device's model and
+    /// its interface. Forget what the client left.
+    fn client_unsubscribed(&mut self, drawings: &SharedDrawings, left: DrawingKey) {
+        let _ = (drawings, left);
     }
 }
 
-/// Declares the driver's list of interfaces: one `Variant(module::Type)` line per interface,
-/// each type implementing [`Interface`] and `Default`. It makes the `Served` enum (a device's
-/// interface and state) and everything that needs every interface from the list, so nothing
-/// else names them: `Served::new` finds the interface of a Player interface code,
-/// `Served::all` lists them, `Served::interface` and `Served::interface_mut` reach the one a
-/// device is.
+/// Declares the driver's list of interfaces, one line each:
+/// `Variant(module::Type): PLAYER_CODE, binding rule;`, the type implementing [`Interface`]
+/// and `Default`, the code an [`InterfaceCode`](player_proto::InterfaceCode) constant, the
+/// rule a [`StageBinding`](super::StageBinding). It makes the `Served` enum (a device's
+/// interface, with its state) and everything that needs every interface from the list, so
+/// nothing else names them: `Served::new` makes the interface of a Player code,
+/// `Served::binding_of` finds its rule, `Served::CODES` lists the codes, and
+/// `Served::interface_mut` reaches the interface a device is.
 macro_rules! interfaces {
-    ($($variant:ident($interface:ty),)+) => {
+    ($($variant:ident($interface:ty): $code:ident, $binding:expr;)+) => {
         /// A device's interface, with its own state.
         #[derive(Debug)]
         enum Served {
             $(
-                #[doc = concat!("`", stringify!($interface), "`")]
+                #[doc = concat!("`", stringify!($code), "`")]
                 $variant($interface),
             )+
         }
 
         impl Served {
-            /// Every interface the driver serves, each as a new device would have it.
-            fn all() -> Vec<Served> {
-                vec![$(Served::$variant(<$interface>::default()),)+]
-            }
+            /// The Player interfaces served, in list order.
+            #[cfg(test)]
+            const CODES: &[InterfaceCode] = &[$(InterfaceCode::$code,)+];
 
             /// A new device of the Player interface `code`, or `None` when the driver does
             /// not serve it.
             fn new(code: InterfaceCode) -> Option<Served> {
-                Served::all()
-                    .into_iter()
-                    .find(|s| s.interface().code() == code)
+                $(
+                    if code == InterfaceCode::$code {
+                        return Some(Served::$variant(<$interface>::default()));
+                    }
+                )+
+                None
             }
 
-            fn interface(&self) -> &dyn Interface {
-                match self {
-                    $(Served::$variant(i) => i,)+
-                }
+            /// What a device of the Player interface `code` binds to, or `None` when the
+            /// driver does not serve it.
+            fn binding_of(code: InterfaceCode) -> Option<StageBinding> {
+                $(
+                    if code == InterfaceCode::$code {
+                        return Some($binding);
+                    }
+                )+
+                None
             }
 
             fn interface_mut(&mut self) -> &mut dyn Interface {
@@ -160,16 +158,42 @@ pub(crate) struct Sender<'a> {
     pub drawings: &'a SharedDrawings,
 }
 
-/// A publication: DATA bodies stamped with the sample's simulated time.
+/// Where a device publishes: DATA bodies stamped with the simulated time of the sample they
+/// carry.
 pub(crate) struct Out<'a, 'c> {
     pub(super) ctx: &'a mut Context<'c>,
     pub(super) addr: DeviceAddr,
-    pub(super) stamp: f64,
+    /// Sim time (µs) of the last sample the device published.
+    pub(super) published_us: &'a mut u64,
+    /// Sim time (s) of the sample being published.
+    pub(super) stamp: Option<f64>,
 }
 
 impl Out<'_, '_> {
-    /// Publishes one DATA body.
+    /// `sample` when it is newer than the last one the device published (`time_us` tells its
+    /// simulated time): it becomes the one published and stamps the DATA that follows.
+    pub fn new_sample<S>(
+        &mut self,
+        sample: Option<S>,
+        time_us: impl FnOnce(&S) -> u64,
+    ) -> Option<S> {
+        let sample = sample?;
+        let t = time_us(&sample);
+        if t <= *self.published_us {
+            return None;
+        }
+        *self.published_us = t;
+        self.stamp = Some(t as f64 * 1e-6);
+        Some(sample)
+    }
+
+    /// Publishes one DATA body of the sample taken by [`Out::new_sample`].
     pub fn publish(&mut self, body: impl Into<Body>) {
-        self.ctx.publish_at(self.addr, body, self.stamp);
+        debug_assert!(
+            self.stamp.is_some(),
+            "publishing before taking a new sample"
+        );
+        let stamp = self.stamp.unwrap_or_default();
+        self.ctx.publish_at(self.addr, body, stamp);
     }
 }

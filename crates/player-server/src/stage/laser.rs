@@ -13,13 +13,11 @@ use std::f64::consts::TAU;
 use std::ops::Deref;
 
 use player_proto::{
-    Body, InterfaceCode, LaserConfig, LaserData, LaserDataScan, LaserGeom, LaserGetIdConfig,
-    LaserMsg, LaserReq,
+    Body, LaserConfig, LaserData, LaserDataScan, LaserGeom, LaserGetIdConfig, LaserMsg, LaserReq,
 };
-use stage_sim::{ModelId, Pose, SensorDesc, World};
-use worldfile::ModelType;
+use stage_sim::{Pose, SensorDesc, World};
 
-use super::{Bound, Interface, Out, RangerShape, StageBinding, Writing, pose3d, ranger};
+use super::{Bound, Interface, Out, Writing, pose3d, ranger};
 use crate::driver::Reply;
 
 /// The part of the transducer's scan a laser device serves (rays `first..=last`, every
@@ -94,31 +92,15 @@ pub(super) struct Laser {
 }
 
 impl Interface for Laser {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::LASER
-    }
-
-    /// On a ranger, preferring one with a single transducer: what Player 2 clients expect of
-    /// a laser.
-    fn binding(&self) -> StageBinding {
-        StageBinding::Model(ModelType::Ranger, RangerShape::Single)
-    }
-
-    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
-        ranger::scan_time(world, model)
-    }
-
     /// DATA SCAN: the configured part of the first transducer's scan (floats, never negative:
     /// libplayerc asserts it), its intensities (zeros when switched off) and bearings; `id`
     /// counts the scans.
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let data = out.new_sample(b.world.ranger_scans(b.model), |s| s.time_us)?;
         let scan_id = self.scans;
         self.scans = self.scans.wrapping_add(1);
-        let Some(data) = b.world.ranger_scans(b.model) else {
-            return;
-        };
         let (Some(sensor), Some(scan)) = (data.sensors.first(), data.scans.first()) else {
-            return;
+            return None;
         };
         let cfg = ScanConfig::of(self.scan.as_ref(), sensor);
         let (min_angle, max_angle, resolution) = cfg.angles(sensor);
@@ -137,6 +119,7 @@ impl Interface for Laser {
                 .collect(),
             id: scan_id,
         }));
+        Some(())
     }
 
     fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {

@@ -9,10 +9,10 @@
 //! whenever the model has moved since. Requests are answered as Player's grid map drivers do
 //! ([`crate::map::answer`]); nothing is published.
 
-use player_proto::{Body, InterfaceCode, Pose2d};
+use player_proto::{Body, Pose2d};
 use stage_sim::{ModelId, Pose, World};
 
-use super::{Interface, StageBinding, Writing};
+use super::{Interface, Writing};
 use crate::driver::Reply;
 use crate::map::{self, MAX_GRID_CELLS, OccupancyGrid};
 
@@ -23,15 +23,6 @@ pub(super) struct Map {
 }
 
 impl Interface for Map {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::MAP
-    }
-
-    /// The named model itself, as Stage 2's `p_map` served it.
-    fn binding(&self) -> StageBinding {
-        StageBinding::Named
-    }
-
     /// Answers a map request about the bound model, (re)making the cached grid first when needed.
     fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
         let (world, model, cache) = (&*b.world, b.model, &mut self.cache);

@@ -54,7 +54,7 @@ use std::time::Duration;
 
 use player_proto::{Bbox3d, DeviceAddr, InterfaceCode, Message, Pose3d};
 use stage_sim::{ModelId, Pose, World};
-use worldfile::{LoadOptions, WorldSpec};
+use worldfile::{LoadOptions, ModelType, WorldSpec};
 
 use crate::driver::{
     ClientId, Context, Driver, DriverBlock, DriverError, DriverRegistry, ProvidedDevice, Reply,
@@ -203,25 +203,33 @@ pub fn register(registry: &mut DriverRegistry, options: StageOptions) -> StageHa
     handle
 }
 
-// The interfaces the driver serves, one line each: `Variant(module::Type)`, the type
-// implementing `Interface` (its code, binding rule, data, requests and commands). Every
-// dispatch goes through the `Served` enum this makes, and a Player interface code finds its
-// interface here: adding a line is all the driver needs of a new interface module.
+// The interfaces the driver serves, one line each: `Variant(module::Type): PLAYER_CODE,
+// binding rule;`. The type implements `Interface` (its data, requests and commands); the rule
+// is what a device of it binds to (player-cfg.md §8.3, §8.5), used by the driver and reported
+// by `player --check`. Every dispatch goes through the `Served` enum this makes, and a Player
+// interface code finds its interface only here. The legacy `laser` prefers a one-transducer
+// ranger and `sonar` a ring, as Player 2 clients expect; `map` serves the named model's blocks
+// as a grid, as Stage 2's `p_map` did (Stage 4.1.1 ships that source but does not build it).
 interfaces! {
-    Simulation(simulation::Simulation),
-    Position(position::Position),
-    Ranger(ranger::Ranger),
-    Laser(laser::Laser),
-    Sonar(sonar::Sonar),
-    Blobfinder(blobfinder::Blobfinder),
-    Fiducial(fiducial::Fiducial),
-    Gripper(gripper::Gripper),
-    Camera(camera::Camera),
-    Actarray(actarray::Actarray),
-    Speech(speech::Speech),
-    Graphics2d(graphics::Graphics2d),
-    Graphics3d(graphics::Graphics3d),
-    Map(map::Map),
+    Simulation(simulation::Simulation): SIMULATION, StageBinding::World;
+    Position(position::Position): POSITION2D, model(ModelType::Position);
+    Ranger(ranger::Ranger): RANGER, model(ModelType::Ranger);
+    Laser(laser::Laser): LASER, StageBinding::Model(ModelType::Ranger, RangerShape::Single);
+    Sonar(sonar::Sonar): SONAR, StageBinding::Model(ModelType::Ranger, RangerShape::Multiple);
+    Blobfinder(blobfinder::Blobfinder): BLOBFINDER, model(ModelType::Blobfinder);
+    Fiducial(fiducial::Fiducial): FIDUCIAL, model(ModelType::Fiducial);
+    Gripper(gripper::Gripper): GRIPPER, model(ModelType::Gripper);
+    Camera(camera::Camera): CAMERA, model(ModelType::Camera);
+    Actarray(actarray::Actarray): ACTARRAY, model(ModelType::Actuator);
+    Speech(speech::Speech): SPEECH, StageBinding::Named;
+    Graphics2d(graphics::Graphics): GRAPHICS2D, StageBinding::Named;
+    Graphics3d(graphics::Graphics): GRAPHICS3D, StageBinding::Named;
+    Map(map::Map): MAP, StageBinding::Named;
+}
+
+/// Binds to the first unbound model of type `t` (any ranger shape).
+const fn model(t: ModelType) -> StageBinding {
+    StageBinding::Model(t, RangerShape::Any)
 }
 
 /// One device of a block.
@@ -391,7 +399,7 @@ impl StageDriver {
                 ),
             ));
         };
-        if served.interface().binding() == StageBinding::World {
+        if Served::binding_of(addr.interf) == Some(StageBinding::World) {
             if let Some(s) = &state.shared {
                 tracing::warn!(
                     "{}: a second simulation device; Stage keeps one world",
@@ -480,11 +488,6 @@ impl StageDriver {
             if d.subs == 0 {
                 continue;
             }
-            let stamp_us = d.served.interface().sample_time(&world, model);
-            let Some(stamp_us) = stamp_us.filter(|&t| t > d.published_us) else {
-                continue;
-            };
-            d.published_us = stamp_us;
             let bound = Bound {
                 world: &*world,
                 spec: &self.spec,
@@ -493,7 +496,8 @@ impl StageDriver {
             let mut out = Out {
                 ctx: &mut *ctx,
                 addr: d.addr,
-                stamp: stamp_us as f64 * 1e-6,
+                published_us: &mut d.published_us,
+                stamp: None,
             };
             d.served.interface_mut().publish(&bound, &mut out);
         }
@@ -575,9 +579,14 @@ impl Driver for StageDriver {
         if let Some(i) = self.device(&addr) {
             let d = &mut self.devices[i];
             if let Some(m) = d.model {
+                let left = graphics::DrawingKey {
+                    model: m,
+                    interface: addr.interf,
+                    client,
+                };
                 d.served
                     .interface_mut()
-                    .client_unsubscribed(&self.drawings, m, client);
+                    .client_unsubscribed(&self.drawings, left);
             }
         }
     }

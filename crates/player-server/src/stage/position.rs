@@ -3,13 +3,12 @@
 use std::ops::Deref;
 
 use player_proto::{
-    Body, InterfaceCode, Pose2d, Pose3d, Position2dCmd, Position2dData, Position2dDataState,
-    Position2dGeom, Position2dMsg, Position2dReq,
+    Body, Pose2d, Pose3d, Position2dCmd, Position2dData, Position2dDataState, Position2dGeom,
+    Position2dMsg, Position2dReq,
 };
-use stage_sim::{ModelId, Pose, World};
-use worldfile::ModelType;
+use stage_sim::{Pose, World};
 
-use super::{Bound, Interface, Out, RangerShape, Sender, StageBinding, Writing};
+use super::{Bound, Interface, Out, Sender, Writing};
 use crate::driver::Reply;
 
 /// A `position2d` device.
@@ -17,23 +16,9 @@ use crate::driver::Reply;
 pub(super) struct Position;
 
 impl Interface for Position {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::POSITION2D
-    }
-
-    fn binding(&self) -> StageBinding {
-        StageBinding::Model(ModelType::Position, RangerShape::Any)
-    }
-
-    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
-        world.position_state(model).map(|s| s.time_us)
-    }
-
     /// DATA STATE: the pose estimate (odometry or "gps"), the velocity and the stall flag.
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
-        let Some(s) = b.world.position_state(b.model) else {
-            return;
-        };
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let s = out.new_sample(b.world.position_state(b.model), |s| s.time_us)?;
         let pose2d = |p: &Pose| Pose2d {
             px: p.x,
             py: p.y,
@@ -44,6 +29,7 @@ impl Interface for Position {
             vel: pose2d(&s.velocity),
             stall: u8::from(s.stall),
         }));
+        Some(())
     }
 
     fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {

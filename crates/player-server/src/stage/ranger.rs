@@ -3,13 +3,13 @@
 use std::ops::Deref;
 
 use player_proto::{
-    Bbox3d, Body, InterfaceCode, RangerConfig, RangerData, RangerDataIntns, RangerDataRange,
-    RangerGeom, RangerMsg, RangerReq,
+    Bbox3d, Body, RangerConfig, RangerData, RangerDataIntns, RangerDataRange, RangerGeom,
+    RangerMsg, RangerReq,
 };
-use stage_sim::{ModelId, World};
-use worldfile::{ModelType, TypeSpec};
+use stage_sim::World;
+use worldfile::TypeSpec;
 
-use super::{Bound, Interface, Out, RangerShape, StageBinding, Writing, spec_pose3d};
+use super::{Bound, Interface, Out, Writing, spec_pose3d};
 use crate::driver::Reply;
 
 /// A `ranger` device.
@@ -17,24 +17,10 @@ use crate::driver::Reply;
 pub(super) struct Ranger;
 
 impl Interface for Ranger {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::RANGER
-    }
-
-    fn binding(&self) -> StageBinding {
-        StageBinding::Model(ModelType::Ranger, RangerShape::Any)
-    }
-
-    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
-        scan_time(world, model)
-    }
-
     /// RANGE then INTNS, each only when it has values (none before the first scan). One
     /// transducer: all its samples; several: the first sample of each.
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
-        let Some(data) = b.world.ranger_scans(b.model) else {
-            return;
-        };
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let data = out.new_sample(b.world.ranger_scans(b.model), |s| s.time_us)?;
         let ranges = super::convert::ranger_ranges(data);
         if !ranges.is_empty() {
             out.publish(RangerData::Range(RangerDataRange { ranges }));
@@ -43,6 +29,7 @@ impl Interface for Ranger {
         if !intensities.is_empty() {
             out.publish(RangerData::Intns(RangerDataIntns { intensities }));
         }
+        Some(())
     }
 
     fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
@@ -59,12 +46,6 @@ impl Interface for Ranger {
             _ => Reply::NotHandled,
         }
     }
-}
-
-/// Simulated time (µs) of a ranger's newest scan: when the interfaces on rangers (`ranger`,
-/// `laser`, `sonar`) publish.
-pub(super) fn scan_time(world: &World, model: ModelId) -> Option<u64> {
-    world.ranger_scans(model).map(|s| s.time_us)
 }
 
 /// The transducers as written in the worldfile (poses exactly as Stage reports them, heading

@@ -3,13 +3,12 @@
 //! models), as Stage reports them.
 
 use player_proto::{
-    Body, CapabilitiesReq, InterfaceCode, MsgType, Pose2d, Pose3d, SimulationMsg,
-    SimulationPose2dReq, SimulationPose3dReq, SimulationPropertyReq, SimulationReq, Text,
-    UniversalMsg, UniversalReq,
+    Body, CapabilitiesReq, MsgType, Pose2d, Pose3d, SimulationMsg, SimulationPose2dReq,
+    SimulationPose3dReq, SimulationPropertyReq, SimulationReq, Text, UniversalMsg, UniversalReq,
 };
 use stage_sim::{Color, ModelId, Pose, World};
 
-use super::{Interface, StageBinding};
+use super::Interface;
 use crate::driver::Reply;
 
 /// The `simulation` device: the world itself (the first one creates it).
@@ -17,14 +16,6 @@ use crate::driver::Reply;
 pub(super) struct Simulation;
 
 impl Interface for Simulation {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::SIMULATION
-    }
-
-    fn binding(&self) -> StageBinding {
-        StageBinding::World
-    }
-
     /// Answers one request to the simulation device.
     fn world_request(&mut self, world: &mut World, body: &Body) -> Reply {
         match body {

@@ -4,13 +4,10 @@
 
 use std::ops::Deref;
 
-use player_proto::{
-    Body, InterfaceCode, SonarData, SonarDataRanges, SonarGeom, SonarMsg, SonarReq,
-};
-use stage_sim::{ModelId, Pose, World};
-use worldfile::ModelType;
+use player_proto::{Body, SonarData, SonarDataRanges, SonarGeom, SonarMsg, SonarReq};
+use stage_sim::{Pose, World};
 
-use super::{Bound, Interface, Out, RangerShape, StageBinding, Writing, pose3d, ranger};
+use super::{Bound, Interface, Out, Writing, pose3d, ranger};
 use crate::driver::Reply;
 
 /// A `sonar` device.
@@ -18,24 +15,19 @@ use crate::driver::Reply;
 pub(super) struct Sonar;
 
 impl Interface for Sonar {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::SONAR
-    }
-
-    /// On a ranger, preferring a ring of transducers: what Player 2 clients expect of a sonar.
-    fn binding(&self) -> StageBinding {
-        StageBinding::Model(ModelType::Ranger, RangerShape::Multiple)
-    }
-
-    fn sample_time(&self, world: &World, model: ModelId) -> Option<u64> {
-        ranger::scan_time(world, model)
+    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
+        match body {
+            Body::Sonar(SonarMsg::Req(SonarReq::GetGeom(None))) => {
+                Reply::ack(SonarReq::GetGeom(Some(geometry(b))))
+            }
+            // POWER: refused, as the ranger's.
+            _ => Reply::NotHandled,
+        }
     }
 
     /// DATA RANGES: the first sample of each transducer, as floats.
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
-        let Some(data) = b.world.ranger_scans(b.model) else {
-            return;
-        };
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let data = out.new_sample(b.world.ranger_scans(b.model), |s| s.time_us)?;
         let ranges: Vec<f32> = data
             .scans
             .iter()
@@ -45,16 +37,7 @@ impl Interface for Sonar {
         if !ranges.is_empty() {
             out.publish(SonarData::Ranges(SonarDataRanges { ranges }));
         }
-    }
-
-    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
-        match body {
-            Body::Sonar(SonarMsg::Req(SonarReq::GetGeom(None))) => {
-                Reply::ack(SonarReq::GetGeom(Some(geometry(b))))
-            }
-            // POWER: refused, as the ranger's.
-            _ => Reply::NotHandled,
-        }
+        Some(())
     }
 }
 

@@ -1,23 +1,15 @@
 //! `speech` on any model: CMD_SAY sets the model's speech bubble text (player-protocol.md
 //! §6.10). No data, no requests.
 
-use player_proto::{Body, InterfaceCode, SpeechCmd, SpeechMsg};
+use player_proto::{Body, SpeechCmd, SpeechMsg};
 
-use super::{Interface, Sender, StageBinding, Writing};
+use super::{Interface, Sender, Writing};
 
 /// A `speech` device.
 #[derive(Debug, Default)]
 pub(super) struct Speech;
 
 impl Interface for Speech {
-    fn code(&self) -> InterfaceCode {
-        InterfaceCode::SPEECH
-    }
-
-    fn binding(&self) -> StageBinding {
-        StageBinding::Named
-    }
-
     /// SAY: the text without its terminating NUL.
     fn command(&mut self, b: &mut Writing<'_>, _sender: &Sender<'_>, body: &Body) -> bool {
         let Body::Speech(SpeechMsg::Cmd(SpeechCmd::Say(say))) = body else {

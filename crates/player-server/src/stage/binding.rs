@@ -8,6 +8,7 @@ use std::collections::HashSet;
 use std::fmt;
 
 use player_proto::{DeviceAddr, InterfaceCode};
+use serde::Serialize;
 use worldfile::models::TypeSpec;
 use worldfile::{ModelId, ModelSpec, ModelType, WorldSpec};
 
@@ -111,26 +112,34 @@ impl fmt::Display for BindError {
     }
 }
 
+/// The world a `simulation` device serves.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BoundWorld {
+    /// Worldfile path.
+    pub path: String,
+    /// Models in it.
+    pub models: usize,
+}
+
+/// The Stage model a device is bound to.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BoundModel {
+    /// Model id in the world.
+    pub id: ModelId,
+    /// Its name.
+    pub name: String,
+    /// Its type.
+    pub model_type: ModelType,
+}
+
 /// What one device of a stage block was bound to, or why it was not.
 #[derive(Clone, Debug, PartialEq)]
 pub enum DeviceBinding {
     /// The `simulation` device: the world, created from this file (or the one an earlier
     /// block created).
-    World {
-        /// Worldfile path.
-        path: String,
-        /// Models in it.
-        models: usize,
-    },
+    World(BoundWorld),
     /// A Stage model.
-    Model {
-        /// Model id in the world.
-        id: ModelId,
-        /// Its name.
-        name: String,
-        /// Its type.
-        model_type: ModelType,
-    },
+    Model(BoundModel),
     /// Not served.
     Failed(BindError),
 }

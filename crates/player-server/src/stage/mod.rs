@@ -60,8 +60,8 @@ use crate::driver::{
     ClientId, Context, Driver, DriverBlock, DriverError, DriverRegistry, ProvidedDevice, Reply,
 };
 pub use binding::{
-    BindError, BindErrorKind, DeviceBinding, DeviceRecord, RangerShape, StageBinding,
-    bind_stage_model, stage_binding,
+    BindError, BindErrorKind, BoundModel, BoundWorld, DeviceBinding, DeviceRecord, RangerShape,
+    StageBinding, bind_stage_model, stage_binding,
 };
 pub use graphics::{Drawings, Figure, SharedDrawings};
 use interface::{Bound, Interface, Out, Sender, Writing, interfaces};
@@ -173,10 +173,10 @@ struct Shared {
 impl Shared {
     /// What a `simulation` device is bound to: this world.
     fn binding(&self) -> DeviceBinding {
-        DeviceBinding::World {
+        DeviceBinding::World(BoundWorld {
             path: self.spec.path.clone(),
             models: self.spec.models.len(),
-        }
+        })
     }
 }
 
@@ -454,11 +454,11 @@ impl StageDriver {
             w.name(m),
             w.type_name(m)
         );
-        let binding = DeviceBinding::Model {
+        let binding = DeviceBinding::Model(BoundModel {
             id,
             name: spec.name.clone(),
             model_type: spec.model_type,
-        };
+        });
         Ok((served, Some(m), binding))
     }
 

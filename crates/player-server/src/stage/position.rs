@@ -16,22 +16,6 @@ use crate::driver::Reply;
 pub(super) struct Position;
 
 impl Interface for Position {
-    /// DATA STATE: the pose estimate (odometry or "gps"), the velocity and the stall flag.
-    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let s = out.new_sample(b.world.position_state(b.model), |s| s.time_us)?;
-        let pose2d = |p: &Pose| Pose2d {
-            px: p.x,
-            py: p.y,
-            pa: p.a,
-        };
-        out.publish(Position2dData::State(Position2dDataState {
-            pos: pose2d(&s.pose),
-            vel: pose2d(&s.velocity),
-            stall: u8::from(s.stall),
-        }));
-        Some(())
-    }
-
     fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
         let Body::Position2d(Position2dMsg::Req(req)) = body else {
             return Reply::NotHandled;
@@ -75,11 +59,27 @@ impl Interface for Position {
         };
         done.is_ok()
     }
+
+    /// DATA STATE: the pose estimate (odometry or "gps"), the velocity and the stall flag.
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let s = out.new_sample(b.world.position_state(b.model), |s| s.time_us)?;
+        let pose2d = |p: &Pose| Pose2d {
+            px: p.x,
+            py: p.y,
+            pa: p.a,
+        };
+        out.publish(Position2dData::State(Position2dDataState {
+            pos: pose2d(&s.pose),
+            vel: pose2d(&s.velocity),
+            stall: u8::from(s.stall),
+        }));
+        Some(())
+    }
 }
 
 /// The geometry: the body offset (`origin`) and the size; Stage leaves z, roll, pitch and the
 /// height uninitialised, we send 0 and the model's height.
-pub(super) fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Position2dGeom {
+fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Position2dGeom {
     let node = b.world.node(b.model);
     Position2dGeom {
         pose: Pose3d {

@@ -117,6 +117,11 @@ fn subscribed_on(world: PathBuf, interface: InterfaceCode) -> (Setup, DeviceAddr
     (s, a)
 }
 
+/// Why `registry` refuses to build `block`.
+fn refusal(registry: &mut DriverRegistry, block: &DriverBlock) -> String {
+    registry.create(block).err().expect("refused").to_string()
+}
+
 /// Steps the world once and returns what the robot block published.
 fn step(s: &mut Setup) -> Vec<Publication> {
     let mut out = Vec::new();
@@ -135,14 +140,10 @@ fn request(d: &mut Box<dyn Driver>, a: DeviceAddr, body: impl Into<Body>) -> Rep
 fn a_device_before_the_simulation_block_is_a_clear_error() {
     let mut registry = DriverRegistry::new();
     register(&mut registry, StageOptions::default());
-    let err = registry
-        .create(&block(
-            &[(InterfaceCode::POSITION2D, 0)],
-            &[("model", "robot")],
-        ))
-        .err()
-        .expect("refused")
-        .to_string();
+    let err = refusal(
+        &mut registry,
+        &block(&[(InterfaceCode::POSITION2D, 0)], &[("model", "robot")]),
+    );
     assert!(
         err.contains("small.cfg:4") && err.contains("must come first"),
         "{err}"
@@ -160,40 +161,34 @@ fn missing_models_and_unsupported_interfaces_name_the_cfg_line() {
             &[("worldfile", world.to_str().unwrap())],
         ))
         .unwrap();
-    let err = registry
-        .create(&block(
-            &[(InterfaceCode::POSITION2D, 0)],
-            &[("model", "nobody")],
-        ))
-        .err()
-        .expect("refused")
-        .to_string();
+    let err = refusal(
+        &mut registry,
+        &block(&[(InterfaceCode::POSITION2D, 0)], &[("model", "nobody")]),
+    );
     assert!(
         err.contains("small.cfg:4") && err.contains("nobody"),
         "{err}"
     );
-    let err = registry
-        .create(&block(&[(InterfaceCode::BUMPER, 0)], &[("model", "robot")]))
-        .err()
-        .expect("refused")
-        .to_string();
+    let err = refusal(
+        &mut registry,
+        &block(&[(InterfaceCode::BUMPER, 0)], &[("model", "robot")]),
+    );
     assert!(
         err.contains("does not support") && err.contains("bumper"),
         "{err}"
     );
     // Three rangers wanted, two in the model.
-    let err = registry
-        .create(&block(
+    let err = refusal(
+        &mut registry,
+        &block(
             &[
                 (InterfaceCode::RANGER, 0),
                 (InterfaceCode::RANGER, 1),
                 (InterfaceCode::RANGER, 2),
             ],
             &[("model", "robot")],
-        ))
-        .err()
-        .expect("refused")
-        .to_string();
+        ),
+    );
     assert!(err.contains("ranger:2"), "{err}");
 }
 

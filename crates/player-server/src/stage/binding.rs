@@ -1,8 +1,8 @@
 //! How a `stage`-driver device finds its Stage model (player-cfg.md §8.3, §8.5), and what the
 //! driver made of each device it was given — the record `player --check` reports.
 //!
-//! Each interface's rule is its module's `Interface::binding`, found through the driver's one
-//! list of interfaces (`stage/mod.rs`): the same rules build drivers and check cfgs.
+//! Each interface's rule is written on its line of the driver's one list of interfaces
+//! (`interfaces!` in `stage/mod.rs`): the same rules build drivers and check cfgs.
 
 use std::collections::HashSet;
 use std::fmt;

@@ -8,13 +8,13 @@
 //! `provides` order, each time the bound model produced a new sample (that is, at the model's
 //! `update_interval`), stamped with the sample's simulated time.
 //!
-//! The interfaces the driver serves are listed once, in the `interfaces!` list below; each
-//! has its own module whose type implements the `Interface` trait (`interface.rs`): its Player
-//! interface code, its binding rule, and how it publishes data, answers requests and takes
-//! commands. Devices bind to models by [`binding::bind_stage_model`]: the first unbound model
-//! of the interface's type in the named model's subtree. What each device was bound to (or why
-//! not) is kept in the [`StageHandle`] ([`StageHandle::devices`]), which is what
-//! `player --check` reports.
+//! The interfaces the driver serves are listed once, in the `interfaces!` list below: each
+//! line names the interface's module type, its Player interface code and its binding rule;
+//! the type implements the `Interface` trait (`interface.rs`): how the interface publishes
+//! data, answers requests and takes commands. Devices bind to models by
+//! [`binding::bind_stage_model`]: the first unbound model of the interface's type in the named
+//! model's subtree. What each device was bound to (or why not) is kept in the
+//! [`StageHandle`] ([`StageHandle::devices`]), which is what `player --check` reports.
 //!
 //! Where we differ from Stage 4.1.1, on purpose:
 //! * model subscriptions are reference counted: a model stays subscribed until the *last*

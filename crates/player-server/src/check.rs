@@ -16,14 +16,17 @@ use std::net::Ipv4Addr;
 use std::sync::{Arc, Mutex};
 
 use serde::{Serialize, Serializer};
-use worldfile::{CfgFile, DeviceAddr, DriverSpec, ModelId, ModelType, Warning};
+use worldfile::{CfgFile, DeviceAddr, DriverSpec, Warning};
 
 use crate::cfg::driver_block;
 use crate::device::DriverId;
 use crate::driver::{Driver, DriverRegistry, RequiredDevice};
 use crate::error::ServerError;
 use crate::server::{REMOTE_DRIVER_NAME, Server, ServerConfig};
-use crate::stage::{BindErrorKind, DeviceBinding, DeviceRecord, STAGE_DRIVER_NAME, StageHandle};
+use crate::stage::{
+    BindErrorKind, BoundModel, BoundWorld, DeviceBinding, DeviceRecord, STAGE_DRIVER_NAME,
+    StageHandle,
+};
 
 /// What a device is attached to.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -33,21 +36,9 @@ pub enum Binding {
     /// whole, e.g. an unknown driver).
     OtherDriver,
     /// The stage driver's `simulation` device: the world, created from this file.
-    World {
-        /// Worldfile path.
-        path: String,
-        /// Models in it.
-        models: usize,
-    },
+    World(BoundWorld),
     /// Bound to a Stage model.
-    Model {
-        /// Model id in the world.
-        id: ModelId,
-        /// Its name.
-        name: String,
-        /// Its type.
-        model_type: ModelType,
-    },
+    Model(BoundModel),
     /// The server refuses this device.
     Problem {
         /// Why.
@@ -373,7 +364,7 @@ pub fn check(
     let worlds = stage
         .devices()
         .iter()
-        .filter(|r| matches!(r.binding, DeviceBinding::World { .. }))
+        .filter(|r| matches!(r.binding, DeviceBinding::World(_)))
         .count();
     if worlds > 1 {
         warnings.push(Warning::general(
@@ -441,19 +432,8 @@ fn stage_problems(records: &[DeviceRecord], warnings: &mut Vec<Warning>) -> Opti
 
 fn binding_of(b: &DeviceBinding) -> Binding {
     match b {
-        DeviceBinding::World { path, models } => Binding::World {
-            path: path.clone(),
-            models: *models,
-        },
-        DeviceBinding::Model {
-            id,
-            name,
-            model_type,
-        } => Binding::Model {
-            id: *id,
-            name: name.clone(),
-            model_type: *model_type,
-        },
+        DeviceBinding::World(world) => Binding::World(world.clone()),
+        DeviceBinding::Model(model) => Binding::Model(model.clone()),
         DeviceBinding::Failed(e) if e.kind == BindErrorKind::WorldFailed => Binding::Unchecked {
             reason: e.message.clone(),
         },
@@ -529,12 +509,12 @@ impl fmt::Display for CheckReport {
                 )?;
                 match &dev.binding {
                     Binding::OtherDriver => writeln!(f)?,
-                    Binding::World { path, models } => {
+                    Binding::World(BoundWorld { path, models }) => {
                         writeln!(f, " -> world {path} ({models} models)")?
                     }
-                    Binding::Model {
+                    Binding::Model(BoundModel {
                         name, model_type, ..
-                    } => writeln!(f, " -> model \"{name}\" ({})", model_type.name())?,
+                    }) => writeln!(f, " -> model \"{name}\" ({})", model_type.name())?,
                     Binding::Problem { reason } => writeln!(f, " -> PROBLEM: {reason}")?,
                     Binding::Unchecked { reason } => writeln!(f, " -> not checked: {reason}")?,
                 }
@@ -635,7 +615,7 @@ mod tests {
             .devices
             .iter()
             .map(|d| match &d.binding {
-                Binding::Model { name, .. } => name.clone(),
+                Binding::Model(model) => model.name.clone(),
                 Binding::Problem { reason } => format!("problem: {reason}"),
                 other => format!("{other:?}"),
             })
@@ -651,7 +631,7 @@ mod tests {
         );
         assert!(matches!(
             r.drivers[0].devices[0].binding,
-            Binding::World { models: 2, .. }
+            Binding::World(BoundWorld { models: 2, .. })
         ));
         // Where requires lead: the refused vfh block still provides position2d:1.
         let targets: Vec<&Target> = r.drivers[2..]

@@ -14,30 +14,59 @@ use player_proto::{
 use stage_sim::World;
 use worldfile::TypeSpec;
 
-use super::{Bound, Out, Writing};
+use super::{Bound, Interface, Out, Sender, Writing};
 use crate::driver::Reply;
 
-/// DATA STATE: one actuator, as Stage's plugin fills it: the position, the goal as the speed
-/// (a position goal clamped to the joint's limits, a speed goal as commanded), moving while
-/// that goal is non-zero; acceleration and current are 0 (Stage models neither).
-pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(a) = b.world.actuator(b.model) else {
-        return;
-    };
-    out.publish(ActarrayData::State(ActarrayDataState {
-        actuators: vec![ActarrayActuator {
-            position: a.position as f32,
-            speed: a.speed as f32,
-            acceleration: 0.0,
-            current: 0.0,
-            state: if a.moving {
-                PLAYER_ACTARRAY_ACTSTATE_MOVING
-            } else {
-                PLAYER_ACTARRAY_ACTSTATE_IDLE
+/// An `actarray` device.
+#[derive(Debug, Default)]
+pub(super) struct Actarray;
+
+impl Interface for Actarray {
+    /// DATA STATE: one actuator, as Stage's plugin fills it: the position, the goal as the speed
+    /// (a position goal clamped to the joint's limits, a speed goal as commanded), moving while
+    /// that goal is non-zero; acceleration and current are 0 (Stage models neither).
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let a = out.new_sample(b.world.actuator(b.model), |s| s.time_us)?;
+        out.publish(ActarrayData::State(ActarrayDataState {
+            actuators: vec![ActarrayActuator {
+                position: a.position as f32,
+                speed: a.speed as f32,
+                acceleration: 0.0,
+                current: 0.0,
+                state: if a.moving {
+                    PLAYER_ACTARRAY_ACTSTATE_MOVING
+                } else {
+                    PLAYER_ACTARRAY_ACTSTATE_IDLE
+                },
+            }],
+            motor_state: 0,
+        }));
+        Some(())
+    }
+
+    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
+        match body {
+            Body::Actarray(ActarrayMsg::Req(ActarrayReq::GetGeom(None))) => match geometry(b) {
+                Some(g) => Reply::ack(ActarrayReq::GetGeom(Some(g))),
+                None => Reply::Nack,
             },
-        }],
-        motor_state: 0,
-    }));
+            // POWER, BRAKES, SPEED and ACCEL configuration: NACK, as Stage.
+            _ => Reply::NotHandled,
+        }
+    }
+
+    /// POS and SPEED set the goal (the joint index is ignored: there is one); the multi-joint,
+    /// home and current commands are ignored as by Stage.
+    fn command(&mut self, b: &mut Writing<'_>, _sender: &Sender<'_>, body: &Body) -> bool {
+        let (position, goal) = match body {
+            Body::Actarray(ActarrayMsg::Cmd(ActarrayCmd::Pos(c))) => (true, c.position),
+            Body::Actarray(ActarrayMsg::Cmd(ActarrayCmd::Speed(c))) => (false, c.speed),
+            _ => return false,
+        };
+        b.world
+            .actuator_cmd(b.model, position, f64::from(goal))
+            .is_ok()
+    }
 }
 
 /// GET_GEOM: one linear actuator (Stage reports every joint as linear) with its limits; the
@@ -65,28 +94,4 @@ fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<ActarrayGeom> 
             pyaw: origin.a,
         },
     })
-}
-
-pub(super) fn request<W: Deref<Target = World>>(b: &Bound<'_, W>, body: &Body) -> Reply {
-    match body {
-        Body::Actarray(ActarrayMsg::Req(ActarrayReq::GetGeom(None))) => match geometry(b) {
-            Some(g) => Reply::ack(ActarrayReq::GetGeom(Some(g))),
-            None => Reply::Nack,
-        },
-        // POWER, BRAKES, SPEED and ACCEL configuration: NACK, as Stage.
-        _ => Reply::NotHandled,
-    }
-}
-
-/// POS and SPEED set the goal (the joint index is ignored: there is one); the multi-joint,
-/// home and current commands are ignored as by Stage.
-pub(super) fn command(b: &mut Writing<'_>, body: &Body) -> bool {
-    let (position, goal) = match body {
-        Body::Actarray(ActarrayMsg::Cmd(ActarrayCmd::Pos(c))) => (true, c.position),
-        Body::Actarray(ActarrayMsg::Cmd(ActarrayCmd::Speed(c))) => (false, c.speed),
-        _ => return false,
-    };
-    b.world
-        .actuator_cmd(b.model, position, f64::from(goal))
-        .is_ok()
 }

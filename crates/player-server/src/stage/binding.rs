@@ -1,17 +1,18 @@
 //! How a `stage`-driver device finds its Stage model (player-cfg.md §8.3, §8.5), and what the
 //! driver made of each device it was given — the record `player --check` reports.
 //!
-//! The interface list itself is `Kind::of` with its `Kind::binding` rule beside
-//! it: one table, used both to build drivers and to check cfgs.
+//! Each interface's rule is written on its line of the driver's one list of interfaces
+//! (`interfaces!` in `stage/mod.rs`): the same rules build drivers and check cfgs.
 
 use std::collections::HashSet;
 use std::fmt;
 
 use player_proto::{DeviceAddr, InterfaceCode};
+use serde::Serialize;
 use worldfile::models::TypeSpec;
 use worldfile::{ModelId, ModelSpec, ModelType, WorldSpec};
 
-use super::Kind;
+use super::Served;
 
 /// What a `stage`-driver device binds to, by interface.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,7 +44,7 @@ pub enum RangerShape {
 /// `camera` (on camera models) that Stage 4 dropped and that Player 2 clients still use, and
 /// `map` (the named model's blocks as a grid).
 pub fn stage_binding(interface: InterfaceCode) -> Option<StageBinding> {
-    Kind::of(interface).map(Kind::binding)
+    Served::binding_of(interface)
 }
 
 /// Why a stage-driver device could not be served.
@@ -111,26 +112,34 @@ impl fmt::Display for BindError {
     }
 }
 
+/// The world a `simulation` device serves.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BoundWorld {
+    /// Worldfile path.
+    pub path: String,
+    /// Models in it.
+    pub models: usize,
+}
+
+/// The Stage model a device is bound to.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BoundModel {
+    /// Model id in the world.
+    pub id: ModelId,
+    /// Its name.
+    pub name: String,
+    /// Its type.
+    pub model_type: ModelType,
+}
+
 /// What one device of a stage block was bound to, or why it was not.
 #[derive(Clone, Debug, PartialEq)]
 pub enum DeviceBinding {
     /// The `simulation` device: the world, created from this file (or the one an earlier
     /// block created).
-    World {
-        /// Worldfile path.
-        path: String,
-        /// Models in it.
-        models: usize,
-    },
+    World(BoundWorld),
     /// A Stage model.
-    Model {
-        /// Model id in the world.
-        id: ModelId,
-        /// Its name.
-        name: String,
-        /// Its type.
-        model_type: ModelType,
-    },
+    Model(BoundModel),
     /// Not served.
     Failed(BindError),
 }

@@ -8,31 +8,55 @@ use player_proto::{
 };
 use stage_sim::World;
 
-use super::{Bound, Out, Writing};
+use super::{Bound, Interface, Out, Writing};
 use crate::driver::Reply;
 
-/// DATA SCAN, also when nothing is seen: per detection its id and its position in the sensor
-/// frame (range and bearing) with the target's relative heading; `upose` (left uninitialised
-/// by Stage) is zero.
-pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(data) = b.world.fiducials(b.model) else {
-        return;
-    };
-    let fiducials = data
-        .fiducials
-        .iter()
-        .map(|f| FiducialItem {
-            id: f.id,
-            pose: Pose3d {
-                px: f.range * f.bearing.cos(),
-                py: f.range * f.bearing.sin(),
-                pyaw: f.heading,
-                ..Pose3d::default()
-            },
-            upose: Pose3d::default(),
-        })
-        .collect();
-    out.publish(FiducialData::Scan(FiducialDataScan { fiducials }));
+/// A `fiducial` device.
+#[derive(Debug, Default)]
+pub(super) struct Fiducial;
+
+impl Interface for Fiducial {
+    /// DATA SCAN, also when nothing is seen: per detection its id and its position in the sensor
+    /// frame (range and bearing) with the target's relative heading; `upose` (left uninitialised
+    /// by Stage) is zero.
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let data = out.new_sample(b.world.fiducials(b.model), |s| s.time_us)?;
+        let fiducials = data
+            .fiducials
+            .iter()
+            .map(|f| FiducialItem {
+                id: f.id,
+                pose: Pose3d {
+                    px: f.range * f.bearing.cos(),
+                    py: f.range * f.bearing.sin(),
+                    pyaw: f.heading,
+                    ..Pose3d::default()
+                },
+                upose: Pose3d::default(),
+            })
+            .collect();
+        out.publish(FiducialData::Scan(FiducialDataScan { fiducials }));
+        Some(())
+    }
+
+    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
+        let Body::Fiducial(FiducialMsg::Req(req)) = body else {
+            return Reply::NotHandled;
+        };
+        match req {
+            FiducialReq::GetGeom(None) => Reply::ack(FiducialReq::GetGeom(Some(geometry(b)))),
+            // The finder's own fiducial return: the sensor itself becomes a beacon.
+            FiducialReq::GetId(_) => Reply::ack(FiducialReq::GetId(Some(FiducialId {
+                id: b.world.fiducial_id(b.model) as u32,
+            }))),
+            FiducialReq::SetId(Some(FiducialId { id })) => {
+                b.world.set_fiducial_id(b.model, *id as i32);
+                Reply::ack(FiducialReq::SetId(Some(FiducialId { id: *id })))
+            }
+            // FOV requests: NACK, as Stage.
+            _ => Reply::NotHandled,
+        }
+    }
 }
 
 /// GET_GEOM: the finder's pose in its parent and its size; Stage fills only a laser-sized
@@ -45,24 +69,5 @@ fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> FiducialGeom {
             ..b.bbox()
         },
         fiducial_size: Bbox2d::default(),
-    }
-}
-
-pub(super) fn request(b: &mut Writing<'_>, body: &Body) -> Reply {
-    let Body::Fiducial(FiducialMsg::Req(req)) = body else {
-        return Reply::NotHandled;
-    };
-    match req {
-        FiducialReq::GetGeom(None) => Reply::ack(FiducialReq::GetGeom(Some(geometry(b)))),
-        // The finder's own fiducial return: the sensor itself becomes a beacon.
-        FiducialReq::GetId(_) => Reply::ack(FiducialReq::GetId(Some(FiducialId {
-            id: b.world.fiducial_id(b.model) as u32,
-        }))),
-        FiducialReq::SetId(Some(FiducialId { id })) => {
-            b.world.set_fiducial_id(b.model, *id as i32);
-            Reply::ack(FiducialReq::SetId(Some(FiducialId { id: *id })))
-        }
-        // FOV requests: NACK, as Stage.
-        _ => Reply::NotHandled,
     }
 }

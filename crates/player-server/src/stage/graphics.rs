@@ -11,7 +11,27 @@ use player_proto::{
 };
 use stage_sim::{Color, ModelId};
 
+use super::{Interface, Sender, Writing};
 use crate::driver::ClientId;
+
+/// A `graphics2d` or `graphics3d` device: bound to the named model itself, it keeps what each
+/// client draws in [`Drawings`] until the client clears it or unsubscribes.
+#[derive(Debug, Default)]
+pub(super) struct Graphics;
+
+impl Interface for Graphics {
+    /// A figure (or CLEAR) from a client; a command that came from no client draws nothing.
+    fn command(&mut self, b: &mut Writing<'_>, sender: &Sender<'_>, body: &Body) -> bool {
+        match sender.client {
+            Some(client) => command(sender.drawings, b.model, client, body),
+            None => false,
+        }
+    }
+
+    fn client_unsubscribed(&mut self, drawings: &SharedDrawings, left: DrawingKey) {
+        forget(drawings, &left);
+    }
+}
 
 /// Most figures one client keeps on one model: a client that draws every cycle without
 /// clearing loses its oldest figures instead of growing the server without bound.
@@ -128,12 +148,7 @@ fn pts2(p: &[player_proto::Point2d]) -> Vec<[f64; 2]> {
 
 /// Applies one graphics command from `client` on `model`; false for commands that are not
 /// graphics commands.
-pub(super) fn command(
-    drawings: &SharedDrawings,
-    model: ModelId,
-    client: ClientId,
-    body: &Body,
-) -> bool {
+fn command(drawings: &SharedDrawings, model: ModelId, client: ClientId, body: &Body) -> bool {
     let (interface, figure) = match body {
         Body::Graphics2d(Graphics2dMsg::Cmd(c)) => (
             InterfaceCode::GRAPHICS2D,
@@ -196,22 +211,13 @@ pub(super) fn command(
     true
 }
 
-/// Discards what `client` drew on `model` through `interface` (it unsubscribed).
-pub(super) fn forget(
-    drawings: &SharedDrawings,
-    model: ModelId,
-    interface: InterfaceCode,
-    client: ClientId,
-) {
+/// Discards what a client drew on a model through an interface (it unsubscribed).
+fn forget(drawings: &SharedDrawings, key: &DrawingKey) {
     drawings
         .lock()
         .unwrap_or_else(|p| p.into_inner())
         .lists
-        .remove(&DrawingKey {
-            model,
-            interface,
-            client,
-        });
+        .remove(key);
 }
 
 #[cfg(test)]
@@ -256,7 +262,14 @@ mod tests {
         assert_eq!(d.lock().unwrap().len(), MAX_FIGURES + 1);
         assert!(command(&d, m, ClientId(1), &Graphics2dCmd::Clear.into()));
         assert_eq!(d.lock().unwrap().len(), 1);
-        forget(&d, m, InterfaceCode::GRAPHICS2D, ClientId(2));
+        forget(
+            &d,
+            &DrawingKey {
+                model: m,
+                interface: InterfaceCode::GRAPHICS2D,
+                client: ClientId(2),
+            },
+        );
         assert!(d.lock().unwrap().is_empty());
         assert!(!command(
             &d,

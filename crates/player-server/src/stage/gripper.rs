@@ -11,33 +11,57 @@ use player_proto::{
 };
 use stage_sim::{GripperCmd, PaddleState, World};
 
-use super::{Bound, Out, Writing};
+use super::{Bound, Interface, Out, Sender, Writing};
 use crate::driver::Reply;
 
 /// Player's `beams` bits: 0x04 for break beam 0, 0x08 for break beam 1.
 const BEAM_BITS: [u32; 2] = [0x04, 0x08];
 
-/// DATA STATE: paddle state, the break-beam bits; `stored` is always 0 in Stage.
-pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(s) = b.world.gripper_state(b.model) else {
-        return;
-    };
-    let state = match s.paddles {
-        PaddleState::Open => PLAYER_GRIPPER_STATE_OPEN,
-        PaddleState::Closed => PLAYER_GRIPPER_STATE_CLOSED,
-        PaddleState::Opening | PaddleState::Closing => PLAYER_GRIPPER_STATE_MOVING,
-    };
-    let beams = s
-        .beams
-        .iter()
-        .zip(BEAM_BITS)
-        .filter(|(hit, _)| hit.is_some())
-        .fold(0, |acc, (_, bit)| acc | bit);
-    out.publish(GripperData::State(GripperDataState {
-        state,
-        beams,
-        stored: 0,
-    }));
+/// A `gripper` device.
+#[derive(Debug, Default)]
+pub(super) struct Gripper;
+
+impl Interface for Gripper {
+    /// DATA STATE: paddle state, the break-beam bits; `stored` is always 0 in Stage.
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let s = out.new_sample(b.world.gripper_state(b.model), |s| s.time_us)?;
+        let state = match s.paddles {
+            PaddleState::Open => PLAYER_GRIPPER_STATE_OPEN,
+            PaddleState::Closed => PLAYER_GRIPPER_STATE_CLOSED,
+            PaddleState::Opening | PaddleState::Closing => PLAYER_GRIPPER_STATE_MOVING,
+        };
+        let beams = s
+            .beams
+            .iter()
+            .zip(BEAM_BITS)
+            .filter(|(hit, _)| hit.is_some())
+            .fold(0, |acc, (_, bit)| acc | bit);
+        out.publish(GripperData::State(GripperDataState {
+            state,
+            beams,
+            stored: 0,
+        }));
+        Some(())
+    }
+
+    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
+        match body {
+            Body::Gripper(GripperMsg::Req(GripperReq::GetGeom(None))) => {
+                Reply::ack(GripperReq::GetGeom(Some(geometry(b))))
+            }
+            _ => Reply::NotHandled,
+        }
+    }
+
+    /// OPEN and CLOSE; STOP, STORE and RETRIEVE are ignored as by Stage.
+    fn command(&mut self, b: &mut Writing<'_>, _sender: &Sender<'_>, body: &Body) -> bool {
+        let cmd = match body {
+            Body::Gripper(GripperMsg::Cmd(PlayerGripperCmd::Open)) => GripperCmd::Open,
+            Body::Gripper(GripperMsg::Cmd(PlayerGripperCmd::Close)) => GripperCmd::Close,
+            _ => return false,
+        };
+        b.world.gripper_cmd(b.model, cmd).is_ok()
+    }
 }
 
 /// GET_GEOM: the gripper's pose in its parent and size; two beams, no capacity.
@@ -49,23 +73,4 @@ fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> GripperGeom {
         num_beams: 2,
         capacity: 0,
     }
-}
-
-pub(super) fn request<W: Deref<Target = World>>(b: &Bound<'_, W>, body: &Body) -> Reply {
-    match body {
-        Body::Gripper(GripperMsg::Req(GripperReq::GetGeom(None))) => {
-            Reply::ack(GripperReq::GetGeom(Some(geometry(b))))
-        }
-        _ => Reply::NotHandled,
-    }
-}
-
-/// OPEN and CLOSE; STOP, STORE and RETRIEVE are ignored as by Stage.
-pub(super) fn command(b: &mut Writing<'_>, body: &Body) -> bool {
-    let cmd = match body {
-        Body::Gripper(GripperMsg::Cmd(PlayerGripperCmd::Open)) => GripperCmd::Open,
-        Body::Gripper(GripperMsg::Cmd(PlayerGripperCmd::Close)) => GripperCmd::Close,
-        _ => return false,
-    };
-    b.world.gripper_cmd(b.model, cmd).is_ok()
 }

@@ -17,7 +17,7 @@ use player_proto::{
 };
 use stage_sim::{Pose, SensorDesc, World};
 
-use super::{Bound, Out, pose3d, ranger};
+use super::{Bound, Interface, Out, Writing, pose3d, ranger};
 use crate::driver::Reply;
 
 /// The part of the transducer's scan a laser device serves (rays `first..=last`, every
@@ -78,6 +78,69 @@ impl ScanConfig {
             // the small bias keeps exact multiples (2.0 in units of 0.1) from losing a unit
             Some(unit) => ((r / unit) + 1e-9).floor() * unit,
             None => r,
+        }
+    }
+}
+
+/// A `laser` device: what a client configured of its scan, and how many scans it published.
+#[derive(Debug, Default)]
+pub(super) struct Laser {
+    /// `None`: the whole fan, as simulated.
+    scan: Option<ScanConfig>,
+    /// Scans published (DATA SCAN's `id`).
+    scans: u32,
+}
+
+impl Interface for Laser {
+    /// DATA SCAN: the configured part of the first transducer's scan (floats, never negative:
+    /// libplayerc asserts it), its intensities (zeros when switched off) and bearings; `id`
+    /// counts the scans.
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let data = out.new_sample(b.world.ranger_scans(b.model), |s| s.time_us)?;
+        let scan_id = self.scans;
+        self.scans = self.scans.wrapping_add(1);
+        let (Some(sensor), Some(scan)) = (data.sensors.first(), data.scans.first()) else {
+            return None;
+        };
+        let cfg = ScanConfig::of(self.scan.as_ref(), sensor);
+        let (min_angle, max_angle, resolution) = cfg.angles(sensor);
+        let served = || cfg.rays().filter(|&i| i < scan.ranges.len());
+        out.publish(LaserData::Scan(LaserDataScan {
+            min_angle: min_angle as f32,
+            max_angle: max_angle as f32,
+            resolution: resolution as f32,
+            max_range: sensor.range[1] as f32,
+            ranges: served().map(|i| cfg.range(scan.ranges[i]) as f32).collect(),
+            intensity: served()
+                .map(|i| match (cfg.intensity, scan.intensities.get(i)) {
+                    (true, Some(&v)) => intensity_byte(v),
+                    _ => 0,
+                })
+                .collect(),
+            id: scan_id,
+        }));
+        Some(())
+    }
+
+    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
+        let Body::Laser(LaserMsg::Req(req)) = body else {
+            return Reply::NotHandled;
+        };
+        match req {
+            LaserReq::GetGeom(None) => match geometry(b) {
+                Some(g) => Reply::ack(LaserReq::GetGeom(Some(g))),
+                None => Reply::Nack,
+            },
+            LaserReq::GetConfig(None) => match config(b, self.scan.as_ref()) {
+                Some(c) => Reply::ack(LaserReq::GetConfig(Some(c))),
+                None => Reply::Nack,
+            },
+            LaserReq::SetConfig(Some(c)) => set_config(b, &mut self.scan, c),
+            LaserReq::GetId(_) => Reply::ack(LaserReq::GetId(Some(LaserGetIdConfig {
+                serial_number: b.model.0,
+            }))),
+            // POWER and the filters: NACK (a simulated ranger is always on and unfiltered).
+            _ => Reply::NotHandled,
         }
     }
 }
@@ -196,40 +259,6 @@ fn choose(sensor: &SensorDesc, world_res: f64, req: &LaserConfig) -> Result<Scan
     })
 }
 
-/// DATA SCAN: the configured part of the first transducer's scan (floats, never negative:
-/// libplayerc asserts it), its intensities (zeros when switched off) and bearings; `id` counts
-/// the scans.
-pub(super) fn publish<W: Deref<Target = World>>(
-    b: &Bound<'_, W>,
-    set: Option<&ScanConfig>,
-    out: &mut Out<'_, '_>,
-    scan_id: u32,
-) {
-    let Some(data) = b.world.ranger_scans(b.model) else {
-        return;
-    };
-    let (Some(sensor), Some(scan)) = (data.sensors.first(), data.scans.first()) else {
-        return;
-    };
-    let cfg = ScanConfig::of(set, sensor);
-    let (min_angle, max_angle, resolution) = cfg.angles(sensor);
-    let served = || cfg.rays().filter(|&i| i < scan.ranges.len());
-    out.publish(LaserData::Scan(LaserDataScan {
-        min_angle: min_angle as f32,
-        max_angle: max_angle as f32,
-        resolution: resolution as f32,
-        max_range: sensor.range[1] as f32,
-        ranges: served().map(|i| cfg.range(scan.ranges[i]) as f32).collect(),
-        intensity: served()
-            .map(|i| match (cfg.intensity, scan.intensities.get(i)) {
-                (true, Some(&v)) => intensity_byte(v),
-                _ => 0,
-            })
-            .collect(),
-        id: scan_id,
-    }));
-}
-
 /// GET_GEOM: where the scan comes from — the first transducer's pose in the robot (the
 /// ranger's pose composed with the transducer's) — and the size of the ranger device, as
 /// Player's `rangertolaser` reports it from the ranger's geometry (0.156 x 0.155 for
@@ -299,32 +328,6 @@ fn set_config<W: Deref<Target = World>>(
             tracing::warn!("laser on \"{name}\": SET_CONFIG refused: {why}");
             Reply::Nack
         }
-    }
-}
-
-pub(super) fn request<W: Deref<Target = World>>(
-    b: &Bound<'_, W>,
-    set: &mut Option<ScanConfig>,
-    body: &Body,
-) -> Reply {
-    let Body::Laser(LaserMsg::Req(req)) = body else {
-        return Reply::NotHandled;
-    };
-    match req {
-        LaserReq::GetGeom(None) => match geometry(b) {
-            Some(g) => Reply::ack(LaserReq::GetGeom(Some(g))),
-            None => Reply::Nack,
-        },
-        LaserReq::GetConfig(None) => match config(b, set.as_ref()) {
-            Some(c) => Reply::ack(LaserReq::GetConfig(Some(c))),
-            None => Reply::Nack,
-        },
-        LaserReq::SetConfig(Some(c)) => set_config(b, set, c),
-        LaserReq::GetId(_) => Reply::ack(LaserReq::GetId(Some(LaserGetIdConfig {
-            serial_number: b.model.0,
-        }))),
-        // POWER and the filters: NACK (a simulated ranger is always on and unfiltered).
-        _ => Reply::NotHandled,
     }
 }
 

@@ -12,12 +12,43 @@
 use player_proto::{Body, Pose2d};
 use stage_sim::{ModelId, Pose, World};
 
+use super::{Interface, Writing};
 use crate::driver::Reply;
 use crate::map::{self, MAX_GRID_CELLS, OccupancyGrid};
 
+/// A `map` device: the grid last made of its model, if any.
+#[derive(Debug, Default)]
+pub(super) struct Map {
+    cache: Option<MapCache>,
+}
+
+impl Interface for Map {
+    /// Answers a map request about the bound model, (re)making the cached grid first when needed.
+    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
+        let (world, model, cache) = (&*b.world, b.model, &mut self.cache);
+        let pose = world.global_pose(model);
+        if cache.as_ref().is_none_or(|c| c.pose != pose) {
+            *cache = grid_of(world, model).map(|grid| {
+                tracing::debug!(
+                    "stage: map of model \"{}\": {} x {} cells at {} m",
+                    world.name(model),
+                    grid.width(),
+                    grid.height(),
+                    grid.scale()
+                );
+                MapCache { pose, grid }
+            });
+        }
+        match cache {
+            Some(c) => map::answer(&c.grid, body),
+            None => Reply::Nack,
+        }
+    }
+}
+
 /// A model's grid and the pose it was made at.
 #[derive(Debug)]
-pub(crate) struct MapCache {
+struct MapCache {
     pose: Pose,
     grid: OccupancyGrid,
 }
@@ -54,30 +85,4 @@ fn grid_of(world: &World, model: ModelId) -> Option<OccupancyGrid> {
         u32::try_from(raster.height).ok()?,
     );
     OccupancyGrid::from_cells(w, h, resolution as f32, origin, cells)
-}
-
-/// Answers a map request about `model`, (re)making the cached grid first when needed.
-pub(crate) fn request(
-    world: &World,
-    model: ModelId,
-    cache: &mut Option<MapCache>,
-    body: &Body,
-) -> Reply {
-    let pose = world.global_pose(model);
-    if cache.as_ref().is_none_or(|c| c.pose != pose) {
-        *cache = grid_of(world, model).map(|grid| {
-            tracing::debug!(
-                "stage: map of model \"{}\": {} x {} cells at {} m",
-                world.name(model),
-                grid.width(),
-                grid.height(),
-                grid.scale()
-            );
-            MapCache { pose, grid }
-        });
-    }
-    match cache {
-        Some(c) => map::answer(&c.grid, body),
-        None => Reply::Nack,
-    }
 }

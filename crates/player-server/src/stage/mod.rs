@@ -8,11 +8,13 @@
 //! `provides` order, each time the bound model produced a new sample (that is, at the model's
 //! `update_interval`), stamped with the sample's simulated time.
 //!
-//! The interfaces the driver serves are listed once, in `Kind::of`, each with its binding rule
-//! beside it (`Kind::binding`). Devices bind to models by [`binding::bind_stage_model`]: the
-//! first unbound model of the interface's type in the named model's subtree. What each device
-//! was bound to (or why not) is kept in the [`StageHandle`] ([`StageHandle::devices`]), which is
-//! what `player --check` reports. One file per interface holds its requests, commands and data.
+//! The interfaces the driver serves are listed once, in the `interfaces!` list below: each
+//! line names the interface's module type, its Player interface code and its binding rule;
+//! the type implements the `Interface` trait (`interface.rs`): how the interface publishes
+//! data, answers requests and takes commands. Devices bind to models by
+//! [`binding::bind_stage_model`]: the first unbound model of the interface's type in the named
+//! model's subtree. What each device was bound to (or why not) is kept in the
+//! [`StageHandle`] ([`StageHandle::devices`]), which is what `player --check` reports.
 //!
 //! Where we differ from Stage 4.1.1, on purpose:
 //! * model subscriptions are reference counted: a model stays subscribed until the *last*
@@ -29,11 +31,13 @@
 
 mod actarray;
 pub mod binding;
+mod blobfinder;
 mod camera;
 pub mod convert;
 mod fiducial;
 pub mod graphics;
 mod gripper;
+mod interface;
 mod laser;
 mod map;
 mod position;
@@ -48,7 +52,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, RwLock, RwLockWriteGuard};
 use std::time::Duration;
 
-use player_proto::{Bbox3d, Body, DeviceAddr, InterfaceCode, Message, Pose3d};
+use player_proto::{Bbox3d, DeviceAddr, InterfaceCode, Message, Pose3d};
 use stage_sim::{ModelId, Pose, World};
 use worldfile::{LoadOptions, ModelType, WorldSpec};
 
@@ -56,10 +60,11 @@ use crate::driver::{
     ClientId, Context, Driver, DriverBlock, DriverError, DriverRegistry, ProvidedDevice, Reply,
 };
 pub use binding::{
-    BindError, BindErrorKind, DeviceBinding, DeviceRecord, RangerShape, StageBinding,
-    bind_stage_model, stage_binding,
+    BindError, BindErrorKind, BoundModel, BoundWorld, DeviceBinding, DeviceRecord, RangerShape,
+    StageBinding, bind_stage_model, stage_binding,
 };
 pub use graphics::{Drawings, Figure, SharedDrawings};
+use interface::{Bound, Interface, Out, Sender, Writing, interfaces};
 
 /// The simulated world, shared between the server (which steps it) and viewers.
 ///
@@ -168,10 +173,10 @@ struct Shared {
 impl Shared {
     /// What a `simulation` device is bound to: this world.
     fn binding(&self) -> DeviceBinding {
-        DeviceBinding::World {
+        DeviceBinding::World(BoundWorld {
             path: self.spec.path.clone(),
             models: self.spec.models.len(),
-        }
+        })
     }
 }
 
@@ -198,118 +203,47 @@ pub fn register(registry: &mut DriverRegistry, options: StageOptions) -> StageHa
     handle
 }
 
-/// What a device of this driver is. [`Kind::of`] is the list of interfaces the driver serves
-/// and [`Kind::binding`] how each binds: the one table both building and checking use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Kind {
-    Simulation,
-    Position,
-    Ranger,
-    Laser,
-    Sonar,
-    Blobfinder,
-    Fiducial,
-    Gripper,
-    Camera,
-    Actarray,
-    Speech,
-    Graphics2d,
-    Graphics3d,
-    Map,
+// The interfaces the driver serves, one line each: `Variant(module::Type): PLAYER_CODE,
+// binding rule;`. The type implements `Interface` (its data, requests and commands); the rule
+// is what a device of it binds to (player-cfg.md §8.3, §8.5), used by the driver and reported
+// by `player --check`. Every dispatch goes through the `Served` enum this makes, and a Player
+// interface code finds its interface only here. The legacy `laser` prefers a one-transducer
+// ranger and `sonar` a ring, as Player 2 clients expect; `map` serves the named model's blocks
+// as a grid, as Stage 2's `p_map` did (Stage 4.1.1 ships that source but does not build it).
+interfaces! {
+    Simulation(simulation::Simulation): SIMULATION, StageBinding::World;
+    Position(position::Position): POSITION2D, model(ModelType::Position);
+    Ranger(ranger::Ranger): RANGER, model(ModelType::Ranger);
+    Laser(laser::Laser): LASER, StageBinding::Model(ModelType::Ranger, RangerShape::Single);
+    Sonar(sonar::Sonar): SONAR, StageBinding::Model(ModelType::Ranger, RangerShape::Multiple);
+    Blobfinder(blobfinder::Blobfinder): BLOBFINDER, model(ModelType::Blobfinder);
+    Fiducial(fiducial::Fiducial): FIDUCIAL, model(ModelType::Fiducial);
+    Gripper(gripper::Gripper): GRIPPER, model(ModelType::Gripper);
+    Camera(camera::Camera): CAMERA, model(ModelType::Camera);
+    Actarray(actarray::Actarray): ACTARRAY, model(ModelType::Actuator);
+    Speech(speech::Speech): SPEECH, StageBinding::Named;
+    Graphics2d(graphics::Graphics): GRAPHICS2D, StageBinding::Named;
+    Graphics3d(graphics::Graphics): GRAPHICS3D, StageBinding::Named;
+    Map(map::Map): MAP, StageBinding::Named;
 }
 
-impl Kind {
-    fn of(interface: InterfaceCode) -> Option<Kind> {
-        Some(match interface {
-            InterfaceCode::SIMULATION => Kind::Simulation,
-            InterfaceCode::POSITION2D => Kind::Position,
-            InterfaceCode::RANGER => Kind::Ranger,
-            InterfaceCode::LASER => Kind::Laser,
-            InterfaceCode::SONAR => Kind::Sonar,
-            InterfaceCode::BLOBFINDER => Kind::Blobfinder,
-            InterfaceCode::FIDUCIAL => Kind::Fiducial,
-            InterfaceCode::GRIPPER => Kind::Gripper,
-            InterfaceCode::CAMERA => Kind::Camera,
-            InterfaceCode::ACTARRAY => Kind::Actarray,
-            InterfaceCode::SPEECH => Kind::Speech,
-            InterfaceCode::GRAPHICS2D => Kind::Graphics2d,
-            InterfaceCode::GRAPHICS3D => Kind::Graphics3d,
-            InterfaceCode::MAP => Kind::Map,
-            _ => return None,
-        })
-    }
-
-    /// How a device of this kind binds (player-cfg.md §8.3, §8.5): the legacy `laser` prefers
-    /// a one-transducer ranger and `sonar` a ring, as Player 2 clients expect; `map` serves the
-    /// named model's blocks as a grid, as Stage 2's `p_map` did (Stage 4.1.1 ships that source
-    /// but does not build it).
-    fn binding(self) -> StageBinding {
-        let model = |t| StageBinding::Model(t, RangerShape::Any);
-        match self {
-            Kind::Simulation => StageBinding::World,
-            Kind::Position => model(ModelType::Position),
-            Kind::Ranger => model(ModelType::Ranger),
-            Kind::Fiducial => model(ModelType::Fiducial),
-            Kind::Blobfinder => model(ModelType::Blobfinder),
-            Kind::Gripper => model(ModelType::Gripper),
-            Kind::Actarray => model(ModelType::Actuator),
-            Kind::Camera => model(ModelType::Camera),
-            Kind::Laser => StageBinding::Model(ModelType::Ranger, RangerShape::Single),
-            Kind::Sonar => StageBinding::Model(ModelType::Ranger, RangerShape::Multiple),
-            Kind::Speech | Kind::Graphics2d | Kind::Graphics3d | Kind::Map => StageBinding::Named,
-        }
-    }
+/// Binds to the first unbound model of type `t` (any ranger shape).
+const fn model(t: ModelType) -> StageBinding {
+    StageBinding::Model(t, RangerShape::Any)
 }
 
 /// One device of a block.
 #[derive(Debug)]
 struct Device {
     addr: DeviceAddr,
-    kind: Kind,
+    /// Its interface, with the interface's own state of this device.
+    served: Served,
     /// The bound model (`None` for `simulation`).
     model: Option<ModelId>,
     /// Current subscriptions (duplicates included).
     subs: u32,
     /// Sim time (µs) of the last sample published.
     published_us: u64,
-    /// Scans published (the legacy laser's scan id).
-    count: u32,
-    /// A `map` device's grid, made on request.
-    map: Option<map::MapCache>,
-    /// What a client configured of a `laser` device's scan (`None`: the whole fan).
-    scan: Option<laser::ScanConfig>,
-}
-
-/// The model a request, command or publication is about, with the world around it.
-pub(crate) struct Bound<'a, W> {
-    pub world: W,
-    pub spec: &'a WorldSpec,
-    pub model: ModelId,
-}
-
-/// Write access to a bound model.
-pub(crate) type Writing<'a> = Bound<'a, RwLockWriteGuard<'a, World>>;
-
-impl<W: std::ops::Deref<Target = World>> Bound<'_, W> {
-    /// The model's resolved worldfile entry (static configuration, as written).
-    pub fn model_spec(&self) -> &worldfile::ModelSpec {
-        self.spec.model(self.model.index())
-    }
-
-    /// The model's size `[x y z]`.
-    pub fn size(&self) -> [f64; 3] {
-        self.world.node(self.model).size
-    }
-
-    /// The model's size as Player's bounding box: Stage's `[x y z]` is length, width, height.
-    pub fn bbox(&self) -> Bbox3d {
-        size_bbox(self.size())
-    }
-
-    /// The model's pose in its parent's frame as a Player 3D pose (roll = pitch = 0).
-    pub fn local_pose3d(&self) -> Pose3d {
-        pose3d(&self.world.pose(self.model))
-    }
 }
 
 /// A Stage pose as a Player 3D pose: x, y, z, yaw; roll = pitch = 0.
@@ -342,20 +276,6 @@ pub(crate) fn spec_pose3d(p: &worldfile::Pose) -> Pose3d {
         proll: 0.0,
         ppitch: 0.0,
         pyaw: p[3],
-    }
-}
-
-/// A publication: DATA bodies stamped with the sample's simulated time.
-pub(crate) struct Out<'a, 'c> {
-    ctx: &'a mut Context<'c>,
-    addr: DeviceAddr,
-    stamp: f64,
-}
-
-impl Out<'_, '_> {
-    /// Publishes one DATA body.
-    pub fn publish(&mut self, body: impl Into<Body>) {
-        self.ctx.publish_at(self.addr, body, self.stamp);
     }
 }
 
@@ -413,16 +333,13 @@ impl StageDriver {
             let addr = p.addr;
             let served = Self::serve_device(block, p, state, options, handle, &mut steps_world);
             let binding = match served {
-                Ok((kind, model, binding)) => {
+                Ok((served, model, binding)) => {
                     devices.push(Device {
                         addr,
-                        kind,
+                        served,
                         model,
                         subs: 0,
                         published_us: 0,
-                        count: 0,
-                        map: None,
-                        scan: None,
                     });
                     binding
                 }
@@ -471,9 +388,9 @@ impl StageDriver {
         options: &StageOptions,
         handle: &StageHandle,
         creates_world: &mut bool,
-    ) -> Result<(Kind, Option<ModelId>, DeviceBinding), BindError> {
+    ) -> Result<(Served, Option<ModelId>, DeviceBinding), BindError> {
         let addr = p.addr;
-        let Some(kind) = Kind::of(addr.interf) else {
+        let Some(served) = Served::new(addr.interf) else {
             return Err(BindError::new(
                 BindErrorKind::UnsupportedInterface,
                 format!(
@@ -482,13 +399,13 @@ impl StageDriver {
                 ),
             ));
         };
-        if kind == Kind::Simulation {
+        if Served::binding_of(addr.interf) == Some(StageBinding::World) {
             if let Some(s) = &state.shared {
                 tracing::warn!(
                     "{}: a second simulation device; Stage keeps one world",
                     p.origin
                 );
-                return Ok((kind, None, s.binding()));
+                return Ok((served, None, s.binding()));
             }
             let shared = create_world(block, options, handle).inspect_err(|_| {
                 state.world_failure = Some(p.origin.clone());
@@ -496,7 +413,7 @@ impl StageDriver {
             let binding = shared.binding();
             state.shared = Some(shared);
             *creates_world = true;
-            return Ok((kind, None, binding));
+            return Ok((served, None, binding));
         }
         let device = format!("{}:{}", addr.interf, addr.index);
         let Some(s) = state.shared.as_mut() else {
@@ -537,12 +454,12 @@ impl StageDriver {
             w.name(m),
             w.type_name(m)
         );
-        let binding = DeviceBinding::Model {
+        let binding = DeviceBinding::Model(BoundModel {
             id,
             name: spec.name.clone(),
             model_type: spec.model_type,
-        };
-        Ok((kind, Some(m), binding))
+        });
+        Ok((served, Some(m), binding))
     }
 
     fn write(&self) -> RwLockWriteGuard<'_, World> {
@@ -571,26 +488,6 @@ impl StageDriver {
             if d.subs == 0 {
                 continue;
             }
-            let stamp_us = match d.kind {
-                Kind::Position => world.position_state(model).map(|s| s.time_us),
-                Kind::Ranger | Kind::Laser | Kind::Sonar => {
-                    world.ranger_scans(model).map(|s| s.time_us)
-                }
-                Kind::Blobfinder => world.blobfinder_blobs(model).map(|s| s.time_us),
-                Kind::Fiducial => world.fiducials(model).map(|s| s.time_us),
-                Kind::Gripper => world.gripper_state(model).map(|s| s.time_us),
-                Kind::Camera => world.camera_image(model).map(|s| s.time_us),
-                Kind::Actarray => world.actuator(model).map(|s| s.time_us),
-                Kind::Simulation
-                | Kind::Speech
-                | Kind::Graphics2d
-                | Kind::Graphics3d
-                | Kind::Map => None,
-            };
-            let Some(stamp_us) = stamp_us.filter(|&t| t > d.published_us) else {
-                continue;
-            };
-            d.published_us = stamp_us;
             let bound = Bound {
                 world: &*world,
                 spec: &self.spec,
@@ -599,62 +496,12 @@ impl StageDriver {
             let mut out = Out {
                 ctx: &mut *ctx,
                 addr: d.addr,
-                stamp: stamp_us as f64 * 1e-6,
+                published_us: &mut d.published_us,
+                stamp: None,
             };
-            match d.kind {
-                Kind::Position => position::publish(&bound, &mut out),
-                Kind::Ranger => ranger::publish(&bound, &mut out),
-                Kind::Laser => laser::publish(&bound, d.scan.as_ref(), &mut out, d.count),
-                Kind::Sonar => sonar::publish(&bound, &mut out),
-                Kind::Blobfinder => blobfinder_publish(&bound, &mut out),
-                Kind::Fiducial => fiducial::publish(&bound, &mut out),
-                Kind::Gripper => gripper::publish(&bound, &mut out),
-                Kind::Camera => camera::publish(&bound, &mut out),
-                Kind::Actarray => actarray::publish(&bound, &mut out),
-                Kind::Simulation
-                | Kind::Speech
-                | Kind::Graphics2d
-                | Kind::Graphics3d
-                | Kind::Map => {}
-            }
-            d.count = d.count.wrapping_add(1);
+            d.served.interface_mut().publish(&bound, &mut out);
         }
     }
-}
-
-/// The blobfinder has data only (no requests Stage answers), so it lives here.
-fn blobfinder_publish(b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
-    use player_proto::{BlobfinderBlob, BlobfinderData, BlobfinderDataBlobs};
-    let Some(data) = b.world.blobfinder_blobs(b.model) else {
-        return;
-    };
-    // Stage fills in the image size only when there is a blob (spec §9.3).
-    let (width, height) = if data.blobs.is_empty() {
-        (0, 0)
-    } else {
-        (data.width, data.height)
-    };
-    let blobs = data
-        .blobs
-        .iter()
-        .map(|blob| BlobfinderBlob {
-            id: 0,
-            color: blob.color.packed_rgb(),
-            area: convert::blob_area(blob),
-            x: convert::blob_x(blob),
-            y: convert::blob_y(blob),
-            left: blob.left,
-            right: blob.right,
-            top: blob.top,
-            bottom: blob.bottom,
-            range: blob.range as f32,
-        })
-        .collect();
-    out.publish(BlobfinderData::Blobs(BlobfinderDataBlobs {
-        width,
-        height,
-        blobs,
-    }));
 }
 
 /// Loads the world named by the simulation block.
@@ -730,9 +577,16 @@ impl Driver for StageDriver {
 
     fn client_unsubscribed(&mut self, addr: DeviceAddr, client: ClientId) {
         if let Some(i) = self.device(&addr) {
-            let d = &self.devices[i];
-            if let (Kind::Graphics2d | Kind::Graphics3d, Some(m)) = (d.kind, d.model) {
-                graphics::forget(&self.drawings, m, addr.interf, client);
+            let d = &mut self.devices[i];
+            if let Some(m) = d.model {
+                let left = graphics::DrawingKey {
+                    model: m,
+                    interface: addr.interf,
+                    client,
+                };
+                d.served
+                    .interface_mut()
+                    .client_unsubscribed(&self.drawings, left);
             }
         }
     }
@@ -741,70 +595,45 @@ impl Driver for StageDriver {
         let Some(i) = self.device(&request.header.addr) else {
             return Reply::NotHandled;
         };
-        let (kind, model) = {
-            let d = &self.devices[i];
-            (d.kind, d.model)
-        };
-        if kind == Kind::Simulation {
-            return simulation::request(&mut self.write(), &request.body);
-        }
-        let Some(model) = model else {
-            return Reply::NotHandled;
-        };
-        if kind == Kind::Map {
-            let world = self.world.read().unwrap_or_else(|e| e.into_inner());
-            return map::request(&world, model, &mut self.devices[i].map, &request.body);
-        }
         // the world field alone is borrowed: the device's own state stays writable
-        let world = self.world.write().unwrap_or_else(|e| e.into_inner());
+        let mut world = self.world.write().unwrap_or_else(|e| e.into_inner());
+        let d = &mut self.devices[i];
+        let Some(model) = d.model else {
+            return d
+                .served
+                .interface_mut()
+                .world_request(&mut world, &request.body);
+        };
         let mut b = Bound {
             world,
             spec: &self.spec,
             model,
         };
-        match kind {
-            Kind::Position => position::request(&mut b, &request.body),
-            Kind::Ranger => ranger::request(&b, &request.body),
-            Kind::Laser => laser::request(&b, &mut self.devices[i].scan, &request.body),
-            Kind::Sonar => sonar::request(&b, &request.body),
-            Kind::Fiducial => fiducial::request(&mut b, &request.body),
-            Kind::Gripper => gripper::request(&b, &request.body),
-            Kind::Actarray => actarray::request(&b, &request.body),
-            // Stage answers no blobfinder, camera, speech or graphics requests.
-            _ => Reply::NotHandled,
-        }
+        d.served.interface_mut().request(&mut b, &request.body)
     }
 
     fn handle_command(&mut self, ctx: &mut Context<'_>, command: &Message) {
         let Some(i) = self.device(&command.header.addr) else {
             return;
         };
-        let (kind, model, addr) = {
-            let d = &self.devices[i];
-            (d.kind, d.model, d.addr)
-        };
+        let d = &mut self.devices[i];
+        let (model, addr) = (d.model, d.addr);
         let body = &command.body;
-        let handled = match (kind, model) {
-            (Kind::Simulation, _) => false,
-            (_, None) => false,
-            (kind, Some(model)) => {
-                let world = self.write();
+        let handled = match model {
+            // the simulation device takes no commands
+            None => false,
+            Some(model) => {
+                let world = self.world.write().unwrap_or_else(|e| e.into_inner());
                 let mut b = Bound {
                     world,
                     spec: &self.spec,
                     model,
                 };
-                match kind {
-                    Kind::Position => position::command(&mut b, body),
-                    Kind::Gripper => gripper::command(&mut b, body),
-                    Kind::Actarray => actarray::command(&mut b, body),
-                    Kind::Speech => speech::command(&mut b, body),
-                    Kind::Graphics2d | Kind::Graphics3d => match ctx.client() {
-                        Some(client) => graphics::command(&self.drawings, model, client, body),
-                        None => false,
-                    },
-                    _ => false,
-                }
+                let sender = Sender {
+                    client: ctx.client(),
+                    drawings: &self.drawings,
+                };
+                d.served.interface_mut().command(&mut b, &sender, body)
             }
         };
         if !handled {

@@ -9,22 +9,42 @@ use player_proto::{
 use stage_sim::World;
 use worldfile::TypeSpec;
 
-use super::{Bound, Out, spec_pose3d};
+use super::{Bound, Interface, Out, Writing, spec_pose3d};
 use crate::driver::Reply;
 
-/// RANGE then INTNS, each only when it has values (none before the first scan). One
-/// transducer: all its samples; several: the first sample of each.
-pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(data) = b.world.ranger_scans(b.model) else {
-        return;
-    };
-    let ranges = super::convert::ranger_ranges(data);
-    if !ranges.is_empty() {
-        out.publish(RangerData::Range(RangerDataRange { ranges }));
+/// A `ranger` device.
+#[derive(Debug, Default)]
+pub(super) struct Ranger;
+
+impl Interface for Ranger {
+    /// RANGE then INTNS, each only when it has values (none before the first scan). One
+    /// transducer: all its samples; several: the first sample of each.
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let data = out.new_sample(b.world.ranger_scans(b.model), |s| s.time_us)?;
+        let ranges = super::convert::ranger_ranges(data);
+        if !ranges.is_empty() {
+            out.publish(RangerData::Range(RangerDataRange { ranges }));
+        }
+        let intensities = super::convert::ranger_intensities(data);
+        if !intensities.is_empty() {
+            out.publish(RangerData::Intns(RangerDataIntns { intensities }));
+        }
+        Some(())
     }
-    let intensities = super::convert::ranger_intensities(data);
-    if !intensities.is_empty() {
-        out.publish(RangerData::Intns(RangerDataIntns { intensities }));
+
+    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
+        match body {
+            Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(None))) => {
+                Reply::ack(RangerReq::GetGeom(Some(geometry(b))))
+            }
+            Body::Ranger(RangerMsg::Req(RangerReq::GetConfig(None))) => match config(b) {
+                Some(c) => Reply::ack(RangerReq::GetConfig(Some(c))),
+                // Stage crashes on a ranger without transducers.
+                None => Reply::Nack,
+            },
+            // POWER, INTNS, SET_CONFIG: NACK, as Stage.
+            _ => Reply::NotHandled,
+        }
     }
 }
 
@@ -66,7 +86,7 @@ pub(super) fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> RangerGeom
 }
 
 /// GET_CONFIG: the first transducer only, with Stage's `fov / samples` resolution.
-pub(super) fn config<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<RangerConfig> {
+fn config<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<RangerConfig> {
     let data = b.world.ranger_scans(b.model)?;
     let s = data.sensors.first()?;
     let interval_us = b.world.node(b.model).update_interval_us.max(1);
@@ -79,19 +99,4 @@ pub(super) fn config<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<Range
         range_res: b.world.config().resolution,
         frequency: 1e6 / interval_us as f64,
     })
-}
-
-pub(super) fn request<W: Deref<Target = World>>(b: &Bound<'_, W>, body: &Body) -> Reply {
-    match body {
-        Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(None))) => {
-            Reply::ack(RangerReq::GetGeom(Some(geometry(b))))
-        }
-        Body::Ranger(RangerMsg::Req(RangerReq::GetConfig(None))) => match config(b) {
-            Some(c) => Reply::ack(RangerReq::GetConfig(Some(c))),
-            // Stage crashes on a ranger without transducers.
-            None => Reply::Nack,
-        },
-        // POWER, INTNS, SET_CONFIG: NACK, as Stage.
-        _ => Reply::NotHandled,
-    }
 }

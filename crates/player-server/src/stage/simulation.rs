@@ -8,7 +8,87 @@ use player_proto::{
 };
 use stage_sim::{Color, ModelId, Pose, World};
 
+use super::Interface;
 use crate::driver::Reply;
+
+/// The `simulation` device: the world itself (the first one creates it).
+#[derive(Debug, Default)]
+pub(super) struct Simulation;
+
+impl Interface for Simulation {
+    /// Answers one request to the simulation device.
+    fn world_request(&mut self, world: &mut World, body: &Body) -> Reply {
+        match body {
+            Body::Simulation(SimulationMsg::Req(req)) => match req {
+                SimulationReq::GetPose2d(Some(r)) => match model(world, &r.name) {
+                    Some(m) => {
+                        let p = world.pose(m);
+                        Reply::ack(SimulationReq::GetPose2d(Some(SimulationPose2dReq {
+                            name: r.name.clone(),
+                            pose: Pose2d {
+                                px: p.x,
+                                py: p.y,
+                                pa: p.a,
+                            },
+                        })))
+                    }
+                    None => Reply::Nack,
+                },
+                SimulationReq::SetPose2d(Some(r)) => match model(world, &r.name) {
+                    Some(m) => {
+                        let z = world.pose(m).z;
+                        world.set_pose(m, Pose::new(r.pose.px, r.pose.py, z, r.pose.pa));
+                        Reply::empty_ack()
+                    }
+                    None => Reply::Nack,
+                },
+                SimulationReq::GetPose3d(Some(r)) => match model(world, &r.name) {
+                    Some(m) => {
+                        let p = world.pose(m);
+                        Reply::ack(SimulationReq::GetPose3d(Some(SimulationPose3dReq {
+                            name: r.name.clone(),
+                            pose: super::pose3d(&p),
+                            // Microseconds, as Stage sends it.
+                            simtime: world.sim_time() as f64,
+                        })))
+                    }
+                    None => Reply::Nack,
+                },
+                SimulationReq::SetPose3d(Some(r)) => match model(world, &r.name) {
+                    Some(m) => {
+                        let Pose3d {
+                            px, py, pz, pyaw, ..
+                        } = r.pose;
+                        world.set_pose(m, Pose::new(px, py, pz, pyaw));
+                        Reply::empty_ack()
+                    }
+                    None => Reply::Nack,
+                },
+                SimulationReq::GetProperty(Some(r)) => get_property(world, r),
+                SimulationReq::SetProperty(Some(r)) => set_property(world, r),
+                _ => Reply::NotHandled,
+            },
+            // Stage's evident intent (it crashes on the body Player 3.0.2 strips): the 3D pose
+            // requests are supported, nothing else is.
+            Body::Universal(UniversalMsg::Req(UniversalReq::Capabilities(Some(
+                CapabilitiesReq { msg_type, subtype },
+            )))) => {
+                if *msg_type == u32::from(MsgType::Req.code())
+                    && [
+                        u32::from(SimulationReq::GET_POSE3D),
+                        u32::from(SimulationReq::SET_POSE3D),
+                    ]
+                    .contains(subtype)
+                {
+                    Reply::empty_ack()
+                } else {
+                    Reply::Nack
+                }
+            }
+            _ => Reply::NotHandled,
+        }
+    }
+}
 
 /// Stage's property-name test: `strncmp(prop, name, prop_count)`, so with the NUL libplayerc
 /// sends it is an exact match, and a shorter count matches a prefix (QUIRK kept).
@@ -89,80 +169,6 @@ fn set_property(world: &mut World, req: &SimulationPropertyReq) -> Reply {
             Reply::empty_ack()
         }
         None => Reply::Nack,
-    }
-}
-
-/// Answers one request to the simulation device.
-pub(super) fn request(world: &mut World, body: &Body) -> Reply {
-    match body {
-        Body::Simulation(SimulationMsg::Req(req)) => match req {
-            SimulationReq::GetPose2d(Some(r)) => match model(world, &r.name) {
-                Some(m) => {
-                    let p = world.pose(m);
-                    Reply::ack(SimulationReq::GetPose2d(Some(SimulationPose2dReq {
-                        name: r.name.clone(),
-                        pose: Pose2d {
-                            px: p.x,
-                            py: p.y,
-                            pa: p.a,
-                        },
-                    })))
-                }
-                None => Reply::Nack,
-            },
-            SimulationReq::SetPose2d(Some(r)) => match model(world, &r.name) {
-                Some(m) => {
-                    let z = world.pose(m).z;
-                    world.set_pose(m, Pose::new(r.pose.px, r.pose.py, z, r.pose.pa));
-                    Reply::empty_ack()
-                }
-                None => Reply::Nack,
-            },
-            SimulationReq::GetPose3d(Some(r)) => match model(world, &r.name) {
-                Some(m) => {
-                    let p = world.pose(m);
-                    Reply::ack(SimulationReq::GetPose3d(Some(SimulationPose3dReq {
-                        name: r.name.clone(),
-                        pose: super::pose3d(&p),
-                        // Microseconds, as Stage sends it.
-                        simtime: world.sim_time() as f64,
-                    })))
-                }
-                None => Reply::Nack,
-            },
-            SimulationReq::SetPose3d(Some(r)) => match model(world, &r.name) {
-                Some(m) => {
-                    let Pose3d {
-                        px, py, pz, pyaw, ..
-                    } = r.pose;
-                    world.set_pose(m, Pose::new(px, py, pz, pyaw));
-                    Reply::empty_ack()
-                }
-                None => Reply::Nack,
-            },
-            SimulationReq::GetProperty(Some(r)) => get_property(world, r),
-            SimulationReq::SetProperty(Some(r)) => set_property(world, r),
-            _ => Reply::NotHandled,
-        },
-        // Stage's evident intent (it crashes on the body Player 3.0.2 strips): the 3D pose
-        // requests are supported, nothing else is.
-        Body::Universal(UniversalMsg::Req(UniversalReq::Capabilities(Some(CapabilitiesReq {
-            msg_type,
-            subtype,
-        })))) => {
-            if *msg_type == u32::from(MsgType::Req.code())
-                && [
-                    u32::from(SimulationReq::GET_POSE3D),
-                    u32::from(SimulationReq::SET_POSE3D),
-                ]
-                .contains(subtype)
-            {
-                Reply::empty_ack()
-            } else {
-                Reply::Nack
-            }
-        }
-        _ => Reply::NotHandled,
     }
 }
 

@@ -7,22 +7,37 @@ use std::ops::Deref;
 use player_proto::{Body, SonarData, SonarDataRanges, SonarGeom, SonarMsg, SonarReq};
 use stage_sim::{Pose, World};
 
-use super::{Bound, Out, pose3d, ranger};
+use super::{Bound, Interface, Out, Writing, pose3d, ranger};
 use crate::driver::Reply;
 
-/// DATA RANGES: the first sample of each transducer, as floats.
-pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(data) = b.world.ranger_scans(b.model) else {
-        return;
-    };
-    let ranges: Vec<f32> = data
-        .scans
-        .iter()
-        .filter_map(|s| s.ranges.first())
-        .map(|&r| r as f32)
-        .collect();
-    if !ranges.is_empty() {
-        out.publish(SonarData::Ranges(SonarDataRanges { ranges }));
+/// A `sonar` device.
+#[derive(Debug, Default)]
+pub(super) struct Sonar;
+
+impl Interface for Sonar {
+    fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
+        match body {
+            Body::Sonar(SonarMsg::Req(SonarReq::GetGeom(None))) => {
+                Reply::ack(SonarReq::GetGeom(Some(geometry(b))))
+            }
+            // POWER: refused, as the ranger's.
+            _ => Reply::NotHandled,
+        }
+    }
+
+    /// DATA RANGES: the first sample of each transducer, as floats.
+    fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
+        let data = out.new_sample(b.world.ranger_scans(b.model), |s| s.time_us)?;
+        let ranges: Vec<f32> = data
+            .scans
+            .iter()
+            .filter_map(|s| s.ranges.first())
+            .map(|&r| r as f32)
+            .collect();
+        if !ranges.is_empty() {
+            out.publish(SonarData::Ranges(SonarDataRanges { ranges }));
+        }
+        Some(())
     }
 }
 
@@ -37,15 +52,5 @@ fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> SonarGeom {
                 pose3d(&base.compose(&Pose { x, y, z, a }))
             })
             .collect(),
-    }
-}
-
-pub(super) fn request<W: Deref<Target = World>>(b: &Bound<'_, W>, body: &Body) -> Reply {
-    match body {
-        Body::Sonar(SonarMsg::Req(SonarReq::GetGeom(None))) => {
-            Reply::ack(SonarReq::GetGeom(Some(geometry(b))))
-        }
-        // POWER: refused, as the ranger's.
-        _ => Reply::NotHandled,
     }
 }

@@ -3,13 +3,19 @@
 
 use player_proto::{Body, SpeechCmd, SpeechMsg};
 
-use super::Writing;
+use super::{Interface, Sender, Writing};
 
-/// SAY: the text without its terminating NUL.
-pub(super) fn command(b: &mut Writing<'_>, body: &Body) -> bool {
-    let Body::Speech(SpeechMsg::Cmd(SpeechCmd::Say(say))) = body else {
-        return false;
-    };
-    b.world.say(b.model, &say.string.to_str_lossy());
-    true
+/// A `speech` device.
+#[derive(Debug, Default)]
+pub(super) struct Speech;
+
+impl Interface for Speech {
+    /// SAY: the text without its terminating NUL.
+    fn command(&mut self, b: &mut Writing<'_>, _sender: &Sender<'_>, body: &Body) -> bool {
+        let Body::Speech(SpeechMsg::Cmd(SpeechCmd::Say(say))) = body else {
+            return false;
+        };
+        b.world.say(b.model, &say.string.to_str_lossy());
+        true
+    }
 }

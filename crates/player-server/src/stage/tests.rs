@@ -109,6 +109,19 @@ fn setup_on(world: PathBuf, robot_devices: &[(InterfaceCode, u16)]) -> Setup {
     Setup { sim, robot, handle }
 }
 
+/// A robot block with one device of `interface` (index 0) on `world`, subscribed.
+fn subscribed_on(world: PathBuf, interface: InterfaceCode) -> (Setup, DeviceAddr) {
+    let a = addr(interface, 0);
+    let mut s = setup_on(world, &[(interface, 0)]);
+    s.robot.subscribe(a).unwrap();
+    (s, a)
+}
+
+/// Why `registry` refuses to build `block`.
+fn refusal(registry: &mut DriverRegistry, block: &DriverBlock) -> String {
+    registry.create(block).err().expect("refused").to_string()
+}
+
 /// Steps the world once and returns what the robot block published.
 fn step(s: &mut Setup) -> Vec<Publication> {
     let mut out = Vec::new();
@@ -127,14 +140,10 @@ fn request(d: &mut Box<dyn Driver>, a: DeviceAddr, body: impl Into<Body>) -> Rep
 fn a_device_before_the_simulation_block_is_a_clear_error() {
     let mut registry = DriverRegistry::new();
     register(&mut registry, StageOptions::default());
-    let err = registry
-        .create(&block(
-            &[(InterfaceCode::POSITION2D, 0)],
-            &[("model", "robot")],
-        ))
-        .err()
-        .expect("refused")
-        .to_string();
+    let err = refusal(
+        &mut registry,
+        &block(&[(InterfaceCode::POSITION2D, 0)], &[("model", "robot")]),
+    );
     assert!(
         err.contains("small.cfg:4") && err.contains("must come first"),
         "{err}"
@@ -152,40 +161,34 @@ fn missing_models_and_unsupported_interfaces_name_the_cfg_line() {
             &[("worldfile", world.to_str().unwrap())],
         ))
         .unwrap();
-    let err = registry
-        .create(&block(
-            &[(InterfaceCode::POSITION2D, 0)],
-            &[("model", "nobody")],
-        ))
-        .err()
-        .expect("refused")
-        .to_string();
+    let err = refusal(
+        &mut registry,
+        &block(&[(InterfaceCode::POSITION2D, 0)], &[("model", "nobody")]),
+    );
     assert!(
         err.contains("small.cfg:4") && err.contains("nobody"),
         "{err}"
     );
-    let err = registry
-        .create(&block(&[(InterfaceCode::BUMPER, 0)], &[("model", "robot")]))
-        .err()
-        .expect("refused")
-        .to_string();
+    let err = refusal(
+        &mut registry,
+        &block(&[(InterfaceCode::BUMPER, 0)], &[("model", "robot")]),
+    );
     assert!(
         err.contains("does not support") && err.contains("bumper"),
         "{err}"
     );
     // Three rangers wanted, two in the model.
-    let err = registry
-        .create(&block(
+    let err = refusal(
+        &mut registry,
+        &block(
             &[
                 (InterfaceCode::RANGER, 0),
                 (InterfaceCode::RANGER, 1),
                 (InterfaceCode::RANGER, 2),
             ],
             &[("model", "robot")],
-        ))
-        .err()
-        .expect("refused")
-        .to_string();
+        ),
+    );
     assert!(err.contains("ranger:2"), "{err}");
 }
 
@@ -248,9 +251,7 @@ fn ranger_publishes_range_then_intensities_per_update_only_while_subscribed() {
 
 #[test]
 fn ranger_geometry_and_config_follow_the_worldfile() {
-    let r0 = addr(InterfaceCode::RANGER, 0);
-    let mut s = setup("rgeom", &[(InterfaceCode::RANGER, 0)]);
-    s.robot.subscribe(r0).unwrap();
+    let (mut s, r0) = subscribed_on(world_file("rgeom"), InterfaceCode::RANGER);
     step(&mut s);
     let Reply::Ack(Some(Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(Some(g)))))) =
         request(&mut s.robot, r0, RangerReq::GetGeom(None))
@@ -314,9 +315,7 @@ fn blobfinder_and_fiducial_publish_every_update_even_when_empty() {
 
 #[test]
 fn position2d_requests_and_commands_as_stage_answers_them() {
-    let p = addr(InterfaceCode::POSITION2D, 0);
-    let mut s = setup("position", &[(InterfaceCode::POSITION2D, 0)]);
-    s.robot.subscribe(p).unwrap();
+    let (mut s, p) = subscribed_on(world_file("position"), InterfaceCode::POSITION2D);
     assert_eq!(
         request(
             &mut s.robot,
@@ -407,12 +406,10 @@ fn command(d: &mut Box<dyn Driver>, a: DeviceAddr, body: impl Into<Body>) {
 #[test]
 fn actarray_reports_one_linear_joint_and_its_goal() {
     use player_proto::{ActarrayCmd, ActarrayData, ActarrayMsg, ActarrayPositionCmd, ActarrayReq};
-    let a = addr(InterfaceCode::ACTARRAY, 0);
-    let mut s = setup_on(
+    let (mut s, a) = subscribed_on(
         world_file_with("actarray", ARM_WORLD),
-        &[(InterfaceCode::ACTARRAY, 0)],
+        InterfaceCode::ACTARRAY,
     );
-    s.robot.subscribe(a).unwrap();
     let Reply::Ack(Some(Body::Actarray(ActarrayMsg::Req(ActarrayReq::GetGeom(Some(g)))))) =
         request(&mut s.robot, a, ActarrayReq::GetGeom(None))
     else {
@@ -448,12 +445,7 @@ fn actarray_reports_one_linear_joint_and_its_goal() {
 #[test]
 fn camera_publishes_the_ray_cast_image() {
     use player_proto::{CameraData, CameraMsg};
-    let c = addr(InterfaceCode::CAMERA, 0);
-    let mut s = setup_on(
-        world_file_with("camera", ARM_WORLD),
-        &[(InterfaceCode::CAMERA, 0)],
-    );
-    s.robot.subscribe(c).unwrap();
+    let (mut s, _) = subscribed_on(world_file_with("camera", ARM_WORLD), InterfaceCode::CAMERA);
     let out = step(&mut s);
     let Some(Body::Camera(CameraMsg::Data(CameraData::State(img)))) = out.first().map(|p| &p.body)
     else {
@@ -473,9 +465,7 @@ fn camera_publishes_the_ray_cast_image() {
 #[test]
 fn speech_sets_the_models_bubble() {
     use player_proto::{SpeechCmd, SpeechCmdSay, Text};
-    let sp = addr(InterfaceCode::SPEECH, 0);
-    let mut s = setup("speech", &[(InterfaceCode::SPEECH, 0)]);
-    s.robot.subscribe(sp).unwrap();
+    let (mut s, sp) = subscribed_on(world_file("speech"), InterfaceCode::SPEECH);
     command(
         &mut s.robot,
         sp,
@@ -646,12 +636,10 @@ fn first_body(out: &[Publication]) -> &Body {
 #[test]
 fn odometry_starts_at_the_world_pose_under_a_zero_localization_origin() {
     use player_proto::{Position2dData, Position2dSetOdomReq};
-    let p = addr(InterfaceCode::POSITION2D, 0);
-    let mut s = setup_on(
+    let (mut s, p) = subscribed_on(
         world_file_with("odomstart", PIONEER_WORLD),
-        &[(InterfaceCode::POSITION2D, 0)],
+        InterfaceCode::POSITION2D,
     );
-    s.robot.subscribe(p).unwrap();
     let pose = |out: &[Publication]| match first_body(out) {
         Body::Position2d(Position2dMsg::Data(Position2dData::State(st))) => st.pos,
         other => panic!("{other:?}"),
@@ -689,12 +677,10 @@ fn actarray_reports_a_position_goal_clamped_to_the_joint_limits() {
     use player_proto::{
         ActarrayCmd, ActarrayData, ActarrayMsg, ActarrayPositionCmd, ActarraySpeedCmd,
     };
-    let a = addr(InterfaceCode::ACTARRAY, 0);
-    let mut s = setup_on(
+    let (mut s, a) = subscribed_on(
         world_file_with("actlimits", PIONEER_WORLD),
-        &[(InterfaceCode::ACTARRAY, 0)],
+        InterfaceCode::ACTARRAY,
     );
-    s.robot.subscribe(a).unwrap();
     let joint = |out: &[Publication]| match first_body(out) {
         Body::Actarray(ActarrayMsg::Data(ActarrayData::State(st))) => st.actuators[0].clone(),
         other => panic!("{other:?}"),
@@ -728,12 +714,10 @@ fn actarray_reports_a_position_goal_clamped_to_the_joint_limits() {
 #[test]
 fn laser_on_a_ranger_answers_sick_configuration_requests() {
     use player_proto::{LaserConfig, LaserData, LaserMsg, LaserReq};
-    let l = addr(InterfaceCode::LASER, 0);
-    let mut s = setup_on(
+    let (mut s, l) = subscribed_on(
         world_file_with("lasercfg", PIONEER_WORLD),
-        &[(InterfaceCode::LASER, 0)],
+        InterfaceCode::LASER,
     );
-    s.robot.subscribe(l).unwrap();
     let Reply::Ack(Some(Body::Laser(LaserMsg::Req(LaserReq::GetGeom(Some(g)))))) =
         request(&mut s.robot, l, LaserReq::GetGeom(None))
     else {
@@ -810,4 +794,21 @@ fn laser_on_a_ranger_answers_sick_configuration_requests() {
         Reply::Nack
     );
     assert_eq!(get(&mut s), applied);
+}
+
+#[test]
+fn every_listed_interface_has_its_own_code() {
+    let codes = Served::CODES;
+    let distinct: HashSet<InterfaceCode> = codes.iter().copied().collect();
+    assert_eq!(
+        distinct.len(),
+        codes.len(),
+        "a code listed twice: {codes:?}"
+    );
+    for &code in codes {
+        assert!(Served::new(code).is_some(), "{code}");
+        assert!(stage_binding(code).is_some(), "{code}");
+    }
+    assert!(Served::new(InterfaceCode::WIFI).is_none());
+    assert_eq!(stage_binding(InterfaceCode::WIFI), None);
 }

@@ -9,6 +9,7 @@ pub use crate::block::BlockDesc;
 pub use crate::color::{Color, same_rgb};
 pub use crate::models::KindDesc;
 pub use crate::models::actuator::{ActuatorDesc, ActuatorKind};
+pub use crate::models::blinkenlight::BlinkenlightDesc;
 pub use crate::models::blobfinder::BlobfinderDesc;
 pub use crate::models::camera::CameraDesc;
 pub use crate::models::fiducial::FiducialDesc;

@@ -1,9 +1,11 @@
 //! `blobfinder` (spec §9): a fan of colour rays segmented into blobs.
 
+use super::ModelKind;
 use crate::color::{Color, same_rgb};
 use crate::digest::Digest;
-use crate::node::ModelId;
+use crate::node::{ModelId, Node};
 use crate::pose::Pose;
+use crate::rng::SimRng;
 use crate::space::RayQuery;
 use crate::view::View;
 use worldfile::models as wm;
@@ -23,28 +25,7 @@ pub struct BlobfinderDesc {
     pub colors: Vec<Color>,
 }
 
-impl Default for BlobfinderDesc {
-    /// Stage's defaults, from the worldfile crate's property table.
-    fn default() -> Self {
-        BlobfinderDesc::from_spec(&wm::BlobfinderSpec::default())
-    }
-}
-
-impl BlobfinderDesc {
-    /// Blobfinder properties.
-    pub(crate) fn from_spec(b: &wm::BlobfinderSpec) -> BlobfinderDesc {
-        BlobfinderDesc {
-            image: [
-                b.image[0].clamp(0, 1 << 16) as u32,
-                b.image[1].clamp(0, 1 << 16) as u32,
-            ],
-            range: b.range,
-            fov: b.fov,
-            pan: b.pan,
-            colors: b.colors.clone(),
-        }
-    }
-}
+default_from_spec!(BlobfinderDesc, BlobfinderModel);
 
 /// One blob in image coordinates (x grows to the right of the image, y downwards).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,9 +67,42 @@ pub struct BlobfinderModel {
     samples: Vec<Option<(Color, f64)>>,
 }
 
-impl BlobfinderModel {
+impl ModelKind for BlobfinderModel {
+    type Spec = wm::BlobfinderSpec;
+    type Desc = BlobfinderDesc;
+
+    fn desc_from_spec(b: &wm::BlobfinderSpec, _: &mut SimRng) -> BlobfinderDesc {
+        BlobfinderDesc {
+            image: [
+                b.image[0].clamp(0, 1 << 16) as u32,
+                b.image[1].clamp(0, 1 << 16) as u32,
+            ],
+            range: b.range,
+            fov: b.fov,
+            pan: b.pan,
+            colors: b.colors.clone(),
+        }
+    }
+
+    fn start(desc: &BlobfinderDesc, _: &Pose, _: &mut SimRng) -> Self {
+        BlobfinderModel::new(desc.clone())
+    }
+
+    fn ray_cost(&self) -> usize {
+        self.cfg.image[0] as usize
+    }
+
+    #[inline]
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+        update(v, m, self)
+    }
+
+    fn shutdown(&mut self) {
+        self.data.blobs.clear();
+    }
+
     /// Feeds the latest image size and blobs to the determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
+    fn digest(&self, d: &mut Digest) {
         d.u64(self.data.time_us);
         d.u64(((self.data.width as u64) << 32) | self.data.height as u64);
         d.u64(self.data.blobs.len() as u64);
@@ -99,7 +113,9 @@ impl BlobfinderModel {
             d.f64(b.range);
         }
     }
+}
 
+impl BlobfinderModel {
     /// A blobfinder with no data yet.
     pub fn new(cfg: BlobfinderDesc) -> Self {
         BlobfinderModel {
@@ -115,7 +131,7 @@ impl BlobfinderModel {
 }
 
 /// One blobfinder update.
-pub(crate) fn update(v: &View, m: ModelId, b: &mut BlobfinderModel) {
+fn update(v: &View, m: ModelId, b: &mut BlobfinderModel) {
     let cfg = &b.cfg;
     let w = cfg.image[0] as usize;
     let h = cfg.image[1] as i64;

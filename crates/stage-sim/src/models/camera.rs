@@ -2,10 +2,12 @@
 //! ray-cast it instead, headless too: per column one planar ray collects every edge crossing,
 //! per row the elevation decides which crossing's block spans the ray's height there.
 
+use super::ModelKind;
 use crate::color::Color;
 use crate::digest::Digest;
-use crate::node::ModelId;
+use crate::node::{ModelId, Node};
 use crate::pose::Pose;
+use crate::rng::SimRng;
 use crate::space::{RayHit, RayQuery};
 use crate::view::View;
 use worldfile::models as wm;
@@ -23,27 +25,7 @@ pub struct CameraDesc {
     pub pantilt: [f64; 2],
 }
 
-impl Default for CameraDesc {
-    /// Stage's defaults, from the worldfile crate's property table.
-    fn default() -> Self {
-        CameraDesc::from_spec(&wm::CameraSpec::default())
-    }
-}
-
-impl CameraDesc {
-    /// Camera properties (the worldfile keeps Stage's raw degrees for the camera).
-    pub(crate) fn from_spec(c: &wm::CameraSpec) -> CameraDesc {
-        CameraDesc {
-            resolution: [
-                c.resolution[0].clamp(1, 4096) as u32,
-                c.resolution[1].clamp(1, 4096) as u32,
-            ],
-            range: c.range,
-            fov: [c.fov[0].to_radians(), c.fov[1].to_radians()],
-            pantilt: [c.pantilt[0].to_radians(), c.pantilt[1].to_radians()],
-        }
-    }
-}
+default_from_spec!(CameraDesc, CameraModel);
 
 /// Colour of the ground plane in camera images.
 pub const FLOOR: Color = Color::rgb(0.7, 0.7, 0.7);
@@ -73,9 +55,42 @@ pub struct CameraModel {
     hits: Vec<RayHit>,
 }
 
-impl CameraModel {
+impl ModelKind for CameraModel {
+    type Spec = wm::CameraSpec;
+    type Desc = CameraDesc;
+
+    /// Camera properties (the worldfile keeps Stage's raw degrees for the camera).
+    fn desc_from_spec(c: &wm::CameraSpec, _: &mut SimRng) -> CameraDesc {
+        CameraDesc {
+            resolution: [
+                c.resolution[0].clamp(1, 4096) as u32,
+                c.resolution[1].clamp(1, 4096) as u32,
+            ],
+            range: c.range,
+            fov: [c.fov[0].to_radians(), c.fov[1].to_radians()],
+            pantilt: [c.pantilt[0].to_radians(), c.pantilt[1].to_radians()],
+        }
+    }
+
+    fn start(desc: &CameraDesc, _: &Pose, _: &mut SimRng) -> Self {
+        CameraModel::new(desc.clone())
+    }
+
+    fn starts_itself(&self) -> bool {
+        true
+    }
+
+    fn ray_cost(&self) -> usize {
+        (self.cfg.resolution[0] * 4) as usize
+    }
+
+    #[inline]
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+        update(v, m, self)
+    }
+
     /// Feeds the latest image (colour and depth) to the determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
+    fn digest(&self, d: &mut Digest) {
         let im = &self.image;
         d.u64(im.time_us);
         d.u64(((im.width as u64) << 32) | im.height as u64);
@@ -83,7 +98,9 @@ impl CameraModel {
         d.u64(im.depth.len() as u64);
         im.depth.iter().for_each(|&z| d.u64(z.to_bits() as u64));
     }
+}
 
+impl CameraModel {
     /// A camera with no image yet.
     pub fn new(cfg: CameraDesc) -> Self {
         CameraModel {
@@ -96,7 +113,7 @@ impl CameraModel {
 
 /// One camera update: viewpoint at the parent's x, y and heading (own pose without a parent),
 /// at the camera's global height, offset by pan/tilt.
-pub(crate) fn update(v: &View, m: ModelId, c: &mut CameraModel) {
+fn update(v: &View, m: ModelId, c: &mut CameraModel) {
     let g = v.globals[m.index()];
     let base = match v.nodes[m.index()].parent {
         Some(p) => {

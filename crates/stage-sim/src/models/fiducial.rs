@@ -1,8 +1,10 @@
 //! `fiducial` finder (spec §10).
 
+use super::ModelKind;
 use crate::digest::Digest;
-use crate::node::ModelId;
+use crate::node::{ModelId, Node};
 use crate::pose::{Pose, normalize};
+use crate::rng::SimRng;
 use crate::space::RayQuery;
 use crate::view::View;
 use worldfile::models as wm;
@@ -22,25 +24,7 @@ pub struct FiducialDesc {
     pub ignore_zloc: bool,
 }
 
-impl Default for FiducialDesc {
-    /// Stage's defaults, from the worldfile crate's property table.
-    fn default() -> Self {
-        FiducialDesc::from_spec(&wm::FiducialSpec::default())
-    }
-}
-
-impl FiducialDesc {
-    /// Fiducial-finder properties.
-    pub(crate) fn from_spec(f: &wm::FiducialSpec) -> FiducialDesc {
-        FiducialDesc {
-            range_min: f.range_min,
-            range_max: f.range_max,
-            range_max_id: f.range_max_id,
-            fov: f.fov,
-            ignore_zloc: f.ignore_zloc,
-        }
-    }
-}
+default_from_spec!(FiducialDesc, FiducialModel);
 
 /// One detected fiducial.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,12 +54,55 @@ pub struct FiducialData {
     pub fiducials: Vec<Fiducial>,
 }
 
-impl FiducialData {
+/// A fiducial finder's configuration and latest data.
+#[derive(Clone, Debug)]
+pub struct FiducialModel {
+    /// Configuration.
+    pub cfg: FiducialDesc,
+    /// Latest data.
+    pub data: FiducialData,
+}
+
+impl ModelKind for FiducialModel {
+    type Spec = wm::FiducialSpec;
+    type Desc = FiducialDesc;
+
+    fn desc_from_spec(f: &wm::FiducialSpec, _: &mut SimRng) -> FiducialDesc {
+        FiducialDesc {
+            range_min: f.range_min,
+            range_max: f.range_max,
+            range_max_id: f.range_max_id,
+            fov: f.fov,
+            ignore_zloc: f.ignore_zloc,
+        }
+    }
+
+    fn start(desc: &FiducialDesc, _: &Pose, _: &mut SimRng) -> Self {
+        FiducialModel {
+            cfg: desc.clone(),
+            data: FiducialData::default(),
+        }
+    }
+
+    fn ray_cost(&self) -> usize {
+        8
+    }
+
+    #[inline]
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+        update(v, m, &self.cfg, &mut self.data)
+    }
+
+    fn shutdown(&mut self) {
+        self.data.fiducials.clear();
+    }
+
     /// Feeds every detection to the determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
-        d.u64(self.time_us);
-        d.u64(self.fiducials.len() as u64);
-        for f in &self.fiducials {
+    fn digest(&self, d: &mut Digest) {
+        let data = &self.data;
+        d.u64(data.time_us);
+        d.u64(data.fiducials.len() as u64);
+        for f in &data.fiducials {
             d.u64(f.id as u32 as u64);
             d.model(Some(f.model));
             for v in [f.range, f.bearing, f.heading] {
@@ -88,7 +115,7 @@ impl FiducialData {
 }
 
 /// One fiducial-finder update.
-pub(crate) fn update(v: &View, f: ModelId, cfg: &FiducialDesc, d: &mut FiducialData) {
+fn update(v: &View, f: ModelId, cfg: &FiducialDesc, d: &mut FiducialData) {
     d.fiducials.clear();
     let fg = v.globals[f.index()];
     let fnode = &v.nodes[f.index()];

@@ -1,10 +1,12 @@
 //! `gripper` (spec §11): paddles that open/close and lift, two break beams, two contact rays,
 //! grasping and carrying `gripper_return` models.
 
+use super::ModelKind;
 use crate::block::BlockDesc;
 use crate::digest::Digest;
-use crate::node::ModelId;
+use crate::node::{ModelId, Node};
 use crate::pose::Pose;
+use crate::rng::SimRng;
 use crate::space::RayQuery;
 use crate::view::View;
 use std::f64::consts::FRAC_PI_2;
@@ -23,24 +25,7 @@ pub struct GripperDesc {
     pub autosnatch: bool,
 }
 
-impl Default for GripperDesc {
-    /// Stage's defaults, from the worldfile crate's property table.
-    fn default() -> Self {
-        GripperDesc::from_spec(&wm::GripperSpec::default())
-    }
-}
-
-impl GripperDesc {
-    /// Gripper properties.
-    pub(crate) fn from_spec(g: &wm::GripperSpec) -> GripperDesc {
-        GripperDesc {
-            paddle_size: g.paddle_size,
-            closed: g.paddle_state.paddles == wm::Paddles::Closed,
-            up: g.paddle_state.lift == wm::Lift::Up,
-            autosnatch: g.autosnatch,
-        }
-    }
-}
+default_from_spec!(GripperDesc, GripperModel);
 
 /// Paddle (or lift) state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -125,10 +110,39 @@ pub struct GripperModel {
     pub(crate) body_changed: bool,
 }
 
-impl GripperModel {
+impl ModelKind for GripperModel {
+    type Spec = wm::GripperSpec;
+    type Desc = GripperDesc;
+
+    fn desc_from_spec(g: &wm::GripperSpec, _: &mut SimRng) -> GripperDesc {
+        GripperDesc {
+            paddle_size: g.paddle_size,
+            closed: g.paddle_state.paddles == wm::Paddles::Closed,
+            up: g.paddle_state.lift == wm::Lift::Up,
+            autosnatch: g.autosnatch,
+        }
+    }
+
+    fn start(desc: &GripperDesc, _: &Pose, _: &mut SimRng) -> Self {
+        GripperModel::new(desc.clone())
+    }
+
+    fn own_blocks(&self, size: [f64; 3]) -> Option<Vec<BlockDesc>> {
+        Some(self.blocks(size))
+    }
+
+    fn ray_cost(&self) -> usize {
+        4
+    }
+
+    #[inline]
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+        update(v, m, self)
+    }
+
     /// Feeds the last command and the paddle, lift, beam and carrying state to the
     /// determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
+    fn digest(&self, d: &mut Digest) {
         d.u64(self.cmd as u64);
         let s = &self.data;
         d.u64(s.time_us);
@@ -139,7 +153,9 @@ impl GripperModel {
         d.u64(s.paddles_stalled as u64);
         d.model(s.carrying);
     }
+}
 
+impl GripperModel {
     /// A gripper in its initial state.
     pub fn new(cfg: GripperDesc) -> Self {
         let pos = if cfg.closed { 1.0 } else { 0.0 };
@@ -197,8 +213,26 @@ impl GripperModel {
     }
 }
 
+/// How far paddles and lift move in one update (of their 0 … 1 travel).
+const TRAVEL: f64 = 0.05;
+
+/// Moves `pos` by `delta` (one update's travel, negative to lower), stopping at `limit`;
+/// whether it got there.
+fn travel(pos: &mut f64, delta: f64, limit: f64) -> bool {
+    *pos += delta;
+    let arrived = if delta < 0.0 {
+        *pos < limit
+    } else {
+        *pos > limit
+    };
+    if arrived {
+        *pos = limit;
+    }
+    arrived
+}
+
 /// One gripper update (spec §11.3).
-pub(crate) fn update(v: &View, m: ModelId, g: &mut GripperModel) {
+fn update(v: &View, m: ModelId, g: &mut GripperModel) {
     let d = &mut g.data;
     g.action = None;
     match g.cmd {
@@ -211,9 +245,7 @@ pub(crate) fn update(v: &View, m: ModelId, g: &mut GripperModel) {
     let mut changed = false;
     match d.paddles {
         PaddleState::Opening => {
-            d.paddle_pos -= 0.05;
-            if d.paddle_pos < 0.0 {
-                d.paddle_pos = 0.0;
+            if travel(&mut d.paddle_pos, -TRAVEL, 0.0) {
                 d.paddles = PaddleState::Open;
             }
             if let Some(obj) = d.carrying {
@@ -226,9 +258,7 @@ pub(crate) fn update(v: &View, m: ModelId, g: &mut GripperModel) {
             changed = true;
         }
         PaddleState::Closing => {
-            d.paddle_pos += 0.05;
-            if d.paddle_pos > g.close_limit {
-                d.paddle_pos = g.close_limit;
+            if travel(&mut d.paddle_pos, TRAVEL, g.close_limit) {
                 d.paddles = PaddleState::Closed;
             }
             changed = true;
@@ -237,17 +267,13 @@ pub(crate) fn update(v: &View, m: ModelId, g: &mut GripperModel) {
     }
     match d.lift {
         LiftState::Downing => {
-            d.lift_pos -= 0.05;
-            if d.lift_pos < 0.0 {
-                d.lift_pos = 0.0;
+            if travel(&mut d.lift_pos, -TRAVEL, 0.0) {
                 d.lift = LiftState::Down;
             }
             changed = true;
         }
         LiftState::Upping => {
-            d.lift_pos += 0.05;
-            if d.lift_pos > 1.0 {
-                d.lift_pos = 1.0;
+            if travel(&mut d.lift_pos, TRAVEL, 1.0) {
                 d.lift = LiftState::Up;
             }
             changed = true;

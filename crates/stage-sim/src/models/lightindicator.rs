@@ -1,0 +1,33 @@
+//! `lightindicator`: an on/off light, switched through the API ([`crate::World::set_light`]).
+
+use super::ModelKind;
+use crate::digest::Digest;
+use crate::node::{ModelId, Node};
+use crate::pose::Pose;
+use crate::rng::SimRng;
+use crate::view::View;
+
+/// A light indicator's state.
+#[derive(Clone, Debug)]
+pub struct Lightindicator {
+    /// Lit (from the start).
+    pub on: bool,
+}
+
+impl ModelKind for Lightindicator {
+    type Spec = ();
+    type Desc = ();
+
+    fn desc_from_spec(_: &(), _: &mut SimRng) {}
+
+    fn start(_: &(), _: &Pose, _: &mut SimRng) -> Self {
+        Lightindicator { on: true }
+    }
+
+    #[inline]
+    fn update(&mut self, _: &View, _: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {}
+
+    fn digest(&self, d: &mut Digest) {
+        d.u64(self.on as u64);
+    }
+}

@@ -30,7 +30,7 @@ pub struct ActuatorDesc {
     pub start_position: f64,
 }
 
-default_from_spec!(ActuatorDesc, ActuatorModel);
+default_from_spec!(ActuatorDesc);
 
 /// Actuator control mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,32 +71,29 @@ pub struct ActuatorModel {
     pub data: ActuatorData,
 }
 
+/// Actuator properties; a zero axis becomes (1, 0, 0) as in Stage.
+pub(crate) fn desc_from_spec(a: &wm::ActuatorSpec, _: &mut SimRng) -> ActuatorDesc {
+    let len = a.axis.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let axis = if len > 0.0 {
+        [a.axis[0] / len, a.axis[1] / len, a.axis[2] / len]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    ActuatorDesc {
+        kind: a.actuator_type,
+        axis,
+        min_position: a.min_position,
+        max_position: a.max_position,
+        max_speed: a.max_speed,
+        start_position: a.start_position.unwrap_or(0.0),
+    }
+}
+
+pub(crate) fn start(desc: &ActuatorDesc, _: &Pose, _: &mut SimRng) -> ActuatorModel {
+    ActuatorModel::new(desc.clone())
+}
+
 impl ModelKind for ActuatorModel {
-    type Spec = wm::ActuatorSpec;
-    type Desc = ActuatorDesc;
-
-    /// Actuator properties; a zero axis becomes (1, 0, 0) as in Stage.
-    fn desc_from_spec(a: &wm::ActuatorSpec, _: &mut SimRng) -> ActuatorDesc {
-        let len = a.axis.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let axis = if len > 0.0 {
-            [a.axis[0] / len, a.axis[1] / len, a.axis[2] / len]
-        } else {
-            [1.0, 0.0, 0.0]
-        };
-        ActuatorDesc {
-            kind: a.actuator_type,
-            axis,
-            min_position: a.min_position,
-            max_position: a.max_position,
-            max_speed: a.max_speed,
-            start_position: a.start_position.unwrap_or(0.0),
-        }
-    }
-
-    fn start(desc: &ActuatorDesc, _: &Pose, _: &mut SimRng) -> Self {
-        ActuatorModel::new(desc.clone())
-    }
-
     #[inline]
     fn update(&mut self, v: &View, _: ModelId, local: &Pose, _: &Node, _: &mut SimRng) {
         ActuatorModel::update(self, local, v.sim_time)

@@ -17,7 +17,7 @@ pub struct BlinkenlightDesc {
     pub dutycycle: f64,
 }
 
-default_from_spec!(BlinkenlightDesc, Blinkenlight);
+default_from_spec!(BlinkenlightDesc);
 
 /// A blinkenlight's state.
 #[derive(Clone, Debug)]
@@ -26,21 +26,18 @@ pub struct Blinkenlight {
     pub on: bool,
 }
 
+pub(crate) fn desc_from_spec(b: &wm::BlinkenlightSpec, _: &mut SimRng) -> BlinkenlightDesc {
+    BlinkenlightDesc {
+        period_ms: b.period.clamp(0, u32::MAX as i64) as u32,
+        dutycycle: b.dutycycle,
+    }
+}
+
+pub(crate) fn start(_: &BlinkenlightDesc, _: &Pose, _: &mut SimRng) -> Blinkenlight {
+    Blinkenlight { on: false }
+}
+
 impl ModelKind for Blinkenlight {
-    type Spec = wm::BlinkenlightSpec;
-    type Desc = BlinkenlightDesc;
-
-    fn desc_from_spec(b: &wm::BlinkenlightSpec, _: &mut SimRng) -> BlinkenlightDesc {
-        BlinkenlightDesc {
-            period_ms: b.period.clamp(0, u32::MAX as i64) as u32,
-            dutycycle: b.dutycycle,
-        }
-    }
-
-    fn start(_: &BlinkenlightDesc, _: &Pose, _: &mut SimRng) -> Self {
-        Blinkenlight { on: false }
-    }
-
     fn starts_itself(&self) -> bool {
         true
     }

@@ -25,7 +25,7 @@ pub struct GripperDesc {
     pub autosnatch: bool,
 }
 
-default_from_spec!(GripperDesc, GripperModel);
+default_from_spec!(GripperDesc);
 
 /// Paddle (or lift) state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -110,23 +110,20 @@ pub struct GripperModel {
     pub(crate) body_changed: bool,
 }
 
+pub(crate) fn desc_from_spec(g: &wm::GripperSpec, _: &mut SimRng) -> GripperDesc {
+    GripperDesc {
+        paddle_size: g.paddle_size,
+        closed: g.paddle_state.paddles == wm::Paddles::Closed,
+        up: g.paddle_state.lift == wm::Lift::Up,
+        autosnatch: g.autosnatch,
+    }
+}
+
+pub(crate) fn start(desc: &GripperDesc, _: &Pose, _: &mut SimRng) -> GripperModel {
+    GripperModel::new(desc.clone())
+}
+
 impl ModelKind for GripperModel {
-    type Spec = wm::GripperSpec;
-    type Desc = GripperDesc;
-
-    fn desc_from_spec(g: &wm::GripperSpec, _: &mut SimRng) -> GripperDesc {
-        GripperDesc {
-            paddle_size: g.paddle_size,
-            closed: g.paddle_state.paddles == wm::Paddles::Closed,
-            up: g.paddle_state.lift == wm::Lift::Up,
-            autosnatch: g.autosnatch,
-        }
-    }
-
-    fn start(desc: &GripperDesc, _: &Pose, _: &mut SimRng) -> Self {
-        GripperModel::new(desc.clone())
-    }
-
     fn own_blocks(&self, size: [f64; 3]) -> Option<Vec<BlockDesc>> {
         Some(self.blocks(size))
     }
@@ -135,9 +132,109 @@ impl ModelKind for GripperModel {
         4
     }
 
-    #[inline]
+    /// One gripper update (spec §11.3).
     fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
-        update(v, m, self)
+        let g = self;
+        let d = &mut g.data;
+        g.action = None;
+        match g.cmd {
+            GripperCmd::Close if d.paddles != PaddleState::Closed => d.paddles = PaddleState::Closing,
+            GripperCmd::Open if d.paddles != PaddleState::Open => d.paddles = PaddleState::Opening,
+            GripperCmd::Up if d.lift != LiftState::Up => d.lift = LiftState::Upping,
+            GripperCmd::Down if d.lift != LiftState::Down => d.lift = LiftState::Downing,
+            _ => {}
+        }
+        let mut changed = false;
+        match d.paddles {
+            PaddleState::Opening => {
+                if travel(&mut d.paddle_pos, -TRAVEL, 0.0) {
+                    d.paddles = PaddleState::Open;
+                }
+                if let Some(obj) = d.carrying {
+                    if d.paddle_pos == 0.0 || d.paddle_pos < g.close_limit {
+                        g.action = Some(GripAction::Release(obj));
+                        d.carrying = None;
+                        g.close_limit = 1.0;
+                    }
+                }
+                changed = true;
+            }
+            PaddleState::Closing => {
+                if travel(&mut d.paddle_pos, TRAVEL, g.close_limit) {
+                    d.paddles = PaddleState::Closed;
+                }
+                changed = true;
+            }
+            _ => {}
+        }
+        match d.lift {
+            LiftState::Downing => {
+                if travel(&mut d.lift_pos, -TRAVEL, 0.0) {
+                    d.lift = LiftState::Down;
+                }
+                changed = true;
+            }
+            LiftState::Upping => {
+                if travel(&mut d.lift_pos, TRAVEL, 1.0) {
+                    d.lift = LiftState::Up;
+                }
+                changed = true;
+            }
+            _ => {}
+        }
+        g.body_changed |= changed;
+
+        let node = &v.nodes[m.index()];
+        let [sx, sy, _] = node.size;
+        let [px, py, _] = g.cfg.paddle_size;
+        let pos = d.paddle_pos;
+        let frame = v.body_frame(m);
+        let pred = |h: ModelId| h != m && v.nodes[h.index()].returns.gripper;
+        let cast = |x: f64, y: f64, a: f64, len: f64| -> Option<ModelId> {
+            if len <= 0.0 {
+                return None;
+            }
+            let o = frame.compose(&Pose { x, y, z: 0.0, a });
+            v.space
+                .raycast(
+                    &RayQuery {
+                        x: o.x,
+                        y: o.y,
+                        a: o.a,
+                        range: len,
+                        z: None,
+                    },
+                    pred,
+                )
+                .map(|h| h.model)
+        };
+        let gap_y = (1.0 - pos) * (sy / 2.0 - sy * py);
+        let beam_len = (1.0 - pos) * (sy - 2.0 * sy * py);
+        for (i, inset) in [0.75 * px, 0.25 * px].into_iter().enumerate() {
+            let x = sx * (1.0 - inset) - sx / 2.0;
+            d.beams[i] = cast(x, gap_y, -FRAC_PI_2, beam_len);
+        }
+        if g.cfg.autosnatch {
+            g.cmd = if d.beams.iter().any(Option::is_some) {
+                GripperCmd::Close
+            } else {
+                GripperCmd::Open
+            };
+        }
+        let cx = (1.0 - px) * sx - sx / 2.0;
+        d.contacts[0] = cast(cx, gap_y, 0.0, px * sx);
+        d.contacts[1] = cast(cx, -gap_y, 0.0, px * sx);
+        d.paddles_stalled = false;
+        if let Some(hit) = d.contacts[0].or(d.contacts[1]) {
+            d.paddles_stalled = true;
+            if d.paddles == PaddleState::Closing && d.carrying.is_none() && g.action.is_none() {
+                let osy = v.nodes[hit.index()].size[1];
+                g.close_limit = (1.0 - osy / (sy - py / 2.0)).max(0.0);
+                d.carrying = Some(hit);
+                g.action = Some(GripAction::Grasp(hit));
+            }
+        }
+        d.time_us = v.sim_time;
     }
 
     /// Feeds the last command and the paddle, lift, beam and carrying state to the
@@ -229,108 +326,4 @@ fn travel(pos: &mut f64, delta: f64, limit: f64) -> bool {
         *pos = limit;
     }
     arrived
-}
-
-/// One gripper update (spec §11.3).
-fn update(v: &View, m: ModelId, g: &mut GripperModel) {
-    let d = &mut g.data;
-    g.action = None;
-    match g.cmd {
-        GripperCmd::Close if d.paddles != PaddleState::Closed => d.paddles = PaddleState::Closing,
-        GripperCmd::Open if d.paddles != PaddleState::Open => d.paddles = PaddleState::Opening,
-        GripperCmd::Up if d.lift != LiftState::Up => d.lift = LiftState::Upping,
-        GripperCmd::Down if d.lift != LiftState::Down => d.lift = LiftState::Downing,
-        _ => {}
-    }
-    let mut changed = false;
-    match d.paddles {
-        PaddleState::Opening => {
-            if travel(&mut d.paddle_pos, -TRAVEL, 0.0) {
-                d.paddles = PaddleState::Open;
-            }
-            if let Some(obj) = d.carrying {
-                if d.paddle_pos == 0.0 || d.paddle_pos < g.close_limit {
-                    g.action = Some(GripAction::Release(obj));
-                    d.carrying = None;
-                    g.close_limit = 1.0;
-                }
-            }
-            changed = true;
-        }
-        PaddleState::Closing => {
-            if travel(&mut d.paddle_pos, TRAVEL, g.close_limit) {
-                d.paddles = PaddleState::Closed;
-            }
-            changed = true;
-        }
-        _ => {}
-    }
-    match d.lift {
-        LiftState::Downing => {
-            if travel(&mut d.lift_pos, -TRAVEL, 0.0) {
-                d.lift = LiftState::Down;
-            }
-            changed = true;
-        }
-        LiftState::Upping => {
-            if travel(&mut d.lift_pos, TRAVEL, 1.0) {
-                d.lift = LiftState::Up;
-            }
-            changed = true;
-        }
-        _ => {}
-    }
-    g.body_changed |= changed;
-
-    let node = &v.nodes[m.index()];
-    let [sx, sy, _] = node.size;
-    let [px, py, _] = g.cfg.paddle_size;
-    let pos = d.paddle_pos;
-    let frame = v.body_frame(m);
-    let pred = |h: ModelId| h != m && v.nodes[h.index()].returns.gripper;
-    let cast = |x: f64, y: f64, a: f64, len: f64| -> Option<ModelId> {
-        if len <= 0.0 {
-            return None;
-        }
-        let o = frame.compose(&Pose { x, y, z: 0.0, a });
-        v.space
-            .raycast(
-                &RayQuery {
-                    x: o.x,
-                    y: o.y,
-                    a: o.a,
-                    range: len,
-                    z: None,
-                },
-                pred,
-            )
-            .map(|h| h.model)
-    };
-    let gap_y = (1.0 - pos) * (sy / 2.0 - sy * py);
-    let beam_len = (1.0 - pos) * (sy - 2.0 * sy * py);
-    for (i, inset) in [0.75 * px, 0.25 * px].into_iter().enumerate() {
-        let x = sx * (1.0 - inset) - sx / 2.0;
-        d.beams[i] = cast(x, gap_y, -FRAC_PI_2, beam_len);
-    }
-    if g.cfg.autosnatch {
-        g.cmd = if d.beams.iter().any(Option::is_some) {
-            GripperCmd::Close
-        } else {
-            GripperCmd::Open
-        };
-    }
-    let cx = (1.0 - px) * sx - sx / 2.0;
-    d.contacts[0] = cast(cx, gap_y, 0.0, px * sx);
-    d.contacts[1] = cast(cx, -gap_y, 0.0, px * sx);
-    d.paddles_stalled = false;
-    if let Some(hit) = d.contacts[0].or(d.contacts[1]) {
-        d.paddles_stalled = true;
-        if d.paddles == PaddleState::Closing && d.carrying.is_none() && g.action.is_none() {
-            let osy = v.nodes[hit.index()].size[1];
-            g.close_limit = (1.0 - osy / (sy - py / 2.0)).max(0.0);
-            d.carrying = Some(hit);
-            g.action = Some(GripAction::Grasp(hit));
-        }
-    }
-    d.time_us = v.sim_time;
 }

@@ -14,16 +14,11 @@ pub struct Lightindicator {
     pub on: bool,
 }
 
+pub(crate) fn start(_: &(), _: &Pose, _: &mut SimRng) -> Lightindicator {
+    Lightindicator { on: true }
+}
+
 impl ModelKind for Lightindicator {
-    type Spec = ();
-    type Desc = ();
-
-    fn desc_from_spec(_: &(), _: &mut SimRng) {}
-
-    fn start(_: &(), _: &Pose, _: &mut SimRng) -> Self {
-        Lightindicator { on: true }
-    }
-
     #[inline]
     fn update(&mut self, _: &View, _: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {}
 

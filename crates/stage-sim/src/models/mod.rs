@@ -1,9 +1,10 @@
 //! Per-type model behaviour and the data each type publishes: one module per Stage model type,
-//! each owning its description (with its worldfile conversion and defaults), its state, its
-//! update, what its last unsubscription shuts down and its digest, by implementing
-//! [`ModelKind`] for its state. The one `model_kinds!` list below registers the modules (one
-//! line a type): it generates [`KindDesc`], the crate's `KindState`, their `match` dispatch (no
-//! `dyn`: each step's update is a direct call) and the mapping from the worldfile crate's
+//! each owning its description (with `desc_from_spec`, its conversion from the worldfile
+//! crate's properties, and its defaults), its state (with `start`, the state on load), and the
+//! state's [`ModelKind`] impl: its update, what its last unsubscription shuts down, its digest.
+//! The one `model_kinds!` list below registers the modules (one line a type): it generates
+//! [`KindDesc`], the crate's `KindState`, their `match` dispatch (no `dyn`: each step's update
+//! is a direct call) and [`KindDesc::from_spec`], the mapping from the worldfile crate's
 //! [`TypeSpec`].
 
 pub use actuator::ActuatorDesc;
@@ -25,23 +26,9 @@ use crate::pose::Pose;
 use crate::rng::SimRng;
 use crate::view::View;
 
-/// What a model type's module implements for its state: the type's whole behaviour. The
+/// What a model type's module implements for its state: the type's behaviour in the step. The
 /// defaults are what most types do (nothing of their own).
-pub(crate) trait ModelKind: Sized {
-    /// The worldfile crate's properties of the type (its `TypeSpec` variant's content; `()` for
-    /// a type without properties of its own).
-    type Spec;
-    /// The type's description in [`KindDesc`] (`()` for a type without one).
-    type Desc;
-
-    /// The description from the worldfile properties; `rng` draws what Stage draws at random
-    /// (a sensor's `color "random"`).
-    fn desc_from_spec(spec: &Self::Spec, rng: &mut SimRng) -> Self::Desc;
-
-    /// The state a model of this description starts in; `global` is its pose at load and `rng`
-    /// its own stream (position models draw their odometry error from it, spec §7.7).
-    fn start(desc: &Self::Desc, global: &Pose, rng: &mut SimRng) -> Self;
-
+pub(crate) trait ModelKind {
     /// The body the type builds itself instead of the worldfile's (the gripper's base and
     /// paddles for a model of `size`); `None` keeps the described blocks.
     fn own_blocks(&self, _size: [f64; 3]) -> Option<Vec<BlockDesc>> {
@@ -74,17 +61,6 @@ pub(crate) trait ModelKind: Sized {
 
 /// A large state kept behind a pointer (so `KindState` stays small) behaves as the state.
 impl<K: ModelKind> ModelKind for Box<K> {
-    type Spec = K::Spec;
-    type Desc = K::Desc;
-
-    fn desc_from_spec(spec: &K::Spec, rng: &mut SimRng) -> K::Desc {
-        K::desc_from_spec(spec, rng)
-    }
-
-    fn start(desc: &K::Desc, global: &Pose, rng: &mut SimRng) -> Self {
-        Box::new(K::start(desc, global, rng))
-    }
-
     fn own_blocks(&self, size: [f64; 3]) -> Option<Vec<BlockDesc>> {
         (**self).own_blocks(size)
     }
@@ -111,17 +87,14 @@ impl<K: ModelKind> ModelKind for Box<K> {
     }
 }
 
-/// `impl Default` for a description: its kind's conversion of the worldfile crate's default
-/// properties, so Stage's defaults are written once (in the worldfile property tables).
+/// `impl Default` for a description: the module's `desc_from_spec` of the worldfile crate's
+/// default properties, so Stage's defaults are written once (in the worldfile property tables).
 macro_rules! default_from_spec {
-    ($desc:ty, $kind:ty) => {
+    ($desc:ty) => {
         impl Default for $desc {
             /// Stage's defaults, from the worldfile crate's property table.
             fn default() -> Self {
-                <$kind as $crate::models::ModelKind>::desc_from_spec(
-                    &Default::default(),
-                    &mut $crate::rng::SimRng::new(0, 0),
-                )
+                desc_from_spec(&Default::default(), &mut $crate::rng::SimRng::new(0, 0))
             }
         }
     };
@@ -133,8 +106,11 @@ macro_rules! default_from_spec {
 /// (`KindDesc::Variant`), or `module: Variant(Desc) => State` for one with
 /// (`KindDesc::Variant(Desc)`). `Variant` is the worldfile crate's `ModelType` and `TypeSpec`
 /// variant, `State` the module's type implementing [`ModelKind`] (in a `Box` when it is large).
+/// The module provides `start(&Desc, global: &Pose, rng: &mut SimRng) -> State` (`&()` for a
+/// type without a description; an unboxed state) and, for a type with a description,
+/// `desc_from_spec(&Spec, rng: &mut SimRng) -> Desc` from its `TypeSpec` content.
 /// A line of `aliases` is `Variant => convert`: a worldfile type simulated as another kind, by
-/// `convert(&spec, model_name, warnings, rng) -> KindDesc` (which warns).
+/// `convert(&spec, rng) -> (KindDesc, why)`, whose `why` becomes a warning naming the model.
 macro_rules! model_kinds {
     (
         kinds {
@@ -170,9 +146,15 @@ macro_rules! model_kinds {
                 match &m.spec {
                     $(
                         variant_of!(TypeSpec, $variant, spec $(, $desc)?) =>
-                            desc_of!($variant, $state, spec, rng $(, $desc)?),
+                            desc_of!($variant, $module, spec, rng $(, $desc)?),
                     )*
-                    $( TypeSpec::$alias(spec) => $convert(spec, &m.name, warnings, rng), )*
+                    $(
+                        TypeSpec::$alias(spec) => {
+                            let (kind, why) = $convert(spec, rng);
+                            warnings.push(format!("model {}: {why}", m.name));
+                            kind
+                        }
+                    )*
                 }
             }
         }
@@ -184,12 +166,14 @@ macro_rules! model_kinds {
         }
 
         impl KindState {
-            /// The state a model of this description starts in ([`ModelKind::start`]).
+            /// The state a model of this description starts in (its module's `start`); `global`
+            /// is its pose at load and `rng` its own stream (position models draw their
+            /// odometry error from it, spec §7.7).
             pub(crate) fn new(kind: &KindDesc, global: &Pose, rng: &mut SimRng) -> KindState {
                 match kind {
                     $(
                         variant_of!(KindDesc, $variant, desc $(, $desc)?) => KindState::$variant(
-                            <$state as ModelKind>::start(desc_ref!(desc $(, $desc)?), global, rng),
+                            $module::start(desc_ref!(desc $(, $desc)?), global, rng).into(),
                         ),
                     )*
                 }
@@ -262,13 +246,13 @@ macro_rules! variant_of {
     };
 }
 
-/// A `KindDesc` from the worldfile spec bound to `$spec`.
+/// A `KindDesc` from the worldfile spec bound to `$spec`, by the module's `desc_from_spec`.
 macro_rules! desc_of {
-    ($variant:ident, $state:ty, $spec:ident, $rng:ident) => {
+    ($variant:ident, $module:ident, $spec:ident, $rng:ident) => {
         KindDesc::$variant
     };
-    ($variant:ident, $state:ty, $spec:ident, $rng:ident, $desc:ty) => {
-        KindDesc::$variant(<$state as ModelKind>::desc_from_spec($spec, $rng))
+    ($variant:ident, $module:ident, $spec:ident, $rng:ident, $desc:ty) => {
+        KindDesc::$variant($module::desc_from_spec($spec, $rng))
     };
 }
 

@@ -12,30 +12,18 @@ use worldfile::models as wm;
 #[derive(Clone, Debug)]
 pub struct Plain;
 
+pub(crate) fn start(_: &(), _: &Pose, _: &mut SimRng) -> Plain {
+    Plain
+}
+
 impl ModelKind for Plain {
-    type Spec = ();
-    type Desc = ();
-
-    fn desc_from_spec(_: &(), _: &mut SimRng) {}
-
-    fn start(_: &(), _: &Pose, _: &mut SimRng) -> Self {
-        Plain
-    }
-
     #[inline]
     fn update(&mut self, _: &View, _: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {}
 }
 
-/// A Stage 3 `wifi` model, simulated as a plain model (there is no radio model), with a warning
-/// naming `model`.
-pub(crate) fn wifi_as_plain(
-    _: &wm::WifiSpec,
-    model: &str,
-    warnings: &mut Vec<String>,
-    _: &mut SimRng,
-) -> KindDesc {
-    warnings.push(format!(
-        "model {model}: Stage 3 `wifi` is not simulated (no radio model); it is a plain model"
-    ));
-    KindDesc::Model
+/// A Stage 3 `wifi` model, simulated as a plain model (there is no radio model), and the
+/// warning that says so.
+pub(crate) fn wifi_as_plain(_: &wm::WifiSpec, _: &mut SimRng) -> (KindDesc, String) {
+    let why = "Stage 3 `wifi` is not simulated (no radio model); it is a plain model";
+    (KindDesc::Model, why.into())
 }

@@ -35,7 +35,7 @@ pub struct PositionDesc {
 impl Default for PositionDesc {
     /// Stage's defaults, from the worldfile crate's property table (one source of truth).
     fn default() -> Self {
-        let mut d = PositionModel::desc_from_spec(&wm::PositionSpec::default(), &mut SimRng::new(0, 0));
+        let mut d = desc_from_spec(&wm::PositionSpec::default(), &mut SimRng::new(0, 0));
         // "the model's global pose at load", which the resolver fills in for real models
         d.localization_origin = None;
         d
@@ -110,40 +110,37 @@ pub fn estimate_in_frame(origin: &Pose, global: &Pose) -> Pose {
     }
 }
 
-impl ModelKind for PositionModel {
-    type Spec = wm::PositionSpec;
-    type Desc = PositionDesc;
+pub(crate) fn desc_from_spec(p: &wm::PositionSpec, _: &mut SimRng) -> PositionDesc {
+    PositionDesc {
+        drive: p.drive,
+        localization: p.localization,
+        localization_origin: Some(Pose::from_array(p.localization_origin)),
+        odom_error: p.odom_error,
+        wheelbase: p.wheelbase,
+        velocity_bounds: p.velocity_bounds,
+        acceleration_bounds: p.acceleration_bounds,
+        velocity: Pose::from_array(p.velocity),
+    }
+}
 
-    fn desc_from_spec(p: &wm::PositionSpec, _: &mut SimRng) -> PositionDesc {
-        PositionDesc {
-            drive: p.drive,
-            localization: p.localization,
-            localization_origin: Some(Pose::from_array(p.localization_origin)),
-            odom_error: p.odom_error,
-            wheelbase: p.wheelbase,
-            velocity_bounds: p.velocity_bounds,
-            acceleration_bounds: p.acceleration_bounds,
-            velocity: Pose::from_array(p.velocity),
+/// A model as described, at `global` on load: the estimate's frame is
+/// `localization_origin` (the load pose when unset) and a missing `odom_error` is drawn
+/// once from `rng`, uniformly over Stage's spans (spec §7.7). As Stage's load does, the
+/// estimate starts at the global pose expressed in the origin's frame whatever the
+/// localization mode: zero when the origin defaults to the start pose, the world pose
+/// under `localization_origin [0 0 0 0]`.
+pub(crate) fn start(p: &PositionDesc, global: &Pose, rng: &mut SimRng) -> PositionModel {
+    let origin = p.localization_origin.unwrap_or(*global);
+    let err = match p.odom_error {
+        Some(e) => e,
+        None => {
+            wm::PositionSpec::ODOM_ERROR_SPAN.map(|span| rng.uniform(-span / 2.0, span / 2.0))
         }
-    }
+    };
+    PositionModel::new(p.clone(), global, origin, err)
+}
 
-    /// A model as described, at `global` on load: the estimate's frame is
-    /// `localization_origin` (the load pose when unset) and a missing `odom_error` is drawn
-    /// once from `rng`, uniformly over Stage's spans (spec §7.7). As Stage's load does, the
-    /// estimate starts at the global pose expressed in the origin's frame whatever the
-    /// localization mode: zero when the origin defaults to the start pose, the world pose
-    /// under `localization_origin [0 0 0 0]`.
-    fn start(p: &PositionDesc, global: &Pose, rng: &mut SimRng) -> PositionModel {
-        let origin = p.localization_origin.unwrap_or(*global);
-        let err = match p.odom_error {
-            Some(e) => e,
-            None => {
-                wm::PositionSpec::ODOM_ERROR_SPAN.map(|span| rng.uniform(-span / 2.0, span / 2.0))
-            }
-        };
-        PositionModel::new(p.clone(), global, origin, err)
-    }
-
+impl ModelKind for PositionModel {
     #[inline]
     fn update(&mut self, v: &View, m: ModelId, _: &Pose, node: &Node, _: &mut SimRng) {
         PositionModel::update(self, &v.globals[m.index()], v.dt, node.mass, v.sim_time)

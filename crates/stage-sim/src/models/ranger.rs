@@ -114,21 +114,18 @@ impl RangerData {
     }
 }
 
+pub(crate) fn desc_from_spec(r: &wm::RangerSpec, rng: &mut SimRng) -> Vec<SensorDesc> {
+    r.sensors
+        .iter()
+        .map(|s| SensorDesc::from_spec(s, rng))
+        .collect()
+}
+
+pub(crate) fn start(sensors: &[SensorDesc], _: &Pose, _: &mut SimRng) -> RangerData {
+    RangerData::new(sensors.to_vec())
+}
+
 impl ModelKind for RangerData {
-    type Spec = wm::RangerSpec;
-    type Desc = Vec<SensorDesc>;
-
-    fn desc_from_spec(r: &wm::RangerSpec, rng: &mut SimRng) -> Vec<SensorDesc> {
-        r.sensors
-            .iter()
-            .map(|s| SensorDesc::from_spec(s, rng))
-            .collect()
-    }
-
-    fn start(sensors: &Vec<SensorDesc>, _: &Pose, _: &mut SimRng) -> Self {
-        RangerData::new(sensors.clone())
-    }
-
     fn ray_cost(&self) -> usize {
         self.ray_count()
     }
@@ -156,19 +153,15 @@ impl ModelKind for RangerData {
     }
 }
 
-/// A Stage 3 `laser`, simulated as a ranger with one sensor ([`wm::LaserSpec::as_sensor`]),
-/// with a warning naming `model`.
-pub(crate) fn laser_as_ranger(
-    l: &wm::LaserSpec,
-    model: &str,
-    warnings: &mut Vec<String>,
-    rng: &mut SimRng,
-) -> KindDesc {
-    warnings.push(format!(
-        "model {model}: Stage 3 `laser` simulated as a ranger with one {}-sample sensor",
+/// A Stage 3 `laser`, simulated as a ranger with one sensor ([`wm::LaserSpec::as_sensor`]), and
+/// the warning that says so.
+pub(crate) fn laser_as_ranger(l: &wm::LaserSpec, rng: &mut SimRng) -> (KindDesc, String) {
+    let sensor = SensorDesc::from_spec(&l.as_sensor(), rng);
+    let why = format!(
+        "Stage 3 `laser` simulated as a ranger with one {}-sample sensor",
         l.samples
-    ));
-    KindDesc::Ranger(vec![SensorDesc::from_spec(&l.as_sensor(), rng)])
+    );
+    (KindDesc::Ranger(vec![sensor]), why)
 }
 
 /// Whether model `h` stops ranger rays (a negative `ranger_return` lets them through).

@@ -70,9 +70,9 @@ impl ModelDesc {
     pub fn new(name: &str, kind: KindDesc) -> ModelDesc {
         let info = kind.model_type().info();
         let common = worldfile::models::CommonSpec::for_type(info.model_type);
-        let (size, color) = (info.size, info.color);
+        let (size, color) = (info.defaults.size, info.defaults.color);
         // the gripper's own base-and-paddles body is built by the world from its state
-        let body = info.body == worldfile::models::DefaultBody::UnitSquare;
+        let body = info.defaults.body == worldfile::models::DefaultBody::UnitSquare;
         ModelDesc {
             name: name.to_string(),
             aliases: Vec::new(),

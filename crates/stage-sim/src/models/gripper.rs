@@ -138,7 +138,9 @@ impl ModelKind for GripperModel {
         let d = &mut g.data;
         g.action = None;
         match g.cmd {
-            GripperCmd::Close if d.paddles != PaddleState::Closed => d.paddles = PaddleState::Closing,
+            GripperCmd::Close if d.paddles != PaddleState::Closed => {
+                d.paddles = PaddleState::Closing
+            }
             GripperCmd::Open if d.paddles != PaddleState::Open => d.paddles = PaddleState::Opening,
             GripperCmd::Up if d.lift != LiftState::Up => d.lift = LiftState::Upping,
             GripperCmd::Down if d.lift != LiftState::Down => d.lift = LiftState::Downing,

@@ -269,7 +269,7 @@ macro_rules! desc_ref {
 model_kinds! {
     kinds {
         /// A plain `model` (walls, boxes, pucks, floorplans).
-        plain: Model => plain::Plain,
+        model: Model => model::Plain,
         /// A mobile base.
         position: Position(PositionDesc) => Box<position::PositionModel>,
         /// A ranger with its transducers (laser-like with one many-sample sensor, sonar-like with
@@ -292,7 +292,7 @@ model_kinds! {
     }
     aliases {
         Laser => ranger::laser_as_ranger,
-        Wifi => plain::wifi_as_plain,
+        Wifi => model::wifi_as_plain,
     }
 }
 

@@ -133,9 +133,7 @@ pub(crate) fn start(p: &PositionDesc, global: &Pose, rng: &mut SimRng) -> Positi
     let origin = p.localization_origin.unwrap_or(*global);
     let err = match p.odom_error {
         Some(e) => e,
-        None => {
-            wm::PositionSpec::ODOM_ERROR_SPAN.map(|span| rng.uniform(-span / 2.0, span / 2.0))
-        }
+        None => wm::PositionSpec::ODOM_ERROR_SPAN.map(|span| rng.uniform(-span / 2.0, span / 2.0)),
     };
     PositionModel::new(p.clone(), global, origin, err)
 }

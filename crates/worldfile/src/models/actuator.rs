@@ -1,34 +1,27 @@
 //! `actuator`: a linear or rotational actuator (stage-models.md §13). Its `start_position`
 //! displaces the model's pose, which the resolver applies ([`crate::world::WorldSpec::load`]).
 
-use serde::Serialize;
-
-use super::{BASE_SIZE, ModelType, TypeInfo};
+use super::{BASE_SIZE, TypeDefaults};
 use crate::color::Rgba;
 use crate::error::Error;
 use crate::reader::Reader;
-use crate::table::property_table;
+use crate::table::{property_table, word_enum};
 
-/// The `actuator` row of the type table: it draws 2 W.
-pub const INFO: TypeInfo = TypeInfo {
+/// The `actuator` defaults (its row of the type table): it draws 2 W.
+pub const DEFAULTS: TypeDefaults = TypeDefaults {
     watts: 2.0,
-    ..TypeInfo::new(ModelType::Actuator, "actuator", BASE_SIZE, Rgba::RED)
+    ..TypeDefaults::new(BASE_SIZE, Rgba::RED)
 };
 
-/// Actuator kinds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ActuatorType {
-    /// Moves along `axis`.
-    Linear,
-    /// Rotates about z.
-    Rotational,
+word_enum! {
+    /// Actuator kinds.
+    pub enum ActuatorType in ACTUATOR_TYPES {
+        /// Moves along `axis`.
+        Linear = "linear",
+        /// Rotates about z.
+        Rotational = "rotational",
+    }
 }
-
-const ACTUATOR_TYPES: &[(&str, ActuatorType)] = &[
-    ("linear", ActuatorType::Linear),
-    ("rotational", ActuatorType::Rotational),
-];
 
 property_table! {
     /// An `actuator` (stage-models.md §13). Positions in raw units (radians when rotational).

@@ -1,18 +1,13 @@
 //! `blinkenlight`: a blinking light (stage-models.md §14).
 
-use super::{ModelType, TypeInfo};
+use super::TypeDefaults;
 use crate::color::Rgba;
 use crate::error::Error;
 use crate::reader::Reader;
 use crate::table::property_table;
 
-/// The `blinkenlight` row of the type table.
-pub const INFO: TypeInfo = TypeInfo::new(
-    ModelType::Blinkenlight,
-    "blinkenlight",
-    [0.02, 0.02, 0.02],
-    Rgba::rgb(0.0, 1.0, 0.0),
-);
+/// The `blinkenlight` defaults (its row of the type table).
+pub const DEFAULTS: TypeDefaults = TypeDefaults::new([0.02, 0.02, 0.02], Rgba::rgb(0.0, 1.0, 0.0));
 
 property_table! {
     /// A `blinkenlight` (stage-models.md §14).

@@ -2,16 +2,16 @@
 
 use std::f64::consts::PI;
 
-use super::{BASE_SIZE, ModelType, TypeInfo};
+use super::{BASE_SIZE, TypeDefaults};
 use crate::color::Rgba;
 use crate::error::{Error, ErrorKind};
 use crate::reader::Reader;
 use crate::table::property_table;
 
-/// The `blobfinder` row of the type table: invisible unless given blocks.
-pub const INFO: TypeInfo = TypeInfo {
+/// The `blobfinder` defaults (its row of the type table): invisible unless given blocks.
+pub const DEFAULTS: TypeDefaults = TypeDefaults {
     body: super::DefaultBody::Empty,
-    ..TypeInfo::new(ModelType::Blobfinder, "blobfinder", BASE_SIZE, Rgba::RED)
+    ..TypeDefaults::new(BASE_SIZE, Rgba::RED)
 };
 
 property_table! {

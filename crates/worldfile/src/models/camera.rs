@@ -1,18 +1,13 @@
 //! `camera`: an OpenGL camera in Stage, GUI only (stage-models.md §12).
 
-use super::{ModelType, TypeInfo};
+use super::TypeDefaults;
 use crate::color::Rgba;
 use crate::error::Error;
 use crate::reader::Reader;
 use crate::table::property_table;
 
-/// The `camera` row of the type table.
-pub const INFO: TypeInfo = TypeInfo::new(
-    ModelType::Camera,
-    "camera",
-    [0.1, 0.07, 0.05],
-    Rgba::rgb(0.0, 0.0, 0.0),
-);
+/// The `camera` defaults (its row of the type table).
+pub const DEFAULTS: TypeDefaults = TypeDefaults::new([0.1, 0.07, 0.05], Rgba::rgb(0.0, 0.0, 0.0));
 
 property_table! {
     /// A `camera` (stage-models.md §12).

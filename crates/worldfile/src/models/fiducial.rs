@@ -2,17 +2,17 @@
 
 use std::f64::consts::PI;
 
-use super::{ModelType, TypeInfo};
+use super::TypeDefaults;
 use crate::color::Rgba;
 use crate::error::Error;
 use crate::reader::Reader;
 use crate::table::property_table;
 
-/// The `fiducial` row of the type table: no size, no body, updated in worker threads.
-pub const INFO: TypeInfo = TypeInfo {
+/// The `fiducial` defaults (its row of the type table): no size, no body, updated in worker threads.
+pub const DEFAULTS: TypeDefaults = TypeDefaults {
     body: super::DefaultBody::Empty,
     thread_safe: true,
-    ..TypeInfo::new(ModelType::Fiducial, "fiducial", [0.0, 0.0, 0.0], Rgba::RED)
+    ..TypeDefaults::new([0.0, 0.0, 0.0], Rgba::RED)
 };
 
 property_table! {

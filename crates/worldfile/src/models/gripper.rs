@@ -4,21 +4,16 @@
 
 use serde::Serialize;
 
-use super::{ModelType, TypeInfo};
+use super::TypeDefaults;
 use crate::color::Rgba;
 use crate::error::Error;
 use crate::reader::Reader;
 use crate::table::property_table;
 
-/// The `gripper` row of the type table: the body is the base and two paddles.
-pub const INFO: TypeInfo = TypeInfo {
+/// The `gripper` defaults (its row of the type table): the body is the base and two paddles.
+pub const DEFAULTS: TypeDefaults = TypeDefaults {
     body: super::DefaultBody::Gripper,
-    ..TypeInfo::new(
-        ModelType::Gripper,
-        "gripper",
-        [0.2, 0.3, 0.2],
-        Rgba::rgb(0.3, 0.3, 0.3),
-    )
+    ..TypeDefaults::new([0.2, 0.3, 0.2], Rgba::rgb(0.3, 0.3, 0.3))
 };
 
 /// Gripper paddle states.

@@ -3,25 +3,21 @@
 
 use std::f64::consts::PI;
 
-use super::{ModelType, SensorSpec, TypeInfo};
+use super::{SensorSpec, TypeDefaults};
 use crate::color::Rgba;
 use crate::error::Error;
 use crate::reader::Reader;
 use crate::table::property_table;
 
-/// The `laser` row of the type table, with the warning Stage 4.1.1's refusal deserves.
-pub const INFO: TypeInfo = TypeInfo {
+/// The `laser` defaults (its row of the type table), with the warning Stage
+/// 4.1.1's refusal deserves.
+pub const DEFAULTS: TypeDefaults = TypeDefaults {
     watts: 17.5,
     thread_safe: true,
     legacy: Some(
         "Stage 4.1.1 has no `laser` model type (it exits with \"Unknown model type laser\"); loaded as a Stage 3 laser (use a `ranger` with a `sensor` in Stage 4)",
     ),
-    ..TypeInfo::new(
-        ModelType::Laser,
-        "laser",
-        [0.15, 0.15, 0.2],
-        Rgba::rgb(0.0, 0.0, 1.0),
-    )
+    ..TypeDefaults::new([0.15, 0.15, 0.2], Rgba::rgb(0.0, 0.0, 1.0))
 };
 
 property_table! {

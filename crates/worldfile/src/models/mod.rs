@@ -1,7 +1,8 @@
 //! Model types, their defaults and their properties (stage-models.md §3, §4, §7–§14).
 //!
-//! Each model type has its own module here holding its row of the type table ([`TypeInfo`]:
-//! word, default size, colour and body, and the few common values it overrides), its properties
+//! Each model type has its own module here, named by Stage's word for the type, holding its
+//! defaults ([`TypeDefaults`]: size, colour and body, and the few common values it overrides;
+//! with the type and word, its row of the type table, [`TypeInfo`]), its properties
 //! as a `property_table!` spec struct with Stage's defaults, and the `read` function that reads
 //! them. The one `model_types!` list below registers the modules (one line a type): it generates
 //! [`ModelType`], [`TypeSpec`], the type table [`TYPES`] and the dispatch of [`TypeSpec::read`].
@@ -30,14 +31,21 @@ pub enum DefaultBody {
     Gripper,
 }
 
-/// Per-type defaults (stage-models.md §4): one row of the type table, written in the type's
-/// module as its `INFO`.
+/// One row of the type table (stage-models.md §4): a type, its word and its defaults.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct TypeInfo {
     /// The type.
     pub model_type: ModelType,
     /// The word Stage uses for the type (and in generated names).
     pub name: &'static str,
+    /// The defaults the type's module gives.
+    #[serde(flatten)]
+    pub defaults: TypeDefaults,
+}
+
+/// Per-type defaults (stage-models.md §4), as a type's module gives them (its `DEFAULTS`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TypeDefaults {
     /// Default `size`.
     pub size: [f64; 3],
     /// Default colour.
@@ -56,19 +64,12 @@ pub struct TypeInfo {
     pub legacy: Option<&'static str>,
 }
 
-impl TypeInfo {
-    /// A row with the usual values for everything but the word, size and colour: the unit
-    /// square body, no power draw, seen by obstacles and blobfinders, updated in the main
-    /// thread, a Stage 4.1.1 type. A module overrides the rest with struct update syntax.
-    pub const fn new(
-        model_type: ModelType,
-        name: &'static str,
-        size: [f64; 3],
-        color: Rgba,
-    ) -> Self {
-        TypeInfo {
-            model_type,
-            name,
+impl TypeDefaults {
+    /// The usual values for everything but the size and colour: the unit square body, no power
+    /// draw, seen by obstacles and blobfinders, updated in the main thread, a Stage 4.1.1 type.
+    /// A module overrides the rest with struct update syntax.
+    pub const fn new(size: [f64; 3], color: Rgba) -> Self {
+        TypeDefaults {
             size,
             color,
             body: DefaultBody::UnitSquare,
@@ -85,9 +86,10 @@ impl TypeInfo {
 pub const BASE_SIZE: [f64; 3] = [0.4, 0.4, 1.0];
 
 /// Builds every per-type item from the list of type modules: one line a type, in the order of
-/// [`ModelType`] (which orders types). A line is `module: Variant` for a type with no properties
-/// of its own, or `module: Variant(Spec)` for one whose module defines `Spec` and
-/// `read(&mut Reader) -> Result<Spec, Error>`; every module defines `INFO`, its [`TypeInfo`].
+/// [`ModelType`] (which orders types). A line is `word: Variant` for a type with no properties
+/// of its own, or `word: Variant(Spec)` for one whose module defines `Spec` and
+/// `read(&mut Reader) -> Result<Spec, Error>`; `word` is Stage's word for the type and the name
+/// of its module, which defines `DEFAULTS`, its [`TypeDefaults`].
 macro_rules! model_types {
     ( $( $(#[$doc:meta])* $module:ident : $variant:ident $( ($spec:ident) )? , )* ) => {
         $(
@@ -104,16 +106,15 @@ macro_rules! model_types {
         }
 
         /// The type table, in [`ModelType`] order.
-        pub const TYPES: &[TypeInfo] = &[ $( $module::INFO ),* ];
-
-        impl ModelType {
-            /// The defaults of this type.
-            pub fn info(self) -> &'static TypeInfo {
-                match self {
-                    $( ModelType::$variant => &$module::INFO, )*
+        pub const TYPES: &[TypeInfo] = &[
+            $(
+                TypeInfo {
+                    model_type: ModelType::$variant,
+                    name: stringify!($module),
+                    defaults: $module::DEFAULTS,
                 }
-            }
-        }
+            ),*
+        ];
 
         /// The type-specific part of a model.
         #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -145,7 +146,7 @@ macro_rules! read_spec {
 
 model_types! {
     /// `model`: a plain body.
-    plain: Model,
+    model: Model,
     /// `position`: a mobile base.
     position: Position(PositionSpec),
     /// `ranger`: range sensors, one per `sensor` sub-entity.
@@ -179,6 +180,12 @@ pub const LEGACY_ALIASES: &[(&str, ModelType, &str)] = &[(
 )];
 
 impl ModelType {
+    /// The defaults of this type.
+    pub fn info(self) -> &'static TypeInfo {
+        // the table holds one row per type, in the enum's order
+        &TYPES[self as usize]
+    }
+
     /// Stage's word for the type.
     pub fn name(self) -> &'static str {
         self.info().name
@@ -188,7 +195,7 @@ impl ModelType {
     /// warning to give), or `None` for a word no Stage version knows.
     pub fn from_word(word: &str) -> Option<(ModelType, Option<&'static str>)> {
         if let Some(t) = TYPES.iter().find(|t| t.name == word) {
-            return Some((t.model_type, t.legacy));
+            return Some((t.model_type, t.defaults.legacy));
         }
         LEGACY_ALIASES
             .iter()
@@ -280,7 +287,7 @@ property_table! {
 impl CommonSpec {
     /// The defaults of a model of this type.
     pub fn for_type(t: ModelType) -> Self {
-        let i = t.info();
+        let i = &t.info().defaults;
         CommonSpec {
             watts: i.watts,
             obstacle_return: i.obstacle_return,
@@ -321,5 +328,43 @@ impl CommonSpec {
             }
         }
         pack
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `ModelType::info` indexes the table by the type: every row must sit at its type's place,
+    /// and every word must lead back to its type.
+    #[test]
+    fn every_type_finds_its_own_row_and_word() {
+        assert_eq!(TYPES.len(), ModelType::Wifi as usize + 1);
+        for (i, row) in TYPES.iter().enumerate() {
+            assert_eq!(row.model_type as usize, i, "row of {}", row.name);
+            assert_eq!(row.model_type.info(), row);
+            assert_eq!(
+                ModelType::from_word(row.name).map(|(t, _)| t),
+                Some(row.model_type)
+            );
+        }
+        assert_eq!(ModelType::Model.name(), "model");
+        assert_eq!(ModelType::Lightindicator.name(), "lightindicator");
+        assert_eq!(ModelType::Actuator.info().defaults.watts, 2.0);
+        assert!(ModelType::Laser.info().defaults.legacy.is_some());
+    }
+
+    /// The spec of a type without properties serialises as the bare tag, like the type's word.
+    #[test]
+    fn type_specs_serialise_with_their_word() {
+        let json = |s: &TypeSpec| serde_json::to_string(s).unwrap();
+        assert_eq!(json(&TypeSpec::Model), r#"{"type":"model"}"#);
+        let fid = json(&TypeSpec::Fiducial(FiducialSpec::default()));
+        assert!(
+            fid.starts_with(r#"{"type":"fiducial","range_min":0.0"#),
+            "{fid}"
+        );
+        let drive = serde_json::to_string(&Drive::Omni).unwrap();
+        assert_eq!(drive, r#""omni""#);
     }
 }

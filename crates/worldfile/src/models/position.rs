@@ -2,46 +2,36 @@
 
 use std::f64::consts::PI;
 
-use serde::Serialize;
-
-use super::{BASE_SIZE, ModelType, TypeInfo};
+use super::{BASE_SIZE, TypeDefaults};
 use crate::color::Rgba;
 use crate::error::Error;
 use crate::reader::{Pose, Reader};
-use crate::table::property_table;
+use crate::table::{property_table, word_enum};
 
-/// The `position` row of the type table.
-pub const INFO: TypeInfo = TypeInfo::new(ModelType::Position, "position", BASE_SIZE, Rgba::RED);
+/// The `position` defaults (its row of the type table).
+pub const DEFAULTS: TypeDefaults = TypeDefaults::new(BASE_SIZE, Rgba::RED);
 
-/// Position drive models.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Drive {
-    /// Differential steering.
-    Diff,
-    /// Omnidirectional.
-    Omni,
-    /// Car-like (speed and steering angle).
-    Car,
+word_enum! {
+    /// Position drive models.
+    pub enum Drive in DRIVES {
+        /// Differential steering.
+        Diff = "diff",
+        /// Omnidirectional.
+        Omni = "omni",
+        /// Car-like (speed and steering angle).
+        Car = "car",
+    }
 }
 
-/// Position localization modes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Localization {
-    /// Perfect pose relative to `localization_origin`.
-    Gps,
-    /// Integrated odometry with `odom_error`.
-    Odom,
+word_enum! {
+    /// Position localization modes.
+    pub enum Localization in LOCALIZATIONS {
+        /// Perfect pose relative to `localization_origin`.
+        Gps = "gps",
+        /// Integrated odometry with `odom_error`.
+        Odom = "odom",
+    }
 }
-
-const DRIVES: &[(&str, Drive)] = &[
-    ("diff", Drive::Diff),
-    ("omni", Drive::Omni),
-    ("car", Drive::Car),
-];
-const LOCALIZATIONS: &[(&str, Localization)] =
-    &[("gps", Localization::Gps), ("odom", Localization::Odom)];
 
 const DEFAULT_BOUNDS: [f64; 8] = [-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -PI / 2.0, PI / 2.0];
 

@@ -4,22 +4,18 @@
 
 use serde::Serialize;
 
-use super::{ModelType, TypeInfo};
+use super::TypeDefaults;
 use crate::color::{ColorSpec, Rgba};
 use crate::error::Error;
 use crate::reader::{Pose, Reader};
 use crate::table::property_table;
 
-/// The `ranger` row of the type table: invisible unless given blocks, updated in worker threads.
-pub const INFO: TypeInfo = TypeInfo {
+/// The `ranger` defaults (its row of the type table): invisible unless given
+/// blocks, updated in worker threads.
+pub const DEFAULTS: TypeDefaults = TypeDefaults {
     body: super::DefaultBody::Empty,
     thread_safe: true,
-    ..TypeInfo::new(
-        ModelType::Ranger,
-        "ranger",
-        [0.15, 0.15, 0.2],
-        Rgba::rgb(0.0, 0.0, 0.5),
-    )
+    ..TypeDefaults::new([0.15, 0.15, 0.2], Rgba::rgb(0.0, 0.0, 0.5))
 };
 
 property_table! {

@@ -4,21 +4,21 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::{ModelType, TypeInfo};
+use super::TypeDefaults;
 use crate::color::Rgba;
 use crate::error::Error;
 use crate::reader::Reader;
 
-/// The `wifi` row of the type table: nothing collides with or sees it, and Stage 4.1.1 would
+/// The `wifi` defaults (its row of the type table): nothing collides with or sees it, and Stage 4.1.1 would
 /// refuse it.
-pub const INFO: TypeInfo = TypeInfo {
+pub const DEFAULTS: TypeDefaults = TypeDefaults {
     obstacle_return: false,
     blob_return: false,
     thread_safe: true,
     legacy: Some(
         "Stage 4.1.1 has no `wifi` model type (it exits with \"Unknown model type wifi\"); loaded as a Stage 3 wifi model whose properties are kept as data",
     ),
-    ..TypeInfo::new(ModelType::Wifi, "wifi", [0.0, 0.0, 0.0], Rgba::RED)
+    ..TypeDefaults::new([0.0, 0.0, 0.0], Rgba::RED)
 };
 
 /// A Stage 3 `wifi` model: every property it was given, as raw text.

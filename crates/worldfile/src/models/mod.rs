@@ -339,7 +339,6 @@ mod tests {
     /// and every word must lead back to its type.
     #[test]
     fn every_type_finds_its_own_row_and_word() {
-        assert_eq!(TYPES.len(), ModelType::Wifi as usize + 1);
         for (i, row) in TYPES.iter().enumerate() {
             assert_eq!(row.model_type as usize, i, "row of {}", row.name);
             assert_eq!(row.model_type.info(), row);

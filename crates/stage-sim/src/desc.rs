@@ -9,6 +9,7 @@ pub use crate::block::BlockDesc;
 pub use crate::color::{Color, same_rgb};
 pub use crate::models::KindDesc;
 pub use crate::models::actuator::{ActuatorDesc, ActuatorKind};
+pub use crate::models::blinkenlight::BlinkenlightDesc;
 pub use crate::models::blobfinder::BlobfinderDesc;
 pub use crate::models::camera::CameraDesc;
 pub use crate::models::fiducial::FiducialDesc;
@@ -69,9 +70,9 @@ impl ModelDesc {
     pub fn new(name: &str, kind: KindDesc) -> ModelDesc {
         let info = kind.model_type().info();
         let common = worldfile::models::CommonSpec::for_type(info.model_type);
-        let (size, color) = (info.size, info.color);
+        let (size, color) = (info.defaults.size, info.defaults.color);
         // the gripper's own base-and-paddles body is built by the world from its state
-        let body = info.body == worldfile::models::DefaultBody::UnitSquare;
+        let body = info.defaults.body == worldfile::models::DefaultBody::UnitSquare;
         ModelDesc {
             name: name.to_string(),
             aliases: Vec::new(),

@@ -107,8 +107,9 @@ pub mod world;
 
 pub use controller::{Command, Commands, Controller};
 pub use desc::{
-    ActuatorDesc, ActuatorKind, BlobfinderDesc, BlockDesc, CameraDesc, Color, Drive, FiducialDesc,
-    GripperDesc, KindDesc, Localization, ModelDesc, ModelType, PositionDesc, SensorDesc, WorldDesc,
+    ActuatorDesc, ActuatorKind, BlinkenlightDesc, BlobfinderDesc, BlockDesc, CameraDesc, Color,
+    Drive, FiducialDesc, GripperDesc, KindDesc, Localization, ModelDesc, ModelType, PositionDesc,
+    SensorDesc, WorldDesc,
 };
 pub use error::{Error, Result};
 pub use models::blobfinder::{Blob, BlobfinderData};

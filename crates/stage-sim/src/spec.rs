@@ -5,51 +5,13 @@
 use std::path::Path;
 
 use worldfile::LoadOptions;
-use worldfile::models::TypeSpec;
-use worldfile::world::{ModelSpec, WorldSpec};
+use worldfile::world::WorldSpec;
 
 use crate::desc::*;
 use crate::error::Result;
 use crate::pose::Pose;
 use crate::rng::SimRng;
 use crate::world::World;
-
-fn kind(m: &ModelSpec, warnings: &mut Vec<String>, rng: &mut SimRng) -> KindDesc {
-    match &m.spec {
-        TypeSpec::Model => KindDesc::Model,
-        TypeSpec::Position(p) => KindDesc::Position(PositionDesc::from_spec(p)),
-        TypeSpec::Ranger(r) => KindDesc::Ranger(
-            r.sensors
-                .iter()
-                .map(|s| SensorDesc::from_spec(s, rng))
-                .collect(),
-        ),
-        TypeSpec::Laser(l) => {
-            warnings.push(format!(
-                "model {}: Stage 3 `laser` simulated as a ranger with one {}-sample sensor",
-                m.name, l.samples
-            ));
-            KindDesc::Ranger(vec![SensorDesc::from_spec(&l.as_sensor(), rng)])
-        }
-        TypeSpec::Blobfinder(b) => KindDesc::Blobfinder(BlobfinderDesc::from_spec(b)),
-        TypeSpec::Fiducial(f) => KindDesc::Fiducial(FiducialDesc::from_spec(f)),
-        TypeSpec::Gripper(g) => KindDesc::Gripper(GripperDesc::from_spec(g)),
-        TypeSpec::Camera(c) => KindDesc::Camera(CameraDesc::from_spec(c)),
-        TypeSpec::Actuator(a) => KindDesc::Actuator(ActuatorDesc::from_spec(a)),
-        TypeSpec::Blinkenlight(b) => KindDesc::Blinkenlight {
-            period_ms: b.period.clamp(0, u32::MAX as i64) as u32,
-            dutycycle: b.dutycycle,
-        },
-        TypeSpec::Lightindicator => KindDesc::LightIndicator,
-        TypeSpec::Wifi(_) => {
-            warnings.push(format!(
-                "model {}: Stage 3 `wifi` is not simulated (no radio model); it is a plain model",
-                m.name
-            ));
-            KindDesc::Model
-        }
-    }
-}
 
 /// Translates a resolved worldfile into a world description; `seed` draws random colours.
 pub fn desc_from_spec(spec: &WorldSpec, seed: u64) -> (WorldDesc, Vec<String>) {
@@ -58,7 +20,7 @@ pub fn desc_from_spec(spec: &WorldSpec, seed: u64) -> (WorldDesc, Vec<String>) {
     let mut models = Vec::with_capacity(spec.models.len());
     for m in &spec.models {
         let mut rng = SimRng::new(seed ^ 0xc010_5eed, m.id as u64);
-        let kind = kind(m, &mut warnings, &mut rng);
+        let kind = KindDesc::from_spec(m, &mut warnings, &mut rng);
         let c = &m.common;
         models.push(ModelDesc {
             name: m.name.clone(),

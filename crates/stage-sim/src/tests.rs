@@ -887,10 +887,10 @@ fn the_digest_covers_colours_speech_actuators_cameras_and_lights() {
     d.add(
         ModelDesc::new(
             "light",
-            KindDesc::Blinkenlight {
+            KindDesc::Blinkenlight(BlinkenlightDesc {
                 period_ms: 100,
                 dutycycle: 0.5,
-            },
+            }),
         ),
         Some(r),
     );
@@ -944,7 +944,7 @@ fn a_camera_digest_follows_its_pixels() {
     c.image.depth = vec![1.0; 4];
     let digest = |c: &crate::models::camera::CameraModel| {
         let mut d = crate::digest::Digest::new();
-        c.digest(&mut d);
+        crate::models::ModelKind::digest(c, &mut d);
         d.finish()
     };
     let a = digest(&c);

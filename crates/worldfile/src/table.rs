@@ -77,3 +77,24 @@ macro_rules! property_table {
 }
 
 pub(crate) use property_table;
+
+/// An enum of worldfile words and the table a property table's `choice` reads it with, declared
+/// once: each variant is written `Variant = "word"`, and serialises as its word.
+macro_rules! word_enum {
+    (
+        $(#[$meta:meta])*
+        pub enum $name:ident in $table:ident {
+            $( $(#[$vmeta:meta])* $variant:ident = $word:literal, )*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+        pub enum $name {
+            $( $(#[$vmeta])* #[serde(rename = $word)] $variant, )*
+        }
+
+        const $table: &[(&str, $name)] = &[ $( ($word, $name::$variant) ),* ];
+    };
+}
+
+pub(crate) use word_enum;

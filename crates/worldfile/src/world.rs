@@ -528,7 +528,7 @@ impl<'d> Resolver<'d> {
         } else {
             None
         };
-        let mut raw_blocks = match info.body {
+        let mut raw_blocks = match info.defaults.body {
             DefaultBody::UnitSquare => vec![body::rect_block(
                 -0.5,
                 -0.5,
@@ -556,9 +556,13 @@ impl<'d> Resolver<'d> {
         let mut r = self.reader(entity);
         let explicit_name = r.string("name")?;
         let origin = r.pose("origin")?.unwrap_or([0.0; 4]);
-        let size = r.size("size", info.size[2])?.unwrap_or(info.size);
+        let size = r
+            .size("size", info.defaults.size[2])?
+            .unwrap_or(info.defaults.size);
         let mut pose = r.pose("pose")?.unwrap_or([0.0; 4]);
-        let color = r.color(true)?.unwrap_or(ColorSpec::Rgba(info.color));
+        let color = r
+            .color(true)?
+            .unwrap_or(ColorSpec::Rgba(info.defaults.color));
         let common = CommonSpec::read_from(&mut r, CommonSpec::for_type(model_type))?;
 
         if common.noblocks && has_default_block {

@@ -2,8 +2,12 @@
 //! never applies it (the motion code is commented out), so the joint never moves; we report the
 //! same values.
 
+use super::ModelKind;
 use crate::digest::Digest;
+use crate::node::{ModelId, Node};
 use crate::pose::Pose;
+use crate::rng::SimRng;
+use crate::view::View;
 use worldfile::models as wm;
 
 /// Actuator joint type: the worldfile crate's `actuator_type` (one vocabulary for every crate).
@@ -26,32 +30,7 @@ pub struct ActuatorDesc {
     pub start_position: f64,
 }
 
-impl Default for ActuatorDesc {
-    /// Stage's defaults, from the worldfile crate's property table.
-    fn default() -> Self {
-        ActuatorDesc::from_spec(&wm::ActuatorSpec::default())
-    }
-}
-
-impl ActuatorDesc {
-    /// Actuator properties; a zero axis becomes (1, 0, 0) as in Stage.
-    pub(crate) fn from_spec(a: &wm::ActuatorSpec) -> ActuatorDesc {
-        let len = a.axis.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let axis = if len > 0.0 {
-            [a.axis[0] / len, a.axis[1] / len, a.axis[2] / len]
-        } else {
-            [1.0, 0.0, 0.0]
-        };
-        ActuatorDesc {
-            kind: a.actuator_type,
-            axis,
-            min_position: a.min_position,
-            max_position: a.max_position,
-            max_speed: a.max_speed,
-            start_position: a.start_position.unwrap_or(0.0),
-        }
-    }
-}
+default_from_spec!(ActuatorDesc);
 
 /// Actuator control mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,9 +71,40 @@ pub struct ActuatorModel {
     pub data: ActuatorData,
 }
 
-impl ActuatorModel {
+/// Actuator properties; a zero axis becomes (1, 0, 0) as in Stage.
+pub(crate) fn desc_from_spec(a: &wm::ActuatorSpec, _: &mut SimRng) -> ActuatorDesc {
+    let len = a.axis.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let axis = if len > 0.0 {
+        [a.axis[0] / len, a.axis[1] / len, a.axis[2] / len]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    ActuatorDesc {
+        kind: a.actuator_type,
+        axis,
+        min_position: a.min_position,
+        max_position: a.max_position,
+        max_speed: a.max_speed,
+        start_position: a.start_position.unwrap_or(0.0),
+    }
+}
+
+pub(crate) fn start(desc: &ActuatorDesc, _: &Pose, _: &mut SimRng) -> ActuatorModel {
+    ActuatorModel::new(desc.clone())
+}
+
+impl ModelKind for ActuatorModel {
+    #[inline]
+    fn update(&mut self, v: &View, _: ModelId, local: &Pose, _: &Node, _: &mut SimRng) {
+        ActuatorModel::update(self, local, v.sim_time)
+    }
+
+    fn shutdown(&mut self) {
+        ActuatorModel::shutdown(self)
+    }
+
     /// Feeds the control mode, goal and joint state to the determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
+    fn digest(&self, d: &mut Digest) {
         d.u64(self.mode as u64);
         d.f64(self.goal);
         let s = &self.data;
@@ -104,7 +114,9 @@ impl ActuatorModel {
         }
         d.u64(s.moving as u64);
     }
+}
 
+impl ActuatorModel {
     /// An idle actuator.
     pub fn new(cfg: ActuatorDesc) -> Self {
         ActuatorModel {

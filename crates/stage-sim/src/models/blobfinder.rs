@@ -1,9 +1,11 @@
 //! `blobfinder` (spec §9): a fan of colour rays segmented into blobs.
 
+use super::ModelKind;
 use crate::color::{Color, same_rgb};
 use crate::digest::Digest;
-use crate::node::ModelId;
+use crate::node::{ModelId, Node};
 use crate::pose::Pose;
+use crate::rng::SimRng;
 use crate::space::RayQuery;
 use crate::view::View;
 use worldfile::models as wm;
@@ -23,28 +25,7 @@ pub struct BlobfinderDesc {
     pub colors: Vec<Color>,
 }
 
-impl Default for BlobfinderDesc {
-    /// Stage's defaults, from the worldfile crate's property table.
-    fn default() -> Self {
-        BlobfinderDesc::from_spec(&wm::BlobfinderSpec::default())
-    }
-}
-
-impl BlobfinderDesc {
-    /// Blobfinder properties.
-    pub(crate) fn from_spec(b: &wm::BlobfinderSpec) -> BlobfinderDesc {
-        BlobfinderDesc {
-            image: [
-                b.image[0].clamp(0, 1 << 16) as u32,
-                b.image[1].clamp(0, 1 << 16) as u32,
-            ],
-            range: b.range,
-            fov: b.fov,
-            pan: b.pan,
-            colors: b.colors.clone(),
-        }
-    }
-}
+default_from_spec!(BlobfinderDesc);
 
 /// One blob in image coordinates (x grows to the right of the image, y downwards).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,9 +67,106 @@ pub struct BlobfinderModel {
     samples: Vec<Option<(Color, f64)>>,
 }
 
-impl BlobfinderModel {
+pub(crate) fn desc_from_spec(b: &wm::BlobfinderSpec, _: &mut SimRng) -> BlobfinderDesc {
+    BlobfinderDesc {
+        image: [
+            b.image[0].clamp(0, 1 << 16) as u32,
+            b.image[1].clamp(0, 1 << 16) as u32,
+        ],
+        range: b.range,
+        fov: b.fov,
+        pan: b.pan,
+        colors: b.colors.clone(),
+    }
+}
+
+pub(crate) fn start(desc: &BlobfinderDesc, _: &Pose, _: &mut SimRng) -> BlobfinderModel {
+    BlobfinderModel::new(desc.clone())
+}
+
+impl ModelKind for BlobfinderModel {
+    fn ray_cost(&self) -> usize {
+        self.cfg.image[0] as usize
+    }
+
+    /// One blobfinder update.
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+        let b = self;
+        let cfg = &b.cfg;
+        let w = cfg.image[0] as usize;
+        let h = cfg.image[1] as i64;
+        let origin = v.body_frame(m).compose(&Pose {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            a: cfg.pan,
+        });
+        let root = v.root(m);
+        b.samples.clear();
+        for s in 0..w {
+            let a = if w > 1 {
+                origin.a - cfg.fov / 2.0 + s as f64 * cfg.fov / (w - 1) as f64
+            } else {
+                origin.a
+            };
+            let q = RayQuery {
+                x: origin.x,
+                y: origin.y,
+                a,
+                range: cfg.range,
+                z: None,
+            };
+            let hit = v.space.raycast(&q, |hm| v.root(hm) != root);
+            b.samples
+                .push(hit.map(|hh| (v.block_color(hh.model, hh.block), hh.range)));
+        }
+        b.data.blobs.clear();
+        let mut s = 0;
+        while s < w {
+            let Some((c, _)) = b.samples[s] else {
+                s += 1;
+                continue;
+            };
+            let right = s;
+            let mut left = s;
+            while left + 1 < w && b.samples[left + 1].is_some_and(|(cc, _)| same_rgb(&cc, &c)) {
+                left += 1;
+            }
+            // the sample right after a blob is never the start of another (Stage quirk, §9.2)
+            s = left + 2;
+            if !cfg.colors.is_empty() && !cfg.colors.iter().any(|f| same_rgb(f, &c)) {
+                continue;
+            }
+            let range = b.samples[right..=left]
+                .iter()
+                .map(|x| x.unwrap().1)
+                .sum::<f64>()
+                / (left - right + 1) as f64;
+            let phi = 0.3f64.atan2(range);
+            let rad_per_px = cfg.fov / h as f64;
+            let half = (phi / rad_per_px) as i64;
+            let top = (h / 2 - half).max(0);
+            let bottom = (h / 2 + half).min(h);
+            b.data.blobs.push(Blob {
+                color: c,
+                left: (w - 1 - left) as u32,
+                right: (w - 1 - right) as u32,
+                top: top as u32,
+                bottom: bottom as u32,
+                range,
+            });
+        }
+        b.data.width = cfg.image[0];
+        b.data.height = cfg.image[1];
+        b.data.time_us = v.sim_time;
+    }
+
+    fn shutdown(&mut self) {
+        self.data.blobs.clear();
+    }
+
     /// Feeds the latest image size and blobs to the determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
+    fn digest(&self, d: &mut Digest) {
         d.u64(self.data.time_us);
         d.u64(((self.data.width as u64) << 32) | self.data.height as u64);
         d.u64(self.data.blobs.len() as u64);
@@ -99,7 +177,9 @@ impl BlobfinderModel {
             d.f64(b.range);
         }
     }
+}
 
+impl BlobfinderModel {
     /// A blobfinder with no data yet.
     pub fn new(cfg: BlobfinderDesc) -> Self {
         BlobfinderModel {
@@ -112,75 +192,4 @@ impl BlobfinderModel {
             samples: Vec::new(),
         }
     }
-}
-
-/// One blobfinder update.
-pub(crate) fn update(v: &View, m: ModelId, b: &mut BlobfinderModel) {
-    let cfg = &b.cfg;
-    let w = cfg.image[0] as usize;
-    let h = cfg.image[1] as i64;
-    let origin = v.body_frame(m).compose(&Pose {
-        x: 0.0,
-        y: 0.0,
-        z: 0.0,
-        a: cfg.pan,
-    });
-    let root = v.root(m);
-    b.samples.clear();
-    for s in 0..w {
-        let a = if w > 1 {
-            origin.a - cfg.fov / 2.0 + s as f64 * cfg.fov / (w - 1) as f64
-        } else {
-            origin.a
-        };
-        let q = RayQuery {
-            x: origin.x,
-            y: origin.y,
-            a,
-            range: cfg.range,
-            z: None,
-        };
-        let hit = v.space.raycast(&q, |hm| v.root(hm) != root);
-        b.samples
-            .push(hit.map(|hh| (v.block_color(hh.model, hh.block), hh.range)));
-    }
-    b.data.blobs.clear();
-    let mut s = 0;
-    while s < w {
-        let Some((c, _)) = b.samples[s] else {
-            s += 1;
-            continue;
-        };
-        let right = s;
-        let mut left = s;
-        while left + 1 < w && b.samples[left + 1].is_some_and(|(cc, _)| same_rgb(&cc, &c)) {
-            left += 1;
-        }
-        // the sample right after a blob is never the start of another (Stage quirk, §9.2)
-        s = left + 2;
-        if !cfg.colors.is_empty() && !cfg.colors.iter().any(|f| same_rgb(f, &c)) {
-            continue;
-        }
-        let range = b.samples[right..=left]
-            .iter()
-            .map(|x| x.unwrap().1)
-            .sum::<f64>()
-            / (left - right + 1) as f64;
-        let phi = 0.3f64.atan2(range);
-        let rad_per_px = cfg.fov / h as f64;
-        let half = (phi / rad_per_px) as i64;
-        let top = (h / 2 - half).max(0);
-        let bottom = (h / 2 + half).min(h);
-        b.data.blobs.push(Blob {
-            color: c,
-            left: (w - 1 - left) as u32,
-            right: (w - 1 - right) as u32,
-            top: top as u32,
-            bottom: bottom as u32,
-            range,
-        });
-    }
-    b.data.width = cfg.image[0];
-    b.data.height = cfg.image[1];
-    b.data.time_us = v.sim_time;
 }

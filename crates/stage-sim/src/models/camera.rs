@@ -2,10 +2,12 @@
 //! ray-cast it instead, headless too: per column one planar ray collects every edge crossing,
 //! per row the elevation decides which crossing's block spans the ray's height there.
 
+use super::ModelKind;
 use crate::color::Color;
 use crate::digest::Digest;
-use crate::node::ModelId;
+use crate::node::{ModelId, Node};
 use crate::pose::Pose;
+use crate::rng::SimRng;
 use crate::space::{RayHit, RayQuery};
 use crate::view::View;
 use worldfile::models as wm;
@@ -23,27 +25,7 @@ pub struct CameraDesc {
     pub pantilt: [f64; 2],
 }
 
-impl Default for CameraDesc {
-    /// Stage's defaults, from the worldfile crate's property table.
-    fn default() -> Self {
-        CameraDesc::from_spec(&wm::CameraSpec::default())
-    }
-}
-
-impl CameraDesc {
-    /// Camera properties (the worldfile keeps Stage's raw degrees for the camera).
-    pub(crate) fn from_spec(c: &wm::CameraSpec) -> CameraDesc {
-        CameraDesc {
-            resolution: [
-                c.resolution[0].clamp(1, 4096) as u32,
-                c.resolution[1].clamp(1, 4096) as u32,
-            ],
-            range: c.range,
-            fov: [c.fov[0].to_radians(), c.fov[1].to_radians()],
-            pantilt: [c.pantilt[0].to_radians(), c.pantilt[1].to_radians()],
-        }
-    }
-}
+default_from_spec!(CameraDesc);
 
 /// Colour of the ground plane in camera images.
 pub const FLOOR: Color = Color::rgb(0.7, 0.7, 0.7);
@@ -73,9 +55,110 @@ pub struct CameraModel {
     hits: Vec<RayHit>,
 }
 
-impl CameraModel {
+/// Camera properties (the worldfile keeps Stage's raw degrees for the camera).
+pub(crate) fn desc_from_spec(c: &wm::CameraSpec, _: &mut SimRng) -> CameraDesc {
+    CameraDesc {
+        resolution: [
+            c.resolution[0].clamp(1, 4096) as u32,
+            c.resolution[1].clamp(1, 4096) as u32,
+        ],
+        range: c.range,
+        fov: [c.fov[0].to_radians(), c.fov[1].to_radians()],
+        pantilt: [c.pantilt[0].to_radians(), c.pantilt[1].to_radians()],
+    }
+}
+
+pub(crate) fn start(desc: &CameraDesc, _: &Pose, _: &mut SimRng) -> CameraModel {
+    CameraModel::new(desc.clone())
+}
+
+impl ModelKind for CameraModel {
+    fn starts_itself(&self) -> bool {
+        true
+    }
+
+    fn ray_cost(&self) -> usize {
+        (self.cfg.resolution[0] * 4) as usize
+    }
+
+    /// One camera update: viewpoint at the parent's x, y and heading (own pose without a parent),
+    /// at the camera's global height, offset by pan/tilt.
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+        let c = self;
+        let g = v.globals[m.index()];
+        let base = match v.nodes[m.index()].parent {
+            Some(p) => {
+                let pg = v.globals[p.index()];
+                Pose { z: g.z, ..pg }
+            }
+            None => g,
+        };
+        let [w, h] = c.cfg.resolution;
+        let (w, h) = (w as usize, h as usize);
+        let [near, far] = c.cfg.range;
+        let [fov_h, fov_v] = c.cfg.fov;
+        let [pan, tilt] = c.cfg.pantilt;
+        let z0 = base.z + v.nodes[m.index()].size[2] / 2.0;
+        let root = v.root(m);
+        c.image.width = w as u32;
+        c.image.height = h as u32;
+        c.image.rgba.resize(w * h * 4, 0);
+        c.image.depth.resize(w * h, far as f32);
+        for col in 0..w {
+            let a = base.a + pan + fov_h / 2.0 - (col as f64 + 0.5) * fov_h / w as f64;
+            let q = RayQuery {
+                x: base.x,
+                y: base.y,
+                a,
+                range: far,
+                z: None,
+            };
+            v.space
+                .raycast_all(&q, |hm| v.root(hm) != root, &mut c.hits);
+            for row in 0..h {
+                let el = tilt + fov_v / 2.0 - (row as f64 + 0.5) * fov_v / h as f64;
+                let (tan, cos) = (el.tan(), el.cos());
+                let t_ground = if tan < 0.0 { z0 / -tan } else { f64::INFINITY };
+                let mut px: Option<(Color, f64)> = None;
+                for hit in &c.hits {
+                    if hit.range > t_ground {
+                        break;
+                    }
+                    let zr = z0 + hit.range * tan;
+                    let blk = v.space.body(hit.model).blocks[hit.block as usize];
+                    let dist = hit.range / cos;
+                    if zr >= blk.zmin && zr <= blk.zmax && dist >= near {
+                        px = Some((v.block_color(hit.model, hit.block), dist));
+                        break;
+                    }
+                }
+                if px.is_none() && t_ground / cos <= far && t_ground / cos >= near {
+                    px = Some((FLOOR, t_ground / cos));
+                }
+                let i = row * w + col;
+                match px {
+                    Some((color, dist)) => {
+                        let to8 = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+                        c.image.rgba[i * 4..i * 4 + 4].copy_from_slice(&[
+                            to8(color.r),
+                            to8(color.g),
+                            to8(color.b),
+                            255,
+                        ]);
+                        c.image.depth[i] = dist.min(far) as f32;
+                    }
+                    None => {
+                        c.image.rgba[i * 4..i * 4 + 4].copy_from_slice(&[0, 0, 0, 0]);
+                        c.image.depth[i] = far as f32;
+                    }
+                }
+            }
+        }
+        c.image.time_us = v.sim_time;
+    }
+
     /// Feeds the latest image (colour and depth) to the determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
+    fn digest(&self, d: &mut Digest) {
         let im = &self.image;
         d.u64(im.time_us);
         d.u64(((im.width as u64) << 32) | im.height as u64);
@@ -83,7 +166,9 @@ impl CameraModel {
         d.u64(im.depth.len() as u64);
         im.depth.iter().for_each(|&z| d.u64(z.to_bits() as u64));
     }
+}
 
+impl CameraModel {
     /// A camera with no image yet.
     pub fn new(cfg: CameraDesc) -> Self {
         CameraModel {
@@ -92,79 +177,4 @@ impl CameraModel {
             hits: Vec::new(),
         }
     }
-}
-
-/// One camera update: viewpoint at the parent's x, y and heading (own pose without a parent),
-/// at the camera's global height, offset by pan/tilt.
-pub(crate) fn update(v: &View, m: ModelId, c: &mut CameraModel) {
-    let g = v.globals[m.index()];
-    let base = match v.nodes[m.index()].parent {
-        Some(p) => {
-            let pg = v.globals[p.index()];
-            Pose { z: g.z, ..pg }
-        }
-        None => g,
-    };
-    let [w, h] = c.cfg.resolution;
-    let (w, h) = (w as usize, h as usize);
-    let [near, far] = c.cfg.range;
-    let [fov_h, fov_v] = c.cfg.fov;
-    let [pan, tilt] = c.cfg.pantilt;
-    let z0 = base.z + v.nodes[m.index()].size[2] / 2.0;
-    let root = v.root(m);
-    c.image.width = w as u32;
-    c.image.height = h as u32;
-    c.image.rgba.resize(w * h * 4, 0);
-    c.image.depth.resize(w * h, far as f32);
-    for col in 0..w {
-        let a = base.a + pan + fov_h / 2.0 - (col as f64 + 0.5) * fov_h / w as f64;
-        let q = RayQuery {
-            x: base.x,
-            y: base.y,
-            a,
-            range: far,
-            z: None,
-        };
-        v.space
-            .raycast_all(&q, |hm| v.root(hm) != root, &mut c.hits);
-        for row in 0..h {
-            let el = tilt + fov_v / 2.0 - (row as f64 + 0.5) * fov_v / h as f64;
-            let (tan, cos) = (el.tan(), el.cos());
-            let t_ground = if tan < 0.0 { z0 / -tan } else { f64::INFINITY };
-            let mut px: Option<(Color, f64)> = None;
-            for hit in &c.hits {
-                if hit.range > t_ground {
-                    break;
-                }
-                let zr = z0 + hit.range * tan;
-                let blk = v.space.body(hit.model).blocks[hit.block as usize];
-                let dist = hit.range / cos;
-                if zr >= blk.zmin && zr <= blk.zmax && dist >= near {
-                    px = Some((v.block_color(hit.model, hit.block), dist));
-                    break;
-                }
-            }
-            if px.is_none() && t_ground / cos <= far && t_ground / cos >= near {
-                px = Some((FLOOR, t_ground / cos));
-            }
-            let i = row * w + col;
-            match px {
-                Some((color, dist)) => {
-                    let to8 = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
-                    c.image.rgba[i * 4..i * 4 + 4].copy_from_slice(&[
-                        to8(color.r),
-                        to8(color.g),
-                        to8(color.b),
-                        255,
-                    ]);
-                    c.image.depth[i] = dist.min(far) as f32;
-                }
-                None => {
-                    c.image.rgba[i * 4..i * 4 + 4].copy_from_slice(&[0, 0, 0, 0]);
-                    c.image.depth[i] = far as f32;
-                }
-            }
-        }
-    }
-    c.image.time_us = v.sim_time;
 }

@@ -1,46 +1,18 @@
 //! `fiducial` finder (spec §10).
 
+use super::ModelKind;
 use crate::digest::Digest;
-use crate::node::ModelId;
+use crate::node::{ModelId, Node};
 use crate::pose::{Pose, normalize};
+use crate::rng::SimRng;
 use crate::space::RayQuery;
 use crate::view::View;
 use worldfile::models as wm;
 
-/// Fiducial-finder properties (spec §10.1).
-#[derive(Clone, Debug, PartialEq)]
-pub struct FiducialDesc {
-    /// Read but unused by Stage (kept for the Player geometry).
-    pub range_min: f64,
-    /// Detection range (m, strict).
-    pub range_max: f64,
-    /// Beyond this the id is reported as 0 (m).
-    pub range_max_id: f64,
-    /// Field of view (rad).
-    pub fov: f64,
-    /// Accept targets whose line-of-sight ray hits nothing.
-    pub ignore_zloc: bool,
-}
-
-impl Default for FiducialDesc {
-    /// Stage's defaults, from the worldfile crate's property table.
-    fn default() -> Self {
-        FiducialDesc::from_spec(&wm::FiducialSpec::default())
-    }
-}
-
-impl FiducialDesc {
-    /// Fiducial-finder properties.
-    pub(crate) fn from_spec(f: &wm::FiducialSpec) -> FiducialDesc {
-        FiducialDesc {
-            range_min: f.range_min,
-            range_max: f.range_max,
-            range_max_id: f.range_max_id,
-            fov: f.fov,
-            ignore_zloc: f.ignore_zloc,
-        }
-    }
-}
+/// Fiducial-finder properties (spec §10.1): the worldfile crate's, already in metres and
+/// radians, which the finder uses as they are (`range_min` is read but unused by Stage, kept for
+/// the Player geometry).
+pub type FiducialDesc = wm::FiducialSpec;
 
 /// One detected fiducial.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,12 +42,107 @@ pub struct FiducialData {
     pub fiducials: Vec<Fiducial>,
 }
 
-impl FiducialData {
+/// A fiducial finder's configuration and latest data.
+#[derive(Clone, Debug)]
+pub struct FiducialModel {
+    /// Configuration.
+    pub cfg: FiducialDesc,
+    /// Latest data.
+    pub data: FiducialData,
+}
+
+pub(crate) fn desc_from_spec(f: &wm::FiducialSpec, _: &mut SimRng) -> FiducialDesc {
+    f.clone()
+}
+
+pub(crate) fn start(desc: &FiducialDesc, _: &Pose, _: &mut SimRng) -> FiducialModel {
+    FiducialModel {
+        cfg: desc.clone(),
+        data: FiducialData::default(),
+    }
+}
+
+impl ModelKind for FiducialModel {
+    fn ray_cost(&self) -> usize {
+        8
+    }
+
+    /// One fiducial-finder update.
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+        let (f, cfg, d) = (m, &self.cfg, &mut self.data);
+        d.fiducials.clear();
+        let fg = v.globals[f.index()];
+        let fnode = &v.nodes[f.index()];
+        let key = fnode.returns.fiducial_key;
+        let root = v.root(f);
+        let frame = v.body_frame(f);
+        for &h in v.fiducial_targets {
+            let hn = &v.nodes[h.index()];
+            if hn.returns.fiducial == 0 || hn.returns.fiducial_key != key || v.root(h) == root {
+                continue;
+            }
+            let hg = v.globals[h.index()];
+            let dx = hg.x - fg.x;
+            let dy = hg.y - fg.y;
+            if dx.abs() > cfg.range_max || dy.abs() > cfg.range_max {
+                continue;
+            }
+            let dist = dx.hypot(dy);
+            if dist >= cfg.range_max {
+                continue;
+            }
+            let dtheta = normalize(dy.atan2(dx) - fg.a);
+            if dtheta.abs() > cfg.fov / 2.0 {
+                continue;
+            }
+            let ray = frame.compose(&Pose {
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+                a: dtheta,
+            });
+            let q = RayQuery {
+                x: ray.x,
+                y: ray.y,
+                a: ray.a,
+                range: cfg.range_max,
+                z: Some(fg.z + fnode.origin.z),
+            };
+            let hit = v.space.raycast(&q, |m| v.root(m) != root);
+            let visible = match hit {
+                Some(hh) => hh.model == h,
+                None => cfg.ignore_zloc,
+            };
+            if !visible {
+                continue;
+            }
+            d.fiducials.push(Fiducial {
+                id: if dist < cfg.range_max_id {
+                    hn.returns.fiducial
+                } else {
+                    0
+                },
+                model: h,
+                range: dist,
+                bearing: dtheta,
+                heading: normalize(hg.a - fg.a),
+                geom: hn.size,
+                pose: hg,
+            });
+        }
+        d.time_us = v.sim_time;
+    }
+
+    fn shutdown(&mut self) {
+        self.data.fiducials.clear();
+    }
+
     /// Feeds every detection to the determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
-        d.u64(self.time_us);
-        d.u64(self.fiducials.len() as u64);
-        for f in &self.fiducials {
+    fn digest(&self, d: &mut Digest) {
+        let data = &self.data;
+        d.u64(data.time_us);
+        d.u64(data.fiducials.len() as u64);
+        for f in &data.fiducials {
             d.u64(f.id as u32 as u64);
             d.model(Some(f.model));
             for v in [f.range, f.bearing, f.heading] {
@@ -85,69 +152,4 @@ impl FiducialData {
             d.pose(&f.pose);
         }
     }
-}
-
-/// One fiducial-finder update.
-pub(crate) fn update(v: &View, f: ModelId, cfg: &FiducialDesc, d: &mut FiducialData) {
-    d.fiducials.clear();
-    let fg = v.globals[f.index()];
-    let fnode = &v.nodes[f.index()];
-    let key = fnode.returns.fiducial_key;
-    let root = v.root(f);
-    let frame = v.body_frame(f);
-    for &h in v.fiducial_targets {
-        let hn = &v.nodes[h.index()];
-        if hn.returns.fiducial == 0 || hn.returns.fiducial_key != key || v.root(h) == root {
-            continue;
-        }
-        let hg = v.globals[h.index()];
-        let dx = hg.x - fg.x;
-        let dy = hg.y - fg.y;
-        if dx.abs() > cfg.range_max || dy.abs() > cfg.range_max {
-            continue;
-        }
-        let dist = dx.hypot(dy);
-        if dist >= cfg.range_max {
-            continue;
-        }
-        let dtheta = normalize(dy.atan2(dx) - fg.a);
-        if dtheta.abs() > cfg.fov / 2.0 {
-            continue;
-        }
-        let ray = frame.compose(&Pose {
-            x: 0.0,
-            y: 0.0,
-            z: 0.0,
-            a: dtheta,
-        });
-        let q = RayQuery {
-            x: ray.x,
-            y: ray.y,
-            a: ray.a,
-            range: cfg.range_max,
-            z: Some(fg.z + fnode.origin.z),
-        };
-        let hit = v.space.raycast(&q, |m| v.root(m) != root);
-        let visible = match hit {
-            Some(hh) => hh.model == h,
-            None => cfg.ignore_zloc,
-        };
-        if !visible {
-            continue;
-        }
-        d.fiducials.push(Fiducial {
-            id: if dist < cfg.range_max_id {
-                hn.returns.fiducial
-            } else {
-                0
-            },
-            model: h,
-            range: dist,
-            bearing: dtheta,
-            heading: normalize(hg.a - fg.a),
-            geom: hn.size,
-            pose: hg,
-        });
-    }
-    d.time_us = v.sim_time;
 }

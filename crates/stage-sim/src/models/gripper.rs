@@ -1,10 +1,12 @@
 //! `gripper` (spec §11): paddles that open/close and lift, two break beams, two contact rays,
 //! grasping and carrying `gripper_return` models.
 
+use super::ModelKind;
 use crate::block::BlockDesc;
 use crate::digest::Digest;
-use crate::node::ModelId;
+use crate::node::{ModelId, Node};
 use crate::pose::Pose;
+use crate::rng::SimRng;
 use crate::space::RayQuery;
 use crate::view::View;
 use std::f64::consts::FRAC_PI_2;
@@ -23,24 +25,7 @@ pub struct GripperDesc {
     pub autosnatch: bool,
 }
 
-impl Default for GripperDesc {
-    /// Stage's defaults, from the worldfile crate's property table.
-    fn default() -> Self {
-        GripperDesc::from_spec(&wm::GripperSpec::default())
-    }
-}
-
-impl GripperDesc {
-    /// Gripper properties.
-    pub(crate) fn from_spec(g: &wm::GripperSpec) -> GripperDesc {
-        GripperDesc {
-            paddle_size: g.paddle_size,
-            closed: g.paddle_state.paddles == wm::Paddles::Closed,
-            up: g.paddle_state.lift == wm::Lift::Up,
-            autosnatch: g.autosnatch,
-        }
-    }
-}
+default_from_spec!(GripperDesc);
 
 /// Paddle (or lift) state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -125,10 +110,138 @@ pub struct GripperModel {
     pub(crate) body_changed: bool,
 }
 
-impl GripperModel {
+pub(crate) fn desc_from_spec(g: &wm::GripperSpec, _: &mut SimRng) -> GripperDesc {
+    GripperDesc {
+        paddle_size: g.paddle_size,
+        closed: g.paddle_state.paddles == wm::Paddles::Closed,
+        up: g.paddle_state.lift == wm::Lift::Up,
+        autosnatch: g.autosnatch,
+    }
+}
+
+pub(crate) fn start(desc: &GripperDesc, _: &Pose, _: &mut SimRng) -> GripperModel {
+    GripperModel::new(desc.clone())
+}
+
+impl ModelKind for GripperModel {
+    fn own_blocks(&self, size: [f64; 3]) -> Option<Vec<BlockDesc>> {
+        Some(self.blocks(size))
+    }
+
+    fn ray_cost(&self) -> usize {
+        4
+    }
+
+    /// One gripper update (spec §11.3).
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+        let g = self;
+        let d = &mut g.data;
+        g.action = None;
+        match g.cmd {
+            GripperCmd::Close if d.paddles != PaddleState::Closed => {
+                d.paddles = PaddleState::Closing
+            }
+            GripperCmd::Open if d.paddles != PaddleState::Open => d.paddles = PaddleState::Opening,
+            GripperCmd::Up if d.lift != LiftState::Up => d.lift = LiftState::Upping,
+            GripperCmd::Down if d.lift != LiftState::Down => d.lift = LiftState::Downing,
+            _ => {}
+        }
+        let mut changed = false;
+        match d.paddles {
+            PaddleState::Opening => {
+                if travel(&mut d.paddle_pos, -TRAVEL, 0.0) {
+                    d.paddles = PaddleState::Open;
+                }
+                if let Some(obj) = d.carrying {
+                    if d.paddle_pos == 0.0 || d.paddle_pos < g.close_limit {
+                        g.action = Some(GripAction::Release(obj));
+                        d.carrying = None;
+                        g.close_limit = 1.0;
+                    }
+                }
+                changed = true;
+            }
+            PaddleState::Closing => {
+                if travel(&mut d.paddle_pos, TRAVEL, g.close_limit) {
+                    d.paddles = PaddleState::Closed;
+                }
+                changed = true;
+            }
+            _ => {}
+        }
+        match d.lift {
+            LiftState::Downing => {
+                if travel(&mut d.lift_pos, -TRAVEL, 0.0) {
+                    d.lift = LiftState::Down;
+                }
+                changed = true;
+            }
+            LiftState::Upping => {
+                if travel(&mut d.lift_pos, TRAVEL, 1.0) {
+                    d.lift = LiftState::Up;
+                }
+                changed = true;
+            }
+            _ => {}
+        }
+        g.body_changed |= changed;
+
+        let node = &v.nodes[m.index()];
+        let [sx, sy, _] = node.size;
+        let [px, py, _] = g.cfg.paddle_size;
+        let pos = d.paddle_pos;
+        let frame = v.body_frame(m);
+        let pred = |h: ModelId| h != m && v.nodes[h.index()].returns.gripper;
+        let cast = |x: f64, y: f64, a: f64, len: f64| -> Option<ModelId> {
+            if len <= 0.0 {
+                return None;
+            }
+            let o = frame.compose(&Pose { x, y, z: 0.0, a });
+            v.space
+                .raycast(
+                    &RayQuery {
+                        x: o.x,
+                        y: o.y,
+                        a: o.a,
+                        range: len,
+                        z: None,
+                    },
+                    pred,
+                )
+                .map(|h| h.model)
+        };
+        let gap_y = (1.0 - pos) * (sy / 2.0 - sy * py);
+        let beam_len = (1.0 - pos) * (sy - 2.0 * sy * py);
+        for (i, inset) in [0.75 * px, 0.25 * px].into_iter().enumerate() {
+            let x = sx * (1.0 - inset) - sx / 2.0;
+            d.beams[i] = cast(x, gap_y, -FRAC_PI_2, beam_len);
+        }
+        if g.cfg.autosnatch {
+            g.cmd = if d.beams.iter().any(Option::is_some) {
+                GripperCmd::Close
+            } else {
+                GripperCmd::Open
+            };
+        }
+        let cx = (1.0 - px) * sx - sx / 2.0;
+        d.contacts[0] = cast(cx, gap_y, 0.0, px * sx);
+        d.contacts[1] = cast(cx, -gap_y, 0.0, px * sx);
+        d.paddles_stalled = false;
+        if let Some(hit) = d.contacts[0].or(d.contacts[1]) {
+            d.paddles_stalled = true;
+            if d.paddles == PaddleState::Closing && d.carrying.is_none() && g.action.is_none() {
+                let osy = v.nodes[hit.index()].size[1];
+                g.close_limit = (1.0 - osy / (sy - py / 2.0)).max(0.0);
+                d.carrying = Some(hit);
+                g.action = Some(GripAction::Grasp(hit));
+            }
+        }
+        d.time_us = v.sim_time;
+    }
+
     /// Feeds the last command and the paddle, lift, beam and carrying state to the
     /// determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
+    fn digest(&self, d: &mut Digest) {
         d.u64(self.cmd as u64);
         let s = &self.data;
         d.u64(s.time_us);
@@ -139,7 +252,9 @@ impl GripperModel {
         d.u64(s.paddles_stalled as u64);
         d.model(s.carrying);
     }
+}
 
+impl GripperModel {
     /// A gripper in its initial state.
     pub fn new(cfg: GripperDesc) -> Self {
         let pos = if cfg.closed { 1.0 } else { 0.0 };
@@ -197,114 +312,20 @@ impl GripperModel {
     }
 }
 
-/// One gripper update (spec §11.3).
-pub(crate) fn update(v: &View, m: ModelId, g: &mut GripperModel) {
-    let d = &mut g.data;
-    g.action = None;
-    match g.cmd {
-        GripperCmd::Close if d.paddles != PaddleState::Closed => d.paddles = PaddleState::Closing,
-        GripperCmd::Open if d.paddles != PaddleState::Open => d.paddles = PaddleState::Opening,
-        GripperCmd::Up if d.lift != LiftState::Up => d.lift = LiftState::Upping,
-        GripperCmd::Down if d.lift != LiftState::Down => d.lift = LiftState::Downing,
-        _ => {}
-    }
-    let mut changed = false;
-    match d.paddles {
-        PaddleState::Opening => {
-            d.paddle_pos -= 0.05;
-            if d.paddle_pos < 0.0 {
-                d.paddle_pos = 0.0;
-                d.paddles = PaddleState::Open;
-            }
-            if let Some(obj) = d.carrying {
-                if d.paddle_pos == 0.0 || d.paddle_pos < g.close_limit {
-                    g.action = Some(GripAction::Release(obj));
-                    d.carrying = None;
-                    g.close_limit = 1.0;
-                }
-            }
-            changed = true;
-        }
-        PaddleState::Closing => {
-            d.paddle_pos += 0.05;
-            if d.paddle_pos > g.close_limit {
-                d.paddle_pos = g.close_limit;
-                d.paddles = PaddleState::Closed;
-            }
-            changed = true;
-        }
-        _ => {}
-    }
-    match d.lift {
-        LiftState::Downing => {
-            d.lift_pos -= 0.05;
-            if d.lift_pos < 0.0 {
-                d.lift_pos = 0.0;
-                d.lift = LiftState::Down;
-            }
-            changed = true;
-        }
-        LiftState::Upping => {
-            d.lift_pos += 0.05;
-            if d.lift_pos > 1.0 {
-                d.lift_pos = 1.0;
-                d.lift = LiftState::Up;
-            }
-            changed = true;
-        }
-        _ => {}
-    }
-    g.body_changed |= changed;
+/// How far paddles and lift move in one update (of their 0 … 1 travel).
+const TRAVEL: f64 = 0.05;
 
-    let node = &v.nodes[m.index()];
-    let [sx, sy, _] = node.size;
-    let [px, py, _] = g.cfg.paddle_size;
-    let pos = d.paddle_pos;
-    let frame = v.body_frame(m);
-    let pred = |h: ModelId| h != m && v.nodes[h.index()].returns.gripper;
-    let cast = |x: f64, y: f64, a: f64, len: f64| -> Option<ModelId> {
-        if len <= 0.0 {
-            return None;
-        }
-        let o = frame.compose(&Pose { x, y, z: 0.0, a });
-        v.space
-            .raycast(
-                &RayQuery {
-                    x: o.x,
-                    y: o.y,
-                    a: o.a,
-                    range: len,
-                    z: None,
-                },
-                pred,
-            )
-            .map(|h| h.model)
+/// Moves `pos` by `delta` (one update's travel, negative to lower), stopping at `limit`;
+/// whether it got there.
+fn travel(pos: &mut f64, delta: f64, limit: f64) -> bool {
+    *pos += delta;
+    let arrived = if delta < 0.0 {
+        *pos < limit
+    } else {
+        *pos > limit
     };
-    let gap_y = (1.0 - pos) * (sy / 2.0 - sy * py);
-    let beam_len = (1.0 - pos) * (sy - 2.0 * sy * py);
-    for (i, inset) in [0.75 * px, 0.25 * px].into_iter().enumerate() {
-        let x = sx * (1.0 - inset) - sx / 2.0;
-        d.beams[i] = cast(x, gap_y, -FRAC_PI_2, beam_len);
+    if arrived {
+        *pos = limit;
     }
-    if g.cfg.autosnatch {
-        g.cmd = if d.beams.iter().any(Option::is_some) {
-            GripperCmd::Close
-        } else {
-            GripperCmd::Open
-        };
-    }
-    let cx = (1.0 - px) * sx - sx / 2.0;
-    d.contacts[0] = cast(cx, gap_y, 0.0, px * sx);
-    d.contacts[1] = cast(cx, -gap_y, 0.0, px * sx);
-    d.paddles_stalled = false;
-    if let Some(hit) = d.contacts[0].or(d.contacts[1]) {
-        d.paddles_stalled = true;
-        if d.paddles == PaddleState::Closing && d.carrying.is_none() && g.action.is_none() {
-            let osy = v.nodes[hit.index()].size[1];
-            g.close_limit = (1.0 - osy / (sy - py / 2.0)).max(0.0);
-            d.carrying = Some(hit);
-            g.action = Some(GripAction::Grasp(hit));
-        }
-    }
-    d.time_us = v.sim_time;
+    arrived
 }

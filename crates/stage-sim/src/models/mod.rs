@@ -1,23 +1,23 @@
 //! Per-type model behaviour and the data each type publishes: one module per Stage model type,
-//! each owning its description (with its worldfile conversion and defaults), its state, its
-//! update and what its last unsubscription shuts down; `KindState` dispatches to them in one
-//! place, where a new type adds one variant and the compiler points at every arm to write.
+//! each owning its description (with `desc_from_spec`, its conversion from the worldfile
+//! crate's properties, and its defaults), its state (with `start`, the state on load), and the
+//! state's [`ModelKind`] impl: its update, what its last unsubscription shuts down, its digest.
+//! The one `model_kinds!` list below registers the modules (one line a type): it generates
+//! [`KindDesc`], the crate's `KindState`, their `match` dispatch (no `dyn`: each step's update
+//! is a direct call) and [`KindDesc::from_spec`], the mapping from the worldfile crate's
+//! [`TypeSpec`].
 
-pub mod actuator;
-pub mod blobfinder;
-pub mod camera;
-pub mod fiducial;
-pub mod gripper;
-pub mod position;
-pub mod ranger;
+pub use actuator::ActuatorDesc;
+pub use blinkenlight::BlinkenlightDesc;
+pub use blobfinder::BlobfinderDesc;
+pub use camera::CameraDesc;
+pub use fiducial::FiducialDesc;
+pub use gripper::GripperDesc;
+pub use position::PositionDesc;
+pub use ranger::SensorDesc;
 
-use actuator::ActuatorModel;
-use blobfinder::BlobfinderModel;
-use camera::CameraModel;
-use fiducial::{FiducialData, FiducialDesc};
-use gripper::GripperModel;
-use position::PositionModel;
-use ranger::RangerData;
+use worldfile::models::{ModelType, TypeSpec};
+use worldfile::world::ModelSpec;
 
 use crate::block::BlockDesc;
 use crate::digest::Digest;
@@ -26,209 +26,279 @@ use crate::pose::Pose;
 use crate::rng::SimRng;
 use crate::view::View;
 
-pub use actuator::ActuatorDesc;
-pub use blobfinder::BlobfinderDesc;
-pub use camera::CameraDesc;
-pub use gripper::GripperDesc;
-pub use position::PositionDesc;
-pub use ranger::SensorDesc;
-use worldfile::models::ModelType;
-
-/// The type of a model and its type-specific configuration.
-#[derive(Clone, Debug, PartialEq)]
-pub enum KindDesc {
-    /// A plain `model` (walls, boxes, pucks, floorplans).
-    Model,
-    /// A mobile base.
-    Position(PositionDesc),
-    /// A ranger with its transducers (laser-like with one many-sample sensor, sonar-like with
-    /// many single-sample ones).
-    Ranger(Vec<SensorDesc>),
-    /// A colour blob finder.
-    Blobfinder(BlobfinderDesc),
-    /// A fiducial finder.
-    Fiducial(FiducialDesc),
-    /// A paddle gripper.
-    Gripper(GripperDesc),
-    /// A colour + depth camera.
-    Camera(CameraDesc),
-    /// An actuator joint.
-    Actuator(ActuatorDesc),
-    /// A blinking light (`period` ms, `dutycycle`).
-    Blinkenlight {
-        /// Period (ms, unused by Stage).
-        period_ms: u32,
-        /// Duty cycle (unused by Stage).
-        dutycycle: f64,
-    },
-    /// A light indicator (on/off from the API).
-    LightIndicator,
-}
-
-impl KindDesc {
-    /// The worldfile crate's model type (whose table holds the per-type defaults).
-    pub fn model_type(&self) -> ModelType {
-        use ModelType as T;
-        match self {
-            KindDesc::Model => T::Model,
-            KindDesc::Position(_) => T::Position,
-            KindDesc::Ranger(_) => T::Ranger,
-            KindDesc::Blobfinder(_) => T::Blobfinder,
-            KindDesc::Fiducial(_) => T::Fiducial,
-            KindDesc::Gripper(_) => T::Gripper,
-            KindDesc::Camera(_) => T::Camera,
-            KindDesc::Actuator(_) => T::Actuator,
-            KindDesc::Blinkenlight { .. } => T::Blinkenlight,
-            KindDesc::LightIndicator => T::Lightindicator,
-        }
-    }
-
-    /// The Stage type word.
-    pub fn type_name(&self) -> &'static str {
-        self.model_type().name()
-    }
-}
-
-/// Type-specific mutable state.
-#[derive(Clone, Debug)]
-pub(crate) enum KindState {
-    Plain,
-    Position(Box<PositionModel>),
-    Ranger(RangerData),
-    Blobfinder(Box<BlobfinderModel>),
-    Fiducial(FiducialDesc, FiducialData),
-    Gripper(Box<GripperModel>),
-    Camera(Box<CameraModel>),
-    Actuator(ActuatorModel),
-    Blinkenlight { on: bool },
-    LightIndicator { on: bool },
-}
-
-impl KindState {
-    /// The state a model of this description starts in; `global` is its pose at load and `rng`
-    /// its own stream (position models draw their odometry error from it, spec §7.7).
-    pub(crate) fn new(kind: &KindDesc, global: &Pose, rng: &mut SimRng) -> KindState {
-        match kind {
-            KindDesc::Model => KindState::Plain,
-            KindDesc::Position(p) => {
-                KindState::Position(Box::new(PositionModel::from_desc(p, global, rng)))
-            }
-            KindDesc::Ranger(s) => KindState::Ranger(RangerData::new(s.clone())),
-            KindDesc::Blobfinder(b) => {
-                KindState::Blobfinder(Box::new(BlobfinderModel::new(b.clone())))
-            }
-            KindDesc::Fiducial(f) => KindState::Fiducial(f.clone(), FiducialData::default()),
-            KindDesc::Gripper(g) => KindState::Gripper(Box::new(GripperModel::new(g.clone()))),
-            KindDesc::Camera(c) => KindState::Camera(Box::new(CameraModel::new(c.clone()))),
-            KindDesc::Actuator(a) => KindState::Actuator(ActuatorModel::new(a.clone())),
-            KindDesc::Blinkenlight { .. } => KindState::Blinkenlight { on: false },
-            KindDesc::LightIndicator => KindState::LightIndicator { on: true },
-        }
-    }
-
-    /// The body a type builds itself instead of the worldfile's (the gripper's base and paddles
-    /// for a model of `size`); `None` keeps the described blocks.
-    pub(crate) fn own_blocks(&self, size: [f64; 3]) -> Option<Vec<BlockDesc>> {
-        match self {
-            KindState::Gripper(g) => Some(g.blocks(size)),
-            KindState::Plain
-            | KindState::Position(_)
-            | KindState::Ranger(_)
-            | KindState::Blobfinder(_)
-            | KindState::Fiducial(..)
-            | KindState::Camera(_)
-            | KindState::Actuator(_)
-            | KindState::Blinkenlight { .. }
-            | KindState::LightIndicator { .. } => None,
-        }
+/// What a model type's module implements for its state: the type's behaviour in the step. The
+/// defaults are what most types do (nothing of their own).
+pub(crate) trait ModelKind {
+    /// The body the type builds itself instead of the worldfile's (the gripper's base and
+    /// paddles for a model of `size`); `None` keeps the described blocks.
+    fn own_blocks(&self, _size: [f64; 3]) -> Option<Vec<BlockDesc>> {
+        None
     }
 
     /// Whether the model updates once without being subscribed (Stage starts cameras and
     /// blinkenlights itself).
-    pub(crate) fn starts_itself(&self) -> bool {
-        match self {
-            KindState::Camera(_) | KindState::Blinkenlight { .. } => true,
-            KindState::Plain
-            | KindState::Position(_)
-            | KindState::Ranger(_)
-            | KindState::Blobfinder(_)
-            | KindState::Fiducial(..)
-            | KindState::Gripper(_)
-            | KindState::Actuator(_)
-            | KindState::LightIndicator { .. } => false,
-        }
+    fn starts_itself(&self) -> bool {
+        false
     }
 
     /// About how many rays one update casts: decides whether a step's updates are worth
     /// spreading over threads.
-    pub(crate) fn ray_cost(&self) -> usize {
-        match self {
-            KindState::Ranger(r) => r.ray_count(),
-            KindState::Blobfinder(b) => b.cfg.image[0] as usize,
-            KindState::Camera(c) => (c.cfg.resolution[0] * 4) as usize,
-            KindState::Fiducial(..) => 8,
-            KindState::Gripper(_) => 4,
-            KindState::Plain
-            | KindState::Position(_)
-            | KindState::Actuator(_)
-            | KindState::Blinkenlight { .. }
-            | KindState::LightIndicator { .. } => 0,
-        }
+    fn ray_cost(&self) -> usize {
+        0
     }
 
     /// One update of model `m` against the view of the previous step's end (phase 1); `local`
-    /// is its pose in the parent frame.
-    #[inline]
-    pub(crate) fn update(
-        &mut self,
-        v: &View,
-        m: ModelId,
-        local: &Pose,
-        node: &Node,
-        rng: &mut SimRng,
-    ) {
-        match self {
-            KindState::Plain | KindState::LightIndicator { .. } => {}
-            KindState::Position(p) => p.update(&v.globals[m.index()], v.dt, node.mass, v.sim_time),
-            KindState::Ranger(r) => ranger::update(v, m, r, rng),
-            KindState::Blobfinder(b) => blobfinder::update(v, m, b),
-            KindState::Fiducial(cfg, d) => fiducial::update(v, m, cfg, d),
-            KindState::Gripper(g) => gripper::update(v, m, g),
-            KindState::Camera(c) => camera::update(v, m, c),
-            KindState::Actuator(a) => a.update(local, v.sim_time),
-            KindState::Blinkenlight { on } => *on = !*on,
-        }
-    }
+    /// is its pose in the parent frame, `node` its static data, `rng` its own stream.
+    fn update(&mut self, v: &View, m: ModelId, local: &Pose, node: &Node, rng: &mut SimRng);
 
-    /// What the last unsubscription does: position models stop, actuators drop their goal,
-    /// sensors clear their data.
-    pub(crate) fn shutdown(&mut self) {
-        match self {
-            KindState::Position(p) => p.shutdown(),
-            KindState::Actuator(a) => a.shutdown(),
-            KindState::Ranger(r) => r.clear(),
-            KindState::Blobfinder(b) => b.data.blobs.clear(),
-            KindState::Fiducial(_, f) => f.fiducials.clear(),
-            KindState::Plain
-            | KindState::Gripper(_)
-            | KindState::Camera(_)
-            | KindState::Blinkenlight { .. }
-            | KindState::LightIndicator { .. } => {}
-        }
-    }
+    /// What the last unsubscription does (position models stop, actuators drop their goal,
+    /// sensors clear their data).
+    fn shutdown(&mut self) {}
 
     /// Feeds the type's whole state to the determinism digest ([`crate::World::state_digest`]).
-    pub(crate) fn digest(&self, d: &mut Digest) {
-        match self {
-            KindState::Plain => {}
-            KindState::Position(p) => p.digest(d),
-            KindState::Ranger(r) => r.digest(d),
-            KindState::Blobfinder(b) => b.digest(d),
-            KindState::Fiducial(_, f) => f.digest(d),
-            KindState::Gripper(g) => g.digest(d),
-            KindState::Camera(c) => c.digest(d),
-            KindState::Actuator(a) => a.digest(d),
-            KindState::Blinkenlight { on } | KindState::LightIndicator { on } => d.u64(*on as u64),
+    fn digest(&self, _d: &mut Digest) {}
+}
+
+/// A large state kept behind a pointer (so `KindState` stays small) behaves as the state.
+impl<K: ModelKind> ModelKind for Box<K> {
+    fn own_blocks(&self, size: [f64; 3]) -> Option<Vec<BlockDesc>> {
+        (**self).own_blocks(size)
+    }
+
+    fn starts_itself(&self) -> bool {
+        (**self).starts_itself()
+    }
+
+    fn ray_cost(&self) -> usize {
+        (**self).ray_cost()
+    }
+
+    #[inline]
+    fn update(&mut self, v: &View, m: ModelId, local: &Pose, node: &Node, rng: &mut SimRng) {
+        (**self).update(v, m, local, node, rng)
+    }
+
+    fn shutdown(&mut self) {
+        (**self).shutdown()
+    }
+
+    fn digest(&self, d: &mut Digest) {
+        (**self).digest(d)
+    }
+}
+
+/// `impl Default` for a description: the module's `desc_from_spec` of the worldfile crate's
+/// default properties, so Stage's defaults are written once (in the worldfile property tables).
+macro_rules! default_from_spec {
+    ($desc:ty) => {
+        impl Default for $desc {
+            /// Stage's defaults, from the worldfile crate's property table.
+            fn default() -> Self {
+                desc_from_spec(&Default::default(), &mut $crate::rng::SimRng::new(0, 0))
+            }
         }
+    };
+}
+
+/// Builds [`KindDesc`], `KindState` and their dispatch from the list of type modules.
+///
+/// A line of `kinds` is `module: Variant => State` for a type without a description of its own
+/// (`KindDesc::Variant`), or `module: Variant(Desc) => State` for one with
+/// (`KindDesc::Variant(Desc)`). `Variant` is the worldfile crate's `ModelType` and `TypeSpec`
+/// variant, `State` the module's type implementing [`ModelKind`] (in a `Box` when it is large).
+/// The module provides `start(&Desc, global: &Pose, rng: &mut SimRng) -> State` (`&()` for a
+/// type without a description; an unboxed state) and, for a type with a description,
+/// `desc_from_spec(&Spec, rng: &mut SimRng) -> Desc` from its `TypeSpec` content.
+/// A line of `aliases` is `Variant => convert`: a worldfile type simulated as another kind, by
+/// `convert(&spec, rng) -> (KindDesc, why)`, whose `why` becomes a warning naming the model.
+macro_rules! model_kinds {
+    (
+        kinds {
+            $( $(#[$doc:meta])* $module:ident : $variant:ident $( ($desc:ty) )? => $state:ty , )*
+        }
+        aliases {
+            $( $alias:ident => $convert:path , )*
+        }
+    ) => {
+        $( pub mod $module; )*
+
+        /// The type of a model and its type-specific configuration.
+        #[derive(Clone, Debug, PartialEq)]
+        pub enum KindDesc {
+            $( $(#[$doc])* $variant $( ($desc) )?, )*
+        }
+
+        impl KindDesc {
+            /// The worldfile crate's model type (whose table holds the per-type defaults).
+            pub fn model_type(&self) -> ModelType {
+                match self {
+                    $( KindDesc::$variant { .. } => ModelType::$variant, )*
+                }
+            }
+
+            /// The description of a resolved worldfile model's type; the types simulated as
+            /// another kind add a warning naming the model.
+            pub(crate) fn from_spec(
+                m: &ModelSpec,
+                warnings: &mut Vec<String>,
+                rng: &mut SimRng,
+            ) -> KindDesc {
+                match &m.spec {
+                    $(
+                        variant_of!(TypeSpec, $variant, spec $(, $desc)?) =>
+                            desc_of!($variant, $module, spec, rng $(, $desc)?),
+                    )*
+                    $(
+                        TypeSpec::$alias(spec) => {
+                            let (kind, why) = $convert(spec, rng);
+                            warnings.push(format!("model {}: {why}", m.name));
+                            kind
+                        }
+                    )*
+                }
+            }
+        }
+
+        /// Type-specific mutable state: each variant holds its module's [`ModelKind`].
+        #[derive(Clone, Debug)]
+        pub(crate) enum KindState {
+            $( $variant($state), )*
+        }
+
+        impl KindState {
+            /// The state a model of this description starts in (its module's `start`); `global`
+            /// is its pose at load and `rng` its own stream (position models draw their
+            /// odometry error from it, spec §7.7).
+            pub(crate) fn new(kind: &KindDesc, global: &Pose, rng: &mut SimRng) -> KindState {
+                match kind {
+                    $(
+                        variant_of!(KindDesc, $variant, desc $(, $desc)?) => KindState::$variant(
+                            $module::start(desc_ref!(desc $(, $desc)?), global, rng).into(),
+                        ),
+                    )*
+                }
+            }
+
+            /// [`ModelKind::own_blocks`].
+            pub(crate) fn own_blocks(&self, size: [f64; 3]) -> Option<Vec<BlockDesc>> {
+                match self {
+                    $( KindState::$variant(s) => <$state as ModelKind>::own_blocks(s, size), )*
+                }
+            }
+
+            /// [`ModelKind::starts_itself`].
+            pub(crate) fn starts_itself(&self) -> bool {
+                match self {
+                    $( KindState::$variant(s) => <$state as ModelKind>::starts_itself(s), )*
+                }
+            }
+
+            /// [`ModelKind::ray_cost`].
+            pub(crate) fn ray_cost(&self) -> usize {
+                match self {
+                    $( KindState::$variant(s) => <$state as ModelKind>::ray_cost(s), )*
+                }
+            }
+
+            /// [`ModelKind::update`].
+            #[inline]
+            pub(crate) fn update(
+                &mut self,
+                v: &View,
+                m: ModelId,
+                local: &Pose,
+                node: &Node,
+                rng: &mut SimRng,
+            ) {
+                match self {
+                    $(
+                        KindState::$variant(s) =>
+                            <$state as ModelKind>::update(s, v, m, local, node, rng),
+                    )*
+                }
+            }
+
+            /// [`ModelKind::shutdown`].
+            pub(crate) fn shutdown(&mut self) {
+                match self {
+                    $( KindState::$variant(s) => <$state as ModelKind>::shutdown(s), )*
+                }
+            }
+
+            /// [`ModelKind::digest`].
+            pub(crate) fn digest(&self, d: &mut Digest) {
+                match self {
+                    $( KindState::$variant(s) => <$state as ModelKind>::digest(s, d), )*
+                }
+            }
+        }
+    };
+}
+
+/// The pattern of `Enum::Variant`, binding its content to `$bind` when the type has a
+/// description.
+macro_rules! variant_of {
+    ($enum:ident, $variant:ident, $bind:ident) => {
+        $enum::$variant
+    };
+    ($enum:ident, $variant:ident, $bind:ident, $desc:ty) => {
+        $enum::$variant($bind)
+    };
+}
+
+/// A `KindDesc` from the worldfile spec bound to `$spec`, by the module's `desc_from_spec`.
+macro_rules! desc_of {
+    ($variant:ident, $module:ident, $spec:ident, $rng:ident) => {
+        KindDesc::$variant
+    };
+    ($variant:ident, $module:ident, $spec:ident, $rng:ident, $desc:ty) => {
+        KindDesc::$variant($module::desc_from_spec($spec, $rng))
+    };
+}
+
+/// The description bound to `$bind`, or `&()` for a type without one.
+macro_rules! desc_ref {
+    ($bind:ident) => {
+        &()
+    };
+    ($bind:ident, $desc:ty) => {
+        $bind
+    };
+}
+
+model_kinds! {
+    kinds {
+        /// A plain `model` (walls, boxes, pucks, floorplans).
+        model: Model => model::Plain,
+        /// A mobile base.
+        position: Position(PositionDesc) => Box<position::PositionModel>,
+        /// A ranger with its transducers (laser-like with one many-sample sensor, sonar-like with
+        /// many single-sample ones).
+        ranger: Ranger(Vec<SensorDesc>) => ranger::RangerData,
+        /// A colour blob finder.
+        blobfinder: Blobfinder(BlobfinderDesc) => Box<blobfinder::BlobfinderModel>,
+        /// A fiducial finder.
+        fiducial: Fiducial(FiducialDesc) => fiducial::FiducialModel,
+        /// A paddle gripper.
+        gripper: Gripper(GripperDesc) => Box<gripper::GripperModel>,
+        /// A colour + depth camera.
+        camera: Camera(CameraDesc) => Box<camera::CameraModel>,
+        /// An actuator joint.
+        actuator: Actuator(ActuatorDesc) => actuator::ActuatorModel,
+        /// A blinking light.
+        blinkenlight: Blinkenlight(BlinkenlightDesc) => blinkenlight::Blinkenlight,
+        /// A light indicator (on/off from the API).
+        lightindicator: Lightindicator => lightindicator::Lightindicator,
+    }
+    aliases {
+        Laser => ranger::laser_as_ranger,
+        Wifi => model::wifi_as_plain,
+    }
+}
+
+impl KindDesc {
+    /// The Stage type word.
+    pub fn type_name(&self) -> &'static str {
+        self.model_type().name()
     }
 }

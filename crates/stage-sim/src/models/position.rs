@@ -1,9 +1,12 @@
 //! `position` (spec §7): control modes, per-update velocity computation, odometry / GPS
 //! localization, and the per-step motion delta.
 
+use super::ModelKind;
 use crate::digest::Digest;
+use crate::node::{ModelId, Node};
 use crate::pose::{Pose, normalize};
 use crate::rng::SimRng;
+use crate::view::View;
 use std::f64::consts::PI;
 use worldfile::models as wm;
 use worldfile::models::{Drive, Localization};
@@ -32,26 +35,10 @@ pub struct PositionDesc {
 impl Default for PositionDesc {
     /// Stage's defaults, from the worldfile crate's property table (one source of truth).
     fn default() -> Self {
-        let mut d = PositionDesc::from_spec(&wm::PositionSpec::default());
+        let mut d = desc_from_spec(&wm::PositionSpec::default(), &mut SimRng::new(0, 0));
         // "the model's global pose at load", which the resolver fills in for real models
         d.localization_origin = None;
         d
-    }
-}
-
-impl PositionDesc {
-    /// Position properties.
-    pub(crate) fn from_spec(p: &wm::PositionSpec) -> PositionDesc {
-        PositionDesc {
-            drive: p.drive,
-            localization: p.localization,
-            localization_origin: Some(Pose::from_array(p.localization_origin)),
-            odom_error: p.odom_error,
-            wheelbase: p.wheelbase,
-            velocity_bounds: p.velocity_bounds,
-            acceleration_bounds: p.acceleration_bounds,
-            velocity: Pose::from_array(p.velocity),
-        }
     }
 }
 
@@ -123,14 +110,47 @@ pub fn estimate_in_frame(origin: &Pose, global: &Pose) -> Pose {
     }
 }
 
-impl PositionModel {
-    /// A model at rest at global pose `global`, with its localization origin and odometry
-    /// error factors resolved. As Stage's load does, the estimate starts at the global pose
-    /// expressed in the origin's frame whatever the localization mode: zero when the origin
-    /// defaults to the start pose, the world pose under `localization_origin [0 0 0 0]`.
+pub(crate) fn desc_from_spec(p: &wm::PositionSpec, _: &mut SimRng) -> PositionDesc {
+    PositionDesc {
+        drive: p.drive,
+        localization: p.localization,
+        localization_origin: Some(Pose::from_array(p.localization_origin)),
+        odom_error: p.odom_error,
+        wheelbase: p.wheelbase,
+        velocity_bounds: p.velocity_bounds,
+        acceleration_bounds: p.acceleration_bounds,
+        velocity: Pose::from_array(p.velocity),
+    }
+}
+
+/// A model as described, at `global` on load: the estimate's frame is
+/// `localization_origin` (the load pose when unset) and a missing `odom_error` is drawn
+/// once from `rng`, uniformly over Stage's spans (spec §7.7). As Stage's load does, the
+/// estimate starts at the global pose expressed in the origin's frame whatever the
+/// localization mode: zero when the origin defaults to the start pose, the world pose
+/// under `localization_origin [0 0 0 0]`.
+pub(crate) fn start(p: &PositionDesc, global: &Pose, rng: &mut SimRng) -> PositionModel {
+    let origin = p.localization_origin.unwrap_or(*global);
+    let err = match p.odom_error {
+        Some(e) => e,
+        None => wm::PositionSpec::ODOM_ERROR_SPAN.map(|span| rng.uniform(-span / 2.0, span / 2.0)),
+    };
+    PositionModel::new(p.clone(), global, origin, err)
+}
+
+impl ModelKind for PositionModel {
+    #[inline]
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, node: &Node, _: &mut SimRng) {
+        PositionModel::update(self, &v.globals[m.index()], v.dt, node.mass, v.sim_time)
+    }
+
+    fn shutdown(&mut self) {
+        PositionModel::shutdown(self)
+    }
+
     /// Feeds the state to the determinism digest: control mode and goal, velocity, estimate,
     /// odometry error, stall and the published data.
-    pub(crate) fn digest(&self, d: &mut Digest) {
+    fn digest(&self, d: &mut Digest) {
         d.u64(self.mode as u64);
         d.pose(&self.goal);
         d.pose(&self.velocity);
@@ -144,21 +164,9 @@ impl PositionModel {
         d.pose(&self.data.velocity);
         d.u64(self.data.stall as u64);
     }
+}
 
-    /// A model as described, at `global` on load: the estimate's frame is
-    /// `localization_origin` (the load pose when unset) and a missing `odom_error` is drawn
-    /// once from `rng`, uniformly over Stage's spans (spec §7.7).
-    pub(crate) fn from_desc(p: &PositionDesc, global: &Pose, rng: &mut SimRng) -> PositionModel {
-        let origin = p.localization_origin.unwrap_or(*global);
-        let err = match p.odom_error {
-            Some(e) => e,
-            None => {
-                wm::PositionSpec::ODOM_ERROR_SPAN.map(|span| rng.uniform(-span / 2.0, span / 2.0))
-            }
-        };
-        PositionModel::new(p.clone(), global, origin, err)
-    }
-
+impl PositionModel {
     /// A model with its estimate frame and odometry error given.
     pub fn new(
         cfg: PositionDesc,

@@ -2,9 +2,10 @@
 
 use std::sync::Mutex;
 
+use super::{KindDesc, ModelKind};
 use crate::color::Color;
 use crate::digest::Digest;
-use crate::node::ModelId;
+use crate::node::{ModelId, Node};
 use crate::pool::share_out;
 use crate::pose::Pose;
 use crate::rng::SimRng;
@@ -101,19 +102,6 @@ impl RangerData {
         }
     }
 
-    /// Feeds every transducer's ranges, intensities and bearings to the determinism digest.
-    pub(crate) fn digest(&self, d: &mut Digest) {
-        d.u64(self.time_us);
-        for s in &self.scans {
-            d.u64(s.ranges.len() as u64);
-            for ((&r, &i), &b) in s.ranges.iter().zip(&s.intensities).zip(&s.bearings) {
-                d.f64(r);
-                d.f64(i);
-                d.f64(b);
-            }
-        }
-    }
-
     /// Total rays per update.
     pub fn ray_count(&self) -> usize {
         self.sensors.iter().map(|s| s.samples as usize).sum()
@@ -124,6 +112,56 @@ impl RangerData {
         self.scans.clear();
         self.time_us = 0;
     }
+}
+
+pub(crate) fn desc_from_spec(r: &wm::RangerSpec, rng: &mut SimRng) -> Vec<SensorDesc> {
+    r.sensors
+        .iter()
+        .map(|s| SensorDesc::from_spec(s, rng))
+        .collect()
+}
+
+pub(crate) fn start(sensors: &[SensorDesc], _: &Pose, _: &mut SimRng) -> RangerData {
+    RangerData::new(sensors.to_vec())
+}
+
+impl ModelKind for RangerData {
+    fn ray_cost(&self) -> usize {
+        self.ray_count()
+    }
+
+    #[inline]
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, rng: &mut SimRng) {
+        update(v, m, self, rng)
+    }
+
+    fn shutdown(&mut self) {
+        self.clear();
+    }
+
+    /// Feeds every transducer's ranges, intensities and bearings to the determinism digest.
+    fn digest(&self, d: &mut Digest) {
+        d.u64(self.time_us);
+        for s in &self.scans {
+            d.u64(s.ranges.len() as u64);
+            for ((&r, &i), &b) in s.ranges.iter().zip(&s.intensities).zip(&s.bearings) {
+                d.f64(r);
+                d.f64(i);
+                d.f64(b);
+            }
+        }
+    }
+}
+
+/// A Stage 3 `laser`, simulated as a ranger with one sensor ([`wm::LaserSpec::as_sensor`]), and
+/// the warning that says so.
+pub(crate) fn laser_as_ranger(l: &wm::LaserSpec, rng: &mut SimRng) -> (KindDesc, String) {
+    let sensor = SensorDesc::from_spec(&l.as_sensor(), rng);
+    let why = format!(
+        "Stage 3 `laser` simulated as a ranger with one {}-sample sensor",
+        l.samples
+    );
+    (KindDesc::Ranger(vec![sensor]), why)
 }
 
 /// Whether model `h` stops ranger rays (a negative `ranger_return` lets them through).
@@ -201,7 +239,7 @@ fn with_noise(sensor: &SensorDesc, mut r: f64, rng: &mut SimRng) -> f64 {
 }
 
 /// One ranger update: casts every transducer's fan from the ranger's body frame.
-pub(crate) fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
+fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
     let frame = v.body_frame(m);
     let root = v.root(m);
     d.scans.resize_with(d.sensors.len(), SensorScan::default);

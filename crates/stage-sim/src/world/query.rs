@@ -5,10 +5,12 @@ use crate::error::{Error, Result};
 use crate::geom::Aabb;
 use crate::models::KindState;
 use crate::models::actuator::{ActuatorData, ActuatorMode};
+use crate::models::blinkenlight::Blinkenlight;
 use crate::models::blobfinder::BlobfinderData;
 use crate::models::camera::CameraImage;
 use crate::models::fiducial::FiducialData;
 use crate::models::gripper::{GripperCmd, GripperData};
+use crate::models::lightindicator::Lightindicator;
 use crate::models::position::{PositionData, PositionModel};
 use crate::models::ranger::RangerData;
 use crate::pose::Pose;
@@ -242,7 +244,7 @@ impl World {
     /// Fiducial detections.
     pub fn fiducials(&self, m: ModelId) -> Option<&FiducialData> {
         match &self.states.get(m.index())?.kind {
-            KindState::Fiducial(_, d) => Some(d),
+            KindState::Fiducial(f) => Some(&f.data),
             _ => None,
         }
     }
@@ -250,7 +252,7 @@ impl World {
     /// Fiducial-finder configuration.
     pub fn fiducial_config(&self, m: ModelId) -> Option<&crate::desc::FiducialDesc> {
         match &self.states.get(m.index())?.kind {
-            KindState::Fiducial(c, _) => Some(c),
+            KindState::Fiducial(f) => Some(&f.cfg),
             _ => None,
         }
     }
@@ -329,15 +331,18 @@ impl World {
     /// Light state of a blinkenlight or light indicator.
     pub fn light_on(&self, m: ModelId) -> Option<bool> {
         match &self.states.get(m.index())?.kind {
-            KindState::Blinkenlight { on } | KindState::LightIndicator { on } => Some(*on),
+            KindState::Blinkenlight(Blinkenlight { on })
+            | KindState::Lightindicator(Lightindicator { on }) => Some(*on),
             _ => None,
         }
     }
 
     /// Switches a light indicator.
     pub fn set_light(&mut self, m: ModelId, value: bool) {
-        if let Some(KindState::LightIndicator { on } | KindState::Blinkenlight { on }) =
-            self.states.get_mut(m.index()).map(|s| &mut s.kind)
+        if let Some(
+            KindState::Lightindicator(Lightindicator { on })
+            | KindState::Blinkenlight(Blinkenlight { on }),
+        ) = self.states.get_mut(m.index()).map(|s| &mut s.kind)
         {
             *on = value;
         }

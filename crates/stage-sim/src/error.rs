@@ -2,6 +2,8 @@
 
 use thiserror::Error;
 
+use crate::node::ModelId;
+
 /// Why a world could not be built or a call was refused.
 #[derive(Debug, Error)]
 pub enum Error {
@@ -21,13 +23,22 @@ pub enum Error {
     /// A world-level setting is unusable.
     #[error("world: {0}")]
     InvalidWorld(String),
-    /// A model id that does not exist or has the wrong type for the call.
+    /// A model of the wrong type for the call (a ranger's scans asked of a position model, …).
     #[error("model {id}: {msg}")]
     BadModel {
         /// The id given.
-        id: u32,
+        id: ModelId,
         /// What was expected.
         msg: String,
+    },
+    /// A model id that does not belong to this world: its index is past the world's last model
+    /// (an id kept from a bigger world, or a number that was never checked).
+    #[error("model id {id} does not belong to this world (it has {models} models)")]
+    ForeignModel {
+        /// The id given.
+        id: ModelId,
+        /// How many models the world has.
+        models: usize,
     },
 }
 

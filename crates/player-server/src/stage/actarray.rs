@@ -21,7 +21,7 @@ use crate::driver::Reply;
 /// (a position goal clamped to the joint's limits, a speed goal as commanded), moving while
 /// that goal is non-zero; acceleration and current are 0 (Stage models neither).
 pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(a) = b.world.actuator(b.model) else {
+    let Some(a) = b.answer(b.world.actuator(b.model)) else {
         return;
     };
     out.publish(ActarrayData::State(ActarrayDataState {
@@ -46,7 +46,7 @@ fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<ActarrayGeom> 
     let TypeSpec::Actuator(spec) = &b.model_spec().spec else {
         return None;
     };
-    let origin = b.world.node(b.model).origin;
+    let origin = b.node().origin;
     Some(ActarrayGeom {
         actuators: vec![ActarrayActuatorgeom {
             kind: PLAYER_ACTARRAY_TYPE_LINEAR,

@@ -12,7 +12,7 @@ use super::{Bound, Out};
 /// DATA STATE: the latest image, alpha dropped (the sky, transparent in the simulator, is
 /// black).
 pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(img) = b.world.camera_image(b.model) else {
+    let Some(img) = b.answer(b.world.camera_image(b.model)) else {
         return;
     };
     if img.width == 0 || img.height == 0 {

@@ -15,7 +15,7 @@ use crate::driver::Reply;
 /// frame (range and bearing) with the target's relative heading; `upose` (left uninitialised
 /// by Stage) is zero.
 pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(data) = b.world.fiducials(b.model) else {
+    let Some(data) = b.answer(b.world.fiducials(b.model)) else {
         return;
     };
     let fiducials = data
@@ -55,12 +55,16 @@ pub(super) fn request(b: &mut Writing<'_>, body: &Body) -> Reply {
     match req {
         FiducialReq::GetGeom(None) => Reply::ack(FiducialReq::GetGeom(Some(geometry(b)))),
         // The finder's own fiducial return: the sensor itself becomes a beacon.
-        FiducialReq::GetId(_) => Reply::ack(FiducialReq::GetId(Some(FiducialId {
-            id: b.world.fiducial_id(b.model) as u32,
-        }))),
+        FiducialReq::GetId(_) => match b.answer(b.world.fiducial_id(b.model)) {
+            Some(id) => Reply::ack(FiducialReq::GetId(Some(FiducialId { id: id as u32 }))),
+            None => Reply::Nack,
+        },
         FiducialReq::SetId(Some(FiducialId { id })) => {
-            b.world.set_fiducial_id(b.model, *id as i32);
-            Reply::ack(FiducialReq::SetId(Some(FiducialId { id: *id })))
+            let set = b.world.set_fiducial_id(b.model, *id as i32);
+            match b.answer(set) {
+                Some(()) => Reply::ack(FiducialReq::SetId(Some(FiducialId { id: *id }))),
+                None => Reply::Nack,
+            }
         }
         // FOV requests: NACK, as Stage.
         _ => Reply::NotHandled,

@@ -19,7 +19,7 @@ const BEAM_BITS: [u32; 2] = [0x04, 0x08];
 
 /// DATA STATE: paddle state, the break-beam bits; `stored` is always 0 in Stage.
 pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(s) = b.world.gripper_state(b.model) else {
+    let Some(s) = b.answer(b.world.gripper_state(b.model)) else {
         return;
     };
     let state = match s.paddles {

@@ -296,9 +296,29 @@ impl<W: std::ops::Deref<Target = World>> Bound<'_, W> {
         self.spec.model(self.model.index())
     }
 
+    /// The bound model's tree and configuration data.
+    pub fn node(&self) -> &stage_sim::node::Node {
+        self.world
+            .node(self.model)
+            .expect("binding checked the model against this world, which never loses one")
+    }
+
+    /// The bound model's pose in its parent's frame.
+    pub fn pose(&self) -> Pose {
+        self.world
+            .pose(self.model)
+            .expect("binding checked the model against this world, which never loses one")
+    }
+
+    /// The bound model's answer to a type-specific world call, or `None` (logged): see
+    /// [`bound_answer`].
+    pub fn answer<T>(&self, answer: stage_sim::Result<T>) -> Option<T> {
+        bound_answer(self.model, answer)
+    }
+
     /// The model's size `[x y z]`.
     pub fn size(&self) -> [f64; 3] {
-        self.world.node(self.model).size
+        self.node().size
     }
 
     /// The model's size as Player's bounding box: Stage's `[x y z]` is length, width, height.
@@ -308,8 +328,18 @@ impl<W: std::ops::Deref<Target = World>> Bound<'_, W> {
 
     /// The model's pose in its parent's frame as a Player 3D pose (roll = pitch = 0).
     pub fn local_pose3d(&self) -> Pose3d {
-        pose3d(&self.world.pose(self.model))
+        pose3d(&self.pose())
     }
+}
+
+/// A bound model's answer to a world call, or `None` with the error logged. Binding checked
+/// the id against the world (which never loses a model) and matched the model's type to the
+/// interface, so an error here is a bug in the binding rules: the device goes quiet (no data,
+/// a NACK) instead of taking the server down.
+pub(crate) fn bound_answer<T>(model: ModelId, answer: stage_sim::Result<T>) -> Option<T> {
+    answer
+        .inspect_err(|e| tracing::error!("stage: bound model {model}: {e}"))
+        .ok()
 }
 
 /// A Stage pose as a Player 3D pose: x, y, z, yaw; roll = pitch = 0.
@@ -522,20 +552,23 @@ impl StageDriver {
         };
         let id = bind_stage_model(&s.spec, name, addr.interf, &mut s.bound)
             .map_err(|why| BindError::new(why.kind, format!("cannot bind `{device}`: {why}")))?;
-        let m = ModelId(id as u32);
         let spec = s.spec.model(id);
         let w = s.world.read().unwrap_or_else(|e| e.into_inner());
-        if id >= w.model_count() || w.name(m) != spec.name {
+        let found = w.model_id(id).ok().map(|m| {
+            let node = w.node(m).expect("model_id checked the index");
+            (m, node)
+        });
+        let Some((m, node)) = found.filter(|(_, node)| node.name == spec.name) else {
             return Err(BindError::new(
                 BindErrorKind::NoSuchModel,
                 format!("model \"{}\" is not in the simulated world", spec.name),
             ));
-        }
+        };
         tracing::debug!(
             "{}: {device} bound to model \"{}\" ({})",
             p.origin,
-            w.name(m),
-            w.type_name(m)
+            node.name,
+            node.model_type.name()
         );
         let binding = DeviceBinding::Model {
             id,
@@ -572,15 +605,19 @@ impl StageDriver {
                 continue;
             }
             let stamp_us = match d.kind {
-                Kind::Position => world.position_state(model).map(|s| s.time_us),
-                Kind::Ranger | Kind::Laser | Kind::Sonar => {
-                    world.ranger_scans(model).map(|s| s.time_us)
+                Kind::Position => {
+                    bound_answer(model, world.position_state(model)).map(|s| s.time_us)
                 }
-                Kind::Blobfinder => world.blobfinder_blobs(model).map(|s| s.time_us),
-                Kind::Fiducial => world.fiducials(model).map(|s| s.time_us),
-                Kind::Gripper => world.gripper_state(model).map(|s| s.time_us),
-                Kind::Camera => world.camera_image(model).map(|s| s.time_us),
-                Kind::Actarray => world.actuator(model).map(|s| s.time_us),
+                Kind::Ranger | Kind::Laser | Kind::Sonar => {
+                    bound_answer(model, world.ranger_scans(model)).map(|s| s.time_us)
+                }
+                Kind::Blobfinder => {
+                    bound_answer(model, world.blobfinder_blobs(model)).map(|s| s.time_us)
+                }
+                Kind::Fiducial => bound_answer(model, world.fiducials(model)).map(|s| s.time_us),
+                Kind::Gripper => bound_answer(model, world.gripper_state(model)).map(|s| s.time_us),
+                Kind::Camera => bound_answer(model, world.camera_image(model)).map(|s| s.time_us),
+                Kind::Actarray => bound_answer(model, world.actuator(model)).map(|s| s.time_us),
                 Kind::Simulation
                 | Kind::Speech
                 | Kind::Graphics2d
@@ -625,7 +662,7 @@ impl StageDriver {
 /// The blobfinder has data only (no requests Stage answers), so it lives here.
 fn blobfinder_publish(b: &Bound<'_, &World>, out: &mut Out<'_, '_>) {
     use player_proto::{BlobfinderBlob, BlobfinderData, BlobfinderDataBlobs};
-    let Some(data) = b.world.blobfinder_blobs(b.model) else {
+    let Some(data) = b.answer(b.world.blobfinder_blobs(b.model)) else {
         return;
     };
     // Stage fills in the image size only when there is a blob (spec §9.3).
@@ -711,7 +748,9 @@ impl Driver for StageDriver {
         d.subs += 1;
         // The first subscription starts the model updating.
         if let (1, Some(m)) = (d.subs, d.model) {
-            self.write().subscribe(m);
+            self.write()
+                .subscribe(m)
+                .map_err(|e| DriverError::new(format!("{addr}: {e}")))?;
         }
         Ok(())
     }
@@ -723,7 +762,9 @@ impl Driver for StageDriver {
         }
         d.subs -= 1;
         if let (0, Some(m)) = (d.subs, d.model) {
-            self.write().unsubscribe(m);
+            self.write()
+                .unsubscribe(m)
+                .map_err(|e| DriverError::new(format!("{addr}: {e}")))?;
         }
         Ok(())
     }
@@ -849,7 +890,8 @@ impl Driver for StageDriver {
         let mut w = self.world.write().unwrap_or_else(|e| e.into_inner());
         for d in &mut self.devices {
             if let (Some(m), true) = (d.model, d.subs > 0) {
-                w.unsubscribe(m);
+                // Shutting down: nobody to hand the error to.
+                bound_answer(m, w.unsubscribe(m));
                 d.subs = 0;
             }
         }

@@ -13,7 +13,7 @@ use crate::driver::Reply;
 
 /// DATA STATE: the pose estimate (odometry or "gps"), the velocity and the stall flag.
 pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(s) = b.world.position_state(b.model) else {
+    let Some(s) = b.answer(b.world.position_state(b.model)) else {
         return;
     };
     let pose2d = |p: &Pose| Pose2d {
@@ -31,7 +31,7 @@ pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<
 /// The geometry: the body offset (`origin`) and the size; Stage leaves z, roll, pitch and the
 /// height uninitialised, we send 0 and the model's height.
 pub(super) fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Position2dGeom {
-    let node = b.world.node(b.model);
+    let node = b.node();
     Position2dGeom {
         pose: Pose3d {
             px: node.origin.x,

@@ -15,7 +15,7 @@ use crate::driver::Reply;
 /// RANGE then INTNS, each only when it has values (none before the first scan). One
 /// transducer: all its samples; several: the first sample of each.
 pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(data) = b.world.ranger_scans(b.model) else {
+    let Some(data) = b.answer(b.world.ranger_scans(b.model)) else {
         return;
     };
     let ranges = super::convert::ranger_ranges(data);
@@ -67,9 +67,9 @@ pub(super) fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> RangerGeom
 
 /// GET_CONFIG: the first transducer only, with Stage's `fov / samples` resolution.
 pub(super) fn config<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<RangerConfig> {
-    let data = b.world.ranger_scans(b.model)?;
+    let data = b.answer(b.world.ranger_scans(b.model))?;
     let s = data.sensors.first()?;
-    let interval_us = b.world.node(b.model).update_interval_us.max(1);
+    let interval_us = b.node().update_interval_us.max(1);
     Some(RangerConfig {
         min_angle: -s.fov / 2.0,
         max_angle: s.fov / 2.0,

@@ -26,6 +26,9 @@ fn prop_is(prop: &Text, name: &str) -> bool {
     true
 }
 
+/// Why the world calls below cannot refuse: their ids come from [`model`].
+const BY_NAME: &str = "a model found by name in this world belongs to it";
+
 fn model(world: &World, name: &Text) -> Option<ModelId> {
     world.model_by_name(&name.to_str_lossy())
 }
@@ -60,7 +63,7 @@ fn get_property(world: &World, req: &SimulationPropertyReq) -> Reply {
         if req.value.len() != 16 {
             return Reply::Nack;
         }
-        color_bytes(&world.color(m))
+        color_bytes(&world.color(m).expect(BY_NAME))
     } else if prop_is(&req.prop, "time") {
         if req.value.len() != 8 {
             return Reply::Nack;
@@ -85,7 +88,7 @@ fn set_property(world: &mut World, req: &SimulationPropertyReq) -> Reply {
     }
     match color_from_bytes(&req.value) {
         Some(c) => {
-            world.set_color(m, c);
+            world.set_color(m, c).expect(BY_NAME);
             Reply::empty_ack()
         }
         None => Reply::Nack,
@@ -98,7 +101,7 @@ pub(super) fn request(world: &mut World, body: &Body) -> Reply {
         Body::Simulation(SimulationMsg::Req(req)) => match req {
             SimulationReq::GetPose2d(Some(r)) => match model(world, &r.name) {
                 Some(m) => {
-                    let p = world.pose(m);
+                    let p = world.pose(m).expect(BY_NAME);
                     Reply::ack(SimulationReq::GetPose2d(Some(SimulationPose2dReq {
                         name: r.name.clone(),
                         pose: Pose2d {
@@ -112,15 +115,17 @@ pub(super) fn request(world: &mut World, body: &Body) -> Reply {
             },
             SimulationReq::SetPose2d(Some(r)) => match model(world, &r.name) {
                 Some(m) => {
-                    let z = world.pose(m).z;
-                    world.set_pose(m, Pose::new(r.pose.px, r.pose.py, z, r.pose.pa));
+                    let z = world.pose(m).expect(BY_NAME).z;
+                    world
+                        .set_pose(m, Pose::new(r.pose.px, r.pose.py, z, r.pose.pa))
+                        .expect(BY_NAME);
                     Reply::empty_ack()
                 }
                 None => Reply::Nack,
             },
             SimulationReq::GetPose3d(Some(r)) => match model(world, &r.name) {
                 Some(m) => {
-                    let p = world.pose(m);
+                    let p = world.pose(m).expect(BY_NAME);
                     Reply::ack(SimulationReq::GetPose3d(Some(SimulationPose3dReq {
                         name: r.name.clone(),
                         pose: super::pose3d(&p),
@@ -135,7 +140,9 @@ pub(super) fn request(world: &mut World, body: &Body) -> Reply {
                     let Pose3d {
                         px, py, pz, pyaw, ..
                     } = r.pose;
-                    world.set_pose(m, Pose::new(px, py, pz, pyaw));
+                    world
+                        .set_pose(m, Pose::new(px, py, pz, pyaw))
+                        .expect(BY_NAME);
                     Reply::empty_ack()
                 }
                 None => Reply::Nack,

@@ -12,7 +12,7 @@ use crate::driver::Reply;
 
 /// DATA RANGES: the first sample of each transducer, as floats.
 pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<'_, '_>) {
-    let Some(data) = b.world.ranger_scans(b.model) else {
+    let Some(data) = b.answer(b.world.ranger_scans(b.model)) else {
         return;
     };
     let ranges: Vec<f32> = data
@@ -28,7 +28,7 @@ pub(super) fn publish<W: Deref<Target = World>>(b: &Bound<'_, W>, out: &mut Out<
 
 /// GET_GEOM: each transducer's pose in the robot (the ranger's pose composed with it).
 fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> SonarGeom {
-    let base = b.world.pose(b.model);
+    let base = b.pose();
     SonarGeom {
         poses: ranger::sensors(b)
             .iter()

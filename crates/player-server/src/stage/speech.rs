@@ -10,6 +10,6 @@ pub(super) fn command(b: &mut Writing<'_>, body: &Body) -> bool {
     let Body::Speech(SpeechMsg::Cmd(SpeechCmd::Say(say))) = body else {
         return false;
     };
-    b.world.say(b.model, &say.string.to_str_lossy());
-    true
+    let said = b.world.say(b.model, &say.string.to_str_lossy());
+    b.answer(said).is_some()
 }

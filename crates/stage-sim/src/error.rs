@@ -3,6 +3,7 @@
 use thiserror::Error;
 
 use crate::node::ModelId;
+use worldfile::models::ModelType;
 
 /// Why a world could not be built or a call was refused.
 #[derive(Debug, Error)]
@@ -24,12 +25,25 @@ pub enum Error {
     #[error("world: {0}")]
     InvalidWorld(String),
     /// A model of the wrong type for the call (a ranger's scans asked of a position model, …).
-    #[error("model {id}: {msg}")]
+    /// Built without allocating: callers may use a type-specific getter as a type test.
+    #[error("model {id} is a `{}` model, not {expected}", found.name())]
     BadModel {
         /// The id given.
         id: ModelId,
-        /// What was expected.
-        msg: String,
+        /// The model's type.
+        found: ModelType,
+        /// What the call needs ("a ranger", …).
+        expected: &'static str,
+    },
+    /// A block index past the model's blocks.
+    #[error("model {id} has {blocks} block(s), no block {block}")]
+    NoBlock {
+        /// The id given.
+        id: ModelId,
+        /// The block index given.
+        block: usize,
+        /// How many blocks the model has.
+        blocks: usize,
     },
     /// A model id that does not belong to this world: its index is past the world's last model
     /// (an id kept from a bigger world, or a number that was never checked).

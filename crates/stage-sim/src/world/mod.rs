@@ -57,7 +57,8 @@ struct ControllerSlot {
 /// * an id whose index this world does not have is [`Error::ForeignModel`] (never a panic);
 /// * a type-specific call (a getter such as [`World::ranger_scans`] answering `Result<&T>`, a
 ///   command such as [`World::position_cmd_vel`] answering `Result<()>`) asked of a model of
-///   another type is [`Error::BadModel`], as is a block index the model does not have;
+///   another type is [`Error::BadModel`] (cheap: a getter may serve as a type test), and a
+///   block index the model does not have is [`Error::NoBlock`];
 /// * an answer that may rightly be absent stays an `Option` inside the `Result`
 ///   ([`World::parent`], [`World::last_update`], [`World::rasterize`], [`World::raycast`]).
 ///
@@ -165,7 +166,7 @@ impl World {
     }
 
     /// The error for a type-specific call asked of model `m` (in range) of another type.
-    pub(super) fn wrong_type(&self, m: ModelId, expected: &str) -> Error {
+    pub(super) fn wrong_type(&self, m: ModelId, expected: &'static str) -> Error {
         wrong_type(&self.nodes[m.index()], m, expected)
     }
 
@@ -175,14 +176,11 @@ impl World {
     }
 }
 
-/// [`Error::BadModel`] for a type-specific call asked of `node` (model `m`), naming its type.
-fn wrong_type(node: &Node, m: ModelId, expected: &str) -> Error {
+/// [`Error::BadModel`] for a type-specific call asked of `node` (model `m`).
+fn wrong_type(node: &Node, m: ModelId, expected: &'static str) -> Error {
     Error::BadModel {
         id: m,
-        msg: format!(
-            "`{}` is a {} model, not {expected}",
-            node.name,
-            node.model_type.name()
-        ),
+        found: node.model_type,
+        expected,
     }
 }

@@ -92,13 +92,14 @@ impl World {
         Ok(())
     }
 
-    /// Colour of block `b` of model `m`; [`Error::BadModel`] when the model has no block `b`.
+    /// Colour of block `b` of model `m`; [`Error::NoBlock`] when the model has no block `b`.
     pub fn block_color(&self, m: ModelId, b: usize) -> Result<Color> {
         let i = self.check(m)?;
         let blocks = &self.nodes[i].blocks;
-        let block = blocks.get(b).ok_or_else(|| Error::BadModel {
+        let block = blocks.get(b).ok_or(Error::NoBlock {
             id: m,
-            msg: format!("has {} block(s), no block {b}", blocks.len()),
+            block: b,
+            blocks: blocks.len(),
         })?;
         Ok(block.color.unwrap_or(self.colors[i]))
     }

@@ -5,7 +5,7 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use crate::controller::{self, Command, Idle};
-use crate::desc::{Color, KindDesc, ModelDesc, PositionDesc, SensorDesc, WorldDesc};
+use crate::desc::{Color, KindDesc, ModelDesc, ModelType, PositionDesc, SensorDesc, WorldDesc};
 use crate::error::{Error, Result};
 use crate::models::gripper::GripperCmd;
 use crate::pose::Pose;
@@ -203,9 +203,13 @@ fn type_specific_calls_on_another_type_are_bad_model_errors() {
     for name in typed {
         let (_, call) = calls.iter().find(|(n, _)| *n == name).expect(name);
         match call_named(name, *call, &mut w, wall) {
-            Err(Error::BadModel { id, msg }) => {
-                assert_eq!(id, wall, "`{name}`");
-                assert!(msg.contains("`wall` is a model model"), "`{name}`: {msg}");
+            Err(Error::BadModel {
+                id,
+                found,
+                expected,
+            }) => {
+                assert_eq!((id, found), (wall, ModelType::Model), "`{name}`");
+                assert!(expected.starts_with("a"), "`{name}`: {expected}");
             }
             other => panic!("`{name}` on a plain model: {other:?}"),
         }
@@ -215,10 +219,18 @@ fn type_specific_calls_on_another_type_are_bad_model_errors() {
         w.apply(Command::RangerNoise(wall, 0.1)),
         Err(Error::BadModel { .. })
     ));
+    assert_eq!(
+        w.ranger_scans(wall).unwrap_err().to_string(),
+        "model 0 is a `model` model, not a ranger"
+    );
     // A block the model does not have.
     assert!(matches!(
         w.block_color(wall, 1),
-        Err(Error::BadModel { .. })
+        Err(Error::NoBlock {
+            block: 1,
+            blocks: 1,
+            ..
+        })
     ));
 }
 

@@ -52,7 +52,7 @@ struct ControllerSlot {
 ///
 /// # Model ids
 ///
-/// Every public function that takes a [`ModelId`] returns a [`Result`](crate::Result), with
+/// Every public function that takes a [`ModelId`] returns a [`Result`], with
 /// one rule for all of them:
 /// * an id whose index this world does not have is [`Error::ForeignModel`] (never a panic);
 /// * a type-specific call (a getter such as [`World::ranger_scans`] answering `Result<&T>`, a

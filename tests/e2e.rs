@@ -421,7 +421,7 @@ fn graphics_and_speech_from_a_client_reach_the_world_window() {
     // Commands are asynchronous: wait until the server has applied them.
     let start = Instant::now();
     while drawings.lock().unwrap().on_model(bob1).count() == 0
-        || world.read().unwrap().said(bob1) != "orange ahead"
+        || world.read().unwrap().said(bob1).unwrap() != "orange ahead"
     {
         assert!(
             start.elapsed() < Duration::from_secs(5),

@@ -50,10 +50,13 @@ impl World {
         &'w self,
         name: &str,
         kind: &str,
-        read: impl FnOnce(&'w stage_sim::World, ModelId) -> Option<T>,
+        read: impl FnOnce(&'w stage_sim::World, ModelId) -> stage_sim::Result<T>,
     ) -> PyResult<T> {
         let m = self.model(name)?;
-        read(&self.world, m).ok_or_else(|| self.wrong_type(name, kind))
+        read(&self.world, m).map_err(|e| match e {
+            stage_sim::Error::BadModel { .. } => self.wrong_type(name, kind),
+            e => sim_err(e),
+        })
     }
 }
 
@@ -72,13 +75,13 @@ impl World {
         let models: Vec<ModelId> = world.models().collect();
         for m in models {
             use stage_sim::ModelType as T;
-            match world.model_type(m) {
+            match world.model_type(m).map_err(sim_err)? {
                 T::Position
                 | T::Ranger
                 | T::Blobfinder
                 | T::Fiducial
                 | T::Gripper
-                | T::Actuator => world.subscribe(m),
+                | T::Actuator => world.subscribe(m).map_err(sim_err)?,
                 _ => {}
             }
         }
@@ -158,37 +161,40 @@ impl World {
     }
 
     /// The models as `(name, type)` pairs, in creation order.
-    fn models(&self) -> Vec<(String, &'static str)> {
+    fn models(&self) -> PyResult<Vec<(String, &'static str)>> {
         self.world
             .models()
-            .map(|m| (self.world.name(m).to_string(), self.world.type_name(m)))
+            .map(|m| {
+                let name = self.world.name(m).map_err(sim_err)?;
+                Ok((name.to_string(), self.world.type_name(m).map_err(sim_err)?))
+            })
             .collect()
     }
 
     /// Starts updating a model that is not updated by default (a camera).
     fn subscribe(&mut self, name: &str) -> PyResult<()> {
         let m = self.model(name)?;
-        self.world.subscribe(m);
-        Ok(())
+        self.world.subscribe(m).map_err(sim_err)
     }
 
     /// The model's pose in its parent's frame, `[x, y, a]`.
     fn pose(&self, name: &str) -> PyResult<[f64; 3]> {
-        Ok(pose_list(&self.world.pose(self.model(name)?)))
+        let pose = self.world.pose(self.model(name)?).map_err(sim_err)?;
+        Ok(pose_list(&pose))
     }
 
     /// The model's pose in the world frame, `[x, y, a]`.
     fn global_pose(&self, name: &str) -> PyResult<[f64; 3]> {
-        Ok(pose_list(&self.world.global_pose(self.model(name)?)))
+        let pose = self.world.global_pose(self.model(name)?).map_err(sim_err)?;
+        Ok(pose_list(&pose))
     }
 
     /// Moves the model (parent frame, no collision test), as the simulation interface's
     /// SET_POSE2D does.
     fn set_pose(&mut self, name: &str, x: f64, y: f64, a: f64) -> PyResult<()> {
         let m = self.model(name)?;
-        let z = self.world.pose(m).z;
-        self.world.set_pose(m, Pose { x, y, z, a });
-        Ok(())
+        let z = self.world.pose(m).map_err(sim_err)?.z;
+        self.world.set_pose(m, Pose { x, y, z, a }).map_err(sim_err)
     }
 
     /// Velocity command for a position model (m/s, m/s, rad/s).
@@ -206,13 +212,7 @@ impl World {
     /// A position model's data: `{px, py, pa, vx, vy, va, stall, time}` (odometry frame, as
     /// Player's position2d), or None before its first update.
     fn position<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let m = self.model(name)?;
-        if self.world.position_model(m).is_none() {
-            return Err(self.wrong_type(name, "position model"));
-        }
-        let Some(s) = self.world.position_state(m) else {
-            return Ok(None);
-        };
+        let s = self.sensor(name, "position model", |w, m| w.position_state(m))?;
         let d = PyDict::new(py);
         let (pos, vel) = (&s.pose, &s.velocity);
         convert::odometry(&d, [pos.x, pos.y, pos.a], [vel.x, vel.y, vel.a], s.stall)?;
@@ -310,23 +310,19 @@ impl World {
         py: Python<'py>,
         name: &str,
     ) -> PyResult<Option<(u32, u32, Bound<'py, PyBytes>)>> {
-        let m = self.model(name)?;
-        Ok(self
-            .world
-            .camera_image(m)
-            .filter(|c| c.width > 0)
-            .map(|c| (c.width, c.height, PyBytes::new(py, &c.rgba))))
+        let c = self.sensor(name, "camera", |w, m| w.camera_image(m))?;
+        Ok((c.width > 0).then(|| (c.width, c.height, PyBytes::new(py, &c.rgba))))
     }
 
     /// What the model says (its speech bubble).
     fn said(&self, name: &str) -> PyResult<String> {
-        Ok(self.world.said(self.model(name)?).to_string())
+        let said = self.world.said(self.model(name)?).map_err(sim_err)?;
+        Ok(said.to_string())
     }
 
     /// Sets the model's speech bubble text.
     fn say(&mut self, name: &str, text: &str) -> PyResult<()> {
         let m = self.model(name)?;
-        self.world.say(m, text);
-        Ok(())
+        self.world.say(m, text).map_err(sim_err)
     }
 }

@@ -71,7 +71,7 @@ use test_support::stage_worlds;
 fn ray_micro(label: &str, w: &World, range: f64, n: usize) {
     let mut bb = stage_sim::geom::Aabb::EMPTY;
     for m in w.models() {
-        bb.merge(&w.body(m).aabb);
+        bb.merge(&w.body(m).unwrap().aabb);
     }
     let mut rng = stage_sim::SimRng::new(3, 3);
     let queries: Vec<RayQuery> = (0..n)
@@ -86,7 +86,7 @@ fn ray_micro(label: &str, w: &World, range: f64, n: usize) {
     let t0 = Instant::now();
     let mut hits = 0usize;
     for q in &queries {
-        hits += w.raycast(q, None).is_some() as usize;
+        hits += w.raycast(q, None).unwrap().is_some() as usize;
     }
     let secs = t0.elapsed().as_secs_f64();
     println!(

@@ -88,14 +88,27 @@ pub enum CtrlError {
     /// The controlled model lacks a device the controller needs.
     #[error("needs {0}")]
     Missing(&'static str),
+    /// The controlled model is not in the world.
+    #[error(transparent)]
+    Model(#[from] crate::error::Error),
 }
 
+/// Whether model `m`, taken from `world`'s own tree, has type `t`.
+fn has_type(world: &World, m: ModelId, t: ModelType) -> bool {
+    world
+        .model_type(m)
+        .expect("an id from the world's own tree belongs to it")
+        == t
+}
+
+/// The rangers below `m` (checked) in pre-order.
 fn rangers_in(world: &World, m: ModelId) -> Vec<ModelId> {
     world
         .subtree(m)
+        .expect("the controlled model is checked first")
         .into_iter()
         .skip(1)
-        .filter(|&c| world.model_type(c) == ModelType::Ranger)
+        .filter(|&c| has_type(world, c, ModelType::Ranger))
         .collect()
 }
 
@@ -108,16 +121,17 @@ pub fn builtin(
     rng: SimRng,
 ) -> Result<Option<Installed>, CtrlError> {
     let _ = args;
+    let model_type = world.model_type(model)?;
     match name {
         "wander" => {
-            if world.model_type(model) != ModelType::Position {
+            if model_type != ModelType::Position {
                 return Err(CtrlError::Missing("a position model"));
             }
             // Stage's wander reads `ranger:1` (the laser after the sonar ring); fall back to the
             // only ranger when there is one.
             let direct: Vec<ModelId> = world
-                .children(model)
-                .filter(|&c| world.model_type(c) == ModelType::Ranger)
+                .children(model)?
+                .filter(|&c| has_type(world, c, ModelType::Ranger))
                 .collect();
             let laser = direct
                 .get(1)
@@ -140,7 +154,7 @@ pub fn builtin(
             }))
         }
         "expand_pioneer" | "expand_swarm" => {
-            if world.model_type(model) != ModelType::Position {
+            if model_type != ModelType::Position {
                 return Err(CtrlError::Missing("a position model"));
             }
             let ranger = *rangers_in(world, model)
@@ -160,17 +174,17 @@ pub fn builtin(
             }))
         }
         "pioneer_flocking" => {
-            if world.model_type(model) != ModelType::Position {
+            if model_type != ModelType::Position {
                 return Err(CtrlError::Missing("a position model"));
             }
             let ranger = *rangers_in(world, model)
                 .first()
                 .ok_or(CtrlError::Missing("a ranger"))?;
             let fiducial = world
-                .subtree(model)
+                .subtree(model)?
                 .into_iter()
                 .skip(1)
-                .find(|&c| world.model_type(c) == ModelType::Fiducial)
+                .find(|&c| has_type(world, c, ModelType::Fiducial))
                 .ok_or(CtrlError::Missing("a fiducial finder"))?;
             Ok(Some(Installed {
                 model,
@@ -185,7 +199,7 @@ pub fn builtin(
             }))
         }
         "lasernoise" => {
-            if world.model_type(model) != ModelType::Ranger {
+            if model_type != ModelType::Ranger {
                 return Err(CtrlError::Missing("to be attached to a ranger"));
             }
             Ok(Some(Installed {
@@ -223,7 +237,7 @@ impl Controller for Flocking {
         const FLOCK_WGAIN: f64 = 0.3;
         const SAFE_DIST: f64 = 1.0;
         const SAFE_ANGLE: f64 = 0.5;
-        let Some(data) = world.ranger_scans(self.ranger) else {
+        let Ok(data) = world.ranger_scans(self.ranger) else {
             return;
         };
         let r = |k: usize| data.scans.get(k).and_then(|s| s.ranges.first()).copied();
@@ -250,12 +264,14 @@ impl Controller for Flocking {
             && above(1, SAFE_DIST / 2.0)
             && resultant.abs() < SAFE_ANGLE;
         let speed = if clear {
-            let closest = world.fiducials(self.fiducial).and_then(|f| {
-                f.fiducials
+            let closest = match world.fiducials(self.fiducial) {
+                Ok(f) => f
+                    .fiducials
                     .iter()
                     .min_by(|a, b| a.range.total_cmp(&b.range))
-                    .copied()
-            });
+                    .copied(),
+                Err(_) => None,
+            };
             if let Some(c) = closest {
                 turn += FLOCK_WGAIN * c.heading;
             }
@@ -289,7 +305,10 @@ impl Controller for Wander {
         const MIN_FRONT: f64 = 1.0;
         const STOP_DIST: f64 = 0.3;
         const AVOID_DURATION: u32 = 10;
-        let Some(scan) = world.ranger_scans(self.laser).and_then(|r| r.scans.first()) else {
+        let Some(scan) = world
+            .ranger_scans(self.laser)
+            .map_or(None, |r| r.scans.first())
+        else {
             return;
         };
         let r = &scan.ranges;
@@ -381,7 +400,7 @@ impl Expand {
 
 impl Controller for Expand {
     fn update(&mut self, world: &World, cmds: &mut Commands) {
-        let Some(data) = world.ranger_scans(self.ranger) else {
+        let Ok(data) = world.ranger_scans(self.ranger) else {
             return;
         };
         let first = |k: usize| data.scans.get(k).and_then(|s| s.ranges.first()).copied();

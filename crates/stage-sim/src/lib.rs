@@ -42,6 +42,10 @@
 //!
 //! # API for servers and viewers
 //!
+//! * Model ids ([`ModelId`]) come from the world ([`World::models`], [`World::model_by_name`],
+//!   tree links, ray hits, or [`World::model_id`] for a number). Every function below that
+//!   takes one answers a `Result`: [`Error::ForeignModel`] for an id the world does not have,
+//!   [`Error::BadModel`] for a type-specific call on a model of another type (see [`World`]).
 //! * Lookup and tree: [`World::model_by_name`] (explicit and generated names; the last one
 //!   registered wins, as in Stage), [`World::parent`], [`World::children`],
 //!   [`World::subtree`] (pre-order, how the stage driver binds devices), [`World::type_name`],

@@ -5,14 +5,35 @@ use crate::color::Color;
 use crate::pose::Pose;
 use worldfile::models::ModelType;
 
-/// Identifies a model: its index in creation (pre-)order.
+/// Identifies a model of one [`World`](crate::World): its index in creation (pre-)order.
+///
+/// Other crates get ids only from a world ([`World::models`](crate::World::models),
+/// [`World::model_by_name`](crate::World::model_by_name), tree links, ray hits, or the checked
+/// [`World::model_id`](crate::World::model_id) for a number), never by building one, so an id
+/// normally belongs to the world it came from. Every public `World` function that takes an id
+/// checks it and answers [`Error::ForeignModel`](crate::Error::ForeignModel) for an index the
+/// world does not have (see [`World`](crate::World) for what that check cannot see).
+///
+/// The id is a bare 4-byte index, with no tag naming its world: ids are stored in the spatial
+/// index's cells and scanned in the ray and contact loops, where doubling their size would cost
+/// memory and cache misses on every step. So an id taken from another world whose index is in
+/// range here is not detected; it names this world's model with that index.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct ModelId(pub u32);
+pub struct ModelId(pub(crate) u32);
 
 impl ModelId {
-    /// The index into per-model tables.
+    /// The index into per-model tables (creation order), for callers that keep their own
+    /// per-model arrays; turn a number back into an id with
+    /// [`World::model_id`](crate::World::model_id).
     pub fn index(self) -> usize {
         self.0 as usize
+    }
+}
+
+impl std::fmt::Display for ModelId {
+    /// The index, as messages name models ("model 3").
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.0)
     }
 }
 

@@ -60,7 +60,7 @@ fn laser_facing_wall_reads_exact_ranges_on_every_sample() {
         w.ranger_scans(lid).unwrap().scans.is_empty(),
         "no data before subscription"
     );
-    w.subscribe(lid);
+    w.subscribe(lid).unwrap();
     run(&mut w, 1);
     let data = w.ranger_scans(lid).unwrap();
     assert_eq!(data.time_us, 100_000);
@@ -89,7 +89,7 @@ fn sensors_only_see_blocks_in_their_height_band() {
     d.add(wall("low", 2.05, 0.0, 0.1, 4.0, 0.3), None); // below the 0.55 m beam
     d.add(wall("high", 4.05, 0.0, 0.1, 4.0, 1.0), None);
     let mut w = World::from_desc(&d, 1).unwrap();
-    w.subscribe(ModelId(l as u32));
+    w.subscribe(ModelId(l as u32)).unwrap();
     run(&mut w, 1);
     let r = w.ranger_scans(ModelId(l as u32)).unwrap().scans[0].ranges[0];
     assert!((r - 4.0).abs() < 1e-9, "saw {r}");
@@ -107,7 +107,7 @@ fn ranger_return_negative_is_transparent_and_sets_intensity() {
     shiny.returns.ranger = 2.0;
     d.add(shiny, None);
     let mut w = World::from_desc(&d, 1).unwrap();
-    w.subscribe(ModelId(l as u32));
+    w.subscribe(ModelId(l as u32)).unwrap();
     run(&mut w, 1);
     let s = &w.ranger_scans(ModelId(l as u32)).unwrap().scans[0];
     assert!((s.ranges[0] - 3.0).abs() < 1e-9);
@@ -121,7 +121,7 @@ fn a_ray_starting_inside_a_box_stops_at_its_far_wall() {
     let l = d.add(laser(1, 0.0, 8.0), Some(r));
     d.add(wall("box", 0.0, 0.0, 2.0, 2.0, 1.0), None);
     let mut w = World::from_desc(&d, 1).unwrap();
-    w.subscribe(ModelId(l as u32));
+    w.subscribe(ModelId(l as u32)).unwrap();
     run(&mut w, 1);
     let s = &w.ranger_scans(ModelId(l as u32)).unwrap().scans[0];
     assert!((s.ranges[0] - 1.0).abs() < 1e-9);
@@ -132,13 +132,13 @@ fn drive_for(drive: Drive, cmd: (f64, f64, f64), steps: usize) -> (Pose, World, 
     d.add(robot("r", 1.0, 2.0, 0.3, drive), None);
     let mut w = World::from_desc(&d, 1).unwrap();
     let id = w.model_by_name("r").unwrap();
-    w.subscribe(id);
+    w.subscribe(id).unwrap();
     match drive {
         Drive::Car => w.position_cmd_car(id, cmd.0, cmd.2).unwrap(),
         _ => w.position_cmd_vel(id, cmd.0, cmd.1, cmd.2).unwrap(),
     }
     run(&mut w, steps);
-    (w.pose(id), w, id)
+    (w.pose(id).unwrap(), w, id)
 }
 
 #[test]
@@ -171,7 +171,7 @@ fn straight_driving_and_turning_integrate_for_each_drive() {
 fn gps_pose_lags_one_step_and_odom_uses_error_factors() {
     let (_, w, id) = drive_for(Drive::Diff, (0.5, 0.0, 0.0), 10);
     let est = w.position_state(id).unwrap().pose;
-    let truth = w.pose(id);
+    let truth = w.pose(id).unwrap();
     // GPS (localization_origin 0): the estimate is the pose before the last move
     assert!((truth.x - est.x - 0.05 * 0.3f64.cos()).abs() < 1e-9);
 
@@ -184,12 +184,12 @@ fn gps_pose_lags_one_step_and_odom_uses_error_factors() {
     d.add(m, None);
     let mut w = World::from_desc(&d, 1).unwrap();
     let id = ModelId(0);
-    w.subscribe(id);
+    w.subscribe(id).unwrap();
     w.position_cmd_vel(id, 1.0, 0.0, 0.0).unwrap();
     run(&mut w, 10);
     let est = w.position_state(id).unwrap().pose;
     assert!((est.x - 1.1).abs() < 1e-9, "{est:?}");
-    assert!((w.pose(id).x - 1.0).abs() < 1e-9);
+    assert!((w.pose(id).unwrap().x - 1.0).abs() < 1e-9);
 }
 
 #[test]
@@ -200,10 +200,10 @@ fn collision_stops_robot_at_wall_with_stall() {
     d.add(wall("wall", 1.0, 0.0, 0.2, 4.0, 1.0), None);
     let mut w = World::from_desc(&d, 1).unwrap();
     let id = ModelId(0);
-    w.subscribe(id);
+    w.subscribe(id).unwrap();
     w.position_cmd_vel(id, 1.0, 0.0, 0.0).unwrap();
     run(&mut w, 30);
-    let x = w.pose(id).x;
+    let x = w.pose(id).unwrap().x;
     assert!(
         x + 0.2 <= 0.9 + 1e-12,
         "robot front {} passed the wall",
@@ -212,12 +212,12 @@ fn collision_stops_robot_at_wall_with_stall() {
     assert!(x + 0.2 > 0.9 - 0.1 - 1e-9, "stopped too early at {x}");
     run(&mut w, 2);
     assert!(w.position_state(id).unwrap().stall);
-    assert_eq!(w.pose(id).x, x, "stays put while blocked");
+    assert_eq!(w.pose(id).unwrap().x, x, "stays put while blocked");
     // reversing clears the stall
     w.position_cmd_vel(id, -0.5, 0.0, 0.0).unwrap();
     run(&mut w, 2);
     assert!(!w.position_state(id).unwrap().stall);
-    assert!(w.pose(id).x < x);
+    assert!(w.pose(id).unwrap().x < x);
 }
 
 /// Moves happen one at a time in creation order, each against the already-moved robots, even
@@ -252,18 +252,21 @@ fn robots_move_in_creation_order_against_already_moved_robots() {
         pool.install(|| {
             let mut w = World::from_desc(&d, 1).unwrap();
             for id in [rear_id, front_id] {
-                w.subscribe(id);
+                w.subscribe(id).unwrap();
                 w.position_cmd_vel(id, 1.0, 0.0, 0.0).unwrap();
             }
             for i in 0..20 {
                 let id = w.model_by_name(&format!("idle{i}")).unwrap();
-                w.subscribe(id);
+                w.subscribe(id).unwrap();
                 w.position_cmd_vel(id, 0.5, 0.0, 0.3).unwrap();
             }
             w.step();
-            let rear = (w.pose(rear_id).x, w.position_state(rear_id).unwrap().stall);
+            let rear = (
+                w.pose(rear_id).unwrap().x,
+                w.position_state(rear_id).unwrap().stall,
+            );
             let front = (
-                w.pose(front_id).x,
+                w.pose(front_id).unwrap().x,
                 w.position_state(front_id).unwrap().stall,
             );
             (rear, front)
@@ -287,10 +290,10 @@ fn obstacle_return_zero_lets_robots_pass() {
     floor.returns.obstacle = false;
     d.add(floor, None);
     let mut w = World::from_desc(&d, 1).unwrap();
-    w.subscribe(ModelId(0));
+    w.subscribe(ModelId(0)).unwrap();
     w.position_cmd_vel(ModelId(0), 1.0, 0.0, 0.0).unwrap();
     run(&mut w, 20);
-    assert!(w.pose(ModelId(0)).x > 1.5);
+    assert!(w.pose(ModelId(0)).unwrap().x > 1.5);
     assert!(!w.position_state(ModelId(0)).unwrap().stall);
 }
 
@@ -302,16 +305,20 @@ fn unsubscribed_models_do_not_move_or_sense() {
     let mut w = World::from_desc(&d, 1).unwrap();
     w.position_cmd_vel(ModelId(0), 1.0, 0.0, 0.0).unwrap();
     run(&mut w, 5);
-    assert_eq!(w.pose(ModelId(0)).x, 0.0);
+    assert_eq!(w.pose(ModelId(0)).unwrap().x, 0.0);
     assert!(w.ranger_scans(ModelId(l as u32)).unwrap().scans.is_empty());
-    w.subscribe(ModelId(0));
+    w.subscribe(ModelId(0)).unwrap();
     w.position_cmd_vel(ModelId(0), 1.0, 0.0, 0.0).unwrap();
     run(&mut w, 5);
-    assert!(w.pose(ModelId(0)).x > 0.3);
-    w.unsubscribe(ModelId(0));
-    let x = w.pose(ModelId(0)).x;
+    assert!(w.pose(ModelId(0)).unwrap().x > 0.3);
+    w.unsubscribe(ModelId(0)).unwrap();
+    let x = w.pose(ModelId(0)).unwrap().x;
     run(&mut w, 5);
-    assert_eq!(w.pose(ModelId(0)).x, x, "shutdown zeroes the velocity");
+    assert_eq!(
+        w.pose(ModelId(0)).unwrap().x,
+        x,
+        "shutdown zeroes the velocity"
+    );
 }
 
 #[test]
@@ -323,10 +330,10 @@ fn update_interval_rounds_up_to_world_steps_and_quit_time_overshoots() {
     l.update_interval_us = 150_000;
     let l = d.add(l, Some(r));
     let mut w = World::from_desc(&d, 1).unwrap();
-    w.subscribe(ModelId(l as u32));
+    w.subscribe(ModelId(l as u32)).unwrap();
     let mut times = Vec::new();
     while w.step() {
-        if w.last_update(ModelId(l as u32)) == Some(w.sim_time()) {
+        if w.last_update(ModelId(l as u32)).unwrap() == Some(w.sim_time()) {
             times.push(w.sim_time());
         }
     }
@@ -346,7 +353,7 @@ fn blobfinder_sees_coloured_box_at_expected_columns() {
     bx.color = Color::rgb(0.0, 1.0, 0.0);
     d.add(bx, None);
     let mut w = World::from_desc(&d, 1).unwrap();
-    w.subscribe(ModelId(b as u32));
+    w.subscribe(ModelId(b as u32)).unwrap();
     run(&mut w, 1);
     let data = w.blobfinder_blobs(ModelId(b as u32)).unwrap();
     assert_eq!(data.blobs.len(), 1, "{:?}", data.blobs);
@@ -378,7 +385,7 @@ fn blobfinder_sees_coloured_box_at_expected_columns() {
         c.colors = vec![Color::RED];
     }
     let mut w2 = World::from_desc(&d2, 1).unwrap();
-    w2.subscribe(ModelId(b as u32));
+    w2.subscribe(ModelId(b as u32)).unwrap();
     run(&mut w2, 1);
     assert!(
         w2.blobfinder_blobs(ModelId(b as u32))
@@ -411,7 +418,7 @@ fn fiducial_world(range_max_id: f64, occluder: bool, key: i32) -> (World, ModelI
         d.add(wall("occluder", 1.0, 0.5, 0.1, 0.1, 1.0), None);
     }
     let mut w = World::from_desc(&d, 1).unwrap();
-    w.subscribe(ModelId(f as u32));
+    w.subscribe(ModelId(f as u32)).unwrap();
     run(&mut w, 1);
     (w, ModelId(f as u32))
 }
@@ -450,8 +457,8 @@ fn gripper_picks_up_carries_and_drops_a_puck() {
     let p = d.add(puck, None);
     let mut w = World::from_desc(&d, 1).unwrap();
     let (rid, gid, pid) = (ModelId(r as u32), ModelId(g as u32), ModelId(p as u32));
-    w.subscribe(rid);
-    w.subscribe(gid);
+    w.subscribe(rid).unwrap();
+    w.subscribe(gid).unwrap();
     run(&mut w, 1);
     let st = w.gripper_state(gid).unwrap();
     assert!(st.beams.contains(&Some(pid)), "puck breaks a beam: {st:?}");
@@ -460,26 +467,29 @@ fn gripper_picks_up_carries_and_drops_a_puck() {
     let st = *w.gripper_state(gid).unwrap();
     assert_eq!(st.carrying, Some(pid), "{st:?}");
     assert_eq!(st.paddles, PaddleState::Closed);
-    assert_eq!(w.parent(pid), Some(gid));
-    assert!(w.related(pid, rid));
+    assert_eq!(w.parent(pid).unwrap(), Some(gid));
+    assert!(w.related(pid, rid).unwrap());
     // carry it 1 m
     w.position_cmd_vel(rid, 0.5, 0.0, 0.0).unwrap();
     run(&mut w, 20);
     w.position_cmd_vel(rid, 0.0, 0.0, 0.0).unwrap();
-    let gp = w.global_pose(pid);
-    assert!((gp.x - (w.pose(rid).x + 0.3)).abs() < 1e-9, "{gp:?}");
-    assert!(w.pose(rid).x > 0.9);
+    let gp = w.global_pose(pid).unwrap();
+    assert!(
+        (gp.x - (w.pose(rid).unwrap().x + 0.3)).abs() < 1e-9,
+        "{gp:?}"
+    );
+    assert!(w.pose(rid).unwrap().x > 0.9);
     // drop it
     w.gripper_cmd(gid, GripperCmd::Open).unwrap();
     run(&mut w, 2);
-    assert_eq!(w.parent(pid), None);
+    assert_eq!(w.parent(pid).unwrap(), None);
     assert!(w.gripper_state(gid).unwrap().carrying.is_none());
-    let dropped = w.pose(pid);
-    assert!((dropped.x - w.global_pose(gid).x).abs() < 1e-9);
+    let dropped = w.pose(pid).unwrap();
+    assert!((dropped.x - w.global_pose(gid).unwrap().x).abs() < 1e-9);
     // it stays behind when the robot reverses
     w.position_cmd_vel(rid, -0.5, 0.0, 0.0).unwrap();
     run(&mut w, 10);
-    assert_eq!(w.pose(pid), dropped);
+    assert_eq!(w.pose(pid).unwrap(), dropped);
 }
 
 fn busy_world() -> WorldDesc {
@@ -525,7 +535,7 @@ fn determinism_same_seed_same_state_after_1000_steps_any_thread_count() {
             for _ in 0..1000 {
                 w.step();
             }
-            (w.state_digest(), w.pose(ModelId(4)))
+            (w.state_digest(), w.pose(ModelId(4)).unwrap())
         })
     };
     let a = digest(42, 1);
@@ -547,7 +557,7 @@ fn wander_avoids_walls_in_a_closed_room() {
     }
     for i in 0..6 {
         let id = w.model_by_name(&format!("r{i}")).unwrap();
-        let p = w.pose(id);
+        let p = w.pose(id).unwrap();
         assert!(
             p.x.abs() < 2.0 && p.y.abs() < 2.0,
             "robot {i} escaped: {p:?}"
@@ -556,7 +566,7 @@ fn wander_avoids_walls_in_a_closed_room() {
     let moved = (0..6)
         .filter(|i| {
             let id = w.model_by_name(&format!("r{i}")).unwrap();
-            let p = w.pose(id);
+            let p = w.pose(id).unwrap();
             (p.x - (-1.2 + 0.5 * *i as f64)).abs() > 0.2
         })
         .count();
@@ -604,7 +614,7 @@ fn camera_sees_wall_colour_and_depth() {
     wl.color = Color::rgb(0.0, 0.0, 1.0);
     d.add(wl, None);
     let mut w = World::from_desc(&d, 1).unwrap();
-    w.subscribe(ModelId(c as u32));
+    w.subscribe(ModelId(c as u32)).unwrap();
     run(&mut w, 1);
     let img = w.camera_image(ModelId(c as u32)).unwrap();
     assert_eq!((img.width, img.height), (32, 32));
@@ -669,7 +679,11 @@ fn pioneer_flocking_controller_installs_and_drives() {
     let mut w = World::from_desc(&d, 1).unwrap();
     assert!(w.warnings().is_empty(), "{:?}", w.warnings());
     run(&mut w, 20);
-    assert!(w.pose(ModelId(0)).x > 0.3, "{:?}", w.pose(ModelId(0)));
+    assert!(
+        w.pose(ModelId(0)).unwrap().x > 0.3,
+        "{:?}",
+        w.pose(ModelId(0)).unwrap()
+    );
 }
 
 #[test]
@@ -680,22 +694,22 @@ fn teleporting_a_static_model_moves_it_for_sensors_and_contacts() {
     let b = d.add(wall("box", 3.0, 0.0, 0.2, 1.0, 1.0), None);
     let mut w = World::from_desc(&d, 1).unwrap();
     let (lid, bid) = (ModelId(l as u32), ModelId(b as u32));
-    w.subscribe(lid);
+    w.subscribe(lid).unwrap();
     run(&mut w, 1);
     assert!((w.ranger_scans(lid).unwrap().scans[0].ranges[0] - 2.9).abs() < 1e-9);
-    w.set_pose(bid, Pose::new(1.0, 0.0, 0.0, 0.0));
+    w.set_pose(bid, Pose::new(1.0, 0.0, 0.0, 0.0)).unwrap();
     run(&mut w, 1);
     assert!((w.ranger_scans(lid).unwrap().scans[0].ranges[0] - 0.9).abs() < 1e-9);
-    w.set_pose(bid, Pose::new(1.0, 5.0, 0.0, 0.0));
+    w.set_pose(bid, Pose::new(1.0, 5.0, 0.0, 0.0)).unwrap();
     run(&mut w, 1);
     assert_eq!(w.ranger_scans(lid).unwrap().scans[0].ranges[0], 8.0);
     // and it blocks a robot at its new place
-    w.set_pose(bid, Pose::new(0.5, 0.0, 0.0, 0.0));
-    w.subscribe(ModelId(0));
+    w.set_pose(bid, Pose::new(0.5, 0.0, 0.0, 0.0)).unwrap();
+    w.subscribe(ModelId(0)).unwrap();
     w.position_cmd_vel(ModelId(0), 0.5, 0.0, 0.0).unwrap();
     run(&mut w, 5);
     assert!(w.position_state(ModelId(0)).unwrap().stall);
-    assert!(w.pose(ModelId(0)).x + 0.2 <= 0.4 + 1e-12);
+    assert!(w.pose(ModelId(0)).unwrap().x + 0.2 <= 0.4 + 1e-12);
 }
 
 #[test]
@@ -710,11 +724,11 @@ fn child_poses_stack_on_the_parent_and_origin_shifts_body_and_rays() {
     let ci = d.add(c, Some(pi));
     let w = World::from_desc(&d, 1).unwrap();
     // spec §1.2 (verified against Stage): (1, 3, 1.1, 90°); the parent's origin is not used
-    let g = w.global_pose(ModelId(ci as u32));
+    let g = w.global_pose(ModelId(ci as u32)).unwrap();
     assert!((g.x - 1.0).abs() < 1e-12 && (g.y - 3.0).abs() < 1e-12);
     assert!((g.z - 1.1).abs() < 1e-12);
     // the parent's body is shifted by its origin (0.1 along its heading = +y) and lifted
-    let body = w.body(ModelId(pi as u32));
+    let body = w.body(ModelId(pi as u32)).unwrap();
     assert!(
         (body.aabb.min[1] - (2.1 - 1.0)).abs() < 1e-9,
         "{:?}",
@@ -753,7 +767,7 @@ fn blobfinder_skips_the_column_after_a_blob() {
         d.add(bx, None);
     }
     let mut w = World::from_desc(&d, 1).unwrap();
-    w.subscribe(ModelId(b as u32));
+    w.subscribe(ModelId(b as u32)).unwrap();
     run(&mut w, 1);
     let blobs = &w.blobfinder_blobs(ModelId(b as u32)).unwrap().blobs;
     // sample 0 (red) is a blob, sample 1 (green) is skipped, sample 2 (blue) is a blob
@@ -784,7 +798,7 @@ fn a_model_rasterises_to_its_own_blocks_over_its_footprint() {
     let f = d.add(floor, None);
     d.add(robot("r", 1.0, 0.5, 0.0, Drive::Diff), Some(f));
     let w = World::from_desc(&d, 1).unwrap();
-    let r = w.rasterize(ModelId(f as u32), 0.5, 1000).unwrap();
+    let r = w.rasterize(ModelId(f as u32), 0.5, 1000).unwrap().unwrap();
     assert_eq!((r.width, r.height, r.cell), (8, 4, 0.5));
     assert_eq!(r.origin, [-1.0, 1.0]);
     let rows: Vec<String> = (0..r.height)
@@ -797,8 +811,8 @@ fn a_model_rasterises_to_its_own_blocks_over_its_footprint() {
         .collect();
     assert_eq!(rows, ["##......", "##......", "##......", "########"]);
     // Too many cells, or no cell size: no raster.
-    assert!(w.rasterize(ModelId(f as u32), 0.5, 31).is_none());
-    assert!(w.rasterize(ModelId(f as u32), 0.0, 1000).is_none());
+    assert!(w.rasterize(ModelId(f as u32), 0.5, 31).unwrap().is_none());
+    assert!(w.rasterize(ModelId(f as u32), 0.0, 1000).unwrap().is_none());
 }
 
 #[test]
@@ -808,7 +822,7 @@ fn a_turned_model_rasterises_over_its_world_bounding_box() {
     m.pose = Pose::new(0.0, 0.0, 0.0, PI / 2.0);
     let b = d.add(m, None);
     let w = World::from_desc(&d, 1).unwrap();
-    let r = w.rasterize(ModelId(b as u32), 0.25, 1000).unwrap();
+    let r = w.rasterize(ModelId(b as u32), 0.25, 1000).unwrap().unwrap();
     // Standing on end: 1 m wide, 2 m tall, every cell covered.
     assert_eq!((r.width, r.height), (4, 8));
     assert!((r.origin[0] + 0.5).abs() < 1e-12 && (r.origin[1] + 1.0).abs() < 1e-12);
@@ -836,7 +850,7 @@ bot ( name "shifted" pose [2 3 0 30] localization_origin [1 1 0 90] )
         .map(|n| w.model_by_name(n).unwrap())
         .collect();
     for &id in &ids {
-        w.subscribe(id);
+        w.subscribe(id).unwrap();
     }
     run(&mut w, 3);
     let est = |w: &World, i: usize| w.position_state(ids[i]).unwrap().pose;
@@ -865,7 +879,7 @@ bot ( name "shifted" pose [2 3 0 30] localization_origin [1 1 0 90] )
     w.position_cmd_vel(ids[0], 0.0, 0.0, 0.0).unwrap();
     run(&mut w, 2);
     assert!(close(est(&w, 0), 0.0, 0.0, 0.0), "{:?}", est(&w, 0));
-    assert!((w.pose(ids[0]).x - (-6.946 + d)).abs() < 1e-9);
+    assert!((w.pose(ids[0]).unwrap().x - (-6.946 + d)).abs() < 1e-9);
 }
 
 /// The digest covers every model's state: a change in any one part (colour, speech, an
@@ -913,20 +927,20 @@ fn the_digest_covers_colours_speech_actuators_cameras_and_lights() {
     };
     let colour = changed(&|w| {
         let b = id(w, "box");
-        w.set_color(b, Color::rgb(0.1, 0.2, 0.3))
+        w.set_color(b, Color::rgb(0.1, 0.2, 0.3)).unwrap()
     });
     let speech = changed(&|w| {
         let b = id(w, "r");
-        w.say(b, "hello")
+        w.say(b, "hello").unwrap()
     });
     let goal = changed(&|w| {
         let a = id(w, "act");
-        w.subscribe(a);
+        w.subscribe(a).unwrap();
         w.actuator_cmd(a, true, 0.5).unwrap();
     });
     let light = changed(&|w| {
         let l = id(w, "light");
-        w.set_light(l, true)
+        w.set_light(l, true).unwrap()
     });
     let all = [base, colour, speech, goal, light];
     for (i, a) in all.iter().enumerate() {

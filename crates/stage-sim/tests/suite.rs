@@ -50,12 +50,12 @@ fn run_suite(seconds: u64) {
             w.sim_time()
         );
         for m in w.models() {
-            let p = w.pose(m);
+            let p = w.pose(m).unwrap();
             assert!(
                 p.x.is_finite() && p.y.is_finite() && p.a.is_finite(),
                 "{}: model {} has a non-finite pose",
                 path.display(),
-                w.name(m)
+                w.name(m).unwrap()
             );
         }
         eprintln!(

@@ -125,7 +125,9 @@ fn main() {
         ..window_vis
     };
     for m in world_scene::visualised_sensors(&world, &vis) {
-        world.subscribe(m);
+        world
+            .subscribe(m)
+            .expect("visualised_sensors lists this world's models");
     }
     for _ in 0..warm {
         world.step();

@@ -292,16 +292,19 @@ fn title_of(spec: &WorldSpec) -> String {
 }
 
 fn apply(w: &mut World, c: WorldCommand) {
-    let valid = |m: ModelId| m.index() < w.model_count();
-    match c {
-        WorldCommand::SetPose(m, p) if valid(m) => {
+    let applied = match c {
+        WorldCommand::SetPose(m, p) => {
             if [p.x, p.y, p.z, p.a].iter().all(|v| v.is_finite()) {
-                w.set_pose(m, p);
+                w.set_pose(m, p)
+            } else {
+                Ok(())
             }
         }
-        WorldCommand::Subscribe(m) if valid(m) => w.subscribe(m),
-        WorldCommand::Unsubscribe(m) if valid(m) => w.unsubscribe(m),
-        _ => tracing::debug!("ignoring a command for an unknown model"),
+        WorldCommand::Subscribe(m) => w.subscribe(m),
+        WorldCommand::Unsubscribe(m) => w.unsubscribe(m),
+    };
+    if let Err(e) = applied {
+        tracing::debug!("ignoring a window command: {e}");
     }
 }
 
@@ -393,17 +396,23 @@ mod tests {
     #[test]
     fn commands_apply_at_the_next_update() {
         let (w, gui) = world();
+        let m = w.model_id(0).expect("the world has a box");
+        // an id from a bigger world: no model of this one
+        let mut big = WorldDesc::default();
+        for i in 0..100 {
+            big.add(ModelDesc::new(&format!("m{i}"), KindDesc::Model), None);
+        }
+        let foreign = World::from_desc(&big, 1).unwrap().model_id(99).unwrap();
         let h = WorldHandle::new(w, gui, None, "t");
-        let m = ModelId(0);
         h.send(WorldCommand::SetPose(m, Pose::new(1.0, 2.0, 0.0, 0.5)));
         h.send(WorldCommand::Subscribe(m));
-        h.send(WorldCommand::SetPose(ModelId(99), Pose::ZERO));
+        h.send(WorldCommand::SetPose(foreign, Pose::ZERO));
         h.send(WorldCommand::SetPose(m, Pose::new(f64::NAN, 0.0, 0.0, 0.0)));
-        assert_eq!(h.read().pose(m), Pose::ZERO);
+        assert_eq!(h.read().pose(m).unwrap(), Pose::ZERO);
         h.update(|_| ());
         let w = h.read();
-        assert_eq!(w.pose(m), Pose::new(1.0, 2.0, 0.0, 0.5));
-        assert_eq!(w.subscriptions(m), 1);
+        assert_eq!(w.pose(m).unwrap(), Pose::new(1.0, 2.0, 0.0, 0.5));
+        assert_eq!(w.subscriptions(m).unwrap(), 1);
     }
 
     #[test]
@@ -425,23 +434,23 @@ mod tests {
         assert!(Arc::ptr_eq(&h.world(), &world));
         let m = world.read().unwrap().model_by_name("r0").expect("r0");
         // no update() from the owner: the window applies its own edits between frames
-        let before = world.read().unwrap().pose(m);
+        let before = world.read().unwrap().pose(m).unwrap();
         {
             // the window sends edits while it reads: that must not deadlock nor apply yet
             let _reading = h.read();
             h.send(WorldCommand::SetPose(m, Pose::new(-1.0, 0.5, 0.0, 1.0)));
             h.send(WorldCommand::Subscribe(m));
         }
-        assert_eq!(world.read().unwrap().pose(m), before);
+        assert_eq!(world.read().unwrap().pose(m).unwrap(), before);
         h.apply_pending();
         assert_eq!(
-            world.read().unwrap().pose(m),
+            world.read().unwrap().pose(m).unwrap(),
             Pose::new(-1.0, 0.5, 0.0, 1.0)
         );
-        assert_eq!(world.read().unwrap().subscriptions(m), 1);
+        assert_eq!(world.read().unwrap().subscriptions(m).unwrap(), 1);
         h.send(WorldCommand::Unsubscribe(m));
         h.apply_pending();
-        assert_eq!(world.read().unwrap().subscriptions(m), 0);
+        assert_eq!(world.read().unwrap().subscriptions(m).unwrap(), 0);
         h.set_paused(true);
         assert!(paused.load(Ordering::Acquire));
         paused.store(false, Ordering::Release);

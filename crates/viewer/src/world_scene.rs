@@ -11,6 +11,10 @@ use crate::lod;
 use crate::scene::{Layer, Rgba8, Scene};
 use crate::view::View;
 
+/// Why the per-model world calls here cannot refuse: every id the scene draws, hashes or picks
+/// comes from the world it is given (its `models()`, or tree links of those).
+const SAME_WORLD: &str = "the scene's model ids come from the world it draws";
+
 /// Stage's canvas clear colour (outside the floor).
 pub const BACKGROUND: Rgba8 = Rgba8::rgb(179, 179, 204);
 /// Floor colour inside the world's extent.
@@ -199,7 +203,7 @@ impl VisOptions {
 pub fn visualised_sensors(world: &World, vis: &VisOptions) -> Vec<ModelId> {
     world
         .models()
-        .filter(|&m| vis.shows_data_of(world.model_type(m)))
+        .filter(|&m| vis.shows_data_of(world.model_type(m).expect(SAME_WORLD)))
         .collect()
 }
 
@@ -208,7 +212,7 @@ pub fn world_extent(world: &World) -> ([f64; 2], [f64; 2]) {
     let mut min = [f64::INFINITY; 2];
     let mut max = [f64::NEG_INFINITY; 2];
     for m in world.models() {
-        let b = world.body(m);
+        let b = world.body(m).expect(SAME_WORLD);
         if b.is_empty() {
             continue;
         }
@@ -231,13 +235,16 @@ fn transform(p: &Pose, q: [f64; 2]) -> [f64; 2] {
 
 /// The model's body frame (pose composed with its origin offset).
 fn body_frame(world: &World, m: ModelId) -> Pose {
-    world.global_pose(m).compose(&world.node(m).origin)
+    world
+        .global_pose(m)
+        .expect(SAME_WORLD)
+        .compose(&world.node(m).expect(SAME_WORLD).origin)
 }
 
 /// The rectangle `size` covers in the model's body frame, in world coordinates.
 fn size_rect(world: &World, m: ModelId) -> [[f64; 2]; 4] {
     let f = body_frame(world, m);
-    let [sx, sy, _] = world.node(m).size;
+    let [sx, sy, _] = world.node(m).expect(SAME_WORLD).size;
     let (hx, hy) = (sx / 2.0, sy / 2.0);
     [[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]].map(|q| transform(&f, q))
 }
@@ -268,7 +275,7 @@ pub fn build(
     }
     if vis.bounding_boxes {
         for m in world.models() {
-            let b = world.body(m);
+            let b = world.body(m).expect(SAME_WORLD);
             if !b.is_empty() {
                 let (a, c) = (b.aabb.min, b.aabb.max);
                 let pts = [a, [c[0], a[1]], c, [a[0], c[1]]];
@@ -284,10 +291,10 @@ pub fn build(
     }
     if vis.speech {
         for m in world.models() {
-            let text = world.said(m);
+            let text = world.said(m).expect(SAME_WORLD);
             if !text.is_empty() {
-                let g = world.global_pose(m);
-                let [sx, sy, _] = world.node(m).size;
+                let g = world.global_pose(m).expect(SAME_WORLD);
+                let [sx, sy, _] = world.node(m).expect(SAME_WORLD).size;
                 let off = 0.5 * sx.max(sy) + 8.0 * px;
                 scene.labels.push(crate::scene::Label {
                     pos: [(g.x + off) as f32, (g.y + off) as f32],
@@ -299,7 +306,8 @@ pub fn build(
         }
     }
     for &m in selected {
-        if m.index() < world.model_count() {
+        // a selection kept from another world may name no model of this one: not drawn
+        if world.node(m).is_ok() {
             let r = size_rect(world, m);
             scene.outline(Layer::Overlay, &r, 2.0, SELECTED);
         }
@@ -351,7 +359,7 @@ fn bodies(
     let mut order: Vec<(f64, ModelId)> = world
         .models()
         .filter_map(|m| {
-            let b = world.body(m);
+            let b = world.body(m).expect(SAME_WORLD);
             let top = b
                 .blocks
                 .iter()
@@ -363,7 +371,7 @@ fn bodies(
     order.sort_by(|a, b| a.0.total_cmp(&b.0));
     let (vmin, vmax) = visible;
     for (_, m) in order {
-        let body = world.body(m);
+        let body = world.body(m).expect(SAME_WORLD);
         let g = gui.get(m);
         let (bmin, bmax) = (body.aabb.min, body.aabb.max);
         // off screen (with a margin for outlines and noses): nothing to draw
@@ -378,7 +386,7 @@ fn bodies(
         // what never moves is drawn under everything that does (the renderer caches it); only
         // a moving model passing under a taller static one, which collisions rule out for
         // everything solid, would be stacked differently from Stage
-        let layer = if world.space().is_static(m) {
+        let layer = if world.is_static(m).expect(SAME_WORLD) {
             if !draw_static {
                 continue;
             }
@@ -388,7 +396,7 @@ fn bodies(
         };
         if (bmax[0] - bmin[0]).max(bmax[1] - bmin[1]) < BODY_DOT_PX * px && !g.grid && !g.outline {
             let h = 0.5 * px;
-            let color = Rgba8::from_color(&world.block_color(m, 0)).darker(0.5);
+            let color = Rgba8::from_color(&world.block_color(m, 0).expect(SAME_WORLD)).darker(0.5);
             scene.fill_rect(
                 layer,
                 [bmin[0] - h, bmin[1] - h],
@@ -399,7 +407,7 @@ fn bodies(
         }
         for k in 0..body.blocks.len() {
             let pts = body.block_pts(k);
-            let color = Rgba8::from_color(&world.block_color(m, k));
+            let color = Rgba8::from_color(&world.block_color(m, k).expect(SAME_WORLD));
             scene.outlined_fill(layer, pts, color, px, color.darker(0.5));
         }
         if g.grid {
@@ -411,10 +419,10 @@ fn bodies(
         }
         if g.nose {
             let f = body_frame(world, m);
-            let sx = world.node(m).size[0];
+            let sx = world.node(m).expect(SAME_WORLD).size[0];
             let a = transform(&f, [0.0, 0.0]);
             let b = transform(&f, [sx / 2.0, 0.0]);
-            let c = Rgba8::from_color(&world.color(m)).darker(0.4);
+            let c = Rgba8::from_color(&world.color(m).expect(SAME_WORLD)).darker(0.4);
             scene.stroke(layer, a, b, 2.0 * px, c);
         }
     }
@@ -435,18 +443,18 @@ fn static_key(world: &World, gui: &WorldGui, view: &View) -> u64 {
         h.f(v);
     }
     for m in world.models() {
-        if !world.space().is_static(m) {
+        if !world.is_static(m).expect(SAME_WORLD) {
             continue;
         }
         let g = gui.get(m);
-        h.u(u64::from(m.0) << 3
+        h.u((m.index() as u64) << 3
             | u64::from(g.nose) << 2
             | u64::from(g.grid) << 1
             | u64::from(g.outline));
-        let body = world.body(m);
+        let body = world.body(m).expect(SAME_WORLD);
         h.u(body.blocks.len() as u64);
         for (k, blk) in body.blocks.iter().enumerate() {
-            let c = world.block_color(m, k);
+            let c = world.block_color(m, k).expect(SAME_WORLD);
             h.f(c.r);
             h.f(c.g);
             h.f(c.b);
@@ -462,12 +470,13 @@ fn static_key(world: &World, gui: &WorldGui, view: &View) -> u64 {
         h.f(f.x);
         h.f(f.y);
         h.f(f.a);
-        let n = world.node(m).size;
+        let n = world.node(m).expect(SAME_WORLD).size;
         h.f(n[0]);
         h.f(n[1]);
-        h.f(world.color(m).r);
-        h.f(world.color(m).g);
-        h.f(world.color(m).b);
+        let color = world.color(m).expect(SAME_WORLD);
+        h.f(color.r);
+        h.f(color.g);
+        h.f(color.b);
     }
     h.0
 }
@@ -489,7 +498,7 @@ impl WordHash {
 /// `gui_grid`: 1 m lines across the model's size rectangle, in its frame.
 fn model_grid(world: &World, m: ModelId, layer: Layer, px: f64, scene: &mut Scene) {
     let f = body_frame(world, m);
-    let [sx, sy, _] = world.node(m).size;
+    let [sx, sy, _] = world.node(m).expect(SAME_WORLD).size;
     let (hx, hy) = (sx / 2.0, sy / 2.0);
     if sx / 1.0 > 10_000.0 || sy / 1.0 > 10_000.0 {
         return;
@@ -531,12 +540,13 @@ fn data(
 ) {
     let px = view.pixel();
     let frame = body_frame(world, m);
-    if let Some(r) = world.ranger_scans(m) {
+    // The type-specific getters double as type tests here: an error means "not that type".
+    if let Ok(r) = world.ranger_scans(m) {
         ranger(&frame, r, vis, px, visible, scene);
     }
-    if let Some(f) = world.fiducials(m) {
+    if let Ok(f) = world.fiducials(m) {
         if vis.fiducial {
-            let g = world.global_pose(m);
+            let g = world.global_pose(m).expect(SAME_WORLD);
             let c = Rgba8::rgb(0, 160, 0);
             for fd in &f.fiducials {
                 let t = [fd.pose.x, fd.pose.y];
@@ -549,7 +559,7 @@ fn data(
             }
         }
         if vis.fiducial_fov {
-            if let Some(cfg) = world.fiducial_config(m) {
+            if let Ok(cfg) = world.fiducial_config(m) {
                 wedge(
                     scene,
                     &frame,
@@ -561,7 +571,7 @@ fn data(
         }
     }
     if vis.blobfinder {
-        if let (Some(d), Some(cfg)) = (world.blobfinder_blobs(m), world.blobfinder_config(m)) {
+        if let (Ok(d), Ok(cfg)) = (world.blobfinder_blobs(m), world.blobfinder_config(m)) {
             blob_image(world, m, d, cfg.image, view, scene);
             let pan = frame.compose(&Pose::new(0.0, 0.0, 0.0, cfg.pan));
             wedge(
@@ -574,8 +584,8 @@ fn data(
         }
     }
     if vis.gripper {
-        if let (Some(d), Some(ps)) = (world.gripper_state(m), gui.get(m).paddle_size) {
-            let [sx, sy, _] = world.node(m).size;
+        if let (Ok(d), Some(ps)) = (world.gripper_state(m), gui.get(m).paddle_size) {
+            let [sx, sy, _] = world.node(m).expect(SAME_WORLD).size;
             let pos = d.paddle_pos;
             let gap_y = (1.0 - pos) * (sy / 2.0 - sy * ps[1]);
             for (i, inset) in [0.75 * ps[0], 0.25 * ps[0]].into_iter().enumerate() {
@@ -599,23 +609,25 @@ fn data(
         }
     }
     if vis.blinken {
-        if let (Some(on), ModelType::Blinkenlight) = (world.light_on(m), world.model_type(m)) {
-            let g = world.global_pose(m);
+        if let (Ok(on), ModelType::Blinkenlight) =
+            (world.light_on(m), world.model_type(m).expect(SAME_WORLD))
+        {
+            let g = world.global_pose(m).expect(SAME_WORLD);
             let c = if on {
-                Rgba8::from_color(&world.color(m))
+                Rgba8::from_color(&world.color(m).expect(SAME_WORLD))
             } else {
-                Rgba8::from_color(&world.color(m)).darker(0.3)
+                Rgba8::from_color(&world.color(m).expect(SAME_WORLD)).darker(0.3)
             };
             let r = 0.5
-                * world.node(m).size[0]
-                    .max(world.node(m).size[1])
+                * world.node(m).expect(SAME_WORLD).size[0]
+                    .max(world.node(m).expect(SAME_WORLD).size[1])
                     .max(4.0 * px);
             scene.fill_circle(Layer::Data, [g.x, g.y], r, c);
         }
     }
     if vis.position_coords {
-        if let Some(p) = world.position_state(m) {
-            let g = world.global_pose(m);
+        if let Ok(p) = world.position_state(m) {
+            let g = world.global_pose(m).expect(SAME_WORLD);
             scene.label(
                 [g.x, g.y],
                 format!(
@@ -762,7 +774,7 @@ fn blob_image(
     let (w, h) = (image[0].clamp(1, 640) as f64, image[1].clamp(1, 480) as f64);
     // half-size inset in screen pixels, anchored above-right of the model
     let k = 0.5;
-    let g = world.global_pose(m);
+    let g = world.global_pose(m).expect(SAME_WORLD);
     let anchor = view.to_screen([g.x, g.y]);
     let top_left = [anchor[0] + 10.0, anchor[1] - 10.0 - h * k];
     let boxes = d.blobs.iter().map(|b| {
@@ -778,7 +790,7 @@ fn blob_image(
 pub fn pick(world: &World, gui: &WorldGui, p: [f64; 2], movable: bool) -> Option<ModelId> {
     let mut best: Option<(f64, ModelId)> = None;
     for m in world.models() {
-        let b = world.body(m);
+        let b = world.body(m).expect(SAME_WORLD);
         if b.is_empty()
             || p[0] < b.aabb.min[0]
             || p[0] > b.aabb.max[0]
@@ -804,7 +816,7 @@ pub fn pick(world: &World, gui: &WorldGui, p: [f64; 2], movable: bool) -> Option
         if gui.get(m).movable {
             return Some(m);
         }
-        m = world.parent(m)?;
+        m = world.parent(m).expect(SAME_WORLD)?;
     }
 }
 

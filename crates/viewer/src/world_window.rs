@@ -51,6 +51,10 @@ use crate::scene::Scene;
 use crate::view::View;
 use crate::world_scene::{self, VisOptions};
 
+/// Why the world calls on the selected or dragged model cannot refuse: it was picked from the
+/// world this window shows, which keeps every model for its whole life.
+const PICKED: &str = "the selected model was picked from this window's world";
+
 /// Options of [`run`].
 #[derive(Clone, Debug, Default)]
 pub struct WindowOptions {
@@ -303,10 +307,10 @@ impl WorldApp {
                 ui.colored_label(egui::Color32::from_rgb(200, 0, 0), "[Paused]");
             }
             if let Some(m) = self.selected {
-                let p = world.global_pose(m);
+                let p = world.global_pose(m).expect(PICKED);
                 ui.label(format!(
                     "{}  ({:.2}, {:.2}, {:.1}°)",
-                    world.name(m),
+                    world.name(m).expect(PICKED),
                     p.x,
                     p.y,
                     p.a.to_degrees()
@@ -338,7 +342,7 @@ impl WorldApp {
                     Some(m) => Drag::Move {
                         model: m,
                         grab: wp,
-                        start: world.global_pose(m),
+                        start: world.global_pose(m).expect(PICKED),
                     },
                     None => Drag::Pan,
                 });
@@ -347,7 +351,7 @@ impl WorldApp {
                 self.drag = Some(match hit {
                     Some(m) => {
                         self.selected = Some(m);
-                        let g = world.global_pose(m);
+                        let g = world.global_pose(m).expect(PICKED);
                         Drag::Turn {
                             model: m,
                             last_angle: (wp[1] - g.y).atan2(wp[0] - g.x),
@@ -380,7 +384,7 @@ impl WorldApp {
                         self.set_global(world, model, target);
                     }
                     Some(Drag::Turn { model, last_angle }) => {
-                        let g = world.global_pose(model);
+                        let g = world.global_pose(model).expect(PICKED);
                         let a = (wp[1] - g.y).atan2(wp[0] - g.x);
                         let target = Pose::new(g.x, g.y, g.z, g.a + (a - last_angle));
                         self.set_global(world, model, target);
@@ -408,11 +412,12 @@ impl WorldApp {
 
     /// Moves `m` so its global pose becomes `target` (in its parent's frame for children).
     fn set_global(&self, world: &World, m: ModelId, target: Pose) {
-        let local = match world.parent(m) {
-            None => Pose::new(target.x, target.y, world.pose(m).z, target.a),
+        let z = world.pose(m).expect(PICKED).z;
+        let local = match world.parent(m).expect(PICKED) {
+            None => Pose::new(target.x, target.y, z, target.a),
             Some(p) => {
-                let mut l = world.global_pose(p).relative(&target);
-                l.z = world.pose(m).z;
+                let mut l = world.global_pose(p).expect(PICKED).relative(&target);
+                l.z = z;
                 l
             }
         };

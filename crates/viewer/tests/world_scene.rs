@@ -3,7 +3,6 @@
 
 mod common;
 
-use stage_sim::ModelId;
 use viewer::View;
 use viewer::scene::{Layer, Rgba8, Scene};
 use viewer::world_scene::{self, VisOptions, WorldGui};
@@ -155,7 +154,7 @@ fn picking_finds_the_top_model_or_its_movable_ancestor() {
 fn selection_and_speech_are_drawn_on_top() {
     let (mut world, gui) = common::known_world();
     let robot = world.model_by_name("robot").unwrap();
-    world.say(robot, "hello");
+    world.say(robot, "hello").unwrap();
     let mut scene = Scene::default();
     world_scene::build(
         &world,
@@ -175,13 +174,21 @@ fn selection_and_speech_are_drawn_on_top() {
     assert_eq!(scene.labels.len(), 1);
     assert_eq!(scene.labels[0].text, "hello");
     assert!(scene.labels[0].bubble.is_some());
-    // an out-of-range selection is ignored
+    // an out-of-range selection (an id from a bigger world) is ignored
+    let mut big = stage_sim::WorldDesc::default();
+    for i in 0..1000 {
+        big.add(
+            stage_sim::ModelDesc::new(&format!("m{i}"), stage_sim::KindDesc::Model),
+            None,
+        );
+    }
+    let big = stage_sim::World::from_desc(&big, 1).expect("plain models build");
     world_scene::build(
         &world,
         &gui,
         &VisOptions::default(),
         &view(),
-        &[ModelId(999)],
+        &[big.model_id(999).expect("the big world has 1000 models")],
         &mut scene,
     );
 }
@@ -258,7 +265,9 @@ fn static_layer_is_reused_only_while_unchanged() {
     assert_eq!(reused, fresh(&world, &v));
 
     // a recoloured wall must show
-    world.set_color(walls, stage_sim::Color::rgb(0.0, 1.0, 0.0));
+    world
+        .set_color(walls, stage_sim::Color::rgb(0.0, 1.0, 0.0))
+        .unwrap();
     world_scene::build(&world, &gui, &vis, &v, &[], &mut reused);
     assert_ne!(reused.static_key, Some(key));
     assert!(has_color(&reused, Layer::Static, Rgba8::rgb(0, 255, 0)));

@@ -26,7 +26,7 @@ impl Interface for Actarray {
     /// (a position goal clamped to the joint's limits, a speed goal as commanded), moving while
     /// that goal is non-zero; acceleration and current are 0 (Stage models neither).
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let a = out.new_sample(b.world.actuator(b.model), |s| s.time_us)?;
+        let a = out.new_sample(b.answer(b.world.actuator(b.model)), |s| s.time_us)?;
         out.publish(ActarrayData::State(ActarrayDataState {
             actuators: vec![ActarrayActuator {
                 position: a.position as f32,
@@ -75,7 +75,7 @@ fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<ActarrayGeom> 
     let TypeSpec::Actuator(spec) = &b.model_spec().spec else {
         return None;
     };
-    let origin = b.world.node(b.model).origin;
+    let origin = b.node().origin;
     Some(ActarrayGeom {
         actuators: vec![ActarrayActuatorgeom {
             kind: PLAYER_ACTARRAY_TYPE_LINEAR,

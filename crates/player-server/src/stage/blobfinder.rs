@@ -13,7 +13,7 @@ pub(super) struct Blobfinder;
 impl Interface for Blobfinder {
     /// DATA BLOBS, also when nothing is seen: per blob its colour, area, centre, box and range.
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let data = out.new_sample(b.world.blobfinder_blobs(b.model), |s| s.time_us)?;
+        let data = out.new_sample(b.answer(b.world.blobfinder_blobs(b.model)), |s| s.time_us)?;
         // Stage fills in the image size only when there is a blob (spec §9.3).
         let (width, height) = if data.blobs.is_empty() {
             (0, 0)

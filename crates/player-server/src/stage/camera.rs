@@ -15,7 +15,7 @@ impl Interface for Camera {
     /// DATA STATE: the latest image, alpha dropped (the sky, transparent in the simulator, is
     /// black).
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let img = out.new_sample(b.world.camera_image(b.model), |s| s.time_us)?;
+        let img = out.new_sample(b.answer(b.world.camera_image(b.model)), |s| s.time_us)?;
         if img.width == 0 || img.height == 0 {
             return None;
         }

@@ -20,7 +20,7 @@ impl Interface for Fiducial {
     /// frame (range and bearing) with the target's relative heading; `upose` (left uninitialised
     /// by Stage) is zero.
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let data = out.new_sample(b.world.fiducials(b.model), |s| s.time_us)?;
+        let data = out.new_sample(b.answer(b.world.fiducials(b.model)), |s| s.time_us)?;
         let fiducials = data
             .fiducials
             .iter()
@@ -46,12 +46,16 @@ impl Interface for Fiducial {
         match req {
             FiducialReq::GetGeom(None) => Reply::ack(FiducialReq::GetGeom(Some(geometry(b)))),
             // The finder's own fiducial return: the sensor itself becomes a beacon.
-            FiducialReq::GetId(_) => Reply::ack(FiducialReq::GetId(Some(FiducialId {
-                id: b.world.fiducial_id(b.model) as u32,
-            }))),
+            FiducialReq::GetId(_) => match b.answer(b.world.fiducial_id(b.model)) {
+                Some(id) => Reply::ack(FiducialReq::GetId(Some(FiducialId { id: id as u32 }))),
+                None => Reply::Nack,
+            },
             FiducialReq::SetId(Some(FiducialId { id })) => {
-                b.world.set_fiducial_id(b.model, *id as i32);
-                Reply::ack(FiducialReq::SetId(Some(FiducialId { id: *id })))
+                let set = b.world.set_fiducial_id(b.model, *id as i32);
+                match b.answer(set) {
+                    Some(()) => Reply::ack(FiducialReq::SetId(Some(FiducialId { id: *id }))),
+                    None => Reply::Nack,
+                }
             }
             // FOV requests: NACK, as Stage.
             _ => Reply::NotHandled,

@@ -228,7 +228,13 @@ mod tests {
     #[test]
     fn lists_are_per_client_bounded_and_cleared() {
         let d = SharedDrawings::default();
-        let m = ModelId(3);
+        let mut world = stage_sim::WorldDesc::default();
+        world.add(
+            stage_sim::ModelDesc::new("drawn on", stage_sim::KindDesc::Model),
+            None,
+        );
+        let world = stage_sim::World::from_desc(&world, 1).unwrap();
+        let m = world.model_by_name("drawn on").unwrap();
         let points = |n| {
             Body::from(Graphics2dCmd::Points(Graphics2dCmdPoints {
                 points: vec![Point2d { px: n, py: 0.0 }],

@@ -24,7 +24,7 @@ pub(super) struct Gripper;
 impl Interface for Gripper {
     /// DATA STATE: paddle state, the break-beam bits; `stored` is always 0 in Stage.
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let s = out.new_sample(b.world.gripper_state(b.model), |s| s.time_us)?;
+        let s = out.new_sample(b.answer(b.world.gripper_state(b.model)), |s| s.time_us)?;
         let state = match s.paddles {
             PaddleState::Open => PLAYER_GRIPPER_STATE_OPEN,
             PaddleState::Closed => PLAYER_GRIPPER_STATE_CLOSED,

@@ -11,7 +11,7 @@ use std::ops::Deref;
 use std::sync::RwLockWriteGuard;
 
 use player_proto::{Bbox3d, Body, DeviceAddr, Pose3d};
-use stage_sim::{ModelId, World};
+use stage_sim::{ModelId, Pose, World};
 use worldfile::WorldSpec;
 
 use super::graphics::{DrawingKey, SharedDrawings};
@@ -134,9 +134,29 @@ impl<W: Deref<Target = World>> Bound<'_, W> {
         self.spec.model(self.model.index())
     }
 
+    /// The bound model's tree and configuration data.
+    pub fn node(&self) -> &stage_sim::node::Node {
+        self.world
+            .node(self.model)
+            .expect("binding checked the model against this world, which never loses one")
+    }
+
+    /// The bound model's pose in its parent's frame.
+    pub fn pose(&self) -> Pose {
+        self.world
+            .pose(self.model)
+            .expect("binding checked the model against this world, which never loses one")
+    }
+
+    /// The bound model's answer to a type-specific world call, or `None` (logged): see
+    /// [`super::bound_answer`].
+    pub fn answer<T>(&self, answer: stage_sim::Result<T>) -> Option<T> {
+        super::bound_answer(self.model, answer)
+    }
+
     /// The model's size `[x y z]`.
     pub fn size(&self) -> [f64; 3] {
-        self.world.node(self.model).size
+        self.node().size
     }
 
     /// The model's size as Player's bounding box: Stage's `[x y z]` is length, width, height.
@@ -146,7 +166,7 @@ impl<W: Deref<Target = World>> Bound<'_, W> {
 
     /// The model's pose in its parent's frame as a Player 3D pose (roll = pitch = 0).
     pub fn local_pose3d(&self) -> Pose3d {
-        pose3d(&self.world.pose(self.model))
+        pose3d(&self.pose())
     }
 }
 

@@ -96,7 +96,7 @@ impl Interface for Laser {
     /// libplayerc asserts it), its intensities (zeros when switched off) and bearings; `id`
     /// counts the scans.
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let data = out.new_sample(b.world.ranger_scans(b.model), |s| s.time_us)?;
+        let data = out.new_sample(b.answer(b.world.ranger_scans(b.model)), |s| s.time_us)?;
         let scan_id = self.scans;
         self.scans = self.scans.wrapping_add(1);
         let (Some(sensor), Some(scan)) = (data.sensors.first(), data.scans.first()) else {
@@ -137,7 +137,7 @@ impl Interface for Laser {
             },
             LaserReq::SetConfig(Some(c)) => set_config(b, &mut self.scan, c),
             LaserReq::GetId(_) => Reply::ack(LaserReq::GetId(Some(LaserGetIdConfig {
-                serial_number: b.model.0,
+                serial_number: b.model.index() as u32,
             }))),
             // POWER and the filters: NACK (a simulated ranger is always on and unfiltered).
             _ => Reply::NotHandled,
@@ -266,7 +266,7 @@ fn choose(sensor: &SensorDesc, world_res: f64, req: &LaserConfig) -> Result<Scan
 fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<LaserGeom> {
     let sensor = ranger::sensors(b).into_iter().next()?;
     let [x, y, z, a] = sensor.pose;
-    let pose = b.world.pose(b.model).compose(&Pose { x, y, z, a });
+    let pose = b.pose().compose(&Pose { x, y, z, a });
     Some(LaserGeom {
         pose: pose3d(&pose),
         size: ranger::geometry(b).size,
@@ -278,11 +278,11 @@ fn config<W: Deref<Target = World>>(
     b: &Bound<'_, W>,
     set: Option<&ScanConfig>,
 ) -> Option<LaserConfig> {
-    let data = b.world.ranger_scans(b.model)?;
+    let data = b.answer(b.world.ranger_scans(b.model))?;
     let sensor = data.sensors.first()?;
     let cfg = ScanConfig::of(set, sensor);
     let (min_angle, max_angle, resolution) = cfg.angles(sensor);
-    let interval_us = b.world.node(b.model).update_interval_us.max(1);
+    let interval_us = b.node().update_interval_us.max(1);
     Some(LaserConfig {
         min_angle: min_angle as f32,
         max_angle: max_angle as f32,
@@ -301,10 +301,9 @@ fn set_config<W: Deref<Target = World>>(
     set: &mut Option<ScanConfig>,
     req: &LaserConfig,
 ) -> Reply {
-    let name = b.world.name(b.model);
+    let name = &b.node().name;
     let Some(sensor) = b
-        .world
-        .ranger_scans(b.model)
+        .answer(b.world.ranger_scans(b.model))
         .and_then(|d| d.sensors.first())
     else {
         tracing::warn!("laser on \"{name}\": SET_CONFIG refused: the ranger has no transducer");

@@ -12,7 +12,7 @@
 use player_proto::{Body, Pose2d};
 use stage_sim::{ModelId, Pose, World};
 
-use super::{Interface, Writing};
+use super::{Interface, Writing, bound_answer};
 use crate::driver::Reply;
 use crate::map::{self, MAX_GRID_CELLS, OccupancyGrid};
 
@@ -26,12 +26,16 @@ impl Interface for Map {
     /// Answers a map request about the bound model, (re)making the cached grid first when needed.
     fn request(&mut self, b: &mut Writing<'_>, body: &Body) -> Reply {
         let (world, model, cache) = (&*b.world, b.model, &mut self.cache);
-        let pose = world.global_pose(model);
+        let (Some(pose), Some(name)) = (
+            bound_answer(model, world.global_pose(model)),
+            bound_answer(model, world.name(model)),
+        ) else {
+            return Reply::Nack;
+        };
         if cache.as_ref().is_none_or(|c| c.pose != pose) {
-            *cache = grid_of(world, model).map(|grid| {
+            *cache = grid_of(world, model, name).map(|grid| {
                 tracing::debug!(
-                    "stage: map of model \"{}\": {} x {} cells at {} m",
-                    world.name(model),
+                    "stage: map of model \"{name}\": {} x {} cells at {} m",
                     grid.width(),
                     grid.height(),
                     grid.scale()
@@ -54,13 +58,13 @@ struct MapCache {
 }
 
 /// The model's grid as it stands now, or `None` (logged) when it cannot be made.
-fn grid_of(world: &World, model: ModelId) -> Option<OccupancyGrid> {
+fn grid_of(world: &World, model: ModelId, name: &str) -> Option<OccupancyGrid> {
     let resolution = world.config().resolution;
-    let Some(raster) = world.rasterize(model, resolution, MAX_GRID_CELLS) else {
+    let Some(raster) = bound_answer(model, world.rasterize(model, resolution, MAX_GRID_CELLS))?
+    else {
         tracing::warn!(
-            "stage: cannot serve model \"{}\" as a map at resolution {resolution} m: too many \
-             cells",
-            world.name(model)
+            "stage: cannot serve model \"{name}\" as a map at resolution {resolution} m: too \
+             many cells"
         );
         return None;
     };

@@ -246,6 +246,16 @@ struct Device {
     published_us: u64,
 }
 
+/// A bound model's answer to a world call, or `None` with the error logged. Binding checked
+/// the id against the world (which never loses a model) and matched the model's type to the
+/// interface, so an error here is a bug in the binding rules: the device goes quiet (no data,
+/// a NACK) instead of taking the server down.
+pub(crate) fn bound_answer<T>(model: ModelId, answer: stage_sim::Result<T>) -> Option<T> {
+    answer
+        .inspect_err(|e| tracing::error!("stage: bound model {model}: {e}"))
+        .ok()
+}
+
 /// A Stage pose as a Player 3D pose: x, y, z, yaw; roll = pitch = 0.
 pub(crate) fn pose3d(p: &Pose) -> Pose3d {
     Pose3d {
@@ -439,20 +449,23 @@ impl StageDriver {
         };
         let id = bind_stage_model(&s.spec, name, addr.interf, &mut s.bound)
             .map_err(|why| BindError::new(why.kind, format!("cannot bind `{device}`: {why}")))?;
-        let m = ModelId(id as u32);
         let spec = s.spec.model(id);
         let w = s.world.read().unwrap_or_else(|e| e.into_inner());
-        if id >= w.model_count() || w.name(m) != spec.name {
+        let found = w.model_id(id).ok().map(|m| {
+            let node = w.node(m).expect("model_id checked the index");
+            (m, node)
+        });
+        let Some((m, node)) = found.filter(|(_, node)| node.name == spec.name) else {
             return Err(BindError::new(
                 BindErrorKind::NoSuchModel,
                 format!("model \"{}\" is not in the simulated world", spec.name),
             ));
-        }
+        };
         tracing::debug!(
             "{}: {device} bound to model \"{}\" ({})",
             p.origin,
-            w.name(m),
-            w.type_name(m)
+            node.name,
+            node.model_type.name()
         );
         let binding = DeviceBinding::Model(BoundModel {
             id,
@@ -558,7 +571,9 @@ impl Driver for StageDriver {
         d.subs += 1;
         // The first subscription starts the model updating.
         if let (1, Some(m)) = (d.subs, d.model) {
-            self.write().subscribe(m);
+            self.write()
+                .subscribe(m)
+                .map_err(|e| DriverError::new(format!("{addr}: {e}")))?;
         }
         Ok(())
     }
@@ -570,7 +585,9 @@ impl Driver for StageDriver {
         }
         d.subs -= 1;
         if let (0, Some(m)) = (d.subs, d.model) {
-            self.write().unsubscribe(m);
+            self.write()
+                .unsubscribe(m)
+                .map_err(|e| DriverError::new(format!("{addr}: {e}")))?;
         }
         Ok(())
     }
@@ -678,7 +695,8 @@ impl Driver for StageDriver {
         let mut w = self.world.write().unwrap_or_else(|e| e.into_inner());
         for d in &mut self.devices {
             if let (Some(m), true) = (d.model, d.subs > 0) {
-                w.unsubscribe(m);
+                // Shutting down: nobody to hand the error to.
+                bound_answer(m, w.unsubscribe(m));
                 d.subs = 0;
             }
         }

@@ -62,7 +62,7 @@ impl Interface for Position {
 
     /// DATA STATE: the pose estimate (odometry or "gps"), the velocity and the stall flag.
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let s = out.new_sample(b.world.position_state(b.model), |s| s.time_us)?;
+        let s = out.new_sample(b.answer(b.world.position_state(b.model)), |s| s.time_us)?;
         let pose2d = |p: &Pose| Pose2d {
             px: p.x,
             py: p.y,
@@ -80,7 +80,7 @@ impl Interface for Position {
 /// The geometry: the body offset (`origin`) and the size; Stage leaves z, roll, pitch and the
 /// height uninitialised, we send 0 and the model's height.
 fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Position2dGeom {
-    let node = b.world.node(b.model);
+    let node = b.node();
     Position2dGeom {
         pose: Pose3d {
             px: node.origin.x,

@@ -20,7 +20,7 @@ impl Interface for Ranger {
     /// RANGE then INTNS, each only when it has values (none before the first scan). One
     /// transducer: all its samples; several: the first sample of each.
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let data = out.new_sample(b.world.ranger_scans(b.model), |s| s.time_us)?;
+        let data = out.new_sample(b.answer(b.world.ranger_scans(b.model)), |s| s.time_us)?;
         let ranges = super::convert::ranger_ranges(data);
         if !ranges.is_empty() {
             out.publish(RangerData::Range(RangerDataRange { ranges }));
@@ -87,9 +87,9 @@ pub(super) fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> RangerGeom
 
 /// GET_CONFIG: the first transducer only, with Stage's `fov / samples` resolution.
 fn config<W: Deref<Target = World>>(b: &Bound<'_, W>) -> Option<RangerConfig> {
-    let data = b.world.ranger_scans(b.model)?;
+    let data = b.answer(b.world.ranger_scans(b.model))?;
     let s = data.sensors.first()?;
-    let interval_us = b.world.node(b.model).update_interval_us.max(1);
+    let interval_us = b.node().update_interval_us.max(1);
     Some(RangerConfig {
         min_angle: -s.fov / 2.0,
         max_angle: s.fov / 2.0,

@@ -22,7 +22,7 @@ impl Interface for Simulation {
             Body::Simulation(SimulationMsg::Req(req)) => match req {
                 SimulationReq::GetPose2d(Some(r)) => match model(world, &r.name) {
                     Some(m) => {
-                        let p = world.pose(m);
+                        let p = world.pose(m).expect(BY_NAME);
                         Reply::ack(SimulationReq::GetPose2d(Some(SimulationPose2dReq {
                             name: r.name.clone(),
                             pose: Pose2d {
@@ -36,15 +36,17 @@ impl Interface for Simulation {
                 },
                 SimulationReq::SetPose2d(Some(r)) => match model(world, &r.name) {
                     Some(m) => {
-                        let z = world.pose(m).z;
-                        world.set_pose(m, Pose::new(r.pose.px, r.pose.py, z, r.pose.pa));
+                        let z = world.pose(m).expect(BY_NAME).z;
+                        world
+                            .set_pose(m, Pose::new(r.pose.px, r.pose.py, z, r.pose.pa))
+                            .expect(BY_NAME);
                         Reply::empty_ack()
                     }
                     None => Reply::Nack,
                 },
                 SimulationReq::GetPose3d(Some(r)) => match model(world, &r.name) {
                     Some(m) => {
-                        let p = world.pose(m);
+                        let p = world.pose(m).expect(BY_NAME);
                         Reply::ack(SimulationReq::GetPose3d(Some(SimulationPose3dReq {
                             name: r.name.clone(),
                             pose: super::pose3d(&p),
@@ -59,7 +61,9 @@ impl Interface for Simulation {
                         let Pose3d {
                             px, py, pz, pyaw, ..
                         } = r.pose;
-                        world.set_pose(m, Pose::new(px, py, pz, pyaw));
+                        world
+                            .set_pose(m, Pose::new(px, py, pz, pyaw))
+                            .expect(BY_NAME);
                         Reply::empty_ack()
                     }
                     None => Reply::Nack,
@@ -106,6 +110,9 @@ fn prop_is(prop: &Text, name: &str) -> bool {
     true
 }
 
+/// Why the world calls below cannot refuse: their ids come from [`model`].
+const BY_NAME: &str = "a model found by name in this world belongs to it";
+
 fn model(world: &World, name: &Text) -> Option<ModelId> {
     world.model_by_name(&name.to_str_lossy())
 }
@@ -140,7 +147,7 @@ fn get_property(world: &World, req: &SimulationPropertyReq) -> Reply {
         if req.value.len() != 16 {
             return Reply::Nack;
         }
-        color_bytes(&world.color(m))
+        color_bytes(&world.color(m).expect(BY_NAME))
     } else if prop_is(&req.prop, "time") {
         if req.value.len() != 8 {
             return Reply::Nack;
@@ -165,7 +172,7 @@ fn set_property(world: &mut World, req: &SimulationPropertyReq) -> Reply {
     }
     match color_from_bytes(&req.value) {
         Some(c) => {
-            world.set_color(m, c);
+            world.set_color(m, c).expect(BY_NAME);
             Reply::empty_ack()
         }
         None => Reply::Nack,

@@ -27,7 +27,7 @@ impl Interface for Sonar {
 
     /// DATA RANGES: the first sample of each transducer, as floats.
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
-        let data = out.new_sample(b.world.ranger_scans(b.model), |s| s.time_us)?;
+        let data = out.new_sample(b.answer(b.world.ranger_scans(b.model)), |s| s.time_us)?;
         let ranges: Vec<f32> = data
             .scans
             .iter()
@@ -43,7 +43,7 @@ impl Interface for Sonar {
 
 /// GET_GEOM: each transducer's pose in the robot (the ranger's pose composed with it).
 fn geometry<W: Deref<Target = World>>(b: &Bound<'_, W>) -> SonarGeom {
-    let base = b.world.pose(b.model);
+    let base = b.pose();
     SonarGeom {
         poses: ranger::sensors(b)
             .iter()

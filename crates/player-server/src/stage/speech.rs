@@ -15,7 +15,7 @@ impl Interface for Speech {
         let Body::Speech(SpeechMsg::Cmd(SpeechCmd::Say(say))) = body else {
             return false;
         };
-        b.world.say(b.model, &say.string.to_str_lossy());
-        true
+        let said = b.world.say(b.model, &say.string.to_str_lossy());
+        b.answer(said).is_some()
     }
 }

@@ -303,12 +303,13 @@ fn blobfinder_and_fiducial_publish_every_update_even_when_empty() {
     assert_eq!(scan.fiducials.len(), 1);
     assert_eq!(scan.fiducials[0].id, 7);
     // Turn away: both still publish, empty.
-    s.handle
-        .world()
-        .unwrap()
-        .write()
-        .unwrap()
-        .set_pose(ModelId(0), Pose::new(0.0, 0.0, 0.0, std::f64::consts::PI));
+    {
+        let world = s.handle.world().unwrap();
+        let mut w = world.write().unwrap();
+        let first = w.model_id(0).unwrap();
+        w.set_pose(first, Pose::new(0.0, 0.0, 0.0, std::f64::consts::PI))
+            .unwrap();
+    }
     let out = step(&mut s);
     assert_eq!(out.len(), 2);
 }
@@ -475,7 +476,7 @@ fn speech_sets_the_models_bubble() {
     );
     let world = s.handle.world().unwrap();
     let w = world.read().unwrap();
-    assert_eq!(w.said(w.model_by_name("robot").unwrap()), "hello");
+    assert_eq!(w.said(w.model_by_name("robot").unwrap()).unwrap(), "hello");
 }
 
 #[test]
@@ -591,7 +592,8 @@ fn map_serves_the_named_models_blocks_at_the_world_resolution() {
     world
         .write()
         .unwrap()
-        .set_pose(id, stage_sim::Pose::new(3.0, 1.0, 0.0, 0.0));
+        .set_pose(id, stage_sim::Pose::new(3.0, 1.0, 0.0, 0.0))
+        .unwrap();
     let i = info(&mut robot, 1);
     assert!((i.origin.px - 2.75).abs() < 1e-9 && (i.origin.py - 0.75).abs() < 1e-9);
     // No vector map.

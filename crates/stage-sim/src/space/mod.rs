@@ -46,6 +46,12 @@ use dyn_grid::{DynGrid, dynamic_cell};
 use static_index::StaticIndex;
 
 /// Every body in world space plus the two indices; see the module docs.
+///
+/// Built and kept by a [`World`](crate::World), which hands out `&Space` for ray and contact
+/// queries. The calls that take a model id index their tables unchecked (they serve the step's
+/// hot loops) and so are crate-private; outside the crate a model's body and static flag come
+/// from the checked [`World::body`](crate::World::body) and
+/// [`World::is_static`](crate::World::is_static).
 pub struct Space {
     bodies: Vec<Body>,
     /// Root of each model's tree (models with equal roots are related and never see each other).
@@ -64,7 +70,7 @@ pub struct Space {
 impl Space {
     /// Builds the indices from every model's world-space body; `dynamic[m]` says whether model
     /// `m` can move (it is in a robot's tree).
-    pub fn new(bodies: Vec<Body>, dynamic: &[bool], roots: Vec<ModelId>) -> Space {
+    pub(crate) fn new(bodies: Vec<Body>, dynamic: &[bool], roots: Vec<ModelId>) -> Space {
         let n = bodies.len();
         let mut bounds = Aabb::EMPTY;
         for body in &bodies {
@@ -100,12 +106,12 @@ impl Space {
     }
 
     /// Records that model `m` now belongs to the tree rooted at `root` (re-parenting).
-    pub fn set_root(&mut self, m: ModelId, root: ModelId) {
+    pub(crate) fn set_root(&mut self, m: ModelId, root: ModelId) {
         self.roots[m.index()] = root;
     }
 
     /// The world-space body of model `m`.
-    pub fn body(&self, m: ModelId) -> &Body {
+    pub(crate) fn body(&self, m: ModelId) -> &Body {
         &self.bodies[m.index()]
     }
 
@@ -119,22 +125,8 @@ impl Space {
         self.statics.blocks.len()
     }
 
-    /// Replaces model `m`'s body after it moved, updating the dynamic index incrementally.
-    /// A static body that moves leaves the static index for good and joins the grid.
-    pub fn set_body(&mut self, m: ModelId, body: Body) {
-        let i = m.index();
-        if self.static_live[i] {
-            self.static_live[i] = false;
-        }
-        self.is_static[i] = false;
-        self.grid.update(m, &body.aabb);
-        self.aabbs[i] = body.aabb;
-        self.bodies[i] = body;
-        self.note_member(m);
-    }
-
     /// Mutable access to a body's storage for in-place refresh; call [`Space::commit_body`] after.
-    pub fn body_mut(&mut self, m: ModelId) -> &mut Body {
+    pub(crate) fn body_mut(&mut self, m: ModelId) -> &mut Body {
         let i = m.index();
         self.static_live[i] = false;
         self.is_static[i] = false;
@@ -142,7 +134,7 @@ impl Space {
     }
 
     /// Re-registers model `m` in the dynamic index after [`Space::body_mut`] changed it.
-    pub fn commit_body(&mut self, m: ModelId) {
+    pub(crate) fn commit_body(&mut self, m: ModelId) {
         let aabb = self.bodies[m.index()].aabb;
         self.grid.update(m, &aabb);
         self.aabbs[m.index()] = aabb;
@@ -157,7 +149,7 @@ impl Space {
     }
 
     /// Models whose bodies are registered as static (never moved).
-    pub fn is_static(&self, m: ModelId) -> bool {
+    pub(crate) fn is_static(&self, m: ModelId) -> bool {
         self.is_static[m.index()]
     }
 }

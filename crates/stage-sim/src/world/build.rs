@@ -165,7 +165,7 @@ impl World {
         }
         for (i, m) in desc.models.iter().enumerate() {
             if m.alwayson {
-                world.subscribe(ModelId(i as u32));
+                world.subscribe(ModelId(i as u32))?;
             }
         }
         for (i, m) in desc.models.iter().enumerate() {
@@ -196,12 +196,15 @@ impl World {
         Ok(world)
     }
 
+    /// Installs a controller whose models were checked (built-in ones pick them from this
+    /// world; [`World::add_controller`] checks them).
     pub(super) fn install_controller(&mut self, inst: controller::Installed) {
-        for s in &inst.subscribe {
-            self.subscribe(*s);
+        for &s in &inst.subscribe {
+            self.subscribe(s)
+                .expect("a controller's models are checked before it is installed");
         }
         for c in inst.init {
-            self.apply(c);
+            self.apply_logged(c);
         }
         self.controllers.push(ControllerSlot {
             model: inst.model,
@@ -212,7 +215,14 @@ impl World {
 
     /// Attaches a controller to `model`, called after each update of `trigger` (which is
     /// subscribed, as is `model`). Commands it emits are applied after the step's moves.
-    pub fn add_controller(&mut self, model: ModelId, trigger: ModelId, ctrl: Box<dyn Controller>) {
+    pub fn add_controller(
+        &mut self,
+        model: ModelId,
+        trigger: ModelId,
+        ctrl: Box<dyn Controller>,
+    ) -> Result<()> {
+        self.check(model)?;
+        self.check(trigger)?;
         self.install_controller(controller::Installed {
             model,
             trigger,
@@ -220,5 +230,6 @@ impl World {
             init: Vec::new(),
             ctrl,
         });
+        Ok(())
     }
 }

@@ -12,12 +12,15 @@ mod build;
 mod moves;
 mod query;
 mod step;
+#[cfg(test)]
+mod tests;
 mod tree;
 
 use std::collections::HashMap;
 
 use crate::controller::Controller;
 use crate::desc::Color;
+use crate::error::{Error, Result};
 use crate::models::KindState;
 use crate::pose::Pose;
 use crate::rng::SimRng;
@@ -46,6 +49,25 @@ struct ControllerSlot {
 }
 
 /// A running world. See the crate docs for the step semantics.
+///
+/// # Model ids
+///
+/// Every public function that takes a [`ModelId`] returns a [`Result`], with
+/// one rule for all of them:
+/// * an id whose index this world does not have is [`Error::ForeignModel`] (never a panic);
+/// * a type-specific call (a getter such as [`World::ranger_scans`] answering `Result<&T>`, a
+///   command such as [`World::position_cmd_vel`] answering `Result<()>`) asked of a model of
+///   another type is [`Error::BadModel`] (cheap: a getter may serve as a type test), and a
+///   block index the model does not have is [`Error::NoBlock`];
+/// * an answer that may rightly be absent stays an `Option` inside the `Result`
+///   ([`World::parent`], [`World::last_update`], [`World::rasterize`], [`World::raycast`]).
+///
+/// The check is one comparison at this public boundary; the step, ray casts, model updates
+/// and moves inside the crate index their tables directly. Ids come from the world itself
+/// ([`World::models`], [`World::model_by_name`], tree links, ray hits) or from a number
+/// through [`World::model_id`]. What cannot be detected: an id taken from another world whose
+/// index also exists here names this world's model with that index (an id carries no world
+/// tag; see [`ModelId`] for why).
 pub struct World {
     cfg: WorldConfig,
     seed: u64,
@@ -118,8 +140,47 @@ impl World {
         }
     }
 
+    /// The one check at the public boundary: `m`'s index into the per-model tables, or
+    /// [`Error::ForeignModel`] when this world has no model with that index.
+    pub(super) fn check(&self, m: ModelId) -> Result<usize> {
+        let i = m.index();
+        if i < self.nodes.len() {
+            Ok(i)
+        } else {
+            Err(Error::ForeignModel {
+                id: m,
+                models: self.nodes.len(),
+            })
+        }
+    }
+
+    /// The checked model's type state (for the type-specific calls).
+    pub(super) fn kind(&self, m: ModelId) -> Result<&KindState> {
+        Ok(&self.states[self.check(m)?].kind)
+    }
+
+    /// The checked model's type state, mutable (for the type-specific commands).
+    pub(super) fn kind_mut(&mut self, m: ModelId) -> Result<&mut KindState> {
+        let i = self.check(m)?;
+        Ok(&mut self.states[i].kind)
+    }
+
+    /// The error for a type-specific call asked of model `m` (in range) of another type.
+    pub(super) fn wrong_type(&self, m: ModelId, expected: &'static str) -> Error {
+        wrong_type(&self.nodes[m.index()], m, expected)
+    }
+
     /// Whether `quit_time` has been reached (further steps do nothing).
     pub fn done(&self) -> bool {
         self.cfg.quit_time_us > 0 && self.sim_time >= self.cfg.quit_time_us
+    }
+}
+
+/// [`Error::BadModel`] for a type-specific call asked of `node` (model `m`).
+fn wrong_type(node: &Node, m: ModelId, expected: &'static str) -> Error {
+    Error::BadModel {
+        id: m,
+        found: node.model_type,
+        expected,
     }
 }

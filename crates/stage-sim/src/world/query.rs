@@ -24,78 +24,99 @@ impl World {
 
     /// Adds a subscription. The first one starts the model: it updates every
     /// `update_interval` from now on (only subscribed models update, spec §5.4).
-    pub fn subscribe(&mut self, m: ModelId) {
+    pub fn subscribe(&mut self, m: ModelId) -> Result<()> {
+        let i = self.check(m)?;
         let now = self.sim_time;
-        let interval = self.nodes[m.index()].update_interval_us;
-        let st = &mut self.states[m.index()];
+        let interval = self.nodes[i].update_interval_us;
+        let st = &mut self.states[i];
         st.subs += 1;
         if st.subs == 1 {
             st.next_update = now + interval;
         }
+        Ok(())
     }
 
     /// Removes a subscription; the last one shuts the model down (position models stop,
     /// actuators drop their goal, sensors clear their data).
-    pub fn unsubscribe(&mut self, m: ModelId) {
-        let st = &mut self.states[m.index()];
+    pub fn unsubscribe(&mut self, m: ModelId) -> Result<()> {
+        let i = self.check(m)?;
+        let st = &mut self.states[i];
         if st.subs == 0 {
-            return;
+            return Ok(());
         }
         st.subs -= 1;
         if st.subs == 0 {
             st.kind.shutdown();
         }
+        Ok(())
     }
 
     /// Current subscription count.
-    pub fn subscriptions(&self, m: ModelId) -> u32 {
-        self.states[m.index()].subs
+    pub fn subscriptions(&self, m: ModelId) -> Result<u32> {
+        Ok(self.states[self.check(m)?].subs)
     }
 
     /// Sim time of the model's last update, if any.
-    pub fn last_update(&self, m: ModelId) -> Option<u64> {
-        self.states[m.index()].updated_at
+    pub fn last_update(&self, m: ModelId) -> Result<Option<u64>> {
+        Ok(self.states[self.check(m)?].updated_at)
     }
 
     // ----- poses and colours -------------------------------------------------------------
 
     /// Pose in the parent frame.
-    pub fn pose(&self, m: ModelId) -> Pose {
-        self.poses[m.index()]
+    pub fn pose(&self, m: ModelId) -> Result<Pose> {
+        Ok(self.poses[self.check(m)?])
     }
 
     /// Sets the pose in the parent frame (the simulation interface; no collision test, as in
     /// Stage).
-    pub fn set_pose(&mut self, m: ModelId, p: Pose) {
-        self.poses[m.index()] = Pose::new(p.x, p.y, p.z, p.a);
+    pub fn set_pose(&mut self, m: ModelId, p: Pose) -> Result<()> {
+        let i = self.check(m)?;
+        self.poses[i] = Pose::new(p.x, p.y, p.z, p.a);
         self.refresh_subtree(m);
+        Ok(())
     }
 
     /// Global pose of the model's pose point (with child stacking).
-    pub fn global_pose(&self, m: ModelId) -> Pose {
-        self.globals[m.index()]
+    pub fn global_pose(&self, m: ModelId) -> Result<Pose> {
+        Ok(self.globals[self.check(m)?])
     }
 
     /// The model's colour.
-    pub fn color(&self, m: ModelId) -> Color {
-        self.colors[m.index()]
+    pub fn color(&self, m: ModelId) -> Result<Color> {
+        Ok(self.colors[self.check(m)?])
     }
 
     /// Recolours the model (blocks without their own colour follow).
-    pub fn set_color(&mut self, m: ModelId, c: Color) {
-        self.colors[m.index()] = c;
+    pub fn set_color(&mut self, m: ModelId, c: Color) -> Result<()> {
+        let i = self.check(m)?;
+        self.colors[i] = c;
+        Ok(())
     }
 
-    /// Colour of block `b` of model `m`.
-    pub fn block_color(&self, m: ModelId, b: usize) -> Color {
-        self.nodes[m.index()].blocks[b]
-            .color
-            .unwrap_or(self.colors[m.index()])
+    /// Colour of block `b` of model `m`; [`Error::NoBlock`] when the model has no block `b`.
+    pub fn block_color(&self, m: ModelId, b: usize) -> Result<Color> {
+        let i = self.check(m)?;
+        let blocks = &self.nodes[i].blocks;
+        let block = blocks.get(b).ok_or(Error::NoBlock {
+            id: m,
+            block: b,
+            blocks: blocks.len(),
+        })?;
+        Ok(block.color.unwrap_or(self.colors[i]))
     }
 
     /// The model's body in world coordinates (for drawing; borrowed, not copied).
-    pub fn body(&self, m: ModelId) -> &Body {
-        self.space.body(m)
+    pub fn body(&self, m: ModelId) -> Result<&Body> {
+        self.check(m)?;
+        Ok(self.space.body(m))
+    }
+
+    /// Whether the model's body is still registered as static (it never moved; floorplans and
+    /// everything outside robots' trees until a gripper or `set_pose` moves it).
+    pub fn is_static(&self, m: ModelId) -> Result<bool> {
+        self.check(m)?;
+        Ok(self.space.is_static(m))
     }
 
     /// The model's own blocks (not its children's), as they are now, rasterised onto square
@@ -103,12 +124,13 @@ impl World {
     /// the world-axis-aligned bounding box of the model's footprint (its `size` rectangle at
     /// its current pose), rounded up to whole cells from its lower-left corner. `None` when
     /// `cell` is not a positive length or the grid would have more than `max_cells` cells.
-    pub fn rasterize(&self, m: ModelId, cell: f64, max_cells: usize) -> Option<Raster> {
+    pub fn rasterize(&self, m: ModelId, cell: f64, max_cells: usize) -> Result<Option<Raster>> {
+        let i = self.check(m)?;
         if !(cell > 0.0 && cell.is_finite()) {
-            return None;
+            return Ok(None);
         }
-        let node = &self.nodes[m.index()];
-        let frame = self.globals[m.index()].compose(&node.origin);
+        let node = &self.nodes[i];
+        let frame = self.globals[i].compose(&node.origin);
         let [hx, hy] = [node.size[0] / 2.0, node.size[1] / 2.0];
         let mut bb = Aabb::EMPTY;
         for (x, y) in [(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)] {
@@ -119,14 +141,14 @@ impl World {
         let count = |len: f64| (len / cell - crate::raster::SLIVER).ceil().max(0.0);
         let (w, h) = (count(bb.max[0] - bb.min[0]), count(bb.max[1] - bb.min[1]));
         if w * h > max_cells as f64 {
-            return None;
+            return Ok(None);
         }
         let mut raster = Raster::new(bb.min, cell, w as usize, h as usize);
         let body = self.space.body(m);
         for b in 0..body.blocks.len() {
             raster.fill_polygon(body.block_pts(b));
         }
-        Some(raster)
+        Ok(Some(raster))
     }
 
     /// The spatial engine (for viewers and tools that cast their own rays).
@@ -135,31 +157,35 @@ impl World {
     }
 
     /// Casts a ray from a world pose; models in `exclude`'s tree are ignored.
-    pub fn raycast(&self, q: &RayQuery, exclude: Option<ModelId>) -> Option<RayHit> {
-        let root = exclude.map(|m| self.nodes[m.index()].root);
-        self.space
-            .raycast(q, |h| Some(self.nodes[h.index()].root) != root)
+    pub fn raycast(&self, q: &RayQuery, exclude: Option<ModelId>) -> Result<Option<RayHit>> {
+        let root = match exclude {
+            Some(m) => Some(self.nodes[self.check(m)?].root),
+            None => None,
+        };
+        Ok(self
+            .space
+            .raycast(q, |h| Some(self.nodes[h.index()].root) != root))
     }
 
     /// Speech-bubble text.
-    pub fn said(&self, m: ModelId) -> &str {
-        &self.says[m.index()]
+    pub fn said(&self, m: ModelId) -> Result<&str> {
+        Ok(&self.says[self.check(m)?])
     }
 
     /// Sets the speech-bubble text (`say`).
-    pub fn say(&mut self, m: ModelId, text: &str) {
-        self.says[m.index()] = text.to_string();
+    pub fn say(&mut self, m: ModelId, text: &str) -> Result<()> {
+        let i = self.check(m)?;
+        self.says[i] = text.to_string();
+        Ok(())
     }
 
     // ----- position ----------------------------------------------------------------------
 
-    pub(super) fn position_mut(&mut self, m: ModelId) -> Result<&mut PositionModel> {
-        match self.states.get_mut(m.index()).map(|s| &mut s.kind) {
-            Some(KindState::Position(p)) => Ok(p),
-            _ => Err(Error::BadModel {
-                id: m.0,
-                msg: "not a position model".into(),
-            }),
+    fn position_mut(&mut self, m: ModelId) -> Result<&mut PositionModel> {
+        let i = self.check(m)?;
+        match &mut self.states[i].kind {
+            KindState::Position(p) => Ok(p),
+            _ => Err(wrong_type(&self.nodes[i], m, "a position model")),
         }
     }
 
@@ -188,18 +214,18 @@ impl World {
     }
 
     /// Odometry pose, velocity and stall as last updated.
-    pub fn position_state(&self, m: ModelId) -> Option<&PositionData> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Position(p) => Some(&p.data),
-            _ => None,
+    pub fn position_state(&self, m: ModelId) -> Result<&PositionData> {
+        match self.kind(m)? {
+            KindState::Position(p) => Ok(&p.data),
+            _ => Err(self.wrong_type(m, "a position model")),
         }
     }
 
     /// The whole position model (configuration, goal, odometry error).
-    pub fn position_model(&self, m: ModelId) -> Option<&PositionModel> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Position(p) => Some(p),
-            _ => None,
+    pub fn position_model(&self, m: ModelId) -> Result<&PositionModel> {
+        match self.kind(m)? {
+            KindState::Position(p) => Ok(p),
+            _ => Err(self.wrong_type(m, "a position model")),
         }
     }
 
@@ -218,101 +244,100 @@ impl World {
     // ----- sensors -----------------------------------------------------------------------
 
     /// Ranger configuration and latest scans.
-    pub fn ranger_scans(&self, m: ModelId) -> Option<&RangerData> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Ranger(r) => Some(r),
-            _ => None,
+    pub fn ranger_scans(&self, m: ModelId) -> Result<&RangerData> {
+        match self.kind(m)? {
+            KindState::Ranger(r) => Ok(r),
+            _ => Err(self.wrong_type(m, "a ranger")),
         }
     }
 
     /// Blobfinder data.
-    pub fn blobfinder_blobs(&self, m: ModelId) -> Option<&BlobfinderData> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Blobfinder(b) => Some(&b.data),
-            _ => None,
+    pub fn blobfinder_blobs(&self, m: ModelId) -> Result<&BlobfinderData> {
+        match self.kind(m)? {
+            KindState::Blobfinder(b) => Ok(&b.data),
+            _ => Err(self.wrong_type(m, "a blobfinder")),
         }
     }
 
     /// Blobfinder configuration.
-    pub fn blobfinder_config(&self, m: ModelId) -> Option<&crate::desc::BlobfinderDesc> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Blobfinder(b) => Some(&b.cfg),
-            _ => None,
+    pub fn blobfinder_config(&self, m: ModelId) -> Result<&crate::desc::BlobfinderDesc> {
+        match self.kind(m)? {
+            KindState::Blobfinder(b) => Ok(&b.cfg),
+            _ => Err(self.wrong_type(m, "a blobfinder")),
         }
     }
 
     /// Fiducial detections.
-    pub fn fiducials(&self, m: ModelId) -> Option<&FiducialData> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Fiducial(f) => Some(&f.data),
-            _ => None,
+    pub fn fiducials(&self, m: ModelId) -> Result<&FiducialData> {
+        match self.kind(m)? {
+            KindState::Fiducial(f) => Ok(&f.data),
+            _ => Err(self.wrong_type(m, "a fiducial finder")),
         }
     }
 
     /// Fiducial-finder configuration.
-    pub fn fiducial_config(&self, m: ModelId) -> Option<&crate::desc::FiducialDesc> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Fiducial(f) => Some(&f.cfg),
-            _ => None,
+    pub fn fiducial_config(&self, m: ModelId) -> Result<&crate::desc::FiducialDesc> {
+        match self.kind(m)? {
+            KindState::Fiducial(f) => Ok(&f.cfg),
+            _ => Err(self.wrong_type(m, "a fiducial finder")),
         }
     }
 
     /// The model's own `fiducial_return` (Player fiducial GET_ID).
-    pub fn fiducial_id(&self, m: ModelId) -> i32 {
-        self.nodes[m.index()].returns.fiducial
+    pub fn fiducial_id(&self, m: ModelId) -> Result<i32> {
+        Ok(self.nodes[self.check(m)?].returns.fiducial)
     }
 
     /// Sets the model's own `fiducial_return` (Player fiducial SET_ID).
-    pub fn set_fiducial_id(&mut self, m: ModelId, id: i32) {
-        self.nodes[m.index()].returns.fiducial = id;
+    pub fn set_fiducial_id(&mut self, m: ModelId, id: i32) -> Result<()> {
+        let i = self.check(m)?;
+        self.nodes[i].returns.fiducial = id;
         self.fiducial_targets = (0..self.nodes.len() as u32)
             .filter(|&i| self.nodes[i as usize].returns.fiducial != 0)
             .map(ModelId)
             .collect();
+        Ok(())
     }
 
     /// Gripper state.
-    pub fn gripper_state(&self, m: ModelId) -> Option<&GripperData> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Gripper(g) => Some(&g.data),
-            _ => None,
+    pub fn gripper_state(&self, m: ModelId) -> Result<&GripperData> {
+        match self.kind(m)? {
+            KindState::Gripper(g) => Ok(&g.data),
+            _ => Err(self.wrong_type(m, "a gripper")),
         }
     }
 
     /// Gripper command (persists until replaced).
     pub fn gripper_cmd(&mut self, m: ModelId, cmd: GripperCmd) -> Result<()> {
-        match self.states.get_mut(m.index()).map(|s| &mut s.kind) {
-            Some(KindState::Gripper(g)) => {
+        match self.kind_mut(m)? {
+            KindState::Gripper(g) => {
                 g.cmd = cmd;
                 Ok(())
             }
-            _ => Err(Error::BadModel {
-                id: m.0,
-                msg: "not a gripper".into(),
-            }),
+            _ => Err(self.wrong_type(m, "a gripper")),
         }
     }
 
     /// Camera image.
-    pub fn camera_image(&self, m: ModelId) -> Option<&CameraImage> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Camera(c) => Some(&c.image),
-            _ => None,
+    pub fn camera_image(&self, m: ModelId) -> Result<&CameraImage> {
+        match self.kind(m)? {
+            KindState::Camera(c) => Ok(&c.image),
+            _ => Err(self.wrong_type(m, "a camera")),
         }
     }
 
     /// Actuator data.
-    pub fn actuator(&self, m: ModelId) -> Option<&ActuatorData> {
-        match &self.states.get(m.index())?.kind {
-            KindState::Actuator(a) => Some(&a.data),
-            _ => None,
+    pub fn actuator(&self, m: ModelId) -> Result<&ActuatorData> {
+        match self.kind(m)? {
+            KindState::Actuator(a) => Ok(&a.data),
+            _ => Err(self.wrong_type(m, "an actuator")),
         }
     }
 
     /// Actuator command: position (`position = true`) or speed goal.
     pub fn actuator_cmd(&mut self, m: ModelId, position: bool, goal: f64) -> Result<()> {
-        match self.states.get_mut(m.index()).map(|s| &mut s.kind) {
-            Some(KindState::Actuator(a)) => {
+        match self.kind_mut(m)? {
+            KindState::Actuator(a) => {
                 a.mode = if position {
                     ActuatorMode::Position
                 } else {
@@ -321,30 +346,28 @@ impl World {
                 a.goal = goal;
                 Ok(())
             }
-            _ => Err(Error::BadModel {
-                id: m.0,
-                msg: "not an actuator".into(),
-            }),
+            _ => Err(self.wrong_type(m, "an actuator")),
         }
     }
 
     /// Light state of a blinkenlight or light indicator.
-    pub fn light_on(&self, m: ModelId) -> Option<bool> {
-        match &self.states.get(m.index())?.kind {
+    pub fn light_on(&self, m: ModelId) -> Result<bool> {
+        match self.kind(m)? {
             KindState::Blinkenlight(Blinkenlight { on })
-            | KindState::Lightindicator(Lightindicator { on }) => Some(*on),
-            _ => None,
+            | KindState::Lightindicator(Lightindicator { on }) => Ok(*on),
+            _ => Err(self.wrong_type(m, "a blinkenlight or light indicator")),
         }
     }
 
-    /// Switches a light indicator.
-    pub fn set_light(&mut self, m: ModelId, value: bool) {
-        if let Some(
+    /// Switches a light indicator (or a blinkenlight, until its next blink).
+    pub fn set_light(&mut self, m: ModelId, value: bool) -> Result<()> {
+        match self.kind_mut(m)? {
             KindState::Lightindicator(Lightindicator { on })
-            | KindState::Blinkenlight(Blinkenlight { on }),
-        ) = self.states.get_mut(m.index()).map(|s| &mut s.kind)
-        {
-            *on = value;
+            | KindState::Blinkenlight(Blinkenlight { on }) => {
+                *on = value;
+                Ok(())
+            }
+            _ => Err(self.wrong_type(m, "a blinkenlight or light indicator")),
         }
     }
 

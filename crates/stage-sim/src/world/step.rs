@@ -116,7 +116,7 @@ impl World {
             self.controllers = slots;
             for out in outs.iter_mut() {
                 for c in out.drain() {
-                    self.apply(c);
+                    self.apply_logged(c);
                 }
             }
         }
@@ -124,25 +124,32 @@ impl World {
         true
     }
 
-    /// Applies one controller command.
-    pub fn apply(&mut self, c: Command) {
+    /// Applies one controller command: the error of the call it stands for (a foreign id, a
+    /// velocity for a model that is not a position model, noise for one that is not a ranger).
+    pub fn apply(&mut self, c: Command) -> Result<()> {
         match c {
-            Command::Velocity(m, x, y, a) => {
-                let _ = self.position_cmd_vel(m, x, y, a);
-            }
+            Command::Velocity(m, x, y, a) => self.position_cmd_vel(m, x, y, a),
             Command::Subscribe(m) => self.subscribe(m),
             Command::Unsubscribe(m) => self.unsubscribe(m),
             Command::SetColor(m, col) => self.set_color(m, col),
             Command::Say(m, s) => self.say(m, &s),
-            Command::RangerNoise(m, sd) => {
-                if let Some(KindState::Ranger(r)) =
-                    self.states.get_mut(m.index()).map(|s| &mut s.kind)
-                {
+            Command::RangerNoise(m, sd) => match self.kind_mut(m)? {
+                KindState::Ranger(r) => {
                     for s in &mut r.sensors {
                         s.noise_relative = sd;
                     }
+                    Ok(())
                 }
-            }
+                _ => Err(self.wrong_type(m, "a ranger")),
+            },
+        }
+    }
+
+    /// Applies a command queued by a controller, which has no caller to hand an error to: a
+    /// refused one is logged and dropped (the controller's bug must not stop the world).
+    pub(super) fn apply_logged(&mut self, c: Command) {
+        if let Err(e) = self.apply(c) {
+            tracing::warn!("controller command refused: {e}");
         }
     }
 

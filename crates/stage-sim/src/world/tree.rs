@@ -135,43 +135,51 @@ impl World {
         (0..self.nodes.len() as u32).map(ModelId)
     }
 
+    /// The id of the model with creation index `index` (a number kept by a caller, such as a
+    /// per-model table's row), or [`Error::ForeignModel`] when the world has no such model.
+    pub fn model_id(&self, index: usize) -> Result<ModelId> {
+        let id = ModelId(u32::try_from(index).unwrap_or(u32::MAX));
+        self.check(id).map(|_| id)
+    }
+
     /// The model registered under `name` (the last one registered wins, as in Stage).
     pub fn model_by_name(&self, name: &str) -> Option<ModelId> {
         self.names.get(name).copied()
     }
 
     /// Tree and configuration data of a model.
-    pub fn node(&self, m: ModelId) -> &Node {
-        &self.nodes[m.index()]
+    pub fn node(&self, m: ModelId) -> Result<&Node> {
+        Ok(&self.nodes[self.check(m)?])
     }
 
     /// The model's name.
-    pub fn name(&self, m: ModelId) -> &str {
-        &self.nodes[m.index()].name
+    pub fn name(&self, m: ModelId) -> Result<&str> {
+        Ok(&self.nodes[self.check(m)?].name)
     }
 
     /// The model's Stage type: what code compares (the compiler checks every name).
-    pub fn model_type(&self, m: ModelId) -> ModelType {
-        self.nodes[m.index()].model_type
+    pub fn model_type(&self, m: ModelId) -> Result<ModelType> {
+        Ok(self.nodes[self.check(m)?].model_type)
     }
 
     /// The model's Stage type word (`position`, `ranger`, …), for messages and display.
-    pub fn type_name(&self, m: ModelId) -> &'static str {
-        self.model_type(m).name()
+    pub fn type_name(&self, m: ModelId) -> Result<&'static str> {
+        Ok(self.model_type(m)?.name())
     }
 
     /// The parent model.
-    pub fn parent(&self, m: ModelId) -> Option<ModelId> {
-        self.nodes[m.index()].parent
+    pub fn parent(&self, m: ModelId) -> Result<Option<ModelId>> {
+        Ok(self.nodes[self.check(m)?].parent)
     }
 
     /// Children in creation order.
-    pub fn children(&self, m: ModelId) -> impl Iterator<Item = ModelId> + '_ {
-        self.nodes[m.index()].children.iter().copied()
+    pub fn children(&self, m: ModelId) -> Result<impl Iterator<Item = ModelId> + '_> {
+        Ok(self.nodes[self.check(m)?].children.iter().copied())
     }
 
     /// `m` and its descendants in pre-order (how the stage driver binds devices).
-    pub fn subtree(&self, m: ModelId) -> Vec<ModelId> {
+    pub fn subtree(&self, m: ModelId) -> Result<Vec<ModelId>> {
+        self.check(m)?;
         let mut out = Vec::new();
         let mut stack = vec![m];
         while let Some(x) = stack.pop() {
@@ -180,7 +188,7 @@ impl World {
                 stack.push(c);
             }
         }
-        out
+        Ok(out)
     }
 
     /// Top-level models in creation order.
@@ -190,7 +198,7 @@ impl World {
     }
 
     /// Whether two models are in the same tree (they never see or touch each other).
-    pub fn related(&self, a: ModelId, b: ModelId) -> bool {
-        self.nodes[a.index()].root == self.nodes[b.index()].root
+    pub fn related(&self, a: ModelId, b: ModelId) -> Result<bool> {
+        Ok(self.nodes[self.check(a)?].root == self.nodes[self.check(b)?].root)
     }
 }

@@ -47,7 +47,8 @@ pub fn known_world() -> (World, WorldGui) {
     let l = d.add(ranger, Some(r));
     let gui = WorldGui::from_desc(&d);
     let mut w = World::from_desc(&d, 1).expect("known world builds");
-    w.subscribe(stage_sim::ModelId(l as u32));
+    let laser = w.model_id(l).expect("the laser was just added");
+    w.subscribe(laser).expect("an id from this world");
     for _ in 0..2 {
         w.step();
     }

@@ -19,6 +19,21 @@ use crate::space::{Body, RayHit, RayQuery, Space};
 
 use super::*;
 
+/// A type-specific call: `$state` is the checked model's type state (`kind(m)` or
+/// `kind_mut(m)`); a model whose state matches `$pat` gives `Ok($out)`, any other type
+/// [`Error::BadModel`] naming what the call needs.
+macro_rules! typed {
+    ($world:ident.$state:ident($m:expr), $needs:expr, $pat:pat => $out:expr) => {
+        match $world.$state($m)? {
+            $pat => Ok($out),
+            _ => Err($world.wrong_type($m, $needs)),
+        }
+    };
+}
+
+/// What the light calls need.
+const LIGHT: &str = "a blinkenlight or light indicator";
+
 impl World {
     // ----- subscriptions -----------------------------------------------------------------
 
@@ -215,18 +230,12 @@ impl World {
 
     /// Odometry pose, velocity and stall as last updated.
     pub fn position_state(&self, m: ModelId) -> Result<&PositionData> {
-        match self.kind(m)? {
-            KindState::Position(p) => Ok(&p.data),
-            _ => Err(self.wrong_type(m, "a position model")),
-        }
+        typed!(self.kind(m), "a position model", KindState::Position(p) => &p.data)
     }
 
     /// The whole position model (configuration, goal, odometry error).
     pub fn position_model(&self, m: ModelId) -> Result<&PositionModel> {
-        match self.kind(m)? {
-            KindState::Position(p) => Ok(p),
-            _ => Err(self.wrong_type(m, "a position model")),
-        }
+        typed!(self.kind(m), "a position model", KindState::Position(p) => p)
     }
 
     /// Player SET_ODOM.
@@ -245,42 +254,27 @@ impl World {
 
     /// Ranger configuration and latest scans.
     pub fn ranger_scans(&self, m: ModelId) -> Result<&RangerData> {
-        match self.kind(m)? {
-            KindState::Ranger(r) => Ok(r),
-            _ => Err(self.wrong_type(m, "a ranger")),
-        }
+        typed!(self.kind(m), "a ranger", KindState::Ranger(r) => r)
     }
 
     /// Blobfinder data.
     pub fn blobfinder_blobs(&self, m: ModelId) -> Result<&BlobfinderData> {
-        match self.kind(m)? {
-            KindState::Blobfinder(b) => Ok(&b.data),
-            _ => Err(self.wrong_type(m, "a blobfinder")),
-        }
+        typed!(self.kind(m), "a blobfinder", KindState::Blobfinder(b) => &b.data)
     }
 
     /// Blobfinder configuration.
     pub fn blobfinder_config(&self, m: ModelId) -> Result<&crate::desc::BlobfinderDesc> {
-        match self.kind(m)? {
-            KindState::Blobfinder(b) => Ok(&b.cfg),
-            _ => Err(self.wrong_type(m, "a blobfinder")),
-        }
+        typed!(self.kind(m), "a blobfinder", KindState::Blobfinder(b) => &b.cfg)
     }
 
     /// Fiducial detections.
     pub fn fiducials(&self, m: ModelId) -> Result<&FiducialData> {
-        match self.kind(m)? {
-            KindState::Fiducial(f) => Ok(&f.data),
-            _ => Err(self.wrong_type(m, "a fiducial finder")),
-        }
+        typed!(self.kind(m), "a fiducial finder", KindState::Fiducial(f) => &f.data)
     }
 
     /// Fiducial-finder configuration.
     pub fn fiducial_config(&self, m: ModelId) -> Result<&crate::desc::FiducialDesc> {
-        match self.kind(m)? {
-            KindState::Fiducial(f) => Ok(&f.cfg),
-            _ => Err(self.wrong_type(m, "a fiducial finder")),
-        }
+        typed!(self.kind(m), "a fiducial finder", KindState::Fiducial(f) => &f.cfg)
     }
 
     /// The model's own `fiducial_return` (Player fiducial GET_ID).
@@ -301,74 +295,47 @@ impl World {
 
     /// Gripper state.
     pub fn gripper_state(&self, m: ModelId) -> Result<&GripperData> {
-        match self.kind(m)? {
-            KindState::Gripper(g) => Ok(&g.data),
-            _ => Err(self.wrong_type(m, "a gripper")),
-        }
+        typed!(self.kind(m), "a gripper", KindState::Gripper(g) => &g.data)
     }
 
     /// Gripper command (persists until replaced).
     pub fn gripper_cmd(&mut self, m: ModelId, cmd: GripperCmd) -> Result<()> {
-        match self.kind_mut(m)? {
-            KindState::Gripper(g) => {
-                g.cmd = cmd;
-                Ok(())
-            }
-            _ => Err(self.wrong_type(m, "a gripper")),
-        }
+        typed!(self.kind_mut(m), "a gripper", KindState::Gripper(g) => g.cmd = cmd)
     }
 
     /// Camera image.
     pub fn camera_image(&self, m: ModelId) -> Result<&CameraImage> {
-        match self.kind(m)? {
-            KindState::Camera(c) => Ok(&c.image),
-            _ => Err(self.wrong_type(m, "a camera")),
-        }
+        typed!(self.kind(m), "a camera", KindState::Camera(c) => &c.image)
     }
 
     /// Actuator data.
     pub fn actuator(&self, m: ModelId) -> Result<&ActuatorData> {
-        match self.kind(m)? {
-            KindState::Actuator(a) => Ok(&a.data),
-            _ => Err(self.wrong_type(m, "an actuator")),
-        }
+        typed!(self.kind(m), "an actuator", KindState::Actuator(a) => &a.data)
     }
 
     /// Actuator command: position (`position = true`) or speed goal.
     pub fn actuator_cmd(&mut self, m: ModelId, position: bool, goal: f64) -> Result<()> {
-        match self.kind_mut(m)? {
-            KindState::Actuator(a) => {
-                a.mode = if position {
-                    ActuatorMode::Position
-                } else {
-                    ActuatorMode::Velocity
-                };
-                a.goal = goal;
-                Ok(())
-            }
-            _ => Err(self.wrong_type(m, "an actuator")),
-        }
+        let mode = if position {
+            ActuatorMode::Position
+        } else {
+            ActuatorMode::Velocity
+        };
+        typed!(self.kind_mut(m), "an actuator", KindState::Actuator(a) => {
+            a.mode = mode;
+            a.goal = goal;
+        })
     }
 
     /// Light state of a blinkenlight or light indicator.
     pub fn light_on(&self, m: ModelId) -> Result<bool> {
-        match self.kind(m)? {
-            KindState::Blinkenlight(Blinkenlight { on })
-            | KindState::Lightindicator(Lightindicator { on }) => Ok(*on),
-            _ => Err(self.wrong_type(m, "a blinkenlight or light indicator")),
-        }
+        typed!(self.kind(m), LIGHT, KindState::Blinkenlight(Blinkenlight { on })
+            | KindState::Lightindicator(Lightindicator { on }) => *on)
     }
 
     /// Switches a light indicator (or a blinkenlight, until its next blink).
     pub fn set_light(&mut self, m: ModelId, value: bool) -> Result<()> {
-        match self.kind_mut(m)? {
-            KindState::Lightindicator(Lightindicator { on })
-            | KindState::Blinkenlight(Blinkenlight { on }) => {
-                *on = value;
-                Ok(())
-            }
-            _ => Err(self.wrong_type(m, "a blinkenlight or light indicator")),
-        }
+        typed!(self.kind_mut(m), LIGHT, KindState::Blinkenlight(Blinkenlight { on })
+            | KindState::Lightindicator(Lightindicator { on }) => *on = value)
     }
 
     /// A 64-bit digest of the whole simulated state: the clock, and per model its pose,

@@ -1,10 +1,10 @@
 //! Per-type model behaviour and the data each type publishes: one module per Stage model type,
 //! each owning its description (with `desc_from_spec`, its conversion from the worldfile
 //! crate's properties, and its defaults), its state (with `start`, the state on load), and the
-//! state's [`ModelKind`] impl: its update, what its last unsubscription shuts down, its digest.
+//! state's `ModelKind` impl: its update, what its last unsubscription shuts down, its digest.
 //! The one `model_kinds!` list below registers the modules (one line a type): it generates
 //! [`KindDesc`], the crate's `KindState`, their `match` dispatch (no `dyn`: each step's update
-//! is a direct call) and [`KindDesc::from_spec`], the mapping from the worldfile crate's
+//! is a direct call) and `KindDesc::from_spec`, the mapping from the worldfile crate's
 //! [`TypeSpec`].
 
 pub use actuator::ActuatorDesc;

@@ -5,7 +5,7 @@
 //! with the type and word, its row of the type table, [`TypeInfo`]), its properties
 //! as a `property_table!` spec struct with Stage's defaults, and the `read` function that reads
 //! them. The one `model_types!` list below registers the modules (one line a type): it generates
-//! [`ModelType`], [`TypeSpec`], the type table [`TYPES`] and the dispatch of [`TypeSpec::read`].
+//! [`ModelType`], [`TypeSpec`], the type table [`TYPES`] and the dispatch of `TypeSpec::read`.
 //! The properties every model reads are [`CommonSpec`], here.
 
 pub use actuator::ActuatorType;

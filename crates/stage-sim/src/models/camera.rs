@@ -83,10 +83,10 @@ impl ModelKind for CameraModel {
 
     /// One camera update: viewpoint at the parent's x, y and heading (own pose without a parent),
     /// at the camera's global height, offset by pan/tilt.
-    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, node: &Node, _: &mut SimRng) {
         let c = self;
         let g = v.globals[m.index()];
-        let base = match v.nodes[m.index()].parent {
+        let base = match node.parent {
             Some(p) => {
                 let pg = v.globals[p.index()];
                 Pose { z: g.z, ..pg }
@@ -98,7 +98,7 @@ impl ModelKind for CameraModel {
         let [near, far] = c.cfg.range;
         let [fov_h, fov_v] = c.cfg.fov;
         let [pan, tilt] = c.cfg.pantilt;
-        let z0 = base.z + v.nodes[m.index()].size[2] / 2.0;
+        let z0 = base.z + node.size[2] / 2.0;
         let root = v.root(m);
         c.image.width = w as u32;
         c.image.height = h as u32;

@@ -68,11 +68,10 @@ impl ModelKind for FiducialModel {
     }
 
     /// One fiducial-finder update.
-    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, fnode: &Node, _: &mut SimRng) {
         let (f, cfg, d) = (m, &self.cfg, &mut self.data);
         d.fiducials.clear();
         let fg = v.globals[f.index()];
-        let fnode = &v.nodes[f.index()];
         let key = fnode.returns.fiducial_key;
         let root = v.root(f);
         let frame = v.body_frame(f);

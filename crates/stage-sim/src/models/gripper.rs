@@ -133,7 +133,7 @@ impl ModelKind for GripperModel {
     }
 
     /// One gripper update (spec §11.3).
-    fn update(&mut self, v: &View, m: ModelId, _: &Pose, _: &Node, _: &mut SimRng) {
+    fn update(&mut self, v: &View, m: ModelId, _: &Pose, node: &Node, _: &mut SimRng) {
         let g = self;
         let d = &mut g.data;
         g.action = None;
@@ -186,7 +186,6 @@ impl ModelKind for GripperModel {
         }
         g.body_changed |= changed;
 
-        let node = &v.nodes[m.index()];
         let [sx, sy, _] = node.size;
         let [px, py, _] = g.cfg.paddle_size;
         let pos = d.paddle_pos;

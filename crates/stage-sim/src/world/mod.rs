@@ -8,6 +8,18 @@
 //! * `query`: subscriptions and the per-model API (poses, colours, commands, sensor data,
 //!   the determinism digest).
 
+/// A type-specific call: `$state` is the checked model's type state (`kind(m)` or
+/// `kind_mut(m)`); a model whose state matches `$pat` gives `Ok($out)`, any other type
+/// [`Error::BadModel`] naming what the call needs.
+macro_rules! typed {
+    ($world:ident.$state:ident($m:expr), $needs:expr, $pat:pat => $out:expr) => {
+        match $world.$state($m)? {
+            $pat => Ok($out),
+            _ => Err($world.wrong_type($m, $needs)),
+        }
+    };
+}
+
 mod build;
 mod moves;
 mod query;
@@ -167,20 +179,15 @@ impl World {
 
     /// The error for a type-specific call asked of model `m` (in range) of another type.
     pub(super) fn wrong_type(&self, m: ModelId, expected: &'static str) -> Error {
-        wrong_type(&self.nodes[m.index()], m, expected)
+        Error::BadModel {
+            id: m,
+            found: self.nodes[m.index()].model_type,
+            expected,
+        }
     }
 
     /// Whether `quit_time` has been reached (further steps do nothing).
     pub fn done(&self) -> bool {
         self.cfg.quit_time_us > 0 && self.sim_time >= self.cfg.quit_time_us
-    }
-}
-
-/// [`Error::BadModel`] for a type-specific call asked of `node` (model `m`).
-fn wrong_type(node: &Node, m: ModelId, expected: &'static str) -> Error {
-    Error::BadModel {
-        id: m,
-        found: node.model_type,
-        expected,
     }
 }

@@ -19,18 +19,8 @@ use crate::space::{Body, RayHit, RayQuery, Space};
 
 use super::*;
 
-/// A type-specific call: `$state` is the checked model's type state (`kind(m)` or
-/// `kind_mut(m)`); a model whose state matches `$pat` gives `Ok($out)`, any other type
-/// [`Error::BadModel`] naming what the call needs.
-macro_rules! typed {
-    ($world:ident.$state:ident($m:expr), $needs:expr, $pat:pat => $out:expr) => {
-        match $world.$state($m)? {
-            $pat => Ok($out),
-            _ => Err($world.wrong_type($m, $needs)),
-        }
-    };
-}
-
+/// What the position calls need.
+const POSITION: &str = "a position model";
 /// What the light calls need.
 const LIGHT: &str = "a blinkenlight or light indicator";
 
@@ -196,58 +186,44 @@ impl World {
 
     // ----- position ----------------------------------------------------------------------
 
-    fn position_mut(&mut self, m: ModelId) -> Result<&mut PositionModel> {
-        let i = self.check(m)?;
-        match &mut self.states[i].kind {
-            KindState::Position(p) => Ok(p),
-            _ => Err(wrong_type(&self.nodes[i], m, "a position model")),
-        }
-    }
-
     /// Velocity command (Player CMD_VEL): m/s, m/s, rad/s.
     pub fn position_cmd_vel(&mut self, m: ModelId, vx: f64, vy: f64, va: f64) -> Result<()> {
-        self.position_mut(m)?.command_velocity(vx, vy, va);
-        Ok(())
+        typed!(self.kind_mut(m), POSITION, KindState::Position(p) => p.command_velocity(vx, vy, va))
     }
 
     /// Position command in the odometry frame (Player CMD_POS).
     pub fn position_cmd_pos(&mut self, m: ModelId, x: f64, y: f64, a: f64) -> Result<()> {
-        self.position_mut(m)?.command_position(x, y, a);
-        Ok(())
+        typed!(self.kind_mut(m), POSITION, KindState::Position(p) => p.command_position(x, y, a))
     }
 
     /// Car command (Player CMD_CAR): speed and steering angle (turn rate for `diff` drive).
     pub fn position_cmd_car(&mut self, m: ModelId, speed: f64, angle: f64) -> Result<()> {
-        self.position_mut(m)?.command_velocity(speed, 0.0, angle);
-        Ok(())
+        typed!(self.kind_mut(m), POSITION, KindState::Position(p) => p.command_velocity(speed, 0.0, angle))
     }
 
     /// Acceleration command (API only).
     pub fn position_cmd_accel(&mut self, m: ModelId, ax: f64, ay: f64, aa: f64) -> Result<()> {
-        self.position_mut(m)?.command_acceleration(ax, ay, aa);
-        Ok(())
+        typed!(self.kind_mut(m), POSITION, KindState::Position(p) => p.command_acceleration(ax, ay, aa))
     }
 
     /// Odometry pose, velocity and stall as last updated.
     pub fn position_state(&self, m: ModelId) -> Result<&PositionData> {
-        typed!(self.kind(m), "a position model", KindState::Position(p) => &p.data)
+        typed!(self.kind(m), POSITION, KindState::Position(p) => &p.data)
     }
 
     /// The whole position model (configuration, goal, odometry error).
     pub fn position_model(&self, m: ModelId) -> Result<&PositionModel> {
-        typed!(self.kind(m), "a position model", KindState::Position(p) => p)
+        typed!(self.kind(m), POSITION, KindState::Position(p) => p)
     }
 
     /// Player SET_ODOM.
     pub fn set_odom(&mut self, m: ModelId, p: Pose) -> Result<()> {
-        self.position_mut(m)?.set_odom(p);
-        Ok(())
+        typed!(self.kind_mut(m), POSITION, KindState::Position(model) => model.set_odom(p))
     }
 
     /// Player RESET_ODOM.
     pub fn reset_odom(&mut self, m: ModelId) -> Result<()> {
-        self.position_mut(m)?.set_odom(Pose::ZERO);
-        Ok(())
+        typed!(self.kind_mut(m), POSITION, KindState::Position(p) => p.set_odom(Pose::ZERO))
     }
 
     // ----- sensors -----------------------------------------------------------------------

@@ -133,15 +133,12 @@ impl World {
             Command::Unsubscribe(m) => self.unsubscribe(m),
             Command::SetColor(m, col) => self.set_color(m, col),
             Command::Say(m, s) => self.say(m, &s),
-            Command::RangerNoise(m, sd) => match self.kind_mut(m)? {
-                KindState::Ranger(r) => {
-                    for s in &mut r.sensors {
-                        s.noise_relative = sd;
-                    }
-                    Ok(())
+            Command::RangerNoise(m, sd) => typed!(self.kind_mut(m), "a ranger",
+            KindState::Ranger(r) => {
+                for s in &mut r.sensors {
+                    s.noise_relative = sd;
                 }
-                _ => Err(self.wrong_type(m, "a ranger")),
-            },
+            }),
         }
     }
 

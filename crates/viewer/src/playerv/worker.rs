@@ -80,10 +80,10 @@ pub fn velocity_for(target: Pose2) -> (f64, f64) {
 
 /// The odometry-frame goal for a target in the robot's frame, facing along the way there.
 pub fn goal_for(odom: Pose2, target: Pose2) -> Pose2 {
-    let (s, c) = odom.a.sin_cos();
+    let (x, y) = odom.frame().transform_xy(target.x, target.y);
     Pose2 {
-        x: odom.x + target.x * c - target.y * s,
-        y: odom.y + target.x * s + target.y * c,
+        x,
+        y,
         a: odom.a + target.y.atan2(target.x),
     }
 }

@@ -112,7 +112,8 @@ impl OccupancyMap {
     /// are skipped without being looked at, which finds the same first stopping cell (and so
     /// the same range) in a fraction of the steps across open space.
     pub fn calc_range(&self, ox: f64, oy: f64, oa: f64, max_range: f64) -> f64 {
-        self.calc_range_from(&self.ray_origin(ox, oy), oa, max_range)
+        let (s, c) = oa.sin_cos();
+        self.calc_range_along(&self.ray_origin(ox, oy), s, c, max_range)
     }
 
     /// What every ray cast from (`ox`, `oy`) shares, computed once for all the beams of a
@@ -131,13 +132,8 @@ impl OccupancyMap {
         }
     }
 
-    /// [`OccupancyMap::calc_range`] from an origin made by [`OccupancyMap::ray_origin`].
-    pub fn calc_range_from(&self, origin: &RayOrigin, oa: f64, max_range: f64) -> f64 {
-        let (s, c) = oa.sin_cos();
-        self.calc_range_along(origin, s, c, max_range)
-    }
-
-    /// [`OccupancyMap::calc_range_from`] along the direction whose sine and cosine are `s`
+    /// [`OccupancyMap::calc_range`] from an origin made by [`OccupancyMap::ray_origin`], along
+    /// the direction whose sine and cosine are `s`
     /// and `c` (so that a caller casting many rays can find those without a library call
     /// per ray).
     pub fn calc_range_along(&self, origin: &RayOrigin, s: f64, c: f64, max_range: f64) -> f64 {

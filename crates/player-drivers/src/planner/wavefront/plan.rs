@@ -366,9 +366,10 @@ impl Plan {
         let g = self.cells.index(goal);
         // The start cell is free for this plan whatever is near it: it counts as `max_radius`
         // from any obstacle (blocked too if that is below the minimum).
-        let max_r = self.params.max_radius;
-        let start_open = (max_r as f32).partial_cmp(&(self.params.abs_min_radius as f32))
-            != Some(Ordering::Less);
+        let start_open = self
+            .cells
+            .distance_class(self.params.max_radius as f32)
+            .is_some();
         self.cells.open_for_plan(self.bounds, s, start_open, g);
         if s == g {
             return true;

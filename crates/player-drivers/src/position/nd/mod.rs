@@ -152,7 +152,7 @@ impl Settings {
             translate_stuck_time: len("translate_stuck_time", 0, d.translate_stuck_time)?,
             translate_stuck_dist: len("translate_stuck_dist", 0, d.translate_stuck_dist)?,
             translate_stuck_angle: ang("translate_stuck_angle", 0, d.translate_stuck_angle)?,
-            wait_on_stall: options::int(block, "wait_on_stall")?.is_some_and(|v| v != 0),
+            wait_on_stall: options::flag(block, "wait_on_stall")?.unwrap_or(false),
             laser_buffer: buffer(block, "laser_buffer")?.unwrap_or(d.laser_buffer),
             sonar_buffer: buffer(block, "sonar_buffer")?.unwrap_or(d.sonar_buffer),
             sonar_bad_transducers: bad,

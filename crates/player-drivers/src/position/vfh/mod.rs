@@ -208,7 +208,7 @@ impl Settings {
                 escape_time: options::float(block, "escape_time")?.unwrap_or(0.0),
                 escape_max_turnrate: options::angle(block, "escape_max_turnrate")?.unwrap_or(0.0),
             },
-            synchronous: options::int(block, "synchronous")?.unwrap_or(0) != 0,
+            synchronous: options::flag(block, "synchronous")?.unwrap_or(false),
         })
     }
 }

@@ -238,6 +238,10 @@ fn with_noise(sensor: &SensorDesc, mut r: f64, rng: &mut SimRng) -> f64 {
     r
 }
 
+/// Rays cast together from one origin in the short path: a run of one-sample transducers that
+/// share their origin (hospital's `swarmbot`: 12 IR sensors at its centre), or one short fan.
+const SHORT_FAN: usize = 2 * FAN_CHUNK;
+
 /// One ranger update: casts every transducer's fan from the ranger's body frame.
 fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
     let frame = v.body_frame(m);
@@ -256,23 +260,69 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
             })
             .collect();
     }
-    for ((sensor, scan), dir) in d.sensors.iter().zip(d.scans.iter_mut()).zip(&d.dirs) {
+    // a transducer's ray origin (x, y and the height for the z test) and its first direction
+    let origin = |sensor: &SensorDesc| -> [f64; 3] {
+        let (sx, sy) = (sensor.pose.x, sensor.pose.y);
+        [
+            frame.x + sx * fc - sy * fs,
+            frame.y + sx * fs + sy * fc,
+            frame.z + sensor.pose.z + sensor.size[2] / 2.0,
+        ]
+    };
+    let first_dir = |[sc, ss, _, _]: [f64; 4]| [fc * sc - fs * ss, fs * sc + fc * ss];
+    // the short fans' directions and readings (filled once per update, not per fan)
+    let mut dirs = [[0.0; 2]; SHORT_FAN];
+    let mut readings = [(0.0, 0.0); SHORT_FAN];
+    let mut k = 0;
+    while k < d.sensors.len() {
+        let sensor = &d.sensors[k];
         let n = sensor.samples.max(1) as usize;
+        let o = origin(sensor);
+        let max = sensor.range[1];
         let (start, incr) = fan_angles(sensor);
-        let sx = sensor.pose.x;
-        let sy = sensor.pose.y;
-        let ox = frame.x + sx * fc - sy * fs;
-        let oy = frame.y + sx * fs + sy * fc;
-        let oz = frame.z + sensor.pose.z + sensor.size[2] / 2.0;
+        let bearing = |t: usize| start + t as f64 * incr;
+        let [_, _, ic, is] = d.dirs[k];
+        // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
+        let rotate = |[c, s]: [f64; 2]| [c * ic - s * is, c * is + s * ic];
+        if n == 1 {
+            // this and the following one-sample transducers from the same origin with the same
+            // reach: one fan, so that what the rays share is worked out once
+            let mut run = 1;
+            while k + run < d.sensors.len()
+                && run < SHORT_FAN
+                && d.sensors[k + run].samples.max(1) == 1
+                && d.sensors[k + run].range[1] == max
+                && origin(&d.sensors[k + run]) == o
+            {
+                run += 1;
+            }
+            if run == 1 {
+                // a lone ray: a fan's shared setup would cost more than it saves
+                readings[0] = cast_ray(v, o, first_dir(d.dirs[k]), max, root);
+            } else {
+                for (j, slot) in dirs[..run].iter_mut().enumerate() {
+                    *slot = first_dir(d.dirs[k + j]);
+                }
+                cast_fan(v, o, &dirs[..run], max, root, |i, r, s| readings[i] = (r, s));
+            }
+            // noise in transducer order, as ray by ray
+            for (j, &(r, s)) in readings[..run].iter().enumerate() {
+                let (sensor, scan) = (&d.sensors[k + j], &mut d.scans[k + j]);
+                scan.ranges.resize(1, 0.0);
+                scan.intensities.resize(1, 0.0);
+                scan.bearings.resize(1, 0.0);
+                scan.ranges[0] = with_noise(sensor, r, rng);
+                scan.intensities[0] = s;
+                scan.bearings[0] = 0.0;
+            }
+            k += run;
+            continue;
+        }
+        let scan = &mut d.scans[k];
         scan.ranges.resize(n, 0.0);
         scan.intensities.resize(n, 0.0);
         scan.bearings.resize(n, 0.0);
-        let max = sensor.range[1];
-        // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
-        let [sc, ss, ic, is] = *dir;
-        let first = [fc * sc - fs * ss, fs * sc + fc * ss];
-        let rotate = |[c, s]: [f64; 2]| [c * ic - s * is, c * is + s * ic];
-        let bearing = |t: usize| start + t as f64 * incr;
+        let first = first_dir(d.dirs[k]);
         if n >= 2 * FAN_CHUNK {
             // long fan: the casts in parallel chunks, each thread sweeping the directions up
             // to its chunks (the same sequence of rotations as below, so the same directions),
@@ -302,17 +352,10 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
                     .lock()
                     .unwrap_or_else(|poisoned| poisoned.into_inner());
                 let (ranges, intensities) = &mut *part;
-                cast_fan(
-                    v,
-                    [ox, oy, oz],
-                    &dirs[..rays.len()],
-                    max,
-                    root,
-                    |i, r, s| {
-                        ranges[i] = r;
-                        intensities[i] = s;
-                    },
-                );
+                cast_fan(v, o, &dirs[..rays.len()], max, root, |i, r, s| {
+                    ranges[i] = r;
+                    intensities[i] = s;
+                });
             });
             drop(parts);
             // this path runs on one thread between parallel parts: skip what cannot change
@@ -327,15 +370,23 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
                 }
             }
         } else {
+            // short fan: one fan call, then the noise in ray order
             let mut dir = first;
-            for t in 0..n {
-                let (r, i) = cast_ray(v, [ox, oy, oz], dir, max, root);
-                scan.ranges[t] = with_noise(sensor, r, rng);
-                scan.intensities[t] = i;
-                scan.bearings[t] = bearing(t);
+            for slot in &mut dirs[..n] {
+                *slot = dir;
                 dir = rotate(dir);
             }
+            let (ranges, intensities) = (&mut scan.ranges, &mut scan.intensities);
+            cast_fan(v, o, &dirs[..n], max, root, |i, r, s| {
+                ranges[i] = r;
+                intensities[i] = s;
+            });
+            for t in 0..n {
+                scan.ranges[t] = with_noise(sensor, scan.ranges[t], rng);
+                scan.bearings[t] = bearing(t);
+            }
         }
+        k += 1;
     }
     d.time_us = v.sim_time;
 }

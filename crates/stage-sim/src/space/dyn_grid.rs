@@ -50,6 +50,26 @@ impl DynGrid {
         ]
     }
 
+    /// The box the cells cover.
+    pub(super) fn bounds(&self) -> Aabb {
+        Aabb {
+            min: self.origin,
+            max: [
+                self.origin[0] + self.nx as f64 * self.cell,
+                self.origin[1] + self.ny as f64 * self.cell,
+            ],
+        }
+    }
+
+    /// The cell holding `p` when `p` lies strictly inside the grid: where every ray from `p`
+    /// starts its walk (the cell the walk would find for itself, worked out once per origin).
+    pub(super) fn cell_inside(&self, p: [f64; 2]) -> Option<[i32; 2]> {
+        let b = self.bounds();
+        let inside = p[0] > b.min[0] && p[0] < b.max[0] && p[1] > b.min[1] && p[1] < b.max[1];
+        let c = self.cell_of(p);
+        (inside && c[0] >= 0 && c[0] < self.nx && c[1] >= 0 && c[1] < self.ny).then_some(c)
+    }
+
     pub(super) fn span_of(&self, b: &Aabb) -> Option<[i32; 4]> {
         let lo = self.cell_of(b.min);
         let hi = self.cell_of(b.max);

@@ -10,8 +10,10 @@
 //!   Sides that touching blocks of one model share (most of a bitmap's) are left out of that
 //!   grid: a ray from open space always meets the wall's outline first (`exposed`).
 //! * A ranger's fan of rays from one origin ([`Space::raycast_fan`]) works out once what its
-//!   rays share: which of a few moving bodies any of them can stop at, and the static grid cell
-//!   they start in (simple.world: 143k instructions per step, from 197k ray by ray).
+//!   rays share: which of a few moving bodies any of them can stop at, and the static and the
+//!   dynamic grid cells they start in (simple.world: 143k instructions per step, from 197k ray
+//!   by ray). One-sample transducers at one origin (hospital's 12 IR sensors) are cast as one
+//!   fan: hospital 18.0M → 16.2M instructions per step, a 1,000-robot swarm 10.6M → 9.3M.
 //! * Dynamic bodies (robots and everything in their trees) live in a uniform grid; a moving model
 //!   re-registers only when the set of cells its box covers changes, so moves cost O(1) and the
 //!   index is never rebuilt. Rays walk it cell by cell (DDA) and stop at the first hit.

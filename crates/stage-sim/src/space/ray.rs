@@ -50,8 +50,8 @@ struct Ray {
 
 /// What the rays of one cast share: origin, reach, height for the z test and the tree they pass
 /// through, plus what a fan works out once: `few`, the dynamic bodies to test when the world has
-/// so few that walking the dynamic grid would cost more (`None`: walk it), and `start`, the
-/// static grid cell holding `o`, if known.
+/// so few that walking the dynamic grid would cost more (`None`: walk it), and `start` and
+/// `dyn_start`, the static and the dynamic grid's cells holding `o`, if known.
 #[derive(Clone, Copy)]
 struct Shared<'a> {
     o: [f64; 2],
@@ -60,6 +60,7 @@ struct Shared<'a> {
     skip_root: Option<ModelId>,
     few: Option<&'a [ModelId]>,
     start: Option<[i32; 2]>,
+    dyn_start: Option<[i32; 2]>,
 }
 
 /// Stage's `ztest`: whether a block spanning `zmin..=zmax` can stop a ray at height `z`
@@ -102,6 +103,7 @@ impl Space {
             skip_root,
             few: (self.members.len() <= SMALL_DYNAMIC_SET).then_some(&self.members[..]),
             start: None,
+            dyn_start: None,
         };
         self.cast(shared, d, &accept)
     }
@@ -140,6 +142,11 @@ impl Space {
             skip_root,
             few: small.then_some(&few[..n]),
             start: self.statics.grid.as_ref().and_then(|g| g.cell_inside(o)),
+            dyn_start: if small {
+                None
+            } else {
+                self.grid.cell_inside(o)
+            },
         };
         for (i, &d) in dirs.iter().enumerate() {
             out(i, self.cast(shared, d, &accept));
@@ -161,6 +168,7 @@ impl Space {
             skip_root,
             few,
             start,
+            dyn_start,
         } = shared;
         let inv = [1.0 / d[0], 1.0 / d[1]];
         // dynamic bodies first: in crowds their hits are near and bound the static walk
@@ -175,7 +183,7 @@ impl Space {
                     z,
                     skip_root,
                 };
-                self.dynamic_hit(&ray, accept, few)
+                self.dynamic_hit(&ray, accept, few, dyn_start)
             }
         };
         let mut best_t = best.map_or(range, |h| h.range);
@@ -223,6 +231,7 @@ impl Space {
         ray: &Ray,
         accept: &impl Fn(ModelId) -> bool,
         few: Option<&[ModelId]>,
+        start: Option<[i32; 2]>,
     ) -> Option<RayHit> {
         let Ray {
             o,
@@ -290,39 +299,36 @@ impl Space {
             consider_all(few);
         } else {
             consider_all(&self.grid.overflow);
-            self.walk_grid(o, d, &best_t, &mut consider_all);
+            self.walk_grid(o, d, start, &best_t, &mut consider_all);
         }
         best.get()
     }
 
     /// Visits the grid cells along the ray (DDA) in order, until the cell entry distance passes
     /// the best hit so far; `visit` gets each cell's models (one call per cell, not per model:
-    /// the cheap per-model rejections then run inline in the caller's loop).
+    /// the cheap per-model rejections then run inline in the caller's loop). `start` is the
+    /// cell holding `o` when the caller knows it (`DynGrid::cell_inside`).
     fn walk_grid(
         &self,
         o: [f64; 2],
         d: [f64; 2],
+        start: Option<[i32; 2]>,
         best_t: &Cell<f64>,
         visit: &mut impl FnMut(&[ModelId]),
     ) {
         let g = &self.grid;
-        let gmin = g.origin;
-        let gmax = [
-            g.origin[0] + g.nx as f64 * g.cell,
-            g.origin[1] + g.ny as f64 * g.cell,
-        ];
         let inv = [1.0 / d[0], 1.0 / d[1]];
-        let bounds = Aabb {
-            min: gmin,
-            max: gmax,
+        let [mut cx, mut cy] = match start {
+            Some(c) => c,
+            None => {
+                let Some(t_enter) = g.bounds().ray_entry(o, inv, best_t.get()) else {
+                    return;
+                };
+                let p = [o[0] + d[0] * t_enter, o[1] + d[1] * t_enter];
+                let c0 = g.cell_of(p);
+                [c0[0].clamp(0, g.nx - 1), c0[1].clamp(0, g.ny - 1)]
+            }
         };
-        let Some(t_enter) = bounds.ray_entry(o, inv, best_t.get()) else {
-            return;
-        };
-        let p = [o[0] + d[0] * t_enter, o[1] + d[1] * t_enter];
-        let c0 = g.cell_of(p);
-        let mut cx = c0[0].clamp(0, g.nx - 1);
-        let mut cy = c0[1].clamp(0, g.ny - 1);
         let step_x = if d[0] >= 0.0 { 1 } else { -1 };
         let step_y = if d[1] >= 0.0 { 1 } else { -1 };
         let next_boundary = |c: i32, k: usize, step: i32| -> f64 {
@@ -427,7 +433,7 @@ impl Space {
             }
         };
         visit_all(&self.grid.overflow);
-        self.walk_grid(o, d, &far, &mut visit_all);
+        self.walk_grid(o, d, None, &far, &mut visit_all);
         out.sort_by(|a, b| {
             a.range
                 .total_cmp(&b.range)
@@ -564,15 +570,22 @@ mod tests {
     }
 
     /// Fans find what single rays find, and both what a brute-force scan of every edge of
-    /// every block finds, in a world of few moving bodies (some the caster's own, some not
-    /// accepted) around a floorplan whose shared block sides are left out of the static grid.
+    /// every block finds, around a floorplan whose shared block sides are left out of the
+    /// static grid, among moving bodies (some the caster's own, some not accepted): few of
+    /// them (scanned directly) or many (the dynamic grid walked from the fan's start cell).
     #[test]
     fn fans_match_single_rays_and_brute_force() {
+        for movers in [6, 60] {
+            fans_match_among(movers);
+        }
+    }
+
+    fn fans_match_among(movers: usize) {
         let mut rng = SimRng::new(11, 3);
         let (size, at) = (0.5, [-6.0, -6.0]);
         let (plan, occupied) = bitmap_body(&mut rng, at, size);
         let mut bodies = vec![plan];
-        for _ in 0..6 {
+        for _ in 0..movers {
             bodies.push(rect_body(
                 rng.uniform(-8.0, 8.0),
                 rng.uniform(-8.0, 8.0),
@@ -590,7 +603,10 @@ mod tests {
             &dynamic,
             roots.iter().map(|&r| ModelId(r)).collect(),
         );
-        assert!(space.members.len() <= SMALL_DYNAMIC_SET);
+        assert_eq!(
+            space.members.len() <= SMALL_DYNAMIC_SET,
+            movers <= SMALL_DYNAMIC_SET
+        );
         let mut fans = 0;
         while fans < 60 {
             let o = [rng.uniform(-9.0, 9.0), rng.uniform(-9.0, 9.0)];

@@ -5,7 +5,6 @@
 use crate::node::ModelId;
 use parry2d::bounding_volume::Aabb as PAabb;
 use parry2d::math::Point;
-use std::cell::Cell;
 
 use super::Space;
 use crate::geom::{Aabb, ray_polygon, ray_segment};
@@ -46,6 +45,80 @@ struct Ray {
     range: f64,
     z: Option<f64>,
     skip_root: Option<ModelId>,
+}
+
+/// One ray's search among the dynamic bodies: the nearest accepted hit so far and the models
+/// already tested (a body spanning several grid cells is listed in each; testing one again
+/// cannot change the answer, as the best hit only gets nearer).
+struct DynamicSearch<'s, A> {
+    space: &'s Space,
+    ray: Ray,
+    accept: &'s A,
+    best_t: f64,
+    best: Option<RayHit>,
+    tested: [ModelId; 8],
+    count: usize,
+}
+
+impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
+    /// Tests every model of `list`; answers the best hit's distance so far (the walk's limit).
+    #[inline(always)]
+    fn consider_all(&mut self, list: &[ModelId]) -> f64 {
+        let sp = self.space;
+        let Ray {
+            o, inv, skip_root, ..
+        } = self.ray;
+        for &m in list {
+            // the cheap rejections inline: the caster's own tree, a box the ray misses
+            if Some(sp.roots[m.index()]) == skip_root
+                || !sp.aabbs[m.index()].ray_meets(o, inv, self.best_t)
+                || !(self.accept)(m)
+            {
+                continue;
+            }
+            self.test_body(m);
+        }
+        self.best_t
+    }
+
+    /// Tests model `m`'s blocks (its box met the ray) unless this ray has tested it already.
+    fn test_body(&mut self, m: ModelId) {
+        if self.tested[..self.count].contains(&m) {
+            return;
+        }
+        if self.count < self.tested.len() {
+            self.tested[self.count] = m;
+            self.count += 1;
+        }
+        let Ray { o, d, inv, z, .. } = self.ray;
+        let tmax = self.best_t;
+        let body = &self.space.bodies[m.index()];
+        let mut bt = tmax;
+        let mut bb = None;
+        // a lone block's box is the body's, which the ray has just been found to meet
+        let one = body.blocks.len() == 1;
+        for (bi, blk) in body.blocks.iter().enumerate() {
+            if !z_sees(z, blk.zmin, blk.zmax) || !(one || blk.aabb.ray_meets(o, inv, bt)) {
+                continue;
+            }
+            if let Some(t) = ray_polygon(o, d, body.block_pts(bi), bt) {
+                if bb.is_none() || t < bt {
+                    bt = t;
+                    bb = Some(bi as u32);
+                }
+            }
+        }
+        if let Some(b) = bb {
+            if bt < tmax || self.best.is_none_or(|h| m < h.model) {
+                self.best_t = bt;
+                self.best = Some(RayHit {
+                    model: m,
+                    block: b,
+                    range: bt,
+                });
+            }
+        }
+    }
 }
 
 /// What the rays of one cast share: origin, reach, height for the z test and the tree they pass
@@ -233,95 +306,46 @@ impl Space {
         few: Option<&[ModelId]>,
         start: Option<[i32; 2]>,
     ) -> Option<RayHit> {
-        let Ray {
-            o,
-            d,
-            inv,
-            range,
-            z,
-            skip_root,
-        } = *ray;
-        let best_t = Cell::new(range);
-        let best: Cell<Option<RayHit>> = Cell::new(None);
-        // models already tested by this ray (a body spanning several grid cells is listed in
-        // each): testing one again cannot change the answer, as the best hit only gets nearer
-        let tested: Cell<([ModelId; 8], usize)> = Cell::new(([ModelId(0); 8], 0));
-        let consider = |m: ModelId| {
-            let tmax = best_t.get();
-            if Some(self.roots[m.index()]) == skip_root
-                || !self.aabbs[m.index()].ray_meets(o, inv, tmax)
-                || !accept(m)
-            {
-                return;
-            }
-            let (mut ids, count) = tested.get();
-            if ids[..count].contains(&m) {
-                return;
-            }
-            if count < ids.len() {
-                ids[count] = m;
-                tested.set((ids, count + 1));
-            }
-            let body = &self.bodies[m.index()];
-            let mut bt = tmax;
-            let mut bb = None;
-            // a lone block's box is the body's, which the ray has just been found to meet
-            let one = body.blocks.len() == 1;
-            for (bi, blk) in body.blocks.iter().enumerate() {
-                if !z_sees(z, blk.zmin, blk.zmax) || !(one || blk.aabb.ray_meets(o, inv, bt)) {
-                    continue;
-                }
-                if let Some(t) = ray_polygon(o, d, body.block_pts(bi), bt) {
-                    if bb.is_none() || t < bt {
-                        bt = t;
-                        bb = Some(bi as u32);
-                    }
-                }
-            }
-            if let Some(b) = bb {
-                let cur = best.get();
-                if bt < tmax || cur.is_none_or(|h| m < h.model) {
-                    best_t.set(bt);
-                    best.set(Some(RayHit {
-                        model: m,
-                        block: b,
-                        range: bt,
-                    }));
-                }
-            }
-        };
-        let mut consider_all = |list: &[ModelId]| {
-            for &m in list {
-                consider(m);
-            }
+        let mut search = DynamicSearch {
+            space: self,
+            ray: *ray,
+            accept,
+            best_t: ray.range,
+            best: None,
+            tested: [ModelId(0); 8],
+            count: 0,
         };
         if let Some(few) = few {
-            consider_all(few);
+            search.consider_all(few);
         } else {
-            consider_all(&self.grid.overflow);
-            self.walk_grid(o, d, start, &best_t, &mut consider_all);
+            search.consider_all(&self.grid.overflow);
+            self.walk_grid(ray.o, ray.d, ray.inv, start, ray.range, |list| {
+                search.consider_all(list)
+            });
         }
-        best.get()
+        search.best
     }
 
     /// Visits the grid cells along the ray (DDA) in order, until the cell entry distance passes
-    /// the best hit so far; `visit` gets each cell's models (one call per cell, not per model:
-    /// the cheap per-model rejections then run inline in the caller's loop). `start` is the
-    /// cell holding `o` when the caller knows it (`DynGrid::cell_inside`).
+    /// `limit`; `visit` gets each cell's models and answers the limit from then on (the best
+    /// hit so far). `start` is the cell holding `o` when the caller knows it
+    /// (`DynGrid::cell_inside`).
+    #[inline(always)]
     fn walk_grid(
         &self,
         o: [f64; 2],
         d: [f64; 2],
+        inv: [f64; 2],
         start: Option<[i32; 2]>,
-        best_t: &Cell<f64>,
-        visit: &mut impl FnMut(&[ModelId]),
+        limit: f64,
+        mut visit: impl FnMut(&[ModelId]) -> f64,
     ) {
         let g = &self.grid;
-        let inv = [1.0 / d[0], 1.0 / d[1]];
+        let mut limit = limit;
         let [mut cx, mut cy] = match start {
             Some(c) => c,
             None => {
-                let Some(t_enter) = g.bounds().ray_entry(o, inv, best_t.get()) else {
+                let Some(t_enter) = g.bounds().ray_entry(o, inv, limit) else {
                     return;
                 };
                 let p = [o[0] + d[0] * t_enter, o[1] + d[1] * t_enter];
@@ -351,7 +375,7 @@ impl Space {
         loop {
             let list = &g.cells[(cy * g.nx + cx) as usize];
             if !list.is_empty() {
-                visit(list);
+                limit = visit(list);
             }
             if t_max_x < t_max_y {
                 t_cell = t_max_x;
@@ -363,7 +387,7 @@ impl Space {
                 t_max_y += t_dy;
             }
             // one unsigned compare per axis: a negative index wraps to a huge one
-            if cx as u32 >= g.nx as u32 || cy as u32 >= g.ny as u32 || t_cell > best_t.get() {
+            if cx as u32 >= g.nx as u32 || cy as u32 >= g.ny as u32 || t_cell > limit {
                 return;
             }
         }
@@ -405,7 +429,6 @@ impl Space {
             }
         }
         let mut seen: Vec<ModelId> = Vec::new();
-        let far = Cell::new(q.range);
         let mut visit = |m: ModelId| {
             if seen.contains(&m) || !accept(m) {
                 return;
@@ -427,13 +450,15 @@ impl Space {
                 }
             }
         };
-        let mut visit_all = |list: &[ModelId]| {
+        for &m in &self.grid.overflow {
+            visit(m);
+        }
+        self.walk_grid(o, d, inv, None, q.range, |list| {
             for &m in list {
                 visit(m);
             }
-        };
-        visit_all(&self.grid.overflow);
-        self.walk_grid(o, d, None, &far, &mut visit_all);
+            q.range
+        });
         out.sort_by(|a, b| {
             a.range
                 .total_cmp(&b.range)

@@ -107,14 +107,14 @@ impl Space {
             Some([x0, y0, x1, y1]) => {
                 for y in y0..=y1 {
                     for x in x0..=x1 {
-                        cand.extend_from_slice(&g.cells[(y * g.nx + x) as usize]);
+                        cand.extend(g.cells[(y * g.nx + x) as usize].iter().map(|e| e.model));
                     }
                 }
             }
             None => {
                 // the mover is (partly) outside the grid: test every registered model
                 for c in &g.cells {
-                    cand.extend_from_slice(c);
+                    cand.extend(c.iter().map(|e| e.model));
                 }
             }
         }

@@ -89,7 +89,7 @@ impl Space {
         let mut is_member = vec![false; n];
         for (m, body) in bodies.iter().enumerate() {
             if dynamic[m] && !body.is_empty() {
-                grid.update(ModelId(m as u32), &body.aabb);
+                grid.update(ModelId(m as u32), &body.aabb, roots[m]);
                 members.push(ModelId(m as u32));
                 is_member[m] = true;
             }
@@ -110,6 +110,7 @@ impl Space {
     /// Records that model `m` now belongs to the tree rooted at `root` (re-parenting).
     pub(crate) fn set_root(&mut self, m: ModelId, root: ModelId) {
         self.roots[m.index()] = root;
+        self.grid.set_root(m, root);
     }
 
     /// The world-space body of model `m`.
@@ -138,7 +139,7 @@ impl Space {
     /// Re-registers model `m` in the dynamic index after [`Space::body_mut`] changed it.
     pub(crate) fn commit_body(&mut self, m: ModelId) {
         let aabb = self.bodies[m.index()].aabb;
-        self.grid.update(m, &aabb);
+        self.grid.update(m, &aabb, self.roots[m.index()]);
         self.aabbs[m.index()] = aabb;
         self.note_member(m);
     }

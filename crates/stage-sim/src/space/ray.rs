@@ -7,6 +7,7 @@ use parry2d::bounding_volume::Aabb as PAabb;
 use parry2d::math::Point;
 
 use super::Space;
+use super::dyn_grid::CellEntry;
 use crate::geom::{Aabb, ray_polygon, ray_segment};
 
 /// A ray hit: the model, which of its blocks, and the distance from the ray origin.
@@ -77,6 +78,25 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
                 continue;
             }
             self.test_body(m);
+        }
+        self.best_t
+    }
+
+    /// [`DynamicSearch::consider_all`] for a grid cell's entries, which carry each model's box
+    /// and root.
+    #[inline(always)]
+    fn consider_cell(&mut self, list: &[CellEntry]) -> f64 {
+        let Ray {
+            o, inv, skip_root, ..
+        } = self.ray;
+        for e in list {
+            if Some(e.root) == skip_root
+                || !e.aabb.ray_meets(o, inv, self.best_t)
+                || !(self.accept)(e.model)
+            {
+                continue;
+            }
+            self.test_body(e.model);
         }
         self.best_t
     }
@@ -320,7 +340,7 @@ impl Space {
         } else {
             search.consider_all(&self.grid.overflow);
             self.walk_grid(ray.o, ray.d, ray.inv, start, ray.range, |list| {
-                search.consider_all(list)
+                search.consider_cell(list)
             });
         }
         search.best
@@ -338,7 +358,7 @@ impl Space {
         inv: [f64; 2],
         start: Option<[i32; 2]>,
         limit: f64,
-        mut visit: impl FnMut(&[ModelId]) -> f64,
+        mut visit: impl FnMut(&[CellEntry]) -> f64,
     ) {
         let g = &self.grid;
         let mut limit = limit;
@@ -454,8 +474,8 @@ impl Space {
             visit(m);
         }
         self.walk_grid(o, d, inv, None, q.range, |list| {
-            for &m in list {
-                visit(m);
+            for e in list {
+                visit(e.model);
             }
             q.range
         });

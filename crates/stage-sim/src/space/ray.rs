@@ -144,7 +144,8 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
 /// What the rays of one cast share: origin, reach, height for the z test and the tree they pass
 /// through, plus what a fan works out once: `few`, the dynamic bodies to test when the world has
 /// so few that walking the dynamic grid would cost more (`None`: walk it), and `start` and
-/// `dyn_start`, the static and the dynamic grid's cells holding `o`, if known.
+/// `dyn_start`, the static and the dynamic grid's cells holding `o`, if known, and `open`, how
+/// far from `o` no static edge lies (0: unknown).
 #[derive(Clone, Copy)]
 struct Shared<'a> {
     o: [f64; 2],
@@ -153,6 +154,7 @@ struct Shared<'a> {
     skip_root: Option<ModelId>,
     few: Option<&'a [ModelId]>,
     start: Option<[i32; 2]>,
+    open: f64,
     dyn_start: Option<[i32; 2]>,
 }
 
@@ -196,6 +198,7 @@ impl Space {
             skip_root,
             few: (self.members.len() <= SMALL_DYNAMIC_SET).then_some(&self.members[..]),
             start: None,
+            open: 0.0,
             dyn_start: None,
         };
         self.cast(shared, d, &accept)
@@ -228,13 +231,18 @@ impl Space {
                 }
             }
         }
+        let start = self.statics.grid.as_ref().and_then(|g| g.cell_inside(o));
         let shared = Shared {
             o,
             range,
             z,
             skip_root,
             few: small.then_some(&few[..n]),
-            start: self.statics.grid.as_ref().and_then(|g| g.cell_inside(o)),
+            start,
+            open: match (&self.statics.grid, start) {
+                (Some(g), Some(c)) => g.open_reach(c),
+                _ => 0.0,
+            },
             dyn_start: if small {
                 None
             } else {
@@ -261,6 +269,7 @@ impl Space {
             skip_root,
             few,
             start,
+            open,
             dyn_start,
         } = shared;
         let inv = [1.0 / d[0], 1.0 / d[1]];
@@ -281,8 +290,12 @@ impl Space {
         };
         let mut best_t = best.map_or(range, |h| h.range);
 
-        // static edges: walk the static grid; the answer is the least (distance, model, block)
-        if let Some(grid) = &self.statics.grid {
+        // static edges: walk the static grid; the answer is the least (distance, model, block).
+        // A ray that ends (at its reach or its dynamic hit) inside the open space around its
+        // start cell has nothing to walk to
+        if let Some(grid) = &self.statics.grid
+            && best_t >= open
+        {
             let st = &self.statics;
             grid.walk(o, d, inv, best_t, start, |list| {
                 for e in list {
@@ -574,6 +587,52 @@ mod tests {
                     want,
                     "{count} bodies, {q:?}"
                 );
+            }
+        }
+    }
+
+    /// A fan whose rays end just beyond a lone wall finds it from every distance: the open
+    /// space around the fan's start cell (where a walk is skipped) never reaches the wall.
+    #[test]
+    fn fans_reach_a_wall_across_open_space() {
+        let wall = rect_body(10.0, -0.5, 1.0, 1.0);
+        // a far corner post, so that the static grid spans the open space the rays start in
+        let post = rect_body(-12.0, -12.0, 1.0, 1.0);
+        let mover = rect_body(-30.0, -30.0, 0.1, 0.1);
+        let space = Space::new(
+            vec![wall.clone(), post, mover],
+            &[false, false, true],
+            vec![ModelId(0), ModelId(1), ModelId(2)],
+        );
+        let grid = space.statics.grid.as_ref().unwrap();
+        assert!(grid.open_reach(grid.cell_inside([-5.0, 0.0]).unwrap()) > 2.0);
+        let dirs: Vec<[f64; 2]> = (-2..=2)
+            .map(|i| {
+                let (s, c) = (i as f64 * 0.01).sin_cos();
+                [c, s]
+            })
+            .collect();
+        for step in 0..200 {
+            let x0 = -9.95 + step as f64 * 0.0993;
+            let o = [x0, 0.013];
+            let range = 10.0 - x0 + 0.02;
+            let mut got = vec![None; dirs.len()];
+            space.raycast_fan(
+                o,
+                &dirs,
+                range,
+                Some(0.5),
+                None,
+                |_| true,
+                |i, h| got[i] = h,
+            );
+            for (i, &d) in dirs.iter().enumerate() {
+                let want = wall
+                    .edges(0)
+                    .filter_map(|(p, q)| ray_segment(o, d, p, q, range))
+                    .min_by(f64::total_cmp);
+                assert_eq!(got[i].map(|h| h.range), want, "from x = {x0}, ray {i}");
+                assert!(want.is_some(), "from x = {x0}, ray {i} reaches the wall");
             }
         }
     }

@@ -294,6 +294,18 @@ impl StaticGrid {
         (inside && c[0] >= 0 && c[0] < self.nx && c[1] >= 0 && c[1] < self.ny).then_some(c)
     }
 
+    /// How far from any point of cell `c` no listed edge lies (0 when unknown): the reach of
+    /// the cell's clearance block, less a margin far above rounding. A ray from that cell that
+    /// ends closer meets no edge, so its walk can be skipped.
+    pub fn open_reach(&self, c: [i32; 2]) -> f64 {
+        let k = self.clear[(c[1] * self.nx + c[0]) as usize];
+        if k >= 2 {
+            f64::from(k - 1) * self.cell - 1e-6
+        } else {
+            0.0
+        }
+    }
+
     /// How many different edges the cells list.
     #[cfg(test)]
     pub fn listed_edges(&self) -> usize {

@@ -46,6 +46,9 @@ pub(super) struct StaticGrid {
     edges: Vec<GridEdge>,
     /// Clearance per cell (0: the cell lists edges), capped at 255.
     clear: Vec<u8>,
+    /// Whether any part of any static edge (exposed or not) comes near the cell: where
+    /// contacts are possible (see [`StaticGrid::no_edge_near`]).
+    touched: Vec<bool>,
 }
 
 impl StaticGrid {
@@ -92,6 +95,7 @@ impl StaticGrid {
             first: vec![0; (nx * ny) as usize + 1],
             edges: Vec::new(),
             clear: Vec::new(),
+            touched: vec![false; (nx * ny) as usize],
         };
         // two passes: count per cell, then fill
         let mut count = vec![0u32; (nx * ny) as usize];
@@ -122,6 +126,12 @@ impl StaticGrid {
         }
         g.edges = out;
         g.clear = chebyshev_clearance(&count, nx as usize, ny as usize);
+        // every edge whole, the shared sides included: a body may cross those inside a wall
+        let mut touched = std::mem::take(&mut g.touched);
+        for l in listed {
+            g.for_cells_of(l.edge.a, l.edge.b, |c| touched[c] = true);
+        }
+        g.touched = touched;
         Some(g)
     }
 
@@ -304,6 +314,21 @@ impl StaticGrid {
         } else {
             0.0
         }
+    }
+
+    /// Whether no part of any static edge can meet the box `b`: every cell `b` (padded)
+    /// covers lies inside the grid and no edge comes near it. A body inside such a box touches
+    /// no static block, so its contact test needs no BVH query. `false` when unsure (the box
+    /// leaves the grid or covers many cells).
+    pub fn no_edge_near(&self, b: &Aabb) -> bool {
+        const PAD: f64 = 1e-6;
+        let lo = self.cell_of([b.min[0] - PAD, b.min[1] - PAD]);
+        let hi = self.cell_of([b.max[0] + PAD, b.max[1] + PAD]);
+        let inside = lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.nx && hi[1] < self.ny;
+        if !inside || (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) > 64 {
+            return false;
+        }
+        (lo[1]..=hi[1]).all(|y| (lo[0]..=hi[0]).all(|x| !self.touched[(y * self.nx + x) as usize]))
     }
 
     /// How many different edges the cells list.

@@ -53,6 +53,18 @@ impl Pose {
     /// `self ⊕ q`: `q`, given in this pose's frame, expressed in this pose's parent frame.
     #[inline]
     pub fn compose(&self, q: &Pose) -> Pose {
+        // `q` only raises or turns (a sensor mounted at its parent's centre, a zero origin):
+        // its zero x and y times the cosine and sine add nothing, so skip computing them.
+        // Exact when x and y are non-zero and the heading is finite (otherwise signed zeros
+        // and NaNs take the full path below)
+        if q.x == 0.0 && q.y == 0.0 && self.x != 0.0 && self.y != 0.0 && self.a.is_finite() {
+            return Pose {
+                x: self.x,
+                y: self.y,
+                z: self.z + q.z,
+                a: normalize(self.a + q.a),
+            };
+        }
         let (s, c) = self.a.sin_cos();
         Pose {
             x: self.x + q.x * c - q.y * s,
@@ -113,6 +125,53 @@ mod tests {
         let iso = p.to_isometry();
         let t = iso * nalgebra::Point2::new(q.x, q.y);
         assert!((t.x - g.x).abs() < 1e-12 && (t.y - g.y).abs() < 1e-12);
+    }
+
+    /// Composing with an offset that only raises or turns gives, bit for bit, what the full
+    /// rotation gives: signed zeros, huge and non-finite values included (NaN payloads aside).
+    #[test]
+    fn offsets_without_x_and_y_compose_exactly() {
+        let full = |p: &Pose, q: &Pose| {
+            let (s, c) = p.a.sin_cos();
+            [
+                p.x + q.x * c - q.y * s,
+                p.y + q.x * s + q.y * c,
+                p.z + q.z,
+                normalize(p.a + q.a),
+            ]
+        };
+        let values = [
+            0.0,
+            -0.0,
+            1.5,
+            -2.25,
+            1e-300,
+            -7e12,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        let headings = [0.0, -0.0, 0.3, -PI, PI / 2.0, 1e9, f64::INFINITY, f64::NAN];
+        for &x in &values {
+            for &y in &values {
+                for &a in &headings {
+                    for (qx, qy) in [(0.0, 0.0), (-0.0, 0.0), (0.0, -0.0), (-0.0, -0.0)] {
+                        let p = Pose { x, y, z: 0.5, a };
+                        let q = Pose {
+                            x: qx,
+                            y: qy,
+                            z: -0.05,
+                            a: 0.7,
+                        };
+                        // bits, signed zeros included; any NaN counts as the same NaN
+                        let bits = |v: f64| if v.is_nan() { u64::MAX } else { v.to_bits() };
+                        let g = p.compose(&q);
+                        let want = full(&p, &q).map(bits);
+                        assert_eq!([g.x, g.y, g.z, g.a].map(bits), want, "{p:?} ⊕ {q:?}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

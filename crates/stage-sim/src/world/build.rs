@@ -207,9 +207,9 @@ impl World {
             self.apply_logged(c);
         }
         self.controllers.push(ControllerSlot {
-            model: inst.model,
             trigger: inst.trigger,
             ctrl: inst.ctrl,
+            cmds: controller::Commands::new(inst.model),
         });
     }
 

@@ -30,7 +30,7 @@ mod tree;
 
 use std::collections::HashMap;
 
-use crate::controller::Controller;
+use crate::controller::{Commands, Controller};
 use crate::desc::Color;
 use crate::error::{Error, Result};
 use crate::models::KindState;
@@ -55,9 +55,11 @@ pub(crate) struct ModelState {
 }
 
 struct ControllerSlot {
-    model: ModelId,
     trigger: ModelId,
     ctrl: Box<dyn Controller>,
+    /// The sink for its model's commands, emptied after each step (kept, so that updates
+    /// allocate nothing).
+    cmds: Commands,
 }
 
 /// A running world. See the crate docs for the step semantics.

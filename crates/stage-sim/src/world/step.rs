@@ -2,7 +2,7 @@
 
 use rayon::prelude::*;
 
-use crate::controller::{Command, Commands};
+use crate::controller::Command;
 use crate::desc::{BlockDesc, KindDesc, ModelDesc};
 use crate::models::KindState;
 use crate::models::gripper::GripAction;
@@ -102,23 +102,21 @@ impl World {
             let mut slots = std::mem::take(&mut self.controllers);
             let world = &*self;
             let run = |slot: &mut ControllerSlot| {
-                let mut cmds = Commands::new(slot.model);
                 if world.updated[slot.trigger.index()] {
-                    slot.ctrl.update(world, &mut cmds);
+                    slot.ctrl.update(world, &mut slot.cmds);
                 }
-                cmds
             };
-            let mut outs: Vec<Commands> = if slots.len() >= 512 {
-                slots.par_iter_mut().with_min_len(32).map(run).collect()
+            if slots.len() >= 512 {
+                slots.par_iter_mut().with_min_len(32).for_each(run);
             } else {
-                slots.iter_mut().map(run).collect()
-            };
-            self.controllers = slots;
-            for out in outs.iter_mut() {
-                for c in out.drain() {
+                slots.iter_mut().for_each(run);
+            }
+            for slot in slots.iter_mut() {
+                for c in slot.cmds.drain() {
                     self.apply_logged(c);
                 }
             }
+            self.controllers = slots;
         }
         self.updates += 1;
         true

@@ -238,9 +238,12 @@ fn with_noise(sensor: &SensorDesc, mut r: f64, rng: &mut SimRng) -> f64 {
     r
 }
 
-/// Rays cast together from one origin in the short path: a run of one-sample transducers that
-/// share their origin (hospital's `swarmbot`: 12 IR sensors at its centre), or one short fan.
+/// Fans shorter than this are cast in one call on the updating thread (longer ones in chunks).
 const SHORT_FAN: usize = 2 * FAN_CHUNK;
+
+/// Most consecutive one-sample transducers at one origin cast as one fan (hospital's
+/// `swarmbot` has 12 IR sensors at its centre).
+const LONGEST_RUN: usize = 16;
 
 /// One ranger update: casts every transducer's fan from the ranger's body frame.
 fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
@@ -270,9 +273,9 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
         ]
     };
     let first_dir = |[sc, ss, _, _]: [f64; 4]| [fc * sc - fs * ss, fs * sc + fc * ss];
-    // the short fans' directions and readings (filled once per update, not per fan)
-    let mut dirs = [[0.0; 2]; SHORT_FAN];
-    let mut readings = [(0.0, 0.0); SHORT_FAN];
+    // a run's directions and readings (set up once per update, not per run)
+    let mut dirs = [[0.0; 2]; LONGEST_RUN];
+    let mut readings = [(0.0, 0.0); LONGEST_RUN];
     let mut k = 0;
     while k < d.sensors.len() {
         let sensor = &d.sensors[k];
@@ -289,7 +292,7 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
             // reach: one fan, so that what the rays share is worked out once
             let mut run = 1;
             while k + run < d.sensors.len()
-                && run < SHORT_FAN
+                && run < LONGEST_RUN
                 && d.sensors[k + run].samples.max(1) == 1
                 && d.sensors[k + run].range[1] == max
                 && origin(&d.sensors[k + run]) == o
@@ -308,12 +311,21 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
             // noise in transducer order, as ray by ray
             for (j, &(r, s)) in readings[..run].iter().enumerate() {
                 let (sensor, scan) = (&d.sensors[k + j], &mut d.scans[k + j]);
-                scan.ranges.resize(1, 0.0);
-                scan.intensities.resize(1, 0.0);
-                scan.bearings.resize(1, 0.0);
-                scan.ranges[0] = with_noise(sensor, r, rng);
-                scan.intensities[0] = s;
-                scan.bearings[0] = 0.0;
+                let r = with_noise(sensor, r, rng);
+                if let ([range], [intensity], [_]) = (
+                    &mut scan.ranges[..],
+                    &mut scan.intensities[..],
+                    &scan.bearings[..],
+                ) {
+                    *range = r;
+                    *intensity = s;
+                } else {
+                    *scan = SensorScan {
+                        ranges: vec![r],
+                        intensities: vec![s],
+                        bearings: vec![0.0],
+                    };
+                }
             }
             k += run;
             continue;
@@ -371,6 +383,7 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
             }
         } else {
             // short fan: one fan call, then the noise in ray order
+            let mut dirs = [[0.0; 2]; SHORT_FAN];
             let mut dir = first;
             for slot in &mut dirs[..n] {
                 *slot = dir;

@@ -5,6 +5,7 @@ use crate::node::ModelId;
 use parry2d::bounding_volume::Aabb as PAabb;
 use parry2d::math::Point;
 
+use super::dyn_grid::CellEntry;
 use super::static_index::AABB_PAD;
 use super::{Body, Space};
 use crate::geom::{Aabb, segments_intersect};
@@ -111,18 +112,26 @@ impl Space {
         let bb = body.aabb;
         cand.clear();
         let g = &self.grid;
+        // only models whose box (carried by the cell entries) meets the mover's
+        let near = |cand: &mut Vec<ModelId>, list: &[CellEntry]| {
+            cand.extend(
+                list.iter()
+                    .filter(|e| e.model != m && e.aabb.intersects(&bb))
+                    .map(|e| e.model),
+            )
+        };
         match g.span_of(&bb) {
             Some([x0, y0, x1, y1]) => {
                 for y in y0..=y1 {
                     for x in x0..=x1 {
-                        cand.extend(g.cells[(y * g.nx + x) as usize].iter().map(|e| e.model));
+                        near(cand, &g.cells[(y * g.nx + x) as usize]);
                     }
                 }
             }
             None => {
                 // the mover is (partly) outside the grid: test every registered model
                 for c in &g.cells {
-                    cand.extend(c.iter().map(|e| e.model));
+                    near(cand, c);
                 }
             }
         }

@@ -187,11 +187,12 @@ pub(super) fn dynamic_cell(bodies: &[Body], dynamic: &[bool]) -> f64 {
 mod tests {
     use super::*;
 
+    /// The box spanning two corners.
     fn aabb(x0: f64, y0: f64, x1: f64, y1: f64) -> Aabb {
-        Aabb {
-            min: [x0, y0],
-            max: [x1, y1],
-        }
+        let mut b = Aabb::EMPTY;
+        b.add([x0, y0]);
+        b.add([x1, y1]);
+        b
     }
 
     /// The entries of every cell a model covers carry its current box and root: after a move

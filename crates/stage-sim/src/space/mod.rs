@@ -90,7 +90,7 @@ impl Space {
             bounds.max[0] += 10.0;
             bounds.max[1] += 10.0;
         }
-        let mut grid = DynGrid::new(bounds, dynamic_cell(&bodies, dynamic), n);
+        let mut grid = DynGrid::new(bounds, dynamic_cell(&bodies, dynamic, &roots), n);
         let mut members = Vec::new();
         let mut is_member = vec![false; n];
         for (m, body) in bodies.iter().enumerate() {

@@ -134,30 +134,21 @@ pub fn recording_block(blocks: &[DriverBlock], file: &Path, port: u16) -> Option
             })
         })
         .unwrap_or(0);
-    let origin = "--record".to_string();
+    let origin = "--record";
+    let log = DeviceAddr::new(
+        player_proto::constants::LOCALHOST_ADDR,
+        u32::from(port),
+        InterfaceCode::LOG,
+        index,
+    );
+    let block = DriverBlock::new(NAME, origin)
+        .providing([log], origin)
+        .with_option("filename", [file.display().to_string()])
+        .with_option("autorecord", ["1"]);
     Some(DriverBlock {
-        name: NAME.into(),
-        origin: origin.clone(),
-        cfg_path: None,
-        provides: vec![player_server::ProvidedDevice {
-            addr: DeviceAddr::new(
-                player_proto::constants::LOCALHOST_ADDR,
-                u32::from(port),
-                InterfaceCode::LOG,
-                index,
-            ),
-            key: None,
-            origin,
-        }],
         requires,
         alwayson: Some(true),
-        options: [
-            ("filename".to_string(), vec![file.display().to_string()]),
-            ("autorecord".to_string(), vec!["1".to_string()]),
-        ]
-        .into_iter()
-        .collect(),
-        units: Default::default(),
+        ..block
     })
 }
 

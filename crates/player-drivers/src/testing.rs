@@ -2,7 +2,7 @@
 //! request tokens that keep counting across calls, and shows what each call asked for.
 
 use player_proto::constants::LOCALHOST_ADDR;
-use player_proto::{Body, DeviceAddr, InterfaceCode, Message};
+use player_proto::{Body, DeviceAddr, InterfaceCode, Message, Pose2d};
 use player_server::{
     Action, Context, Driver, DriverBlock, PendingReply, Publication, Reply, RequestError,
     RequestTicket,
@@ -11,6 +11,11 @@ use player_server::{
 /// A device address on the test port.
 pub(crate) fn addr(interf: InterfaceCode, index: u16) -> DeviceAddr {
     DeviceAddr::new(LOCALHOST_ADDR, 6665, interf, index)
+}
+
+/// A Player 2D pose: x and y (m), heading (rad).
+pub(crate) fn pose(px: f64, py: f64, pa: f64) -> Pose2d {
+    Pose2d { px, py, pa }
 }
 
 /// A block named `name` providing and requiring these devices, with `options` (a value with

@@ -163,13 +163,24 @@ impl DriverBlock {
     }
 
     /// The first provided device of `interface` (upstream's single-interface `Driver`
-    /// constructor); an error saying the block must provide one when there is none.
+    /// constructor); an error saying the block must provide one, with an example entry, when
+    /// there is none.
     pub fn provided(&self, interface: InterfaceCode) -> Result<DeviceAddr, DriverError> {
         self.provides
             .iter()
             .find(|p| p.addr.interf == interface)
             .map(|p| p.addr)
-            .ok_or_else(|| DriverError::new(format!("must provide a {interface} device")))
+            .ok_or_else(|| {
+                let name = interface.to_string();
+                let article = if name.starts_with(['a', 'e', 'i', 'o', 'u']) {
+                    "an"
+                } else {
+                    "a"
+                };
+                DriverError::new(format!(
+                    "must provide {article} {name} device (e.g. \"{name}:0\")"
+                ))
+            })
     }
 
     /// The required device of `interface` with `key` (Player's `ReadDeviceAddr(.., "requires",
@@ -846,5 +857,19 @@ mod tests {
         assert_eq!(block.options["step"], ["60"]);
         assert_eq!(block.options["name"], ["a b"]);
         assert_eq!((block.cfg_path, block.alwayson), (None, None));
+    }
+
+    #[test]
+    fn a_missing_provided_device_is_named_with_an_example() {
+        let block = DriverBlock::new("relay", "here:1");
+        let missing = |interface| block.provided(interface).unwrap_err().to_string();
+        assert_eq!(
+            missing(InterfaceCode::OPAQUE),
+            "must provide an opaque device (e.g. \"opaque:0\")"
+        );
+        assert_eq!(
+            missing(InterfaceCode::LOG),
+            "must provide a log device (e.g. \"log:0\")"
+        );
     }
 }

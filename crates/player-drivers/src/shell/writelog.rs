@@ -189,12 +189,7 @@ impl std::fmt::Debug for WriteLog {
 impl WriteLog {
     /// Builds the driver from its cfg block (see the module docs for the options).
     pub fn from_block(block: &DriverBlock) -> Result<WriteLog, DriverError> {
-        let log_addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::LOG)
-            .map(|p| p.addr)
-            .ok_or_else(|| DriverError::new("provides no log device (e.g. \"log:0\")"))?;
+        let log_addr = block.provided(InterfaceCode::LOG)?;
         if let Some(other) = block
             .provides
             .iter()

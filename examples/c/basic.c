@@ -4,23 +4,15 @@
  *
  *   make && ./basic [host] [port] [reads]       (defaults: localhost 6665 20)
  */
-#include <libplayerc/playerc.h>
+#define EXAMPLE_NAME "basic"
+#include "example.h"
 
 #include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
-
-static int fail(const char *what) {
-  fprintf(stderr, "basic: %s failed: %s\n", what, playerc_error_str());
-  return 1;
-}
 
 int main(int argc, char **argv) {
-  const char *host = argc > 1 ? argv[1] : "localhost";
-  int port = argc > 2 ? atoi(argv[2]) : 6665;
   int reads = argc > 3 ? atoi(argv[3]) : 20;
-  playerc_client_t *client = playerc_client_create(NULL, host, port);
-  if (playerc_client_connect(client) != 0) return fail("connect");
+  playerc_client_t *client = connect_from_args(argc, argv);
+  if (client == NULL) return 1;
 
   playerc_position2d_t *base = playerc_position2d_create(client, 0);
   playerc_ranger_t *sonar = playerc_ranger_create(client, 0);

@@ -5,23 +5,10 @@
  *   make && ./log_control HOST PORT write NEWFILE     (writelog: log:0, autorecord 0)
  *   make && ./log_control HOST PORT read              (readlog: log:0, autoplay 1)
  */
-#include <libplayerc/playerc.h>
+#define EXAMPLE_NAME "log_control"
+#include "example.h"
 
-#include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
-
-static int failures = 0;
-
-static void check(int ok, const char *what) {
-  printf("log_control: %s: %s\n", what, ok ? "ok" : "FAILED");
-  if (!ok) failures++;
-}
-
-static int fail(const char *what) {
-  fprintf(stderr, "log_control: %s failed: %s\n", what, playerc_error_str());
-  return 1;
-}
 
 /* Reads `rounds` data rounds. */
 static void read_rounds(playerc_client_t *client, int rounds) {
@@ -35,8 +22,8 @@ int main(int argc, char **argv) {
     fprintf(stderr, "usage: log_control HOST PORT write NEWFILE | read\n");
     return 2;
   }
-  playerc_client_t *client = playerc_client_create(NULL, argv[1], atoi(argv[2]));
-  if (playerc_client_connect(client) != 0) return fail("connect");
+  playerc_client_t *client = connect_from_args(argc, argv);
+  if (client == NULL) return 1;
   playerc_log_t *log = playerc_log_create(client, 0);
   if (playerc_log_subscribe(log, PLAYER_OPEN_MODE) != 0) return fail("log:0");
   playerc_position2d_t *base = playerc_position2d_create(client, 0);

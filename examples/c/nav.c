@@ -6,17 +6,11 @@
  *
  *   make && ./nav [host] [port] [gx gy ga(deg)]      (defaults: localhost 6665 -3 0 90)
  */
-#include <libplayerc/playerc.h>
+#define EXAMPLE_NAME "nav"
+#include "example.h"
 
 #include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
 #include <time.h>
-
-static int fail(const char *what) {
-  fprintf(stderr, "nav: %s failed: %s\n", what, playerc_error_str());
-  return 1;
-}
 
 /* The hypothesis with the largest weight. */
 static const player_localize_hypoth_t *best(const playerc_localize_t *loc) {
@@ -27,15 +21,13 @@ static const player_localize_hypoth_t *best(const playerc_localize_t *loc) {
 }
 
 int main(int argc, char **argv) {
-  const char *host = argc > 1 ? argv[1] : "localhost";
-  int port = argc > 2 ? atoi(argv[2]) : 6665;
   double gx = argc > 3 ? atof(argv[3]) : -3.0;
   double gy = argc > 4 ? atof(argv[4]) : 0.0;
   double ga = (argc > 5 ? atof(argv[5]) : 90.0) * M_PI / 180.0;
   time_t deadline = time(NULL) + 90;
 
-  playerc_client_t *client = playerc_client_create(NULL, host, port);
-  if (playerc_client_connect(client) != 0) return fail("connect");
+  playerc_client_t *client = connect_from_args(argc, argv);
+  if (client == NULL) return 1;
   playerc_planner_t *planner = playerc_planner_create(client, 0);
   playerc_localize_t *loc = playerc_localize_create(client, 0);
   playerc_map_t *map = playerc_map_create(client, 0);

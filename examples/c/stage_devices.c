@@ -7,23 +7,10 @@
  *
  *   make && ./stage_devices [host] [port]       (defaults: localhost 6665)
  */
-#include <libplayerc/playerc.h>
+#define EXAMPLE_NAME "stage_devices"
+#include "example.h"
 
 #include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
-
-static int failures = 0;
-
-static void check(int ok, const char *what) {
-  printf("stage_devices: %s: %s\n", what, ok ? "ok" : "FAILED");
-  if (!ok) failures++;
-}
-
-static int fail(const char *what) {
-  fprintf(stderr, "stage_devices: %s failed: %s\n", what, playerc_error_str());
-  return 1;
-}
 
 /* Reads until `fresh` is set or 200 rounds went by. */
 static int read_until_fresh(playerc_client_t *client, playerc_device_t *dev) {
@@ -37,10 +24,8 @@ static int read_until_fresh(playerc_client_t *client, playerc_device_t *dev) {
 static double deg(double rad) { return rad * 180.0 / M_PI; }
 
 int main(int argc, char **argv) {
-  const char *host = argc > 1 ? argv[1] : "localhost";
-  int port = argc > 2 ? atoi(argv[2]) : 6665;
-  playerc_client_t *client = playerc_client_create(NULL, host, port);
-  if (playerc_client_connect(client) != 0) return fail("connect");
+  playerc_client_t *client = connect_from_args(argc, argv);
+  if (client == NULL) return 1;
 
   playerc_position2d_t *r0 = playerc_position2d_create(client, 0);
   playerc_position2d_t *r1 = playerc_position2d_create(client, 1);

@@ -16,38 +16,22 @@ use player_client::{PlayerClient, RangerProxy};
 use player_proto::constants::LOCALHOST_ADDR;
 use player_proto::{DeviceAddr, InterfaceCode};
 use player_server::test_driver::{TEST_DRIVER_NAME, TestDriver};
-use player_server::{
-    DriverBlock, DriverRegistry, ProvidedDevice, RequiredDevice, Server, ServerConfig, ServerHandle,
-};
+use player_server::{DriverBlock, DriverRegistry, Server, ServerConfig, ServerHandle};
 
 fn ranger(port: u32, index: u16) -> DeviceAddr {
     DeviceAddr::new(LOCALHOST_ADDR, port, InterfaceCode::RANGER, index)
 }
 
 fn block(name: &str, provides: DeviceAddr, requires: Option<DeviceAddr>) -> DriverBlock {
-    DriverBlock {
-        name: name.into(),
-        origin: "bench".into(),
-        provides: vec![ProvidedDevice {
-            addr: provides,
-            key: None,
-            origin: "bench".into(),
-        }],
-        requires: requires
-            .into_iter()
-            .map(|addr| RequiredDevice {
-                addr,
-                key: None,
-                origin: "bench".into(),
-            })
-            .collect(),
-        options: [("silent", "1"), ("step_ms", "1000")]
-            .iter()
-            .filter(|_| name == TEST_DRIVER_NAME)
-            .map(|(k, v)| (k.to_string(), vec![v.to_string()]))
-            .collect(),
-        ..Default::default()
-    }
+    let options: &[(&str, &str)] = if name == TEST_DRIVER_NAME {
+        &[("silent", "1"), ("step_ms", "1000")]
+    } else {
+        &[]
+    };
+    DriverBlock::new(name, "bench")
+        .providing([provides], "bench")
+        .requiring(requires.map(|addr| (None, addr)), "bench")
+        .with_options(options)
 }
 
 /// The test driver's `ranger:0` and the chain `ranger:2` -> `ranger:1` -> `ranger:0`.

@@ -14,9 +14,7 @@ use player_drivers::shell::readlog::{LogReader, ReadLog};
 use player_drivers::shell::writelog::WriteLog;
 use player_proto::constants::LOCALHOST_ADDR;
 use player_proto::{DeviceAddr, InterfaceCode, LaserData, LaserDataScan, Message};
-use player_server::{
-    Action, Context, Driver, DriverBlock, ProvidedDevice, RequestError, RequiredDevice,
-};
+use player_server::{Action, Context, Driver, DriverBlock, RequestError};
 
 fn addr(interf: InterfaceCode) -> DeviceAddr {
     DeviceAddr::new(LOCALHOST_ADDR, 6665, interf, 0)
@@ -28,31 +26,10 @@ fn block(
     requires: &[DeviceAddr],
     options: &[(&str, &str)],
 ) -> DriverBlock {
-    DriverBlock {
-        name: name.into(),
-        origin: "bench".into(),
-        provides: provides
-            .iter()
-            .map(|&addr| ProvidedDevice {
-                addr,
-                key: None,
-                origin: "bench".into(),
-            })
-            .collect(),
-        requires: requires
-            .iter()
-            .map(|&addr| RequiredDevice {
-                addr,
-                key: None,
-                origin: "bench".into(),
-            })
-            .collect(),
-        options: options
-            .iter()
-            .map(|(k, v)| (k.to_string(), vec![v.to_string()]))
-            .collect(),
-        ..Default::default()
-    }
+    DriverBlock::new(name, "bench")
+        .providing(provides.iter().copied(), "bench")
+        .requiring(requires.iter().map(|&addr| (None, addr)), "bench")
+        .with_options(options)
 }
 
 fn scan(i: usize) -> LaserData {

@@ -89,6 +89,35 @@ impl Waiting<PendingReply> {
     }
 }
 
+/// Who asked a converter for what its input device says of itself (a configuration, a
+/// geometry), which the converter keeps: the driver itself at setup, or a client whose
+/// request it forwarded.
+#[derive(Debug)]
+pub(crate) enum Asker {
+    /// The driver, at setup: the answer is kept and goes to nobody.
+    Setup,
+    /// A client, owed an answer.
+    Client(PendingReply),
+}
+
+impl Asker {
+    /// Hands over `answer`, made from the input's reply once the converter has kept what it
+    /// says: a client gets it ACKed, or a NACK when the input gave nothing usable; at setup
+    /// nobody is answered, and `missing` tells the log what the driver goes on without.
+    pub(crate) fn answer(
+        self,
+        ctx: &mut Context<'_>,
+        answer: Option<impl Into<Body>>,
+        missing: impl FnOnce(),
+    ) {
+        match self {
+            Asker::Client(pending) => ctx.answer(pending, ack_or_nack(answer)),
+            Asker::Setup if answer.is_none() => missing(),
+            Asker::Setup => {}
+        }
+    }
+}
+
 /// The `handle_request` and `handle_reply` of a driver that passes every request to one of
 /// its input devices, `self.$device`, and sends the answer back unchanged (tracked in
 /// `self.waiting`, a `Waiting<PendingReply>`): upstream's filters that sit in front of a

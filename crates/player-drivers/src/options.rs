@@ -111,15 +111,7 @@ pub(crate) mod tests {
 
     /// A block with `options` (values split on spaces, as a tuple).
     pub(crate) fn block(name: &str, options: &[(&str, &str)]) -> DriverBlock {
-        DriverBlock {
-            name: name.into(),
-            origin: "test.cfg:1".into(),
-            options: options
-                .iter()
-                .map(|(k, v)| (k.to_string(), v.split(' ').map(str::to_string).collect()))
-                .collect(),
-            ..Default::default()
-        }
+        crate::testing::block(name, &[], &[], options)
     }
 
     #[test]

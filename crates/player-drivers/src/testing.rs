@@ -2,10 +2,10 @@
 //! request tokens that keep counting across calls, and shows what each call asked for.
 
 use player_proto::constants::LOCALHOST_ADDR;
-use player_proto::{Body, DeviceAddr, InterfaceCode, Message};
+use player_proto::{Body, DeviceAddr, InterfaceCode, Message, Pose2d};
 use player_server::{
-    Action, Context, Driver, DriverBlock, PendingReply, ProvidedDevice, Publication, Reply,
-    RequestError, RequestTicket, RequiredDevice,
+    Action, Context, Driver, DriverBlock, PendingReply, Publication, Reply, RequestError,
+    RequestTicket,
 };
 
 /// A device address on the test port.
@@ -13,38 +13,25 @@ pub(crate) fn addr(interf: InterfaceCode, index: u16) -> DeviceAddr {
     DeviceAddr::new(LOCALHOST_ADDR, 6665, interf, index)
 }
 
-/// A block named `name` providing and requiring these devices, with `options`.
+/// A Player 2D pose: x and y (m), heading (rad).
+pub(crate) fn pose(px: f64, py: f64, pa: f64) -> Pose2d {
+    Pose2d { px, py, pa }
+}
+
+/// A block named `name` providing and requiring these devices, with `options` (a value with
+/// spaces is a tuple of the words between them).
 pub(crate) fn block(
     name: &str,
     provides: &[DeviceAddr],
     requires: &[DeviceAddr],
     options: &[(&str, &str)],
 ) -> DriverBlock {
-    DriverBlock {
-        name: name.into(),
-        origin: "test.cfg:1".into(),
-        provides: provides
-            .iter()
-            .map(|&addr| ProvidedDevice {
-                addr,
-                key: None,
-                origin: "test.cfg:2".into(),
-            })
-            .collect(),
-        requires: requires
-            .iter()
-            .map(|&addr| RequiredDevice {
-                addr,
-                key: None,
-                origin: "test.cfg:3".into(),
-            })
-            .collect(),
-        options: options
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.split(' ').map(str::to_string).collect()))
-            .collect(),
-        ..Default::default()
-    }
+    let block = DriverBlock::new(name, "test.cfg:1")
+        .providing(provides.iter().copied(), "test.cfg:2")
+        .requiring(requires.iter().map(|&addr| (None, addr)), "test.cfg:3");
+    options.iter().fold(block, |block, (key, values)| {
+        block.with_option(key, values.split(' '))
+    })
 }
 
 /// What one call produced.

@@ -26,30 +26,17 @@ use player_proto::{
 };
 use player_server::stage::{self, StageOptions};
 use player_server::test_driver::TestDriver;
-use player_server::{
-    DriverBlock, DriverRegistry, Pace, ProvidedDevice, Server, ServerConfig, ServerHandle,
-};
+use player_server::{DriverBlock, DriverRegistry, Pace, Server, ServerConfig, ServerHandle};
 
 fn server(devices: &[(InterfaceCode, u16)], options: &[(&str, &str)], pace: Pace) -> ServerHandle {
     let mut registry = DriverRegistry::new();
     TestDriver::register(&mut registry, "test");
-    let block = DriverBlock {
-        name: "test".into(),
-        origin: "bench".into(),
-        provides: devices
-            .iter()
-            .map(|&(interf, index)| ProvidedDevice {
-                addr: DeviceAddr::new(LOCALHOST_ADDR, 0, interf, index),
-                key: None,
-                origin: "bench".into(),
-            })
-            .collect(),
-        options: options
-            .iter()
-            .map(|(k, v)| (k.to_string(), vec![v.to_string()]))
-            .collect(),
-        ..Default::default()
-    };
+    let provides = devices
+        .iter()
+        .map(|&(interf, index)| DeviceAddr::new(LOCALHOST_ADDR, 0, interf, index));
+    let block = DriverBlock::new("test", "bench")
+        .providing(provides, "bench")
+        .with_options(options);
     let mut s = Server::new(ServerConfig {
         pace,
         ..ServerConfig::default()
@@ -85,6 +72,24 @@ fn player_addr() -> DeviceAddr {
     DeviceAddr::new(0, 0, InterfaceCode::PLAYER, 0)
 }
 
+/// The player DATAMODE request that puts a connection in PULL mode.
+fn pull_mode_request() -> Vec<u8> {
+    encode(
+        player_addr(),
+        PlayerReq::DataMode(Some(DeviceDatamodeReq {
+            mode: PLAYER_DATAMODE_PULL,
+        })),
+    )
+}
+
+/// A GET_GEOM request to position2d:0 on `port`.
+fn position_geom_request(port: u16) -> Vec<u8> {
+    encode(
+        DeviceAddr::new(0, u32::from(port), InterfaceCode::POSITION2D, 0),
+        Position2dReq::GetGeom(None),
+    )
+}
+
 fn round_trips(label: &str, stream: &mut TcpStream, request: &[u8], n: usize) {
     let mut buf = Vec::new();
     for _ in 0..1000 {
@@ -114,22 +119,14 @@ fn bench_round_trips() {
     let s = server(&[(InterfaceCode::POSITION2D, 0)], &[], Pace::default());
     let port = s.ports()[0];
     let mut c = connect(port);
-    let datamode = encode(
-        player_addr(),
-        PlayerReq::DataMode(Some(DeviceDatamodeReq {
-            mode: PLAYER_DATAMODE_PULL,
-        })),
-    );
+    let datamode = pull_mode_request();
     round_trips(
         "request round trip, player DATAMODE",
         &mut c,
         &datamode,
         20_000,
     );
-    let geom = encode(
-        DeviceAddr::new(0, u32::from(port), InterfaceCode::POSITION2D, 0),
-        Position2dReq::GetGeom(None),
-    );
+    let geom = position_geom_request(port);
     round_trips(
         "request round trip, position2d GET_GEOM",
         &mut c,
@@ -237,12 +234,7 @@ fn bench_memory(clients: usize) {
     drop(warm);
     std::thread::sleep(Duration::from_millis(200));
     let before = rss_kib();
-    let datamode = encode(
-        player_addr(),
-        PlayerReq::DataMode(Some(DeviceDatamodeReq {
-            mode: PLAYER_DATAMODE_PULL,
-        })),
-    );
+    let datamode = pull_mode_request();
     let mut conns = Vec::new();
     let mut buf = Vec::new();
     for _ in 0..clients {
@@ -296,18 +288,10 @@ fn bench_stage_round_trips() {
     let port = s.ports()[0];
     let mut c = connect(port);
     // Subscribed, as a client would be; PULL mode so that data does not interleave.
-    let datamode = encode(
-        player_addr(),
-        PlayerReq::DataMode(Some(DeviceDatamodeReq {
-            mode: PLAYER_DATAMODE_PULL,
-        })),
-    );
+    let datamode = pull_mode_request();
     c.write_all(&datamode).unwrap();
     read_msg(&mut c, &mut Vec::new());
-    let geom = encode(
-        DeviceAddr::new(0, u32::from(port), InterfaceCode::POSITION2D, 0),
-        Position2dReq::GetGeom(None),
-    );
+    let geom = position_geom_request(port);
     round_trips(
         "stage: position2d GET_GEOM round trip",
         &mut c,

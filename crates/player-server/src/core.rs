@@ -33,7 +33,9 @@ use crate::driver::{
     Action, ClientId, Context, Driver, DriverError, DriverWaker, PendingReply, Publication, Reply,
     RequestError, RequestTicket,
 };
-use crate::player_iface::{self, PlayerInput, Session, Subscriptions, UnsubscribeError};
+use crate::player_iface::{
+    self, PlayerInput, Session, Subscriptions, UnsubscribeError, release_held,
+};
 use crate::queue::{Outgoing, PushOutcome};
 
 /// How long the core may step back to back (as fast as possible) before letting other tasks
@@ -919,12 +921,7 @@ impl Subscriptions for SubscriptionBook<'_> {
     }
 
     fn unsubscribe(&mut self, device: DeviceIndex) -> Result<(), UnsubscribeError> {
-        let pos = self
-            .held
-            .iter()
-            .rposition(|&d| d == device)
-            .ok_or(UnsubscribeError::NotSubscribed)?;
-        self.held.remove(pos);
+        release_held(self.held, device)?;
         self.bus
             .unsubscribe(Subscriber::Client(self.id), device)
             .map_err(UnsubscribeError::Driver)

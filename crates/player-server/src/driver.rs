@@ -85,6 +85,68 @@ pub struct DriverBlock {
 }
 
 impl DriverBlock {
+    /// A block written in code rather than read from a cfg file (one the server adds itself,
+    /// a program embedding the server, a bench or a test): the driver `name`, with `origin`
+    /// standing where a cfg block's `file:line` would in error messages; no devices or options
+    /// yet (add them with [`DriverBlock::providing`], [`DriverBlock::requiring`] and
+    /// [`DriverBlock::with_options`]).
+    pub fn new(name: impl Into<String>, origin: impl Into<String>) -> DriverBlock {
+        DriverBlock {
+            name: name.into(),
+            origin: origin.into(),
+            ..DriverBlock::default()
+        }
+    }
+
+    /// The block with an unkeyed `provides` entry for each of `addrs`, each reported at
+    /// `origin`.
+    pub fn providing(mut self, addrs: impl IntoIterator<Item = DeviceAddr>, origin: &str) -> Self {
+        self.provides
+            .extend(addrs.into_iter().map(|addr| ProvidedDevice {
+                addr,
+                key: None,
+                origin: origin.into(),
+            }));
+        self
+    }
+
+    /// The block with a `requires` entry for each `(key, address)` of `entries` (`None`: an
+    /// unkeyed entry), each reported at `origin`.
+    pub fn requiring<'k>(
+        mut self,
+        entries: impl IntoIterator<Item = (Option<&'k str>, DeviceAddr)>,
+        origin: &str,
+    ) -> Self {
+        self.requires
+            .extend(entries.into_iter().map(|(key, addr)| RequiredDevice {
+                addr,
+                key: key.map(str::to_string),
+                origin: origin.into(),
+            }));
+        self
+    }
+
+    /// The block with option `key` set to `values` (a cfg tuple's values in order; one value
+    /// for a plain option).
+    pub fn with_option<V: Into<String>>(
+        mut self,
+        key: &str,
+        values: impl IntoIterator<Item = V>,
+    ) -> Self {
+        self.options.insert(
+            key.to_string(),
+            values.into_iter().map(Into::into).collect(),
+        );
+        self
+    }
+
+    /// The block with each `(key, value)` of `options` set as a one-value option.
+    pub fn with_options(self, options: &[(&str, &str)]) -> Self {
+        options
+            .iter()
+            .fold(self, |block, &(key, value)| block.with_option(key, [value]))
+    }
+
     /// The first value of an option.
     pub fn option(&self, key: &str) -> Option<&str> {
         self.options.get(key)?.first().map(String::as_str)
@@ -101,13 +163,24 @@ impl DriverBlock {
     }
 
     /// The first provided device of `interface` (upstream's single-interface `Driver`
-    /// constructor); an error saying the block must provide one when there is none.
+    /// constructor); an error saying the block must provide one, with an example entry, when
+    /// there is none.
     pub fn provided(&self, interface: InterfaceCode) -> Result<DeviceAddr, DriverError> {
         self.provides
             .iter()
             .find(|p| p.addr.interf == interface)
             .map(|p| p.addr)
-            .ok_or_else(|| DriverError::new(format!("must provide a {interface} device")))
+            .ok_or_else(|| {
+                let name = interface.to_string();
+                let article = if name.starts_with(['a', 'e', 'i', 'o', 'u']) {
+                    "an"
+                } else {
+                    "a"
+                };
+                DriverError::new(format!(
+                    "must provide {article} {name} device (e.g. \"{name}:0\")"
+                ))
+            })
     }
 
     /// The required device of `interface` with `key` (Player's `ReadDeviceAddr(.., "requires",
@@ -747,6 +820,56 @@ mod tests {
         assert_eq!(
             block.resolve_path("/abs/a.world"),
             Path::new("/abs/a.world")
+        );
+    }
+
+    #[test]
+    fn blocks_written_in_code() {
+        let at = |interf, index| DeviceAddr::new(0, 6665, interf, index);
+        let block = DriverBlock::new("vfh", "here:1")
+            .providing([at(InterfaceCode::POSITION2D, 1)], "here:2")
+            .requiring(
+                [
+                    (Some("odometry"), at(InterfaceCode::POSITION2D, 0)),
+                    (None, at(InterfaceCode::LASER, 0)),
+                ],
+                "here:3",
+            )
+            .with_option("safety_dist", ["0.1", "0.2"])
+            .with_options(&[("step", "50"), ("step", "60"), ("name", "a b")]);
+        assert_eq!(
+            (block.name.as_str(), block.origin.as_str()),
+            ("vfh", "here:1")
+        );
+        assert_eq!(
+            block.provides,
+            [ProvidedDevice {
+                addr: at(InterfaceCode::POSITION2D, 1),
+                key: None,
+                origin: "here:2".into(),
+            }]
+        );
+        let odometry = block.required(InterfaceCode::POSITION2D, Some("odometry"));
+        assert_eq!(odometry.unwrap().origin, "here:3");
+        assert_eq!(block.requires[1].key, None);
+        assert_eq!(block.options["safety_dist"], ["0.1", "0.2"]);
+        // A later value of the same option replaces the earlier; values are not split.
+        assert_eq!(block.options["step"], ["60"]);
+        assert_eq!(block.options["name"], ["a b"]);
+        assert_eq!((block.cfg_path, block.alwayson), (None, None));
+    }
+
+    #[test]
+    fn a_missing_provided_device_is_named_with_an_example() {
+        let block = DriverBlock::new("relay", "here:1");
+        let missing = |interface| block.provided(interface).unwrap_err().to_string();
+        assert_eq!(
+            missing(InterfaceCode::OPAQUE),
+            "must provide an opaque device (e.g. \"opaque:0\")"
+        );
+        assert_eq!(
+            missing(InterfaceCode::LOG),
+            "must provide a log device (e.g. \"log:0\")"
         );
     }
 }

@@ -57,6 +57,21 @@ pub(crate) trait Subscriptions {
     fn unsubscribe(&mut self, device: DeviceIndex) -> Result<(), UnsubscribeError>;
 }
 
+/// Removes the latest of a connection's `held` subscriptions to `device` (a connection may
+/// hold several), or says it holds none: the record every [`Subscriptions`] keeps of what it
+/// must release when the connection goes.
+pub(crate) fn release_held(
+    held: &mut Vec<DeviceIndex>,
+    device: DeviceIndex,
+) -> Result<(), UnsubscribeError> {
+    let pos = held
+        .iter()
+        .rposition(|&d| d == device)
+        .ok_or(UnsubscribeError::NotSubscribed)?;
+    held.remove(pos);
+    Ok(())
+}
+
 /// What the player interface needs of the connection it answers.
 pub(crate) struct Session<'a> {
     /// The device table.
@@ -334,13 +349,7 @@ mod tests {
             Ok(())
         }
         fn unsubscribe(&mut self, device: DeviceIndex) -> Result<(), UnsubscribeError> {
-            let pos = self
-                .held
-                .iter()
-                .position(|&d| d == device)
-                .ok_or(UnsubscribeError::NotSubscribed)?;
-            self.held.remove(pos);
-            Ok(())
+            release_held(&mut self.held, device)
         }
     }
 
@@ -363,52 +372,56 @@ mod tests {
         t
     }
 
-    /// Sends `body` as libplayerc does (host 0, robot 0; the server rewrites host and port
-    /// before the player interface sees the header) and returns the replies queued.
-    fn exchange(
-        t: &DeviceTable,
-        q: &mut OutQueue,
-        subs: &mut Subs,
-        msg_type: MsgType,
-        body: Option<Body>,
-        subtype: u8,
-    ) -> Vec<Message> {
-        exchange_raw(t, q, subs, msg_type, body, subtype)
-            .iter()
-            .map(decode)
-            .collect()
+    /// One connection talking to the player interface: the device table it sees, its queue
+    /// and its subscriptions.
+    struct Conn {
+        table: DeviceTable,
+        queue: OutQueue,
+        subs: Subs,
     }
 
-    fn exchange_raw(
-        t: &DeviceTable,
-        q: &mut OutQueue,
-        subs: &mut Subs,
-        msg_type: MsgType,
-        body: Option<Body>,
-        subtype: u8,
-    ) -> Vec<Outgoing> {
-        let addr = local_addr(6665, InterfaceCode::PLAYER, 0);
-        let msg;
-        let header;
-        let input = match body {
-            Some(b) => {
-                msg = Message::new(addr, 1.0, b);
-                PlayerInput::Typed(&msg)
+    impl Conn {
+        fn new() -> Conn {
+            Conn {
+                table: table(),
+                queue: OutQueue::default(),
+                subs: Subs::default(),
             }
-            None => {
-                header = MsgHeader::new(addr, msg_type, subtype, 1.0);
-                PlayerInput::Untyped(&header)
-            }
-        };
-        let mut s = Session {
-            table: t,
-            port: 6665,
-            now: 7.5,
-            queue: q,
-            peer: "test",
-        };
-        handle(input, &mut s, subs);
-        std::iter::from_fn(|| q.pop(0.0)).collect()
+        }
+
+        /// Sends `body` as libplayerc does (host 0, robot 0; the server rewrites host and port
+        /// before the player interface sees the header) and returns the replies queued.
+        fn send(&mut self, body: Body) -> Vec<Message> {
+            let msg = Message::new(local_addr(6665, InterfaceCode::PLAYER, 0), 1.0, body);
+            self.handle(PlayerInput::Typed(&msg))
+                .iter()
+                .map(decode)
+                .collect()
+        }
+
+        /// Sends a header of `msg_type` and `subtype` without a body the codec knows.
+        fn send_untyped(&mut self, msg_type: MsgType, subtype: u8) -> Vec<Outgoing> {
+            let addr = local_addr(6665, InterfaceCode::PLAYER, 0);
+            let header = MsgHeader::new(addr, msg_type, subtype, 1.0);
+            self.handle(PlayerInput::Untyped(&header))
+        }
+
+        /// A DEV request opening (`access`) the device `interf`:0 of this port.
+        fn dev(&mut self, interf: InterfaceCode, access: u8) -> Vec<Message> {
+            self.send(dev(interf, 0, access))
+        }
+
+        fn handle(&mut self, input: PlayerInput<'_>) -> Vec<Outgoing> {
+            let mut s = Session {
+                table: &self.table,
+                port: 6665,
+                now: 7.5,
+                queue: &mut self.queue,
+                peer: "test",
+            };
+            handle(input, &mut s, &mut self.subs);
+            std::iter::from_fn(|| self.queue.pop(0.0)).collect()
+        }
     }
 
     fn decode(m: &Outgoing) -> Message {
@@ -416,11 +429,11 @@ mod tests {
         Message::decode(h, &m.bytes[HEADER_SIZE..], &DecodeLimits::default()).unwrap()
     }
 
-    fn req(r: PlayerReq) -> Option<Body> {
-        Some(Body::Player(PlayerMsg::Req(r)))
+    fn req(r: PlayerReq) -> Body {
+        Body::Player(PlayerMsg::Req(r))
     }
 
-    fn dev(interf: InterfaceCode, index: u16, access: u8) -> Option<Body> {
+    fn dev(interf: InterfaceCode, index: u16, access: u8) -> Body {
         req(PlayerReq::Dev(Some(DeviceReq {
             addr: DeviceAddr::new(0, 0, interf, index),
             access,
@@ -428,29 +441,10 @@ mod tests {
         })))
     }
 
-    /// A DEV request opening (`access`) the device `interf`:0 of this port.
-    fn dev_request(
-        t: &DeviceTable,
-        q: &mut OutQueue,
-        subs: &mut Subs,
-        interf: InterfaceCode,
-        access: u8,
-    ) -> Vec<Message> {
-        exchange(t, q, subs, MsgType::Req, dev(interf, 0, access), 0)
-    }
-
     #[test]
     fn devlist_lists_this_port_in_table_order() {
-        let t = table();
-        let mut q = OutQueue::default();
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut Subs::default(),
-            MsgType::Req,
-            req(PlayerReq::DevList(None)),
-            0,
-        );
+        let mut c = Conn::new();
+        let out = c.send(req(PlayerReq::DevList(None)));
         assert_eq!(out.len(), 1);
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespAck);
         assert_eq!(out[0].header.size, 8 + 2 * 16);
@@ -473,23 +467,14 @@ mod tests {
 
     #[test]
     fn driverinfo_known_and_unknown() {
-        let t = table();
-        let mut q = OutQueue::default();
-        let mut subs = Subs::default();
+        let mut c = Conn::new();
         let ask = |interf| {
             req(PlayerReq::DriverInfo(Some(DeviceDriverinfo {
                 addr: DeviceAddr::new(0, 0, interf, 0),
                 driver_name: Text::empty(),
             })))
         };
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            ask(InterfaceCode::POSITION2D),
-            0,
-        );
+        let out = c.send(ask(InterfaceCode::POSITION2D));
         assert_eq!(out[0].header.size, 32);
         let Body::Player(PlayerMsg::Ack(PlayerReq::DriverInfo(Some(info)))) = &out[0].body else {
             panic!()
@@ -497,52 +482,43 @@ mod tests {
         assert_eq!(info.driver_name.as_bytes(), b"stage\0");
         assert_eq!(info.addr, local_addr(6665, InterfaceCode::POSITION2D, 0));
         // The gripper lives on 6666 only.
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            ask(InterfaceCode::GRIPPER),
-            0,
-        );
+        let out = c.send(ask(InterfaceCode::GRIPPER));
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespNack);
         assert_eq!(out[0].header.size, 0);
     }
 
     #[test]
     fn dev_subscribe_unsubscribe_and_failures() {
-        let t = table();
-        let mut q = OutQueue::default();
-        let mut subs = Subs::default();
+        let mut c = Conn::new();
         let access_of = |m: &Message| match &m.body {
             Body::Player(PlayerMsg::Ack(PlayerReq::Dev(Some(d))))
             | Body::Player(PlayerMsg::Nack(PlayerReq::Dev(Some(d)))) => d.clone(),
             other => panic!("{other:?}"),
         };
-        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 1);
+        let out = c.dev(InterfaceCode::POSITION2D, 1);
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespAck);
         assert_eq!(out[0].header.size, 36);
         let d = access_of(&out[0]);
         assert_eq!((d.access, d.driver_name.as_bytes()), (1, &b"stage\0"[..]));
         assert_eq!(d.addr.host, LOCALHOST_ADDR);
         assert_eq!(d.addr.robot, 6665);
-        assert_eq!(subs.held, [DeviceIndex(1)]);
+        assert_eq!(c.subs.held, [DeviceIndex(1)]);
         // Close: access 2; closing again: not subscribed → access 3, still an ACK.
-        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 2);
+        let out = c.dev(InterfaceCode::POSITION2D, 2);
         assert_eq!(access_of(&out[0]).access, 2);
-        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 2);
+        let out = c.dev(InterfaceCode::POSITION2D, 2);
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespAck);
         assert_eq!(access_of(&out[0]).access, 3);
         // Unknown access mode → ACK with access 3.
-        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 9);
+        let out = c.dev(InterfaceCode::POSITION2D, 9);
         assert_eq!(access_of(&out[0]).access, 3);
         // A refusing driver → ACK with access 3.
-        subs.refuse = true;
-        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::POSITION2D, 1);
+        c.subs.refuse = true;
+        let out = c.dev(InterfaceCode::POSITION2D, 1);
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespAck);
         assert_eq!(access_of(&out[0]).access, 3);
         // Unknown device (exists on another port only) → NACK with a 28-byte body.
-        let out = dev_request(&t, &mut q, &mut subs, InterfaceCode::GRIPPER, 1);
+        let out = c.dev(InterfaceCode::GRIPPER, 1);
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespNack);
         assert_eq!(out[0].header.size, 28);
         let d = access_of(&out[0]);
@@ -556,23 +532,21 @@ mod tests {
 
     #[test]
     fn datamode_data_and_replace_rule() {
-        let t = table();
-        let mut q = OutQueue::default();
-        let mut subs = Subs::default();
+        let mut c = Conn::new();
         let mode = |m| req(PlayerReq::DataMode(Some(DeviceDatamodeReq { mode: m })));
-        let out = exchange(&t, &mut q, &mut subs, MsgType::Req, mode(2), 0);
-        assert!(q.is_pull());
+        let out = c.send(mode(2));
+        assert!(c.queue.is_pull());
         assert_eq!(out[0].header.size, 0);
         assert_eq!(out[0].header.subtype, PlayerReq::DATAMODE);
         // Unknown mode: ACK, mode unchanged.
-        let out = exchange(&t, &mut q, &mut subs, MsgType::Req, mode(7), 0);
+        let out = c.send(mode(7));
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespAck);
-        assert!(q.is_pull());
+        assert!(c.queue.is_pull());
         // REQ_DATA: ACK first, round open.
-        let out = exchange(&t, &mut q, &mut subs, MsgType::Req, req(PlayerReq::Data), 0);
+        let out = c.send(req(PlayerReq::Data));
         assert_eq!(out.len(), 1);
         assert_eq!(out[0].header.subtype, PlayerReq::DATA);
-        assert!(q.data_requested());
+        assert!(c.queue.data_requested());
         let rule = AddReplaceRuleReq {
             interf: -1,
             index: -1,
@@ -580,63 +554,33 @@ mod tests {
             subtype: -1,
             replace: 1,
         };
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            req(PlayerReq::AddReplaceRule(Some(rule))),
-            0,
-        );
+        let out = c.send(req(PlayerReq::AddReplaceRule(Some(rule))));
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespAck);
         assert_eq!(out[0].header.size, 0);
     }
 
     #[test]
     fn everything_else_is_nacked_without_body() {
-        let t = table();
-        let mut q = OutQueue::default();
-        let mut subs = Subs::default();
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            req(PlayerReq::Auth(None)),
-            0,
-        );
+        let mut c = Conn::new();
+        let out = c.send(req(PlayerReq::Auth(None)));
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespNack);
         assert_eq!((out[0].header.subtype, out[0].header.size), (7, 0));
         // A subtype the table lacks (no body), and a CMD: NACK with the same subtype.
         let header = |m: &Outgoing| {
             MsgHeader::from_bytes(m.bytes[..HEADER_SIZE].try_into().unwrap()).unwrap()
         };
-        let out = exchange_raw(&t, &mut q, &mut subs, MsgType::Req, None, 42);
+        let out = c.send_untyped(MsgType::Req, 42);
         let h = header(&out[0]);
         assert_eq!((h.subtype, h.size, h.msg_type), (42, 0, 6));
         assert_eq!(h.addr, local_addr(6665, InterfaceCode::PLAYER, 0));
-        let out = exchange_raw(&t, &mut q, &mut subs, MsgType::Cmd, None, 3);
+        let out = c.send_untyped(MsgType::Cmd, 3);
         let h = header(&out[0]);
         assert_eq!((h.subtype, h.size, h.msg_type), (3, 0, 6));
         // A (typed) SYNCH sent by a client.
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Synch,
-            Some(Body::Player(PlayerMsg::Synch(PlayerSynch::Ok))),
-            0,
-        );
+        let out = c.send(Body::Player(PlayerMsg::Synch(PlayerSynch::Ok)));
         assert_eq!(out[0].header.kind().unwrap(), MsgType::RespNack);
         // Requests that need a body but came without one.
-        let out = exchange(
-            &t,
-            &mut q,
-            &mut subs,
-            MsgType::Req,
-            req(PlayerReq::Dev(None)),
-            0,
-        );
+        let out = c.send(req(PlayerReq::Dev(None)));
         assert_eq!(
             (out[0].header.kind().unwrap(), out[0].header.size),
             (MsgType::RespNack, 0)

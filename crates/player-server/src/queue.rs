@@ -490,6 +490,20 @@ mod tests {
         ms.iter().map(|m| m.kind().unwrap()).collect()
     }
 
+    /// A queue whose limits are the defaults changed by `set`.
+    fn queue_with(set: impl FnOnce(&mut QueueLimits)) -> OutQueue {
+        let mut limits = QueueLimits::default();
+        set(&mut limits);
+        OutQueue::new(limits)
+    }
+
+    /// Pushes `n` copies of one ranger DATA.
+    fn push_ranger_data(q: &mut OutQueue, n: usize) {
+        for _ in 0..n {
+            q.push(data(InterfaceCode::RANGER, 0, 0.0));
+        }
+    }
+
     fn pull_queue() -> OutQueue {
         let mut q = OutQueue::default();
         q.set_pull(true);
@@ -748,11 +762,7 @@ mod tests {
 
     #[test]
     fn hard_cap_reports_overload_instead_of_growing() {
-        let limits = QueueLimits {
-            hard_len: 10,
-            ..QueueLimits::default()
-        };
-        let mut q = OutQueue::new(limits);
+        let mut q = queue_with(|l| l.hard_len = 10);
         for i in 0..10 {
             assert_eq!(q.push(ack(f64::from(i))), PushOutcome::Queued);
         }
@@ -760,28 +770,16 @@ mod tests {
         assert_eq!(q.push_front(data_ack(11.0)), PushOutcome::Overloaded);
         assert_eq!(q.len(), 10);
         // DATA beyond maxlen still just drops (no overload) with the default action.
-        let limits = QueueLimits {
-            maxlen: 2,
-            ..QueueLimits::default()
-        };
-        let mut q = OutQueue::new(limits);
-        for _ in 0..5 {
-            q.push(data(InterfaceCode::RANGER, 0, 0.0));
-        }
+        let mut q = queue_with(|l| l.maxlen = 2);
+        push_ranger_data(&mut q, 5);
         assert_eq!((q.len(), q.dropped()), (2, 3));
     }
 
     #[test]
     fn byte_cap_drops_large_data() {
         let one = data(InterfaceCode::RANGER, 0, 0.0).bytes.len();
-        let limits = QueueLimits {
-            max_data_bytes: 3 * one,
-            ..QueueLimits::default()
-        };
-        let mut q = OutQueue::new(limits);
-        for _ in 0..5 {
-            q.push(data(InterfaceCode::RANGER, 0, 0.0));
-        }
+        let mut q = queue_with(|l| l.max_data_bytes = 3 * one);
+        push_ranger_data(&mut q, 5);
         assert_eq!((q.len(), q.dropped(), q.queued_bytes()), (3, 2, 3 * one));
         drain(&mut q);
         assert_eq!(q.queued_bytes(), 0);
@@ -789,11 +787,7 @@ mod tests {
 
     #[test]
     fn rule_count_is_bounded() {
-        let limits = QueueLimits {
-            max_rules: 2,
-            ..QueueLimits::default()
-        };
-        let mut q = OutQueue::new(limits);
+        let mut q = queue_with(|l| l.max_rules = 2);
         q.add_replace_rule(rule(1, -1, -1, -1, 1)).unwrap();
         q.add_replace_rule(rule(2, -1, -1, -1, 1)).unwrap();
         assert_eq!(

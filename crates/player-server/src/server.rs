@@ -270,15 +270,9 @@ impl Server {
                 }
             };
             let block = DriverBlock {
-                name: REMOTE_DRIVER_NAME.into(),
-                origin: r.origin.clone(),
-                provides: vec![ProvidedDevice {
-                    addr: r.addr,
-                    key: None,
-                    origin: r.origin.clone(),
-                }],
                 alwayson: Some(false),
-                ..DriverBlock::default()
+                ..DriverBlock::new(REMOTE_DRIVER_NAME, r.origin.clone())
+                    .providing([r.addr], &r.origin)
             };
             if let Err(e) = self.add_driver(&block, driver) {
                 problems.push(e);

@@ -239,16 +239,13 @@ impl Driver for LaserPoseInterpolator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::pose;
 
     fn scan(n: usize) -> LaserDataScan {
         LaserDataScan {
             ranges: vec![n as f32; 3],
             ..LaserDataScan::default()
         }
-    }
-
-    fn pose(px: f64, py: f64, pa: f64) -> Pose2d {
-        Pose2d { px, py, pa }
     }
 
     #[test]

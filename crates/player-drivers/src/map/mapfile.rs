@@ -424,13 +424,9 @@ mod tests {
     #[test]
     fn the_driver_wants_one_map_device() {
         use player_proto::constants::LOCALHOST_ADDR;
-        use player_server::ProvidedDevice;
-        let mut b = block(NAME, &[("filename", "m.png"), ("resolution", "1")]);
-        b.provides.push(ProvidedDevice {
-            addr: DeviceAddr::new(LOCALHOST_ADDR, 6665, InterfaceCode::LASER, 0),
-            key: None,
-            origin: "test.cfg:1".into(),
-        });
+        let laser = DeviceAddr::new(LOCALHOST_ADDR, 6665, InterfaceCode::LASER, 0);
+        let b = block(NAME, &[("filename", "m.png"), ("resolution", "1")])
+            .providing([laser], "test.cfg:1");
         let e = MapFile::from_block(&b).unwrap_err().to_string();
         assert!(e.contains("exactly one `map` device"), "{e}");
     }

@@ -132,55 +132,55 @@ pub fn scale_hyper(src: &[u8], sw: usize, sh: usize, dw: usize, dh: usize) -> Ve
     }
     let mut dst = vec![0u8; dw * dh];
     if sw > 0 && sh > 0 {
-        scale_into(
-            &mut dst,
-            dw,
-            dh,
-            src,
-            sw,
-            sh,
-            dw as f64 / sw as f64,
-            dh as f64 / sh as f64,
-        );
+        let src = Gray {
+            pixels: src,
+            width: sw,
+            height: sh,
+        };
+        let scale = (dw as f64 / sw as f64, dh as f64 / sh as f64);
+        scale_into(&mut dst, dw, dh, src, scale);
     }
     dst
 }
 
-/// `_pixops_scale_real` for a whole destination.
-#[allow(clippy::too_many_arguments)]
-fn scale_into(
-    dst: &mut [u8],
-    dw: usize,
-    dh: usize,
-    src: &[u8],
-    sw: usize,
-    sh: usize,
-    mut scale_x: f64,
-    mut scale_y: f64,
-) {
+/// One 8-bit channel of a source image, `width × height` pixels, rows from the top.
+#[derive(Clone, Copy)]
+struct Gray<'a> {
+    pixels: &'a [u8],
+    width: usize,
+    height: usize,
+}
+
+/// `_pixops_scale_real` for a whole `dw × dh` destination, `src` scaled by `(x, y)`.
+fn scale_into(dst: &mut [u8], dw: usize, dh: usize, src: Gray<'_>, scale: (f64, f64)) {
+    let (mut scale_x, mut scale_y) = scale;
     if scale_x == 0.0 || scale_y == 0.0 {
         return;
     }
     let prescaled;
-    let (mut src, mut sw, mut sh) = (src, sw, sh);
+    let mut src = src;
     if need_to_prescale(scale_x, scale_y) {
         // Reduce by the square root of the factor first; gdk-pixbuf skips this when the
         // intermediate image would be empty (its allocation of 0 bytes "fails").
         let (px, py) = (scale_x.sqrt(), scale_y.sqrt());
-        let tw = (sw as f64 * px).round_ties_even() as usize;
-        let th = (sh as f64 * py).round_ties_even() as usize;
+        let tw = (src.width as f64 * px).round_ties_even() as usize;
+        let th = (src.height as f64 * py).round_ties_even() as usize;
         if tw > 0 && th > 0 {
             let mut tmp = vec![0u8; tw * th];
-            scale_into(&mut tmp, tw, th, src, sw, sh, px, py);
+            scale_into(&mut tmp, tw, th, src, (px, py));
             prescaled = tmp;
-            (src, sw, sh) = (&prescaled, tw, th);
+            src = Gray {
+                pixels: &prescaled,
+                width: tw,
+                height: th,
+            };
             scale_x /= px;
             scale_y /= py;
         }
     }
     let fx = Taps::bilinear_box(scale_x);
     let fy = Taps::bilinear_box(scale_y);
-    process(dst, dw, dh, src, sw, sh, scale_x, scale_y, &fx, &fy);
+    process(dst, dw, dh, src, (scale_x, scale_y), (&fx, &fy));
 }
 
 fn need_to_prescale(scale_x: f64, scale_y: f64) -> bool {
@@ -293,20 +293,21 @@ fn floor_div(a: i64, b: i64) -> i64 {
     if a > 0 { a / b } else { (a - b + 1) / b }
 }
 
-/// `pixops_process` with `scale_line` and `process_pixel`/`scale_pixel` for an opaque image.
-#[allow(clippy::too_many_arguments)]
+/// `pixops_process` with `scale_line` and `process_pixel`/`scale_pixel` for an opaque image:
+/// `src` scaled by `(x, y)` through the taps `(x, y)` into a `dw × dh` destination.
 fn process(
     dst: &mut [u8],
     dw: usize,
     dh: usize,
-    src: &[u8],
-    sw: usize,
-    sh: usize,
-    scale_x: f64,
-    scale_y: f64,
-    fx: &Taps,
-    fy: &Taps,
+    src: Gray<'_>,
+    (scale_x, scale_y): (f64, f64),
+    (fx, fy): (&Taps, &Taps),
 ) {
+    let Gray {
+        pixels: src,
+        width: sw,
+        height: sh,
+    } = src;
     let x_step = (f64::from(1u32 << SCALE_SHIFT) / scale_x) as i64;
     let y_step = (f64::from(1u32 << SCALE_SHIFT) / scale_y) as i64;
     if x_step == 0 || y_step == 0 {

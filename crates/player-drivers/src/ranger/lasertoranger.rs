@@ -34,7 +34,9 @@ use player_server::{
     Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
-use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
+use crate::forward::{
+    Asker, Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on,
+};
 use crate::options;
 
 /// The name cfg files use.
@@ -169,9 +171,7 @@ pub fn ranger_data(scan: &LaserDataScan) -> (Option<RangerDataRange>, Option<Ran
 /// What an answer from the laser is for.
 #[derive(Debug)]
 enum Asked {
-    /// The configuration asked for at setup: kept, answered to nobody.
-    StartupConfig,
-    Config(PendingReply),
+    Config(Asker),
     SetConfig(PendingReply),
     Intensity(PendingReply),
     Geom(PendingReply),
@@ -277,7 +277,7 @@ impl Driver for LaserToRanger {
         self.geom = empty_geom();
         ctx.subscribe(self.laser);
         let ticket = ctx.request(self.laser, LaserReq::GetConfig(None));
-        self.waiting.insert(ticket, Asked::StartupConfig);
+        self.waiting.insert(ticket, Asked::Config(Asker::Setup));
         Ok(())
     }
 
@@ -317,7 +317,10 @@ impl Driver for LaserToRanger {
                     LaserReq::SetConfig(Some(self.laser_config.clone())).into(),
                 )
             }
-            RangerReq::GetConfig(_) => (Asked::Config, LaserReq::GetConfig(None).into()),
+            RangerReq::GetConfig(_) => (
+                |p| Asked::Config(Asker::Client(p)),
+                LaserReq::GetConfig(None).into(),
+            ),
             _ => return Reply::NotHandled,
         };
         self.waiting.forward(ctx, self.laser, to_laser, asked)
@@ -333,21 +336,15 @@ impl Driver for LaserToRanger {
             return;
         };
         match asked {
-            Asked::StartupConfig => {
-                if self.answer_config(&reply).is_none() {
+            Asked::Config(asker) => {
+                let config = self.answer_config(&reply);
+                asker.answer(ctx, config.map(|c| RangerReq::GetConfig(Some(c))), || {
                     tracing::info!(
                         "{NAME} {}: the laser {} gave no configuration at startup",
                         self.ranger,
                         self.laser
-                    );
-                }
-            }
-            Asked::Config(pending) => {
-                let config = self.answer_config(&reply);
-                ctx.answer(
-                    pending,
-                    ack_or_nack(config.map(|c| RangerReq::GetConfig(Some(c)))),
-                );
+                    )
+                });
             }
             Asked::SetConfig(pending) => {
                 let answer = match (&reply, self.answer_config(&reply)) {

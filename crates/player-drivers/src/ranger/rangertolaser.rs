@@ -32,7 +32,9 @@ use player_server::{
     Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
-use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
+use crate::forward::{
+    Asker, Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on,
+};
 
 /// The name cfg files use.
 pub const NAME: &str = "rangertolaser";
@@ -116,9 +118,7 @@ fn scan_pose(geom: &RangerGeom) -> Pose2d {
 /// What an answer from the ranger is for.
 #[derive(Debug)]
 enum Asked {
-    /// The configuration asked for at setup: kept, answered to nobody.
-    StartupConfig,
-    Config(PendingReply),
+    Config(Asker),
     Geom(PendingReply),
     Power(PendingReply),
     Property(PendingReply),
@@ -294,7 +294,7 @@ impl Driver for RangerToLaser {
         self.last_alone = None;
         ctx.subscribe(self.ranger);
         let ticket = ctx.request(self.ranger, RangerReq::GetConfig(None));
-        self.waiting.insert(ticket, Asked::StartupConfig);
+        self.waiting.insert(ticket, Asked::Config(Asker::Setup));
         Ok(())
     }
 
@@ -319,9 +319,10 @@ impl Driver for RangerToLaser {
             Body::Laser(LaserMsg::Req(LaserReq::GetGeom(_))) => {
                 (Asked::Geom, RangerReq::GetGeom(None).into())
             }
-            Body::Laser(LaserMsg::Req(LaserReq::GetConfig(_))) => {
-                (Asked::Config, RangerReq::GetConfig(None).into())
-            }
+            Body::Laser(LaserMsg::Req(LaserReq::GetConfig(_))) => (
+                |p| Asked::Config(Asker::Client(p)),
+                RangerReq::GetConfig(None).into(),
+            ),
             Body::Laser(LaserMsg::Req(LaserReq::SetConfig(Some(c)))) => {
                 let Some(pending) = ctx.defer() else {
                     return Reply::Nack;
@@ -365,20 +366,18 @@ impl Driver for RangerToLaser {
                 _ => None,
             };
         match asked {
-            Asked::StartupConfig => match config_of(&reply) {
-                Some(c) => self.config = laser_config(&c, self.config.intensity),
-                None => tracing::warn!(
-                    "{NAME} {}: the ranger {} gave no configuration; scans carry zero angles",
-                    self.laser,
-                    self.ranger
-                ),
-            },
-            Asked::Config(pending) => {
+            Asked::Config(asker) => {
                 let config = config_of(&reply).map(|c| {
                     self.config = laser_config(&c, self.config.intensity);
                     LaserReq::GetConfig(Some(self.config.clone()))
                 });
-                ctx.answer(pending, ack_or_nack(config));
+                asker.answer(ctx, config, || {
+                    tracing::warn!(
+                        "{NAME} {}: the ranger {} gave no configuration; scans carry zero angles",
+                        self.laser,
+                        self.ranger
+                    )
+                });
             }
             Asked::Geom(pending) => {
                 let geom = match answer_body(&reply).and_then(ranger_req) {

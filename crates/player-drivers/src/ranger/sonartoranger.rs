@@ -24,7 +24,7 @@ use player_server::{
     Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
-use crate::forward::{Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on};
+use crate::forward::{Asker, Waiting, acked, answer_body, converter_request, passed_on};
 
 /// The name cfg files use.
 pub const NAME: &str = "sonartoranger";
@@ -83,9 +83,7 @@ pub fn ranger_ranges(sonar: &SonarDataRanges) -> RangerDataRange {
 /// What an answer from the sonar is for.
 #[derive(Debug)]
 enum Asked {
-    /// The geometry asked for at setup: kept, answered to nobody.
-    StartupGeom,
-    Geom(PendingReply),
+    Geom(Asker),
     Power(PendingReply),
     Property(PendingReply),
 }
@@ -135,7 +133,7 @@ impl Driver for SonarToRanger {
         self.geom = RangerGeom::default();
         ctx.subscribe(self.sonar);
         let ticket = ctx.request(self.sonar, SonarReq::GetGeom(None));
-        self.waiting.insert(ticket, Asked::StartupGeom);
+        self.waiting.insert(ticket, Asked::Geom(Asker::Setup));
         Ok(())
     }
 
@@ -151,9 +149,10 @@ impl Driver for SonarToRanger {
                 Asked::Power,
                 SonarReq::Power(Some(SonarPowerConfig { state: p.state })).into(),
             ),
-            Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(_))) => {
-                (Asked::Geom, SonarReq::GetGeom(None).into())
-            }
+            Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(_))) => (
+                |p| Asked::Geom(Asker::Client(p)),
+                SonarReq::GetGeom(None).into(),
+            ),
             Body::Ranger(RangerMsg::Req(RangerReq::GetConfig(_))) => {
                 return Reply::ack(RangerReq::GetConfig(Some(RangerConfig::default())));
             }
@@ -172,21 +171,15 @@ impl Driver for SonarToRanger {
             return;
         };
         match asked {
-            Asked::StartupGeom => {
-                if self.converted_geom(&reply).is_none() {
+            Asked::Geom(asker) => {
+                let geom = self.converted_geom(&reply);
+                asker.answer(ctx, geom.map(|g| RangerReq::GetGeom(Some(g))), || {
                     tracing::info!(
                         "{NAME} {}: the sonar {} gave no geometry at startup",
                         self.ranger,
                         self.sonar
-                    );
-                }
-            }
-            Asked::Geom(pending) => {
-                let geom = self.converted_geom(&reply);
-                ctx.answer(
-                    pending,
-                    ack_or_nack(geom.map(|g| RangerReq::GetGeom(Some(g)))),
-                );
+                    )
+                });
             }
             Asked::Power(pending) => ctx.answer(pending, acked(&reply)),
             Asked::Property(pending) => ctx.answer(pending, passed_on(reply)),

@@ -23,12 +23,7 @@ pub struct Relay {
 impl Relay {
     /// Builds the driver from its cfg block: it provides one `opaque` device.
     pub fn from_block(block: &DriverBlock) -> Result<Relay, DriverError> {
-        let addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::OPAQUE)
-            .ok_or_else(|| DriverError::new("must provide an opaque device (e.g. \"opaque:0\")"))?
-            .addr;
+        let addr = block.provided(InterfaceCode::OPAQUE)?;
         Ok(Relay { addr })
     }
 

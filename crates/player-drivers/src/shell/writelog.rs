@@ -134,30 +134,21 @@ pub fn recording_block(blocks: &[DriverBlock], file: &Path, port: u16) -> Option
             })
         })
         .unwrap_or(0);
-    let origin = "--record".to_string();
+    let origin = "--record";
+    let log = DeviceAddr::new(
+        player_proto::constants::LOCALHOST_ADDR,
+        u32::from(port),
+        InterfaceCode::LOG,
+        index,
+    );
+    let block = DriverBlock::new(NAME, origin)
+        .providing([log], origin)
+        .with_option("filename", [file.display().to_string()])
+        .with_option("autorecord", ["1"]);
     Some(DriverBlock {
-        name: NAME.into(),
-        origin: origin.clone(),
-        cfg_path: None,
-        provides: vec![player_server::ProvidedDevice {
-            addr: DeviceAddr::new(
-                player_proto::constants::LOCALHOST_ADDR,
-                u32::from(port),
-                InterfaceCode::LOG,
-                index,
-            ),
-            key: None,
-            origin,
-        }],
         requires,
         alwayson: Some(true),
-        options: [
-            ("filename".to_string(), vec![file.display().to_string()]),
-            ("autorecord".to_string(), vec!["1".to_string()]),
-        ]
-        .into_iter()
-        .collect(),
-        units: Default::default(),
+        ..block
     })
 }
 
@@ -198,12 +189,7 @@ impl std::fmt::Debug for WriteLog {
 impl WriteLog {
     /// Builds the driver from its cfg block (see the module docs for the options).
     pub fn from_block(block: &DriverBlock) -> Result<WriteLog, DriverError> {
-        let log_addr = block
-            .provides
-            .iter()
-            .find(|p| p.addr.interf == InterfaceCode::LOG)
-            .map(|p| p.addr)
-            .ok_or_else(|| DriverError::new("provides no log device (e.g. \"log:0\")"))?;
+        let log_addr = block.provided(InterfaceCode::LOG)?;
         if let Some(other) = block
             .provides
             .iter()

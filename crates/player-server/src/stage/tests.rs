@@ -13,7 +13,7 @@ use player_proto::{
 };
 
 use super::*;
-use crate::driver::{ProvidedDevice, Publication};
+use crate::driver::Publication;
 
 const WORLD: &str = r#"
 interval_sim 100
@@ -64,23 +64,9 @@ fn addr(interf: InterfaceCode, index: u16) -> DeviceAddr {
 }
 
 fn block(devices: &[(InterfaceCode, u16)], options: &[(&str, &str)]) -> DriverBlock {
-    DriverBlock {
-        name: STAGE_DRIVER_NAME.into(),
-        origin: "small.cfg:3".into(),
-        provides: devices
-            .iter()
-            .map(|&(i, n)| ProvidedDevice {
-                addr: addr(i, n),
-                key: None,
-                origin: "small.cfg:4".into(),
-            })
-            .collect(),
-        options: options
-            .iter()
-            .map(|(k, v)| (k.to_string(), vec![v.to_string()]))
-            .collect(),
-        ..Default::default()
-    }
+    DriverBlock::new(STAGE_DRIVER_NAME, "small.cfg:3")
+        .providing(devices.iter().map(|&(i, n)| addr(i, n)), "small.cfg:4")
+        .with_options(options)
 }
 
 /// The simulation block's driver and the robot block's driver.

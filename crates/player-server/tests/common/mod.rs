@@ -13,9 +13,7 @@ use player_proto::{
     MsgHeader, MsgType, PlayerMsg, PlayerReq, Text,
 };
 use player_server::test_driver::TestDriver;
-use player_server::{
-    DriverBlock, DriverRegistry, Pace, ProvidedDevice, Server, ServerConfig, ServerHandle,
-};
+use player_server::{DriverBlock, DriverRegistry, Pace, Server, ServerConfig, ServerHandle};
 
 #[allow(unused_imports)] // test binaries each use a different subset
 pub use test_support::shared;
@@ -33,23 +31,13 @@ pub fn block(
     devices: &[(InterfaceCode, u16)],
     options: &[(&str, &str)],
 ) -> DriverBlock {
-    DriverBlock {
-        name: name.into(),
-        origin: "test.cfg:1".into(),
-        provides: devices
-            .iter()
-            .map(|&(interf, index)| ProvidedDevice {
-                addr: DeviceAddr::new(LOCALHOST_ADDR, port, interf, index),
-                key: None,
-                origin: "test.cfg:1".into(),
-            })
-            .collect(),
-        options: options
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.split(' ').map(str::to_string).collect()))
-            .collect(),
-        ..Default::default()
-    }
+    let provides = devices
+        .iter()
+        .map(|&(interf, index)| DeviceAddr::new(LOCALHOST_ADDR, port, interf, index));
+    let block = DriverBlock::new(name, "test.cfg:1").providing(provides, "test.cfg:1");
+    options.iter().fold(block, |block, (key, values)| {
+        block.with_option(key, values.split(' '))
+    })
 }
 
 /// Starts a server whose blocks are built by the test driver registered as `stage` and `test`.

@@ -750,33 +750,15 @@ impl Driver for Amcl {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use player_server::{ProvidedDevice, RequiredDevice};
 
     fn addr(interf: InterfaceCode, index: u16) -> DeviceAddr {
         DeviceAddr::new(0, 6665, interf, index)
     }
 
     fn block(provides: &[DeviceAddr], requires: &[(Option<&str>, DeviceAddr)]) -> DriverBlock {
-        DriverBlock {
-            name: NAME.into(),
-            provides: provides
-                .iter()
-                .map(|&addr| ProvidedDevice {
-                    addr,
-                    key: None,
-                    origin: "t.cfg:1".into(),
-                })
-                .collect(),
-            requires: requires
-                .iter()
-                .map(|&(key, addr)| RequiredDevice {
-                    addr,
-                    key: key.map(str::to_string),
-                    origin: "t.cfg:1".into(),
-                })
-                .collect(),
-            ..DriverBlock::default()
-        }
+        DriverBlock::new(NAME, "")
+            .providing(provides.iter().copied(), "t.cfg:1")
+            .requiring(requires.iter().copied(), "t.cfg:1")
     }
 
     #[test]
@@ -999,7 +981,6 @@ mod tests_support {
     use super::*;
     use crate::testing;
     use player_proto::{LaserData, LaserDataScan};
-    use player_server::RequiredDevice;
 
     pub const LOCALIZE: DeviceAddr = dev(InterfaceCode::LOCALIZE, 0);
     pub const POSITION: DeviceAddr = dev(InterfaceCode::POSITION2D, 1);
@@ -1018,19 +999,14 @@ mod tests_support {
 
     /// amcl providing localize:0 and position2d:1, on odometry position2d:0, laser:0, map:0.
     pub fn laser_block() -> DriverBlock {
-        let mut b = testing::block(NAME, &[LOCALIZE, POSITION], &[], &[]);
-        for (key, addr) in [
-            (Some("odometry"), ODOM),
-            (None, LASER),
-            (Some("laser"), MAP),
-        ] {
-            b.requires.push(RequiredDevice {
-                addr,
-                key: key.map(str::to_string),
-                origin: "test.cfg:3".into(),
-            });
-        }
-        b
+        testing::block(NAME, &[LOCALIZE, POSITION], &[], &[]).requiring(
+            [
+                (Some("odometry"), ODOM),
+                (None, LASER),
+                (Some("laser"), MAP),
+            ],
+            "test.cfg:3",
+        )
     }
 
     /// A 3 x 4 m room of 5 cm cells around the origin with a pillar (asymmetric).

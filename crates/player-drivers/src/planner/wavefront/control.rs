@@ -415,10 +415,7 @@ impl Control {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn pose(px: f64, py: f64, pa: f64) -> Pose2d {
-        Pose2d { px, py, pa }
-    }
+    use crate::testing::pose;
 
     fn settings() -> ControlSettings {
         ControlSettings {

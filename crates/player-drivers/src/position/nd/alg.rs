@@ -1025,6 +1025,24 @@ mod tests {
             .collect()
     }
 
+    /// One iteration for a robot at rest at the origin, facing +x: towards `goal`, reached
+    /// within `goal_tol`, among `points`.
+    fn from_rest(
+        r: &Robot,
+        goal: (f64, f64),
+        goal_tol: f64,
+        points: &[(f64, f64)],
+    ) -> Result<Step, Halt> {
+        iterate(
+            r,
+            goal,
+            goal_tol,
+            Pose::default(),
+            Velocities::default(),
+            points,
+        )
+    }
+
     #[test]
     fn sectors_run_clockwise_from_behind() {
         assert_eq!(angle_to_sector(0.0), SECTORS / 2);
@@ -1067,28 +1085,12 @@ mod tests {
     #[test]
     fn open_space_heads_straight_for_the_goal() {
         let r = Robot::new(&params());
-        let step = iterate(
-            &r,
-            (3.0, 1.0),
-            0.5,
-            Pose::default(),
-            Velocities::default(),
-            &[],
-        )
-        .unwrap();
+        let step = from_rest(&r, (3.0, 1.0), 0.5, &[]).unwrap();
         assert_eq!(step.situation, Some(Situation::Hsgr));
         assert!(step.cmd.v > 0.0 && step.cmd.w > 0.0, "{:?}", step.cmd);
         // Far walls, all outside the security zone: still high safety.
         let pts = scan(|_| Some(4.0));
-        let step = iterate(
-            &r,
-            (2.0, 0.0),
-            0.5,
-            Pose::default(),
-            Velocities::default(),
-            &pts,
-        )
-        .unwrap();
+        let step = from_rest(&r, (2.0, 0.0), 0.5, &pts).unwrap();
         assert_eq!(step.situation, Some(Situation::Hsgr));
         assert!((step.cmd.v - 0.3).abs() < 1e-9 && step.cmd.w.abs() < 1e-6);
     }
@@ -1125,17 +1127,7 @@ mod tests {
     fn an_obstacle_touching_the_front_is_an_emergency() {
         let r = Robot::new(&params());
         let pts = [(0.2, 0.0)];
-        assert_eq!(
-            iterate(
-                &r,
-                (3.0, 0.0),
-                0.5,
-                Pose::default(),
-                Velocities::default(),
-                &pts
-            ),
-            Err(Halt::Emergency)
-        );
+        assert_eq!(from_rest(&r, (3.0, 0.0), 0.5, &pts), Err(Halt::Emergency));
     }
 
     #[test]
@@ -1155,7 +1147,7 @@ mod tests {
         let chosen = regions.list[regions.chosen.expect("a region")];
         assert_ne!(chosen.direction, Direction::Goal, "the goal is hidden");
         assert!(chosen.direction_angle > 0.0, "to the left: {chosen:?}");
-        let step = iterate(&r, goal, 0.5, Pose::default(), Velocities::default(), &pts).unwrap();
+        let step = from_rest(&r, goal, 0.5, &pts).unwrap();
         assert!(step.cmd.w > 0.0, "turns left: {:?}", step.cmd);
         assert!(
             matches!(step.situation, Some(Situation::Hswr | Situation::Hsnr)),
@@ -1173,17 +1165,7 @@ mod tests {
                 (1.0 * a.cos(), 1.0 * a.sin())
             })
             .collect();
-        assert_eq!(
-            iterate(
-                &r,
-                (3.0, 0.0),
-                0.5,
-                Pose::default(),
-                Velocities::default(),
-                &ring
-            ),
-            Err(Halt::NoRegion)
-        );
+        assert_eq!(from_rest(&r, (3.0, 0.0), 0.5, &ring), Err(Halt::NoRegion));
     }
 
     #[test]
@@ -1191,29 +1173,13 @@ mod tests {
         let r = Robot::new(&params());
         // A wall along the right side, 0.35 m away, goal straight ahead.
         let pts = wall((-1.0, -0.35), (3.0, -0.35));
-        let step = iterate(
-            &r,
-            (3.0, 0.0),
-            0.3,
-            Pose::default(),
-            Velocities::default(),
-            &pts,
-        )
-        .unwrap();
+        let step = from_rest(&r, (3.0, 0.0), 0.3, &pts).unwrap();
         assert_eq!(step.situation, Some(Situation::Lsg));
         assert!(step.cmd.w > 0.0, "turns away to the left: {:?}", step.cmd);
         // Walls near both sides: LS2.
         let mut both = pts.clone();
         both.extend(wall((-1.0, 0.4), (3.0, 0.4)));
-        let step = iterate(
-            &r,
-            (3.0, 0.0),
-            0.3,
-            Pose::default(),
-            Velocities::default(),
-            &both,
-        )
-        .unwrap();
+        let step = from_rest(&r, (3.0, 0.0), 0.3, &both).unwrap();
         assert_eq!(step.situation, Some(Situation::Ls2));
         // Closer to the right wall than the left: still edges left.
         assert!(step.cmd.w > 0.0, "{:?}", step.cmd);

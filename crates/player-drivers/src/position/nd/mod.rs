@@ -724,6 +724,7 @@ impl Driver for Nd {
 mod tests {
     use super::*;
     use crate::options::tests::block;
+    use crate::testing::pose;
     use player_proto::Bbox3d;
 
     fn geom() -> Position2dGeom {
@@ -735,10 +736,6 @@ mod tests {
                 sh: 0.25,
             },
         }
-    }
-
-    fn pose(px: f64, py: f64, pa: f64) -> Pose2d {
-        Pose2d { px, py, pa }
     }
 
     #[test]
@@ -914,6 +911,14 @@ mod tests {
             })
         }
 
+        /// A position goal 4 m straight ahead of the origin.
+        fn goal_ahead() -> Position2dCmd {
+            Position2dCmd::Pos(player_proto::Position2dCmdPos {
+                pos: pose(4.0, 0.0, 0.0),
+                ..Default::default()
+            })
+        }
+
         /// The velocity commands sent to the base.
         fn commands(out: &crate::testing::Outcome) -> Vec<(f64, f64)> {
             out.actions
@@ -973,13 +978,7 @@ mod tests {
             assert_eq!(out.bodies()[0], state(1.0, 0).into());
             // A goal the robot never moves towards: nd gives up after translate_stuck_time,
             // stops the robot and reports a stall.
-            h.command(
-                nav(),
-                Position2dCmd::Pos(player_proto::Position2dCmdPos {
-                    pos: pose(4.0, 0.0, 0.0),
-                    ..Default::default()
-                }),
-            );
+            h.command(nav(), goal_ahead());
             let out = h.update();
             assert_eq!(commands(&out), [(0.3, 0.0)]);
             h.now += 2.5;
@@ -1012,13 +1011,7 @@ mod tests {
                 ..LaserDataScan::default()
             };
             h.data(laser(), LaserData::Scan(scan), 1.0);
-            h.command(
-                nav(),
-                Position2dCmd::Pos(player_proto::Position2dCmdPos {
-                    pos: pose(4.0, 0.0, 0.0),
-                    ..Default::default()
-                }),
-            );
+            h.command(nav(), goal_ahead());
             let out = h.update();
             let cmds = commands(&out);
             assert_eq!(cmds.len(), 1);
@@ -1057,16 +1050,12 @@ mod tests {
                 })),
             );
             h.data(base(), state(0.0, 0), 1.0);
-            let goal = Position2dCmd::Pos(player_proto::Position2dCmdPos {
-                pos: pose(4.0, 0.0, 0.0),
-                ..Default::default()
-            });
             // Only the ignored transducer sees something close: free driving.
             let readings = |r: [f32; 3]| {
                 SonarData::Ranges(player_proto::SonarDataRanges { ranges: r.to_vec() })
             };
             h.data(sonar, readings([5.0, 0.1, 5.0]), 1.0);
-            h.command(nav(), goal.clone());
+            h.command(nav(), goal_ahead());
             assert_eq!(commands(&h.update()), [(0.3, 0.0)]);
             // Transducer 0 sees an obstacle at the robot's nose: emergency stop.
             h.data(sonar, readings([0.1, 5.0, 5.0]), 1.1);
@@ -1077,13 +1066,7 @@ mod tests {
         #[test]
         fn wait_on_stall_stops_and_hides_the_stall() {
             let mut h = ready(&[("wait_on_stall", "1")]);
-            h.command(
-                nav(),
-                Position2dCmd::Pos(player_proto::Position2dCmdPos {
-                    pos: pose(4.0, 0.0, 0.0),
-                    ..Default::default()
-                }),
-            );
+            h.command(nav(), goal_ahead());
             let out = h.data(base(), state(0.0, 1), 1.0);
             assert_eq!(commands(&out), [(0.0, 0.0)]);
             let Body::Position2d(Position2dMsg::Data(Position2dData::State(s))) = &out.bodies()[0]

@@ -245,10 +245,7 @@ impl Driver for Snd {
 mod tests {
     use super::*;
     use crate::options::tests::block;
-
-    fn pose(px: f64, py: f64, pa: f64) -> Pose2d {
-        Pose2d { px, py, pa }
-    }
+    use crate::testing::pose;
 
     fn open() -> Scan {
         Scan {

@@ -722,7 +722,7 @@ impl Vfh {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::position::vfh::ranges::{FAR, RANGE_COUNT};
 

@@ -291,29 +291,18 @@ impl Navigator {
 mod tests {
     use super::*;
     use crate::position::vfh::algorithm::Params;
+    use crate::position::vfh::algorithm::tests::defaults;
     use crate::position::vfh::ranges::{FAR, RANGE_COUNT};
 
+    /// Player's defaults with a faster robot that turns harder when still.
     fn params() -> Params {
         Params {
-            cell_width: 100.0,
-            window_diameter: 61,
-            sector_angle: 5,
-            safety_dist_0ms: 100.0,
-            safety_dist_1ms: 100.0,
             max_speed: 300,
             max_speed_narrow_opening: 300,
             max_speed_wide_opening: 300,
-            max_acceleration: 200,
-            min_turnrate: 10,
             max_turnrate_0ms: 90,
             max_turnrate_1ms: 35,
-            min_turn_radius_safety_factor: 1.0,
-            free_space_cutoff_0ms: 2_000_000.0,
-            obs_cutoff_0ms: 2_000_000.0,
-            free_space_cutoff_1ms: 2_000_000.0,
-            obs_cutoff_1ms: 2_000_000.0,
-            weight_desired_dir: 5.0,
-            weight_current_dir: 3.0,
+            ..defaults()
         }
     }
 

@@ -1,33 +1,14 @@
 use super::*;
 use player_proto::{Pose2d, Position2dDataState};
-use player_server::{ProvidedDevice, RequiredDevice};
 
 fn addr(interf: InterfaceCode, index: u16) -> DeviceAddr {
     DeviceAddr::new(0, 6665, interf, index)
 }
 
 fn block(provides: &[DeviceAddr], requires: &[(Option<&str>, DeviceAddr)]) -> DriverBlock {
-    DriverBlock {
-        name: NAME.into(),
-        origin: "vfh.cfg:27".into(),
-        provides: provides
-            .iter()
-            .map(|&addr| ProvidedDevice {
-                addr,
-                key: None,
-                origin: "vfh.cfg:30".into(),
-            })
-            .collect(),
-        requires: requires
-            .iter()
-            .map(|&(key, addr)| RequiredDevice {
-                addr,
-                key: key.map(String::from),
-                origin: "vfh.cfg:31".into(),
-            })
-            .collect(),
-        ..DriverBlock::default()
-    }
+    DriverBlock::new(NAME, "vfh.cfg:27")
+        .providing(provides.iter().copied(), "vfh.cfg:30")
+        .requiring(requires.iter().copied(), "vfh.cfg:31")
 }
 
 fn stage_block() -> DriverBlock {

@@ -306,7 +306,9 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
                 for (j, slot) in dirs[..run].iter_mut().enumerate() {
                     *slot = first_dir(d.dirs[k + j]);
                 }
-                cast_fan(v, o, &dirs[..run], max, root, |i, r, s| readings[i] = (r, s));
+                cast_fan(v, o, &dirs[..run], max, root, |i, r, s| {
+                    readings[i] = (r, s)
+                });
             }
             // noise in transducer order, as ray by ray
             for (j, &(r, s)) in readings[..run].iter().enumerate() {

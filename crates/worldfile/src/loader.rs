@@ -181,13 +181,12 @@ impl Loader<'_> {
     }
 
     fn push(&mut self, token: Token) -> Result<(), Error> {
-        if self.tokens.len() >= self.opts.limits.max_tokens {
+        // The parser indexes tokens with u32, whatever the limit says.
+        let max_tokens = self.opts.limits.max_tokens.min(u32::MAX as usize);
+        if self.tokens.len() >= max_tokens {
             let loc = token.loc;
             return Err(self.err(
-                ErrorKind::TooLarge(format!(
-                    "more than {} tokens after includes",
-                    self.opts.limits.max_tokens
-                )),
+                ErrorKind::TooLarge(format!("more than {max_tokens} tokens after includes")),
                 loc,
                 &token.snippet(),
             ));

@@ -10,7 +10,7 @@
 
 use std::collections::HashMap;
 
-use crate::document::{Document, Entity, EntityId, Property, Units, Value, ValueKind};
+use crate::document::{Document, Entity, EntityId, Property, TokenId, Value, ValueKind, ValueRange};
 use crate::error::{Error, ErrorKind, Warning};
 use crate::lexer::{Dialect, Token, TokenKind};
 use crate::loader::Limits;
@@ -22,8 +22,23 @@ struct Macro {
     loc: Location,
 }
 
+/// The values a property written at a token were stored as, so that the next instance of the
+/// same macro body reuses them.
+#[derive(Clone, Copy)]
+struct Parsed {
+    values: ValueRange,
+    /// Index of the last token of the value (the `]` of a tuple).
+    end: usize,
+}
+
 struct Parser<'a> {
     toks: &'a [Token],
+    /// The document's value store: every value token is converted into it once.
+    values: Vec<Value>,
+    /// For each token that starts a property's value (a scalar or a `[`), 0 until it has been
+    /// parsed, then 1 + its index in `parsed` (zeroed memory costs nothing until touched).
+    parsed_at: Vec<u32>,
+    parsed: Vec<Parsed>,
     sources: &'a SourceMap,
     dialect: Dialect,
     limits: &'a Limits,
@@ -44,17 +59,20 @@ pub fn parse(
     dialect: Dialect,
     limits: &Limits,
 ) -> Result<Document, Error> {
-    let (entities, plugins, warnings) = {
+    let (entities, values, plugins, warnings) = {
         let mut p = Parser {
             toks: &toks,
             sources: &sources,
             dialect,
             limits,
+            values: Vec::new(),
+            parsed_at: vec![0; toks.len()],
+            parsed: Vec::new(),
             entities: vec![Entity {
                 parent: None,
                 children: Vec::new(),
-                type_name: "".into(),
-                macro_name: None,
+                type_word: None,
+                macro_word: None,
                 loc: None,
                 properties: Vec::new(),
             }],
@@ -66,16 +84,9 @@ pub fn parse(
             depth: 0,
         };
         p.file()?;
-        (p.entities, p.plugins, p.warnings)
+        (p.entities, p.values, p.plugins, p.warnings)
     };
-    let mut doc = Document {
-        dialect,
-        sources,
-        entities,
-        units: Units::default(),
-        plugins,
-        warnings,
-    };
+    let mut doc = Document::new(dialect, sources, entities, plugins, warnings, toks, values);
     link_children(&mut doc.entities);
     read_globals(&mut doc)?;
     Ok(doc)
@@ -94,10 +105,10 @@ fn read_globals(doc: &mut Document) -> Result<(), Error> {
     let mut warnings = Vec::new();
     if let Some(p) = doc.property(0, "test") {
         p.mark_used();
-        let v = p
-            .values
+        let v = doc
+            .values(p)
             .first()
-            .and_then(|v| crate::numeric::atoi(&v.text))
+            .and_then(Value::int)
             .map(|n| n.value);
         if v.unwrap_or(0) != 0 {
             return Err(Error::at(ErrorKind::TestFile, &doc.sources, p.loc, "test"));
@@ -130,7 +141,7 @@ fn unit_factor(
 ) -> Option<f64> {
     let p = doc.property(0, key)?;
     p.mark_used();
-    let word = p.values.first().map(|v| &*v.text);
+    let word = doc.values(p).first().map(|v| &*v.text);
     if let Some(&(_, factor)) = units.iter().find(|(name, _)| Some(*name) == word) {
         return Some(factor);
     }
@@ -340,12 +351,20 @@ impl<'a> Parser<'a> {
             match tok.kind {
                 TokenKind::Space => {}
                 TokenKind::Number | TokenKind::Str | TokenKind::Bool => {
-                    self.set(entity, name, vec![value_of(tok)], false)?;
+                    let values = match self.parsed_value(j) {
+                        Some(done) => done.values,
+                        None => {
+                            let values = self.store(std::iter::once(tok));
+                            self.remember(j, Parsed { values, end: j });
+                            values
+                        }
+                    };
+                    self.set(entity, i, values, false);
                     return Ok(j);
                 }
                 TokenKind::OpenTuple => {
                     let (values, end) = self.tuple(name, j)?;
-                    self.set(entity, name, values, true)?;
+                    self.set(entity, i, values, true);
                     return Ok(end);
                 }
                 _ => break,
@@ -355,56 +374,114 @@ impl<'a> Parser<'a> {
         Err(self.err(ErrorKind::ValueNotOnSameLine(name.text.to_string()), name))
     }
 
-    /// `[ v v ... ]` starting at the `[` at `open`; returns the values and the index of `]`.
-    fn tuple(&mut self, name: &Token, open: usize) -> Result<(Vec<Value>, usize), Error> {
+    /// What the value starting at token `at` was parsed into, if it already was.
+    fn parsed_value(&self, at: usize) -> Option<Parsed> {
+        match self.parsed_at[at] {
+            0 => None,
+            k => Some(self.parsed[k as usize - 1]),
+        }
+    }
+
+    /// Records what the value starting at token `at` was parsed into, for the next instance
+    /// of the macro body it is in.
+    fn remember(&mut self, at: usize, done: Parsed) {
+        // There are fewer parsed values than tokens, and the loader keeps the token count
+        // within u32; a value that did not fit would simply be parsed again.
+        if let Ok(k) = u32::try_from(self.parsed.len() + 1) {
+            self.parsed.push(done);
+            self.parsed_at[at] = k;
+        }
+    }
+
+    /// Appends the value tokens to the value store; returns where they are.
+    fn store<'t>(&mut self, toks: impl Iterator<Item = &'t Token>) -> ValueRange {
+        let start = self.values.len();
+        self.values.extend(toks.map(value_of));
+        ValueRange {
+            start,
+            len: self.values.len() - start,
+        }
+    }
+
+    /// `[ v v ... ]` starting at the `[` at `open`; returns its values and the index of `]`.
+    ///
+    /// A tuple met again (in another instance of a macro) reuses its stored values, after
+    /// counting the parser steps reading it would take.
+    fn tuple(&mut self, name: &Token, open: usize) -> Result<(ValueRange, usize), Error> {
+        if let Some(done) = self.parsed_value(open) {
+            let steps = (done.end - open) as u64;
+            if self.steps + steps <= self.limits.max_parse_steps {
+                self.steps += steps;
+                return Ok((done.values, done.end));
+            }
+            // Too many steps: read it again to fail at the very token upstream would.
+        }
         let toks = self.toks;
-        let mut values = Vec::new();
+        let mut end = None;
         for (j, tok) in toks.iter().enumerate().skip(open + 1) {
             self.step(tok)?;
             match tok.kind {
-                TokenKind::Number | TokenKind::Str => values.push(value_of(tok)),
+                TokenKind::Number | TokenKind::Str => {}
                 // Stage rejects line ends and comments inside tuples; we accept tuples that span
                 // lines (Player's cfg parser already does).
                 TokenKind::Space | TokenKind::Eol | TokenKind::Comment => {}
-                TokenKind::CloseTuple => return Ok((values, j)),
+                TokenKind::CloseTuple => {
+                    end = Some(j);
+                    break;
+                }
                 _ => return Err(self.err(ErrorKind::BadTupleElement(tok.describe()), tok)),
             }
         }
-        Err(self.err(
-            ErrorKind::UnterminatedTuple(name.text.to_string()),
-            &toks[open],
-        ))
+        let Some(end) = end else {
+            return Err(self.err(
+                ErrorKind::UnterminatedTuple(name.text.to_string()),
+                &toks[open],
+            ));
+        };
+        let values = self.store(
+            toks[open + 1..end]
+                .iter()
+                .filter(|t| matches!(t.kind, TokenKind::Number | TokenKind::Str)),
+        );
+        self.remember(open, Parsed { values, end });
+        Ok((values, end))
     }
 
-    /// Stores a property: a worldfile replaces a same-named property whole; a cfg overwrites it
-    /// element by element, keeping any longer tail (player-cfg.md §3.1).
-    fn set(
-        &mut self,
-        entity: EntityId,
-        name: &Token,
-        values: Vec<Value>,
-        is_tuple: bool,
-    ) -> Result<(), Error> {
+    /// Stores the property named by token `name`: a worldfile replaces a same-named property
+    /// whole; a cfg overwrites it element by element, keeping any longer tail
+    /// (player-cfg.md §3.1).
+    fn set(&mut self, entity: EntityId, name: TokenId, values: ValueRange, is_tuple: bool) {
+        let toks = self.toks;
+        let text = &toks[name].text;
+        let loc = toks[name].loc;
         let props = &mut self.entities[entity].properties;
-        match props.iter_mut().find(|p| p.name == name.text) {
+        // The same token is the same name; otherwise compare the words.
+        let existing = props
+            .iter_mut()
+            .find(|p| p.name == name || toks[p.name].text == *text);
+        match existing {
             Some(existing) => match self.dialect {
                 Dialect::World => {
-                    *existing = Property::new(name.text.clone(), values, name.loc, is_tuple);
+                    *existing = Property::new(name, values, loc, is_tuple);
                 }
                 Dialect::Cfg => {
-                    for (k, v) in values.into_iter().enumerate() {
-                        if k < existing.values.len() {
-                            existing.values[k] = v;
-                        } else {
-                            existing.values.push(v);
-                        }
-                    }
+                    let old = existing.values;
+                    let merged = (0..old.len.max(values.len)).map(|k| {
+                        let from = if k < values.len { values } else { old };
+                        from.start + k
+                    });
+                    let merged: Vec<Value> = merged.map(|at| self.values[at].clone()).collect();
+                    let start = self.values.len();
+                    self.values.extend(merged);
+                    existing.values = ValueRange {
+                        start,
+                        len: self.values.len() - start,
+                    };
                     existing.is_tuple |= is_tuple;
                 }
             },
-            None => props.push(Property::new(name.text.clone(), values, name.loc, is_tuple)),
+            None => props.push(Property::new(name, values, loc, is_tuple)),
         }
-        Ok(())
     }
 
     /// `NAME ( body )` at `i`, where NAME is a macro or a base type word.
@@ -446,7 +523,7 @@ impl<'a> Parser<'a> {
             self.expanding.pop();
             expanded?;
             // The outermost macro name and the instance's own location win.
-            self.entities[id].macro_name = Some(text.into());
+            self.entities[id].macro_word = Some(i);
             self.entities[id].loc = Some(name.loc);
             id
         } else {
@@ -460,8 +537,8 @@ impl<'a> Parser<'a> {
             self.entities.push(Entity {
                 parent: Some(parent),
                 children: Vec::new(),
-                type_name: name.text.clone(),
-                macro_name: None,
+                type_word: Some(i),
+                macro_word: None,
                 loc: Some(name.loc),
                 properties: Vec::new(),
             });
@@ -518,13 +595,10 @@ impl<'a> Parser<'a> {
 }
 
 fn value_of(tok: &Token) -> Value {
-    Value {
-        kind: match tok.kind {
-            TokenKind::Number => ValueKind::Number,
-            TokenKind::Bool => ValueKind::Bool,
-            _ => ValueKind::Str,
-        },
-        text: tok.text.clone(),
-        loc: tok.loc,
-    }
+    let kind = match tok.kind {
+        TokenKind::Number => ValueKind::Number,
+        TokenKind::Bool => ValueKind::Bool,
+        _ => ValueKind::Str,
+    };
+    Value::new(kind, tok.text.clone(), tok.loc)
 }

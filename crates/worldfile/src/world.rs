@@ -363,7 +363,7 @@ pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
     let settings = r.settings()?;
     let window = r.window()?;
     for id in 1..doc.entities.len() {
-        match &*doc.entity(id).type_name {
+        match doc.type_name(id) {
             "window" => {}
             "block" => r.block(id)?,
             "sensor" => r.sensor(id)?,
@@ -417,7 +417,7 @@ impl<'d> Resolver<'d> {
     fn entity_error(&self, kind: ErrorKind, entity: EntityId) -> Error {
         let e = self.doc.entity(entity);
         match e.loc {
-            Some(loc) => Error::at(kind, &self.doc.sources, loc, &e.type_name),
+            Some(loc) => Error::at(kind, &self.doc.sources, loc, self.doc.type_name(entity)),
             None => Error::new(kind),
         }
     }
@@ -446,7 +446,7 @@ impl<'d> Resolver<'d> {
                     .doc
                     .property(0, name)
                     .expect("a non-default value was read");
-                let v = &p.values[0];
+                let v = &self.doc.values(p)[0];
                 return Err(Error::at(
                     ErrorKind::OutOfRange {
                         name: name.into(),
@@ -488,7 +488,7 @@ impl<'d> Resolver<'d> {
         let parent = self.doc.entity(entity).parent?;
         let m = self.model_of_entity[parent];
         if m.is_none() && parent != 0 {
-            let outer = self.doc.entity(parent).type_name.to_string();
+            let outer = self.doc.type_name(parent).to_string();
             self.reader(entity).warn(format!(
                 "this model is inside `{outer}`, which is not a model: it becomes a top-level model, as in Stage"
             ));
@@ -497,7 +497,7 @@ impl<'d> Resolver<'d> {
     }
 
     fn model(&mut self, entity: EntityId) -> Result<(), Error> {
-        let word = self.doc.entity(entity).type_name.to_string();
+        let word = self.doc.type_name(entity).to_string();
         let Some((model_type, legacy)) = ModelType::from_word(&word) else {
             return Err(self.entity_error(ErrorKind::UnknownModelType(word), entity));
         };
@@ -632,21 +632,20 @@ impl<'d> Resolver<'d> {
         };
         if let TypeSpec::Position(pos) = &mut spec {
             let given = self.doc.property(entity, "localization_origin");
-            if given.is_none_or(|p| p.values.is_empty()) {
+            if given.is_none_or(|p| p.is_empty()) {
                 pos.localization_origin = global_at_load;
             }
         }
 
         let power_pack = common.power_pack();
         let gui_move = common.gui_move.unwrap_or(parent.is_none());
-        let e = self.doc.entity(entity);
         let model = ModelSpec {
             id,
             parent,
             children: Vec::new(),
             model_type,
             type_word: word,
-            macro_name: e.macro_name.as_ref().map(|m| m.to_string()),
+            macro_name: self.doc.macro_name(entity).map(str::to_string),
             name,
             generated_name,
             location: self.entity_loc(entity),
@@ -683,7 +682,7 @@ impl<'d> Resolver<'d> {
             .property(entity, "bitmap")
             .expect("caller checked it exists");
         p.mark_used();
-        let Some(v) = p.values.first() else {
+        let Some(v) = self.doc.values(p).first() else {
             return Err(Error::at(
                 ErrorKind::Io {
                     what: "bitmap",
@@ -692,7 +691,7 @@ impl<'d> Resolver<'d> {
                 },
                 &self.doc.sources,
                 p.loc,
-                &p.name,
+                self.doc.name(p),
             ));
         };
         let name = v.text.to_string();
@@ -758,7 +757,7 @@ impl<'d> Resolver<'d> {
         const MAX_POINTS: i64 = 100_000;
         if !(0..=MAX_POINTS).contains(&count) {
             let p = self.doc.property(entity, "points").expect("read above");
-            let v = &p.values[0];
+            let v = &self.doc.values(p)[0];
             return Err(Error::at(
                 ErrorKind::OutOfRange {
                     name: "points".into(),
@@ -789,8 +788,8 @@ impl<'d> Resolver<'d> {
         }
         let z = r.floats::<2>("z", "ll")?.unwrap_or([0.0, 0.0]);
         let color = match r.prop("color") {
-            Some(p) if !p.values[0].text.is_empty() => {
-                let name = p.values[0].text.to_string();
+            Some(p) if !r.values(p)[0].text.is_empty() => {
+                let name = r.values(p)[0].text.to_string();
                 Some(r.named_color(p, &name))
             }
             _ => None,

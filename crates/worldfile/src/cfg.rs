@@ -409,10 +409,7 @@ fn read_driver(
 ) -> Result<DriverSpec, Error> {
     let entity = doc.entity(section);
     let location = entity.loc.map(|l| doc.loc(l));
-    let field = |name: &str| {
-        doc.property(section, name)
-            .and_then(|p| field_text(doc, p))
-    };
+    let field = |name: &str| doc.property(section, name).and_then(|p| field_text(doc, p));
     let Some(name) = field("name") else {
         return Err(match entity.loc {
             Some(loc) => Error::at(ErrorKind::MissingDriverName, &doc.sources, loc, "driver"),

@@ -10,7 +10,7 @@ use std::f64::consts::PI;
 use serde::Serialize;
 
 use crate::error::Warning;
-use crate::lexer::{Dialect, Token};
+use crate::lexer::{Dialect, TokenStream};
 use crate::numeric::{Prefix, atof, atoi};
 use crate::source::{Location, SourceLoc, SourceMap};
 
@@ -181,8 +181,10 @@ pub struct Document {
     pub plugins: Vec<(String, Location)>,
     /// Problems noticed while parsing that do not stop loading.
     pub warnings: Vec<Warning>,
-    tokens: Vec<Token>,
-    values: Vec<Value>,
+    /// The token stream (includes spliced in) that [`TokenId`]s index.
+    pub(crate) tokens: TokenStream,
+    /// Every value written, once: what [`ValueRange`]s index.
+    pub(crate) values: Vec<Value>,
 }
 
 impl Document {
@@ -194,7 +196,7 @@ impl Document {
         entities: Vec<Entity>,
         plugins: Vec<(String, Location)>,
         warnings: Vec<Warning>,
-        tokens: Vec<Token>,
+        tokens: TokenStream,
         values: Vec<Value>,
     ) -> Self {
         Document {
@@ -222,7 +224,7 @@ impl Document {
     /// # Panics
     /// If the id is not from this document.
     pub fn text(&self, id: TokenId) -> &str {
-        &self.tokens[id].text
+        self.tokens.text(&self.tokens.tokens()[id])
     }
 
     /// The name of a property of this document.

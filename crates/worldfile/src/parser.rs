@@ -10,9 +10,11 @@
 
 use std::collections::HashMap;
 
-use crate::document::{Document, Entity, EntityId, Property, TokenId, Value, ValueKind, ValueRange};
+use crate::document::{
+    Document, Entity, EntityId, Property, TokenId, Value, ValueKind, ValueRange,
+};
 use crate::error::{Error, ErrorKind, Warning};
-use crate::lexer::{Dialect, Token, TokenKind};
+use crate::lexer::{Dialect, Token, TokenKind, TokenStream};
 use crate::loader::Limits;
 use crate::source::{Location, SourceMap};
 
@@ -32,6 +34,7 @@ struct Parsed {
 }
 
 struct Parser<'a> {
+    stream: &'a TokenStream,
     toks: &'a [Token],
     /// The document's value store: every value token is converted into it once.
     values: Vec<Value>,
@@ -39,6 +42,8 @@ struct Parser<'a> {
     /// parsed, then 1 + its index in `parsed` (zeroed memory costs nothing until touched).
     parsed_at: Vec<u32>,
     parsed: Vec<Parsed>,
+    /// For each type word, the most properties an entity made at it has had so far.
+    property_counts: Vec<u32>,
     sources: &'a SourceMap,
     dialect: Dialect,
     limits: &'a Limits,
@@ -49,25 +54,40 @@ struct Parser<'a> {
     warnings: Vec<Warning>,
     steps: u64,
     depth: usize,
+    /// Whether values met before are reused (off only in tests, to show reuse changes nothing).
+    reuse: bool,
 }
 
 /// Parses a spliced token stream into a document, then reads `unit_length`/`unit_angle`/`test`
 /// from the global entity.
 pub fn parse(
-    toks: Vec<Token>,
+    toks: TokenStream,
     sources: SourceMap,
     dialect: Dialect,
     limits: &Limits,
 ) -> Result<Document, Error> {
+    parse_reusing(toks, sources, dialect, limits, true)
+}
+
+/// [`parse`], with the reuse of values parsed in an earlier instance of a macro on or off.
+fn parse_reusing(
+    toks: TokenStream,
+    sources: SourceMap,
+    dialect: Dialect,
+    limits: &Limits,
+    reuse: bool,
+) -> Result<Document, Error> {
     let (entities, values, plugins, warnings) = {
         let mut p = Parser {
-            toks: &toks,
+            stream: &toks,
+            toks: toks.tokens(),
             sources: &sources,
             dialect,
             limits,
             values: Vec::new(),
             parsed_at: vec![0; toks.len()],
             parsed: Vec::new(),
+            property_counts: vec![0; toks.len()],
             entities: vec![Entity {
                 parent: None,
                 children: Vec::new(),
@@ -82,6 +102,7 @@ pub fn parse(
             warnings: Vec::new(),
             steps: 0,
             depth: 0,
+            reuse,
         };
         p.file()?;
         (p.entities, p.values, p.plugins, p.warnings)
@@ -93,6 +114,16 @@ pub fn parse(
 }
 
 fn link_children(entities: &mut [Entity]) {
+    // Counted first, so that each list is allocated once.
+    let mut counts = vec![0usize; entities.len()];
+    for e in entities.iter() {
+        if let Some(parent) = e.parent {
+            counts[parent] += 1;
+        }
+    }
+    for (e, count) in entities.iter_mut().zip(counts) {
+        e.children.reserve_exact(count);
+    }
     for id in 1..entities.len() {
         if let Some(parent) = entities[id].parent {
             entities[parent].children.push(id);
@@ -105,11 +136,7 @@ fn read_globals(doc: &mut Document) -> Result<(), Error> {
     let mut warnings = Vec::new();
     if let Some(p) = doc.property(0, "test") {
         p.mark_used();
-        let v = doc
-            .values(p)
-            .first()
-            .and_then(Value::int)
-            .map(|n| n.value);
+        let v = doc.values(p).first().and_then(Value::int).map(|n| n.value);
         if v.unwrap_or(0) != 0 {
             return Err(Error::at(ErrorKind::TestFile, &doc.sources, p.loc, "test"));
         }
@@ -164,7 +191,17 @@ fn is_blank(kind: TokenKind) -> bool {
 
 impl<'a> Parser<'a> {
     fn err(&self, kind: ErrorKind, tok: &Token) -> Error {
-        Error::at(kind, self.sources, tok.loc, &tok.snippet())
+        Error::at(kind, self.sources, tok.loc, &tok.snippet(self.text(tok)))
+    }
+
+    /// The text of a token of the stream being parsed.
+    fn text(&self, tok: &Token) -> &'a str {
+        self.stream.text(tok)
+    }
+
+    /// How a token is named in messages.
+    fn describe(&self, tok: &Token) -> String {
+        tok.describe(self.text(tok))
     }
 
     fn step(&mut self, at: &Token) -> Result<(), Error> {
@@ -189,7 +226,7 @@ impl<'a> Parser<'a> {
             self.step(tok)?;
             match tok.kind {
                 TokenKind::Word => {
-                    i = match &*tok.text {
+                    i = match self.text(tok) {
                         "include" => self.include_stmt(i)?,
                         "define" => self.define(i)?,
                         "plugin" if self.dialect == Dialect::Cfg => self.plugin(i)?,
@@ -198,7 +235,7 @@ impl<'a> Parser<'a> {
                 }
                 k if is_blank(k) => {}
                 _ => {
-                    return Err(self.err(ErrorKind::UnexpectedAtTopLevel(tok.describe()), tok));
+                    return Err(self.err(ErrorKind::UnexpectedAtTopLevel(self.describe(tok)), tok));
                 }
             }
             i += 1;
@@ -227,7 +264,7 @@ impl<'a> Parser<'a> {
             match tok.kind {
                 TokenKind::Str => {
                     seen = true;
-                    self.plugins.push((tok.text.to_string(), tok.loc));
+                    self.plugins.push((self.text(tok).to_string(), tok.loc));
                 }
                 TokenKind::Space => {}
                 TokenKind::Eol if seen => return Ok(j),
@@ -256,7 +293,7 @@ impl<'a> Parser<'a> {
                         parent = Some(j);
                     } else {
                         return Err(
-                            self.err(ErrorKind::ExtraMacroTokens(tok.text.to_string()), tok)
+                            self.err(ErrorKind::ExtraMacroTokens(self.text(tok).to_string()), tok)
                         );
                     }
                 }
@@ -275,19 +312,19 @@ impl<'a> Parser<'a> {
                         let (Some(name), Some(start)) = (name, parent) else {
                             return Err(self.err(ErrorKind::MissingMacroName, tok));
                         };
-                        if let Some(first) = self.macros.get(&*name.text) {
+                        if let Some(first) = self.macros.get(self.text(name)) {
                             // Upstream silently keeps the first definition.
                             let first_at = self.sources.resolve(first.loc);
                             self.warnings.push(Warning::at(
                                 self.sources.resolve(name.loc),
                                 format!(
                                     "macro `{}` is already defined at {first_at}; this definition is ignored (the first one wins, as in Stage)",
-                                    name.text
+                                    self.text(name)
                                 ),
                             ));
                         } else {
                             self.macros.insert(
-                                &name.text,
+                                self.text(name),
                                 Macro {
                                     start,
                                     loc: name.loc,
@@ -301,7 +338,7 @@ impl<'a> Parser<'a> {
             }
         }
         let label = name
-            .map(|n| n.text.to_string())
+            .map(|n| self.text(n).to_string())
             .unwrap_or_else(|| "define".into());
         Err(self.err(ErrorKind::MissingCloseParen(label), &toks[i]))
     }
@@ -310,7 +347,7 @@ impl<'a> Parser<'a> {
     fn word_item(&mut self, entity: EntityId, i: usize) -> Result<usize, Error> {
         let toks = self.toks;
         let name = &toks[i];
-        if &*name.text == "define" {
+        if self.text(name) == "define" {
             return Err(self.err(ErrorKind::DefineNotAtTopLevel, name));
         }
         let mut j = i + 1;
@@ -320,7 +357,7 @@ impl<'a> Parser<'a> {
         let Some(next) = toks.get(j) else {
             return Err(self.err(
                 ErrorKind::ExpectedValueOrBody {
-                    name: name.text.to_string(),
+                    name: self.text(name).to_string(),
                     found: "end of file".into(),
                 },
                 name,
@@ -333,8 +370,8 @@ impl<'a> Parser<'a> {
             }
             _ => Err(self.err(
                 ErrorKind::ExpectedValueOrBody {
-                    name: name.text.to_string(),
-                    found: next.describe(),
+                    name: self.text(name).to_string(),
+                    found: self.describe(next),
                 },
                 next,
             )),
@@ -371,11 +408,17 @@ impl<'a> Parser<'a> {
             }
             j += 1;
         }
-        Err(self.err(ErrorKind::ValueNotOnSameLine(name.text.to_string()), name))
+        Err(self.err(
+            ErrorKind::ValueNotOnSameLine(self.text(name).to_string()),
+            name,
+        ))
     }
 
     /// What the value starting at token `at` was parsed into, if it already was.
     fn parsed_value(&self, at: usize) -> Option<Parsed> {
+        if !self.reuse {
+            return None;
+        }
         match self.parsed_at[at] {
             0 => None,
             k => Some(self.parsed[k as usize - 1]),
@@ -396,7 +439,9 @@ impl<'a> Parser<'a> {
     /// Appends the value tokens to the value store; returns where they are.
     fn store<'t>(&mut self, toks: impl Iterator<Item = &'t Token>) -> ValueRange {
         let start = self.values.len();
-        self.values.extend(toks.map(value_of));
+        let stream = self.stream;
+        self.values
+            .extend(toks.map(|tok| value_of(tok, stream.text(tok))));
         ValueRange {
             start,
             len: self.values.len() - start,
@@ -429,12 +474,12 @@ impl<'a> Parser<'a> {
                     end = Some(j);
                     break;
                 }
-                _ => return Err(self.err(ErrorKind::BadTupleElement(tok.describe()), tok)),
+                _ => return Err(self.err(ErrorKind::BadTupleElement(self.describe(tok)), tok)),
             }
         }
         let Some(end) = end else {
             return Err(self.err(
-                ErrorKind::UnterminatedTuple(name.text.to_string()),
+                ErrorKind::UnterminatedTuple(self.text(name).to_string()),
                 &toks[open],
             ));
         };
@@ -452,13 +497,14 @@ impl<'a> Parser<'a> {
     /// (player-cfg.md §3.1).
     fn set(&mut self, entity: EntityId, name: TokenId, values: ValueRange, is_tuple: bool) {
         let toks = self.toks;
-        let text = &toks[name].text;
+        let stream = self.stream;
+        let text = stream.text(&toks[name]);
         let loc = toks[name].loc;
         let props = &mut self.entities[entity].properties;
         // The same token is the same name; otherwise compare the words.
         let existing = props
             .iter_mut()
-            .find(|p| p.name == name || toks[p.name].text == *text);
+            .find(|p| p.name == name || stream.text(&toks[p.name]) == text);
         match existing {
             Some(existing) => match self.dialect {
                 Dialect::World => {
@@ -505,7 +551,7 @@ impl<'a> Parser<'a> {
         let toks = self.toks;
         let name = &toks[i];
         self.step(name)?;
-        let text: &'a str = &toks[i].text;
+        let text: &'a str = self.text(&toks[i]);
         let id = if let Some(start) = self.macros.get(text).map(|m| m.start) {
             if self.expanding.contains(&text) {
                 let mut chain: Vec<String> = self
@@ -540,7 +586,7 @@ impl<'a> Parser<'a> {
                 type_word: Some(i),
                 macro_word: None,
                 loc: Some(name.loc),
-                properties: Vec::new(),
+                properties: Vec::with_capacity(self.property_counts[i] as usize),
             });
             id
         };
@@ -554,17 +600,28 @@ impl<'a> Parser<'a> {
             Some(t) => {
                 return Err(self.err(
                     ErrorKind::ExpectedValueOrBody {
-                        name: name.text.to_string(),
-                        found: t.describe(),
+                        name: self.text(name).to_string(),
+                        found: self.describe(t),
                     },
                     t,
                 ));
             }
             None => {
-                return Err(self.err(ErrorKind::MissingCloseParen(name.text.to_string()), name));
+                return Err(self.err(
+                    ErrorKind::MissingCloseParen(self.text(name).to_string()),
+                    name,
+                ));
             }
         }
-        self.body(id, j + 1, name)
+        let end = self.body(id, j + 1, name)?;
+        // The next entity made at the same type word (another instance of the same macro body)
+        // allocates room for as many properties at once.
+        let e = &self.entities[id];
+        if let Some(word) = e.type_word {
+            let count = u32::try_from(e.properties.len()).unwrap_or(u32::MAX);
+            self.property_counts[word] = self.property_counts[word].max(count);
+        }
+        Ok(end)
     }
 
     /// Entity body items until the matching `)`; returns its index.
@@ -581,8 +638,8 @@ impl<'a> Parser<'a> {
                 _ => {
                     return Err(self.err(
                         ErrorKind::UnexpectedInBody {
-                            entity: name.text.to_string(),
-                            found: tok.describe(),
+                            entity: self.text(name).to_string(),
+                            found: self.describe(tok),
                         },
                         tok,
                     ));
@@ -590,15 +647,130 @@ impl<'a> Parser<'a> {
             }
             j += 1;
         }
-        Err(self.err(ErrorKind::MissingCloseParen(name.text.to_string()), name))
+        Err(self.err(
+            ErrorKind::MissingCloseParen(self.text(name).to_string()),
+            name,
+        ))
     }
 }
 
-fn value_of(tok: &Token) -> Value {
+fn value_of(tok: &Token, text: &str) -> Value {
     let kind = match tok.kind {
         TokenKind::Number => ValueKind::Number,
         TokenKind::Bool => ValueKind::Bool,
         _ => ValueKind::Str,
     };
-    Value::new(kind, tok.text.clone(), tok.loc)
+    Value::new(kind, text.into(), tok.loc)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::loader::{LoadOptions, lex_document};
+
+    /// Parses `src` with reuse on or off, with `max_parse_steps` set to `steps`.
+    fn parse_src(src: &str, dialect: Dialect, steps: u64, reuse: bool) -> Result<Document, Error> {
+        let opts = LoadOptions::default();
+        let (toks, sources) =
+            lex_document(Path::new("t.world"), src.into(), dialect, &opts).unwrap();
+        let limits = Limits {
+            max_parse_steps: steps,
+            ..Limits::default()
+        };
+        parse_reusing(toks, sources, dialect, &limits, reuse)
+    }
+
+    /// Every property of every entity as text: `entity: name = values`.
+    fn listing(doc: &Document) -> Vec<String> {
+        let mut out = Vec::new();
+        for (id, e) in doc.entities.iter().enumerate() {
+            for p in &e.properties {
+                let values: Vec<String> = doc
+                    .values(p)
+                    .iter()
+                    .map(|v| format!("{}@{}:{}", v.text, v.loc.line, v.loc.col))
+                    .collect();
+                out.push(format!(
+                    "{id} {}: {}@{} = {values:?} tuple {}",
+                    doc.entity_label(id),
+                    doc.name(p),
+                    p.loc.line,
+                    p.is_tuple
+                ));
+            }
+        }
+        out
+    }
+
+    const MACROS: &str = "define ir sensor ( range [0 2] fov 30 color_rgba [1 0 0\n 0.3] )\n\
+        define bot position ( size [0.1 0.1 0.1] ranger ( ir ( pose [0 0 0 0] ) ir ( pose [0 0 0 90] ) ) )\n\
+        bot ( name \"a\" pose [1 2 0 3] )\nbot ( name \"b\" size [0.2 0.2 0.2] )\nbot ( )\n";
+
+    #[test]
+    fn macro_instances_share_their_body_values() {
+        let doc = parse_src(MACROS, Dialect::World, u64::MAX, true).unwrap();
+        let ranges = |name: &str| -> Vec<ValueRange> {
+            (1..doc.entities.len())
+                .filter_map(|id| doc.property(id, name))
+                .map(|p| p.values)
+                .collect()
+        };
+        // 6 sensors (two per robot), each with the same `range` values.
+        let range = ranges("range");
+        assert_eq!(range.len(), 6);
+        assert!(range.iter().all(|r| *r == range[0]));
+        // the second robot's own `size` replaces the macro's
+        let size = ranges("size");
+        assert_eq!(size.len(), 3);
+        assert_eq!(size[0], size[2]);
+        assert_ne!(size[0], size[1]);
+        // each value written is stored once: 2 + 1 + 4 (ir), 3 + 4 + 4 (bot), 1 + 4 + 1 + 3
+        assert_eq!(doc.values.len(), 27);
+    }
+
+    /// Reusing parsed values gives the same document, and the same error at the same token for
+    /// every parser step limit, as parsing every instance afresh.
+    #[test]
+    fn reuse_changes_nothing_but_the_work() {
+        let full = parse_src(MACROS, Dialect::World, u64::MAX, false).unwrap();
+        assert_eq!(
+            listing(&parse_src(MACROS, Dialect::World, u64::MAX, true).unwrap()),
+            listing(&full)
+        );
+        let mut limit = 1;
+        loop {
+            let fresh = parse_src(MACROS, Dialect::World, limit, false);
+            let reused = parse_src(MACROS, Dialect::World, limit, true);
+            match (fresh, reused) {
+                (Ok(a), Ok(b)) => {
+                    assert_eq!(listing(&a), listing(&b));
+                    break;
+                }
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "limit {limit}"),
+                (a, b) => panic!("limit {limit}: {:?} vs {:?}", a.err(), b.err()),
+            }
+            limit += 1;
+        }
+        assert!(limit > 100, "the limit loop ended early, at {limit}");
+    }
+
+    #[test]
+    fn cfg_fields_merge_element_wise_without_touching_the_first_values() {
+        let doc = parse_src(
+            "driver ( provides [\"a\" \"b\" \"c\"] provides [\"x\"] requires [\"r\"] requires [\"s\" \"t\"] )\n",
+            Dialect::Cfg,
+            u64::MAX,
+            true,
+        )
+        .unwrap();
+        let texts = |name: &str| -> Vec<String> {
+            let p = doc.property(1, name).unwrap();
+            doc.values(p).iter().map(|v| v.text.to_string()).collect()
+        };
+        assert_eq!(texts("provides"), ["x", "b", "c"]);
+        assert_eq!(texts("requires"), ["s", "t"]);
+        assert_eq!(doc.values.len(), 4 + 3 + 3 + 2);
+    }
 }

@@ -30,10 +30,7 @@ fn values(doc: &Document, entity: usize, name: &str) -> Vec<String> {
     let p = doc
         .property(entity, name)
         .unwrap_or_else(|| panic!("no {name}"));
-    doc.values(p)
-        .iter()
-        .map(|v| v.text.to_string())
-        .collect()
+    doc.values(p).iter().map(|v| v.text.to_string()).collect()
 }
 
 fn types(doc: &Document) -> Vec<(Option<usize>, String)> {

@@ -10,7 +10,7 @@ use std::f64::consts::PI;
 use serde::Serialize;
 
 use crate::error::Warning;
-use crate::lexer::{Dialect, TokenStream};
+use crate::lexer::{Dialect, TextSpan, TokenStream};
 use crate::numeric::{Prefix, atof, atoi};
 use crate::source::{Location, SourceLoc, SourceMap};
 
@@ -86,8 +86,9 @@ pub struct ValueRange {
 /// Its text lives in the [`Document`]: [`Document::name`] and [`Document::values`] read it.
 #[derive(Clone, Debug)]
 pub struct Property {
-    /// The token of the name as written, e.g. `pose` or `point[3]`.
-    pub name: TokenId,
+    /// Where the name as written (e.g. `pose` or `point[3]`) is in the document's token text;
+    /// [`Document::name`] gives it.
+    pub name: TextSpan,
     /// The values: one for a scalar, any number for a tuple.
     pub values: ValueRange,
     /// Where the name is written (for an inherited property, inside the `define`).
@@ -99,7 +100,7 @@ pub struct Property {
 
 impl Property {
     /// A new, unused property.
-    pub fn new(name: TokenId, values: ValueRange, loc: Location, is_tuple: bool) -> Self {
+    pub fn new(name: TextSpan, values: ValueRange, loc: Location, is_tuple: bool) -> Self {
         Property {
             name,
             values,
@@ -229,7 +230,7 @@ impl Document {
 
     /// The name of a property of this document.
     pub fn name(&self, p: &Property) -> &str {
-        self.text(p.name)
+        self.tokens.span_text(p.name)
     }
 
     /// The values of a property of this document.
@@ -249,9 +250,14 @@ impl Document {
 
     /// The property `name` of entity `id`, without marking it used.
     pub fn property(&self, id: EntityId, name: &str) -> Option<&Property> {
-        self.entities
-            .get(id)
-            .and_then(|e| e.properties.iter().find(|p| self.name(p) == name))
+        // Readers look up dozens of names per entity, most of them absent: the length in the
+        // span rejects most without reading any text.
+        let name = name.as_bytes();
+        self.entities.get(id).and_then(|e| {
+            e.properties.iter().find(|p| {
+                p.name.len == name.len() && self.tokens.span_bytes(p.name) == name
+            })
+        })
     }
 
     /// A location with its file name, for messages and resolved data.

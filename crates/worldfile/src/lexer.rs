@@ -122,7 +122,24 @@ impl TokenStream {
     /// # Panics
     /// If the token is not from this stream.
     pub fn text(&self, tok: &Token) -> &str {
-        &self.text[tok.text.start..tok.text.start + tok.text.len]
+        self.span_text(tok.text)
+    }
+
+    /// The text of a span of this stream's text.
+    ///
+    /// # Panics
+    /// If the span is not from this stream.
+    pub fn span_text(&self, span: TextSpan) -> &str {
+        &self.text[span.start..span.start + span.len]
+    }
+
+    /// The bytes of a span of this stream's text (for comparisons, which need no UTF-8
+    /// boundary checks).
+    ///
+    /// # Panics
+    /// If the span is not from this stream.
+    pub fn span_bytes(&self, span: TextSpan) -> &[u8] {
+        &self.text.as_bytes()[span.start..span.start + span.len]
     }
 }
 

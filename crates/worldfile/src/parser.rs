@@ -496,19 +496,19 @@ impl<'a> Parser<'a> {
     /// whole; a cfg overwrites it element by element, keeping any longer tail
     /// (player-cfg.md §3.1).
     fn set(&mut self, entity: EntityId, name: TokenId, values: ValueRange, is_tuple: bool) {
-        let toks = self.toks;
         let stream = self.stream;
-        let text = stream.text(&toks[name]);
-        let loc = toks[name].loc;
+        let name_tok = &self.toks[name];
+        let text = stream.span_bytes(name_tok.text);
+        let (span, loc) = (name_tok.text, name_tok.loc);
         let props = &mut self.entities[entity].properties;
         // The same token is the same name; otherwise compare the words.
         let existing = props
             .iter_mut()
-            .find(|p| p.name == name || stream.text(&toks[p.name]) == text);
+            .find(|p| p.name == span || stream.span_bytes(p.name) == text);
         match existing {
             Some(existing) => match self.dialect {
                 Dialect::World => {
-                    *existing = Property::new(name, values, loc, is_tuple);
+                    *existing = Property::new(span, values, loc, is_tuple);
                 }
                 Dialect::Cfg => {
                     let old = existing.values;
@@ -526,7 +526,7 @@ impl<'a> Parser<'a> {
                     existing.is_tuple |= is_tuple;
                 }
             },
-            None => props.push(Property::new(name, values, loc, is_tuple)),
+            None => props.push(Property::new(span, values, loc, is_tuple)),
         }
     }
 

@@ -254,9 +254,9 @@ impl Document {
         // span rejects most without reading any text.
         let name = name.as_bytes();
         self.entities.get(id).and_then(|e| {
-            e.properties.iter().find(|p| {
-                p.name.len == name.len() && self.tokens.span_bytes(p.name) == name
-            })
+            e.properties
+                .iter()
+                .find(|p| p.name.len == name.len() && self.tokens.span_bytes(p.name) == name)
         })
     }
 

@@ -33,6 +33,17 @@ struct Parsed {
     end: usize,
 }
 
+/// What expanding a macro body made, kept so that later instances copy it instead of parsing
+/// the body again: its entities (the first is the body's own, whose parent is the instance's;
+/// the others' parents are offsets from the first), and what parsing it took, so that the
+/// copy still counts against [`Limits`] exactly as a parse would.
+struct Expansion {
+    entities: Vec<Entity>,
+    steps: u64,
+    /// How much deeper than where it started the expansion nested.
+    depth: usize,
+}
+
 struct Parser<'a> {
     stream: &'a TokenStream,
     toks: &'a [Token],
@@ -44,6 +55,11 @@ struct Parser<'a> {
     parsed: Vec<Parsed>,
     /// For each type word, the most properties an entity made at it has had so far.
     property_counts: Vec<u32>,
+    /// The entities each macro body (by the index of its PARENT word) expanded to, while the
+    /// set of macros stays the same.
+    expansions: HashMap<usize, Expansion>,
+    /// The deepest `depth` reached (to know how deep an expansion nests).
+    deepest: usize,
     sources: &'a SourceMap,
     dialect: Dialect,
     limits: &'a Limits,
@@ -88,6 +104,8 @@ fn parse_reusing(
             parsed_at: vec![0; toks.len()],
             parsed: Vec::new(),
             property_counts: vec![0; toks.len()],
+            expansions: HashMap::new(),
+            deepest: 0,
             entities: vec![Entity {
                 parent: None,
                 children: Vec::new(),
@@ -323,6 +341,9 @@ impl<'a> Parser<'a> {
                                 ),
                             ));
                         } else {
+                            // A new macro can change what a word in a body already
+                            // expanded means.
+                            self.expansions.clear();
                             self.macros.insert(
                                 self.text(name),
                                 Macro {
@@ -530,6 +551,75 @@ impl<'a> Parser<'a> {
         }
     }
 
+    /// Expands the macro body whose PARENT word is at `start` into a new entity under `parent`:
+    /// a copy of the last expansion of the same body when there is one and the copy stays
+    /// within the limits, else by parsing (which then fails at the very token a parse does).
+    ///
+    /// A body expands to the same entities every time while the set of macros is the same:
+    /// its tokens are the same, and a macro on the expansion stack cannot occur in it (it
+    /// would have been a cycle the first time).
+    fn expand(&mut self, parent: EntityId, start: usize) -> Result<(), Error> {
+        let base = self.entities.len();
+        if let Some(done) = self.expansions.get(&start).filter(|_| self.reuse) {
+            let fits = self.steps + done.steps <= self.limits.max_parse_steps
+                && self.depth + done.depth <= self.limits.max_nesting
+                && base + done.entities.len() <= self.limits.max_entities;
+            if fits {
+                self.steps += done.steps;
+                self.deepest = self.deepest.max(self.depth + done.depth);
+                let counts = &self.property_counts;
+                self.entities
+                    .extend(done.entities.iter().enumerate().map(|(k, e)| {
+                        let parent = match (k, e.parent) {
+                            (0, _) | (_, None) => parent,
+                            (_, Some(offset)) => base + offset,
+                        };
+                        // The instance adds its own properties to the body's entity: room for as
+                        // many as the last instance had.
+                        let room = e.type_word.map_or(0, |w| counts[w] as usize);
+                        let mut properties = Vec::with_capacity(e.properties.len().max(room));
+                        properties.extend_from_slice(&e.properties);
+                        Entity {
+                            parent: Some(parent),
+                            children: Vec::new(),
+                            type_word: e.type_word,
+                            macro_word: e.macro_word,
+                            loc: e.loc,
+                            properties,
+                        }
+                    }));
+                return Ok(());
+            }
+        }
+        let (steps, deepest) = (self.steps, self.deepest);
+        self.deepest = self.depth;
+        let parsed = self.entity(parent, start);
+        let depth = self.deepest - self.depth;
+        self.deepest = self.deepest.max(deepest);
+        parsed?;
+        let entities = self.entities[base..]
+            .iter()
+            .enumerate()
+            .map(|(k, e)| Entity {
+                parent: if k == 0 {
+                    None
+                } else {
+                    e.parent.map(|p| p - base)
+                },
+                ..e.clone()
+            })
+            .collect();
+        self.expansions.insert(
+            start,
+            Expansion {
+                entities,
+                steps: self.steps - steps,
+                depth,
+            },
+        );
+        Ok(())
+    }
+
     /// `NAME ( body )` at `i`, where NAME is a macro or a base type word.
     fn entity(&mut self, parent: EntityId, i: usize) -> Result<usize, Error> {
         if self.depth >= self.limits.max_nesting {
@@ -542,6 +632,7 @@ impl<'a> Parser<'a> {
             ));
         }
         self.depth += 1;
+        self.deepest = self.deepest.max(self.depth);
         let result = self.entity_inner(parent, i);
         self.depth -= 1;
         result
@@ -565,7 +656,7 @@ impl<'a> Parser<'a> {
             }
             self.expanding.push(text);
             let id = self.entities.len();
-            let expanded = self.entity(parent, start);
+            let expanded = self.expand(parent, start);
             self.expanding.pop();
             expanded?;
             // The outermost macro name and the instance's own location win.
@@ -672,14 +763,24 @@ mod tests {
 
     /// Parses `src` with reuse on or off, with `max_parse_steps` set to `steps`.
     fn parse_src(src: &str, dialect: Dialect, steps: u64, reuse: bool) -> Result<Document, Error> {
-        let opts = LoadOptions::default();
-        let (toks, sources) =
-            lex_document(Path::new("t.world"), src.into(), dialect, &opts).unwrap();
         let limits = Limits {
             max_parse_steps: steps,
             ..Limits::default()
         };
-        parse_reusing(toks, sources, dialect, &limits, reuse)
+        parse_limited(src, dialect, &limits, reuse)
+    }
+
+    /// Parses `src` within `limits`, with reuse on or off.
+    fn parse_limited(
+        src: &str,
+        dialect: Dialect,
+        limits: &Limits,
+        reuse: bool,
+    ) -> Result<Document, Error> {
+        let opts = LoadOptions::default();
+        let (toks, sources) =
+            lex_document(Path::new("t.world"), src.into(), dialect, &opts).unwrap();
+        parse_reusing(toks, sources, dialect, limits, reuse)
     }
 
     /// Every property of every entity as text: `entity: name = values`.
@@ -730,30 +831,53 @@ mod tests {
         assert_eq!(doc.values.len(), 27);
     }
 
-    /// Reusing parsed values gives the same document, and the same error at the same token for
-    /// every parser step limit, as parsing every instance afresh.
-    #[test]
-    fn reuse_changes_nothing_but_the_work() {
-        let full = parse_src(MACROS, Dialect::World, u64::MAX, false).unwrap();
-        assert_eq!(
-            listing(&parse_src(MACROS, Dialect::World, u64::MAX, true).unwrap()),
-            listing(&full)
-        );
+    /// Raises one limit from 1 until `src` parses, checking at each value that reusing
+    /// values and expansions gives the same document, or the same error at the same token, as
+    /// parsing every instance afresh; returns the limit it parsed at.
+    fn same_with_and_without_reuse(src: &str, set: impl Fn(&mut Limits, u64)) -> u64 {
         let mut limit = 1;
         loop {
-            let fresh = parse_src(MACROS, Dialect::World, limit, false);
-            let reused = parse_src(MACROS, Dialect::World, limit, true);
+            let mut limits = Limits::default();
+            set(&mut limits, limit);
+            let fresh = parse_limited(src, Dialect::World, &limits, false);
+            let reused = parse_limited(src, Dialect::World, &limits, true);
             match (fresh, reused) {
                 (Ok(a), Ok(b)) => {
                     assert_eq!(listing(&a), listing(&b));
-                    break;
+                    assert_eq!(a.entities.len(), b.entities.len());
+                    for (x, y) in a.entities.iter().zip(&b.entities) {
+                        assert_eq!(
+                            (x.parent, &x.children, x.type_word, x.macro_word, x.loc),
+                            (y.parent, &y.children, y.type_word, y.macro_word, y.loc)
+                        );
+                    }
+                    return limit;
                 }
                 (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "limit {limit}"),
                 (a, b) => panic!("limit {limit}: {:?} vs {:?}", a.err(), b.err()),
             }
             limit += 1;
         }
-        assert!(limit > 100, "the limit loop ended early, at {limit}");
+    }
+
+    /// Reusing parsed values and expansions gives the same document, and the same error at
+    /// the same token for every parser step, nesting and entity limit, as parsing every
+    /// instance afresh.
+    #[test]
+    fn reuse_changes_nothing_but_the_work() {
+        let steps = same_with_and_without_reuse(MACROS, |l, n| l.max_parse_steps = n);
+        assert!(steps > 100, "parsed within {steps} steps");
+        let depth = same_with_and_without_reuse(MACROS, |l, n| l.max_nesting = n as usize);
+        assert_eq!(depth, 5, "bot, position, ranger, ir, sensor");
+        let entities = same_with_and_without_reuse(MACROS, |l, n| l.max_entities = n as usize);
+        assert_eq!(entities, 13, "the global entity and 3 x 4");
+        // a macro defined after a body was expanded changes the next expansion
+        let later = "define bot position ( gear ( ) )\nbot ( )\ndefine gear ranger ( )\nbot ( )\n";
+        same_with_and_without_reuse(later, |l, n| l.max_parse_steps = n);
+        let doc = parse_src(later, Dialect::World, u64::MAX, true).unwrap();
+        assert_eq!(doc.type_name(2), "gear");
+        assert_eq!(doc.type_name(4), "ranger");
+        assert_eq!(doc.macro_name(4), Some("gear"));
     }
 
     #[test]

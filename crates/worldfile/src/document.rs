@@ -143,6 +143,10 @@ pub struct Entity {
     pub loc: Option<Location>,
     /// Properties in the order first written.
     pub properties: Vec<Property>,
+    /// An earlier entity this one is a copy of: made by the same text of a macro body, with the
+    /// same properties in the same order, all written at the same places. Reading one reads
+    /// the same as reading the other, so a reader may reuse what it read there.
+    pub copy_of: Option<EntityId>,
 }
 
 /// Length and angle multipliers from `unit_length` / `unit_angle` (stage-worldfile.md §7).

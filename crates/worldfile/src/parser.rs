@@ -38,6 +38,8 @@ struct Parsed {
 /// the others' parents are offsets from the first), and what parsing it took, so that the
 /// copy still counts against [`Limits`] exactly as a parse would.
 struct Expansion {
+    /// The first entity of the expansion that was parsed (later ones are copies of it).
+    first: EntityId,
     entities: Vec<Entity>,
     steps: u64,
     /// How much deeper than where it started the expansion nested.
@@ -113,6 +115,7 @@ fn parse_reusing(
                 macro_word: None,
                 loc: None,
                 properties: Vec::new(),
+                copy_of: None,
             }],
             macros: HashMap::new(),
             expanding: Vec::new(),
@@ -568,6 +571,7 @@ impl<'a> Parser<'a> {
                 self.steps += done.steps;
                 self.deepest = self.deepest.max(self.depth + done.depth);
                 let counts = &self.property_counts;
+                let first = done.first;
                 self.entities
                     .extend(done.entities.iter().enumerate().map(|(k, e)| {
                         let parent = match (k, e.parent) {
@@ -586,6 +590,8 @@ impl<'a> Parser<'a> {
                             macro_word: e.macro_word,
                             loc: e.loc,
                             properties,
+                            // the body's own entity gets the instance's properties too
+                            copy_of: (k > 0).then_some(first + k),
                         }
                     }));
                 return Ok(());
@@ -612,6 +618,7 @@ impl<'a> Parser<'a> {
         self.expansions.insert(
             start,
             Expansion {
+                first: base,
                 entities,
                 steps: self.steps - steps,
                 depth,
@@ -678,6 +685,7 @@ impl<'a> Parser<'a> {
                 macro_word: None,
                 loc: Some(name.loc),
                 properties: Vec::with_capacity(self.property_counts[i] as usize),
+                copy_of: None,
             });
             id
         };

@@ -96,18 +96,30 @@ impl<'d, 'w> Reader<'d, 'w> {
     }
 
     /// `atof` of one value, as an error if there is no number and a warning if there is junk.
+    #[inline]
     fn number(&mut self, p: &Property, v: &Value) -> Result<f64, Error> {
-        self.prefix_value(p, v, v.float(), false)
+        match v.float() {
+            // the usual case, kept apart from the messages
+            Some(n) if n.complete => Ok(n.value),
+            parsed => self.prefix_value(p, v, parsed, false),
+        }
     }
 
     /// `atoi` of one value (a clean decimal such as `180.0` truncates silently, like Stage).
+    #[inline]
     fn integer(&mut self, p: &Property, v: &Value) -> Result<i64, Error> {
-        let clean_float = v.float().is_some_and(|f| f.complete);
-        self.prefix_value(p, v, v.int(), clean_float)
+        match v.int() {
+            Some(n) if n.complete => Ok(n.value),
+            parsed => {
+                let clean_float = v.float().is_some_and(|f| f.complete);
+                self.prefix_value(p, v, parsed, clean_float)
+            }
+        }
     }
 
     /// The value C's `atof`/`atoi` read from `v` (`parsed`): an error when there is no number,
     /// a warning when text follows it, unless `quiet`.
+    #[cold]
     fn prefix_value<T: Copy + std::fmt::Display>(
         &mut self,
         p: &Property,

@@ -340,6 +340,9 @@ struct Resolver<'d> {
     model_of_entity: Vec<Option<ModelId>>,
     world_counts: HashMap<&'static str, u32>,
     bitmaps: HashMap<PathBuf, Arc<Vec<PixelRect>>>,
+    /// What reading a sensor gave (and warned), for the copies of it
+    /// ([`crate::document::Entity::copy_of`]).
+    sensor_reads: HashMap<EntityId, (SensorSpec, Vec<Warning>)>,
 }
 
 /// Builds the world from a parsed worldfile document.
@@ -359,6 +362,7 @@ pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
         // The hidden ground model is the first top-level `model` ("model:0").
         world_counts: HashMap::from([("model", 1)]),
         bitmaps: HashMap::new(),
+        sensor_reads: HashMap::new(),
     };
     let settings = r.settings()?;
     let window = r.window()?;
@@ -824,14 +828,40 @@ impl<'d> Resolver<'d> {
         let Some(model) = ranger else {
             return Err(self.entity_error(ErrorKind::SensorOutsideRanger, entity));
         };
-        let mut r = self.reader(entity);
-        let sensor = SensorSpec::read(&mut r)?;
-        if sensor.samples < 1 {
-            r.warn("sensor `samples` is below 1: it produces no data");
-        }
+        let sensor = match self.doc.entity(entity).copy_of {
+            // A copy of an earlier sensor reads as that one did: the same spec, the same
+            // warnings, the same properties used.
+            Some(original) => {
+                if !self.sensor_reads.contains_key(&original) {
+                    let mut warnings = Vec::new();
+                    let sensor = read_sensor(&mut Reader::new(self.doc, original, &mut warnings))?;
+                    self.sensor_reads.insert(original, (sensor, warnings));
+                }
+                let (sensor, warnings) = &self.sensor_reads[&original];
+                let doc = self.doc;
+                let read = &doc.entity(original).properties;
+                for (p, q) in doc.entity(entity).properties.iter().zip(read) {
+                    if q.is_used() {
+                        p.mark_used();
+                    }
+                }
+                self.warnings.extend(warnings.iter().cloned());
+                sensor.clone()
+            }
+            None => read_sensor(&mut self.reader(entity))?,
+        };
         if let TypeSpec::Ranger(ranger) = &mut self.models[model].spec.spec {
             ranger.sensors.push(sensor);
         }
         Ok(())
     }
+}
+
+/// A `sensor` entity's properties, with a warning when it produces no data.
+fn read_sensor(r: &mut Reader<'_, '_>) -> Result<SensorSpec, Error> {
+    let sensor = SensorSpec::read(r)?;
+    if sensor.samples < 1 {
+        r.warn("sensor `samples` is below 1: it produces no data");
+    }
+    Ok(sensor)
 }

@@ -237,7 +237,11 @@ impl Loader<'_> {
             let text_bytes = &src[pos + lexeme.text.0..pos + lexeme.text.1];
             let text = match lexeme.kind {
                 TokenKind::Space | TokenKind::Eol => "".into(),
-                _ => String::from_utf8_lossy(text_bytes),
+                // Only strings and comments can hold bytes that are not UTF-8.
+                _ => match std::str::from_utf8(text_bytes) {
+                    Ok(text) => text.into(),
+                    Err(_) => String::from_utf8_lossy(text_bytes),
+                },
             };
             let word_end = pos + lexeme.len;
             pos = word_end;

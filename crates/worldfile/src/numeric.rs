@@ -6,9 +6,9 @@
 //! when there is no numeric prefix at all (where Stage silently uses 0, we raise an error).
 
 use nom::branch::alt;
-use nom::bytes::complete::{tag_no_case, take_while, take_while1};
+use nom::bytes::complete::{tag_no_case, take_while1};
 use nom::character::complete::one_of;
-use nom::combinator::{opt, recognize};
+use nom::combinator::opt;
 use nom::sequence::{pair, preceded};
 use nom::{IResult, Parser};
 
@@ -29,17 +29,33 @@ fn digits(input: &str) -> IResult<&str, &str> {
     take_while1(|c: char| c.is_ascii_digit())(input)
 }
 
-fn decimal(input: &str) -> IResult<&str, &str> {
-    // digits [. digits*] | . digits, then an optional exponent that has at least one digit.
-    let mantissa = alt((
-        recognize(pair(
-            digits,
-            opt(pair(one_of("."), take_while(|c: char| c.is_ascii_digit()))),
-        )),
-        recognize(pair(one_of("."), digits)),
-    ));
-    let exponent = recognize((one_of("eE"), opt(one_of("+-")), digits));
-    recognize(pair(mantissa, opt(exponent))).parse(input)
+/// Length of the decimal number at the start of `b`: `digits [. digits*] | . digits`, then an
+/// exponent if it has at least one digit. Scanned by hand: worldfiles are mostly numbers, and
+/// this runs for every one of them.
+fn decimal_len(b: &[u8]) -> Option<usize> {
+    let digits = |from: usize| b[from..].iter().take_while(|c| c.is_ascii_digit()).count();
+    let whole = digits(0);
+    let mut end = whole;
+    if b.get(end) == Some(&b'.') {
+        let fraction = digits(end + 1);
+        if whole == 0 && fraction == 0 {
+            return None;
+        }
+        end += 1 + fraction;
+    } else if whole == 0 {
+        return None;
+    }
+    if matches!(b.get(end), Some(b'e' | b'E')) {
+        let mut at = end + 1;
+        if matches!(b.get(at), Some(b'+' | b'-')) {
+            at += 1;
+        }
+        let exponent = digits(at);
+        if exponent > 0 {
+            end = at + exponent;
+        }
+    }
+    Some(end)
 }
 
 fn special(input: &str) -> IResult<&str, &str> {
@@ -73,7 +89,9 @@ pub fn atof(text: &str) -> Option<Prefix<f64>> {
             acc * 16.0 + c.to_digit(16).unwrap_or(0) as f64
         });
         (rest, v)
-    } else if let Ok((rest, d)) = decimal(after_sign) {
+    } else if let Some(len) = decimal_len(after_sign.as_bytes()) {
+        // the recognised text is ASCII, so `len` is a character boundary
+        let (d, rest) = after_sign.split_at(len);
         (rest, d.parse::<f64>().ok()?)
     } else if let Ok((rest, s)) = special(after_sign) {
         let v = if s.eq_ignore_ascii_case("nan") {
@@ -115,6 +133,23 @@ pub fn atoi(text: &str) -> Option<Prefix<i64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nom::bytes::complete::take_while;
+    use nom::combinator::recognize;
+
+    /// The decimal recogniser written with parser combinators: the reference [`decimal_len`] is
+    /// checked against.
+    fn decimal(input: &str) -> IResult<&str, &str> {
+        // digits [. digits*] | . digits, then an optional exponent that has at least one digit.
+        let mantissa = alt((
+            recognize(pair(
+                digits,
+                opt(pair(one_of("."), take_while(|c: char| c.is_ascii_digit()))),
+            )),
+            recognize(pair(one_of("."), digits)),
+        ));
+        let exponent = recognize((one_of("eE"), opt(one_of("+-")), digits));
+        recognize(pair(mantissa, opt(exponent))).parse(input)
+    }
 
     fn f(s: &str) -> Option<(f64, bool)> {
         atof(s).map(|p| (p.value, p.complete))
@@ -141,6 +176,15 @@ mod tests {
         assert_eq!(f("."), None);
         assert_eq!(f("abc"), None);
         assert_eq!(f(""), None);
+    }
+
+    proptest::proptest! {
+        /// The hand-written decimal scanner recognises what the combinator one does.
+        #[test]
+        fn decimal_scanner_matches_the_grammar(text in "[0-9.eE+x-]{0,8}") {
+            let reference = decimal(&text).ok().map(|(rest, _)| text.len() - rest.len());
+            proptest::prop_assert_eq!(decimal_len(text.as_bytes()), reference);
+        }
     }
 
     #[test]

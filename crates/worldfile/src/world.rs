@@ -2,7 +2,8 @@
 //! `World::Load` builds a world (stage-worldfile.md §9–§11), with every property read into typed
 //! fields in SI units and radians. The simulator never needs the raw properties again.
 
-use std::collections::HashMap;
+use std::collections::btree_map::Entry;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -342,7 +343,8 @@ struct Resolver<'d> {
     bitmaps: HashMap<PathBuf, Arc<Vec<PixelRect>>>,
     /// What reading a sensor gave (and warned), for the copies of it
     /// ([`crate::document::Entity::copy_of`]).
-    sensor_reads: HashMap<EntityId, (SensorSpec, Vec<Warning>)>,
+    /// (Few originals, looked up once per copy: a B-tree costs less than hashing here.)
+    sensor_reads: BTreeMap<EntityId, (SensorSpec, Vec<Warning>)>,
 }
 
 /// Builds the world from a parsed worldfile document.
@@ -362,7 +364,7 @@ pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
         // The hidden ground model is the first top-level `model` ("model:0").
         world_counts: HashMap::from([("model", 1)]),
         bitmaps: HashMap::new(),
-        sensor_reads: HashMap::new(),
+        sensor_reads: BTreeMap::new(),
     };
     let settings = r.settings()?;
     let window = r.window()?;
@@ -832,12 +834,15 @@ impl<'d> Resolver<'d> {
             // A copy of an earlier sensor reads as that one did: the same spec, the same
             // warnings, the same properties used.
             Some(original) => {
-                if !self.sensor_reads.contains_key(&original) {
-                    let mut warnings = Vec::new();
-                    let sensor = read_sensor(&mut Reader::new(self.doc, original, &mut warnings))?;
-                    self.sensor_reads.insert(original, (sensor, warnings));
-                }
-                let (sensor, warnings) = &self.sensor_reads[&original];
+                let (sensor, warnings) = match self.sensor_reads.entry(original) {
+                    Entry::Occupied(read) => read.into_mut(),
+                    Entry::Vacant(slot) => {
+                        let mut warnings = Vec::new();
+                        let sensor =
+                            read_sensor(&mut Reader::new(self.doc, original, &mut warnings))?;
+                        slot.insert((sensor, warnings))
+                    }
+                };
                 let doc = self.doc;
                 let read = &doc.entity(original).properties;
                 for (p, q) in doc.entity(entity).properties.iter().zip(read) {

@@ -7,9 +7,7 @@
 
 use nom::branch::alt;
 use nom::bytes::complete::{tag_no_case, take_while1};
-use nom::character::complete::one_of;
-use nom::combinator::opt;
-use nom::sequence::{pair, preceded};
+use nom::sequence::preceded;
 use nom::{IResult, Parser};
 
 /// A number read from the front of a text.
@@ -23,10 +21,6 @@ pub struct Prefix<T> {
 
 fn is_c_space(c: char) -> bool {
     matches!(c, ' ' | '\t' | '\n' | '\r' | '\x0b' | '\x0c')
-}
-
-fn digits(input: &str) -> IResult<&str, &str> {
-    take_while1(|c: char| c.is_ascii_digit())(input)
 }
 
 /// Length of the decimal number at the start of `b`: `digits [. digits*] | . digits`, then an
@@ -77,13 +71,14 @@ fn hex(input: &str) -> IResult<&str, &str> {
 
 /// C `atof`: optional blanks and sign, then a decimal (with exponent), `inf`/`nan` or hex integer.
 pub fn atof(text: &str) -> Option<Prefix<f64>> {
-    let body = text.trim_start_matches(is_c_space);
+    let body = skip_c_spaces(text);
     let (after_sign, negative) = match body.as_bytes().first() {
         Some(b'-') => (&body[1..], true),
         Some(b'+') => (&body[1..], false),
         _ => (body, false),
     };
-    let (rest, value) = if let Ok((rest, h)) = hex(after_sign) {
+    let maybe_hex = matches!(after_sign.as_bytes(), [b'0', b'x' | b'X', _, ..]);
+    let (rest, value) = if let Some((rest, h)) = maybe_hex.then(|| hex(after_sign).ok()).flatten() {
         // Very long hex runs overflow to infinity, as strtod does.
         let v = h.chars().fold(0f64, |acc, c| {
             acc * 16.0 + c.to_digit(16).unwrap_or(0) as f64
@@ -111,30 +106,46 @@ pub fn atof(text: &str) -> Option<Prefix<f64>> {
 
 /// C `atoi`: optional blanks and sign, then decimal digits. Saturates instead of overflowing.
 pub fn atoi(text: &str) -> Option<Prefix<i64>> {
-    let body = text.trim_start_matches(is_c_space);
-    let (rest, (sign, ds)) = pair(opt(one_of::<_, _, nom::error::Error<&str>>("+-")), digits)
-        .parse(body)
-        .ok()?;
-    let magnitude = ds.chars().fold(0i64, |acc, c| {
-        acc.saturating_mul(10)
-            .saturating_add(c.to_digit(10).unwrap_or(0) as i64)
-    });
-    let value = if sign == Some('-') {
-        -magnitude
-    } else {
-        magnitude
+    let body = skip_c_spaces(text);
+    let (negative, unsigned) = match body.as_bytes().first() {
+        Some(b'-') => (true, &body[1..]),
+        Some(b'+') => (false, &body[1..]),
+        _ => (false, body),
     };
+    let digits = unsigned.bytes().take_while(u8::is_ascii_digit).count();
+    if digits == 0 {
+        return None;
+    }
+    let magnitude = unsigned.as_bytes()[..digits].iter().fold(0i64, |acc, d| {
+        acc.saturating_mul(10).saturating_add(i64::from(d - b'0'))
+    });
     Some(Prefix {
-        value,
-        complete: rest.is_empty(),
+        value: if negative { -magnitude } else { magnitude },
+        complete: digits == unsigned.len(),
     })
+}
+
+/// `text` without the leading blanks C's number conversions skip (all ASCII, so the cut is
+/// a character boundary).
+fn skip_c_spaces(text: &str) -> &str {
+    let blanks = text
+        .bytes()
+        .take_while(|&b| is_c_space(char::from(b)))
+        .count();
+    &text[blanks..]
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use nom::bytes::complete::take_while;
-    use nom::combinator::recognize;
+    use nom::character::complete::one_of;
+    use nom::combinator::{opt, recognize};
+    use nom::sequence::pair;
+
+    fn digits(input: &str) -> IResult<&str, &str> {
+        take_while1(|c: char| c.is_ascii_digit())(input)
+    }
 
     /// The decimal recogniser written with parser combinators: the reference [`decimal_len`] is
     /// checked against.
@@ -178,7 +189,35 @@ mod tests {
         assert_eq!(f(""), None);
     }
 
+    /// `atoi` written with parser combinators: the reference the hand-written one is checked
+    /// against.
+    fn atoi_reference(text: &str) -> Option<Prefix<i64>> {
+        let body = text.trim_start_matches(is_c_space);
+        let (rest, (sign, ds)) = pair(opt(one_of::<_, _, nom::error::Error<&str>>("+-")), digits)
+            .parse(body)
+            .ok()?;
+        let magnitude = ds.chars().fold(0i64, |acc, c| {
+            acc.saturating_mul(10)
+                .saturating_add(i64::from(c.to_digit(10).unwrap_or(0)))
+        });
+        let value = if sign == Some('-') {
+            -magnitude
+        } else {
+            magnitude
+        };
+        Some(Prefix {
+            value,
+            complete: rest.is_empty(),
+        })
+    }
+
     proptest::proptest! {
+        /// The hand-written `atoi` reads what the combinator one does.
+        #[test]
+        fn atoi_matches_the_grammar(text in "[ \t0-9+x.-]{0,24}") {
+            proptest::prop_assert_eq!(atoi(&text), atoi_reference(&text));
+        }
+
         /// The hand-written decimal scanner recognises what the combinator one does.
         #[test]
         fn decimal_scanner_matches_the_grammar(text in "[0-9.eE+x-]{0,8}") {

@@ -323,13 +323,27 @@ pub fn compose(p: Pose, q: Pose) -> Pose {
     frame(p).compose(&frame(q)).to_array()
 }
 
+/// How many models of each type a parent (or the world) has, for Stage's generated names.
+#[derive(Default)]
+struct TypeCounts([u32; crate::models::TYPES.len()]);
+
+impl TypeCounts {
+    /// The index the next model of type `t` gets (counting it).
+    fn next(&mut self, t: ModelType) -> u32 {
+        let count = &mut self.0[t as usize];
+        let index = *count;
+        *count += 1;
+        index
+    }
+}
+
 /// A model being built: its blocks are kept in block units until the end.
 struct Building {
     spec: ModelSpec,
     raw_blocks: Vec<RawBlock>,
     has_default_block: bool,
     global_at_load: Pose,
-    child_counts: HashMap<&'static str, u32>,
+    child_counts: TypeCounts,
 }
 
 struct Resolver<'d> {
@@ -339,7 +353,7 @@ struct Resolver<'d> {
     warnings: Vec<Warning>,
     models: Vec<Building>,
     model_of_entity: Vec<Option<ModelId>>,
-    world_counts: HashMap<&'static str, u32>,
+    world_counts: TypeCounts,
     bitmaps: HashMap<PathBuf, Arc<Vec<PixelRect>>>,
     /// What reading a sensor gave (and warned), for the copies of it
     /// ([`crate::document::Entity::copy_of`]).
@@ -362,7 +376,11 @@ pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
         models: Vec::new(),
         model_of_entity: vec![None; doc.entities.len()],
         // The hidden ground model is the first top-level `model` ("model:0").
-        world_counts: HashMap::from([("model", 1)]),
+        world_counts: {
+            let mut counts = TypeCounts::default();
+            counts.next(ModelType::Model);
+            counts
+        },
         bitmaps: HashMap::new(),
         sensor_reads: BTreeMap::new(),
     };
@@ -377,7 +395,7 @@ pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
         }
     }
     let mut models = Vec::with_capacity(r.models.len());
-    let mut names = HashMap::new();
+    let mut names = HashMap::with_capacity(2 * r.models.len());
     for b in std::mem::take(&mut r.models) {
         let mut spec = b.spec;
         let (blocks, notes) = body::scale(&b.raw_blocks, spec.size);
@@ -519,9 +537,7 @@ impl<'d> Resolver<'d> {
             Some(p) => &mut self.models[p].child_counts,
             None => &mut self.world_counts,
         };
-        let k = counts.entry(info.name).or_insert(0);
-        let index = *k;
-        *k += 1;
+        let index = counts.next(model_type);
         let generated_name = match parent {
             Some(p) => format!("{}.{}:{index}", self.models[p].spec.name, info.name),
             None => format!("{}:{index}", info.name),
@@ -674,7 +690,7 @@ impl<'d> Resolver<'d> {
             raw_blocks,
             has_default_block,
             global_at_load,
-            child_counts: HashMap::new(),
+            child_counts: TypeCounts::default(),
         });
         self.model_of_entity[entity] = Some(id);
         Ok(())

@@ -374,14 +374,14 @@ impl CfgFile {
     }
 }
 
-fn field_text(p: &Property) -> Option<String> {
+fn field_text(doc: &Document, p: &Property) -> Option<String> {
     p.mark_used();
-    p.values.first().map(|v| v.text.to_string())
+    doc.values(p).first().map(|v| v.text.to_string())
 }
 
 /// Player's `ReadBool`: yes/true/1 and no/false/0.
 fn read_bool(doc: &Document, p: &Property, warnings: &mut Vec<Warning>) -> Option<bool> {
-    let text = field_text(p)?;
+    let text = field_text(doc, p)?;
     match text.as_str() {
         "yes" | "true" | "1" => Some(true),
         "no" | "false" | "0" => Some(false),
@@ -393,7 +393,7 @@ fn read_bool(doc: &Document, p: &Property, warnings: &mut Vec<Warning>) -> Optio
                     doc.loc(p.loc),
                     format!(
                         "`{}` \"{text}\" is not a boolean; ignored as in Player",
-                        p.name
+                        doc.name(p)
                     ),
                 ));
                 None
@@ -409,7 +409,8 @@ fn read_driver(
 ) -> Result<DriverSpec, Error> {
     let entity = doc.entity(section);
     let location = entity.loc.map(|l| doc.loc(l));
-    let Some(name) = entity.property("name").and_then(field_text) else {
+    let field = |name: &str| doc.property(section, name).and_then(|p| field_text(doc, p));
+    let Some(name) = field("name") else {
         return Err(match entity.loc {
             Some(loc) => Error::at(ErrorKind::MissingDriverName, &doc.sources, loc, "driver"),
             None => Error::new(ErrorKind::MissingDriverName),
@@ -419,11 +420,11 @@ fn read_driver(
     let mut renamed = Vec::new();
     let mut addresses = |field: &str| -> Vec<DeviceAddr> {
         let mut out = Vec::new();
-        let Some(p) = entity.property(field) else {
+        let Some(p) = doc.property(section, field) else {
             return out;
         };
         p.mark_used();
-        for v in &p.values {
+        for v in doc.values(p) {
             match DeviceAddr::parse(&v.text) {
                 Ok(mut a) => {
                     a.location = Some(doc.loc(v.loc));
@@ -455,11 +456,11 @@ fn read_driver(
     let options = entity
         .properties
         .iter()
-        .filter(|p| !DRIVER_FIELDS.contains(&&*p.name))
+        .filter(|p| !DRIVER_FIELDS.contains(&doc.name(p)))
         .map(|p| {
             (
-                p.name.to_string(),
-                p.values.iter().map(|v| v.text.to_string()).collect(),
+                doc.name(p).to_string(),
+                doc.values(p).iter().map(|v| v.text.to_string()).collect(),
             )
         })
         .collect();
@@ -467,14 +468,14 @@ fn read_driver(
         section,
         location,
         name,
-        plugin: entity.property("plugin").and_then(field_text),
+        plugin: field("plugin"),
         provides,
         requires,
         address_errors,
-        model: entity.property("model").and_then(field_text),
-        worldfile: entity.property("worldfile").and_then(field_text),
-        alwayson: entity
-            .property("alwayson")
+        model: field("model"),
+        worldfile: field("worldfile"),
+        alwayson: doc
+            .property(section, "alwayson")
             .and_then(|p| read_bool(doc, p, warnings)),
         options,
     })

@@ -10,7 +10,8 @@ use std::f64::consts::PI;
 use serde::Serialize;
 
 use crate::error::Warning;
-use crate::lexer::Dialect;
+use crate::lexer::{Dialect, TextSpan, TokenStream};
+use crate::numeric::{Prefix, atof, atoi};
 use crate::source::{Location, SourceLoc, SourceMap};
 
 /// Index of an entity in a [`Document`]; 0 is the global (top-level) entity.
@@ -27,7 +28,15 @@ pub enum ValueKind {
     Bool,
 }
 
-/// One value of a property, as written.
+/// Index of a token in a [`Document`]'s token stream. Properties and entities name the word they
+/// were written with by its token, so the thousandth instance of a macro shares its macro's text
+/// instead of copying it.
+pub type TokenId = usize;
+
+/// One value of a property, as written, with what C's `atof`/`atoi` make of it.
+///
+/// A value is stored once per token written ([`Document::values`]): every instance of a macro
+/// shares the values of its body, so a number is converted once however often it is read.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Value {
     /// Token class it came from.
@@ -36,15 +45,52 @@ pub struct Value {
     pub text: Box<str>,
     /// Where it is written.
     pub loc: Location,
+    float: Option<Prefix<f64>>,
+    int: Option<Prefix<i64>>,
+}
+
+impl Value {
+    /// A value with its text converted once, as `atof` and as `atoi` would read it.
+    pub fn new(kind: ValueKind, text: Box<str>, loc: Location) -> Self {
+        Value {
+            kind,
+            float: atof(&text),
+            int: atoi(&text),
+            text,
+            loc,
+        }
+    }
+
+    /// The text as C's `atof` reads it (`None`: no numeric prefix at all).
+    pub fn float(&self) -> Option<Prefix<f64>> {
+        self.float
+    }
+
+    /// The text as C's `atoi` reads it (`None`: no numeric prefix at all).
+    pub fn int(&self) -> Option<Prefix<i64>> {
+        self.int
+    }
+}
+
+/// Where a property's values are in its document's value store (see [`Document::values`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ValueRange {
+    /// Index of the first value.
+    pub start: usize,
+    /// Number of values.
+    pub len: usize,
 }
 
 /// A property (Stage) or field (Player): a name with zero or more values.
+///
+/// Its text lives in the [`Document`]: [`Document::name`] and [`Document::values`] read it.
 #[derive(Clone, Debug)]
 pub struct Property {
-    /// The name as written, e.g. `pose` or `point[3]`.
-    pub name: Box<str>,
+    /// Where the name as written (e.g. `pose` or `point[3]`) is in the document's token text;
+    /// [`Document::name`] gives it.
+    pub name: TextSpan,
     /// The values: one for a scalar, any number for a tuple.
-    pub values: Vec<Value>,
+    pub values: ValueRange,
     /// Where the name is written (for an inherited property, inside the `define`).
     pub loc: Location,
     /// Whether the property was written as a `[ ... ]` tuple.
@@ -54,7 +100,7 @@ pub struct Property {
 
 impl Property {
     /// A new, unused property.
-    pub fn new(name: Box<str>, values: Vec<Value>, loc: Location, is_tuple: bool) -> Self {
+    pub fn new(name: TextSpan, values: ValueRange, loc: Location, is_tuple: bool) -> Self {
         Property {
             name,
             values,
@@ -73,6 +119,11 @@ impl Property {
     pub fn mark_used(&self) {
         self.used.set(true);
     }
+
+    /// Whether it has no values (an empty tuple).
+    pub fn is_empty(&self) -> bool {
+        self.values.len == 0
+    }
 }
 
 /// An entity: `type ( ... )`, or the global entity 0.
@@ -82,21 +133,20 @@ pub struct Entity {
     pub parent: Option<EntityId>,
     /// Child entities in source order.
     pub children: Vec<EntityId>,
-    /// The base type word (for a macro instance, the ultimate non-macro parent word).
-    pub type_name: Box<str>,
-    /// The macro the entity was written as, if any (e.g. `pioneer2dx` for a `position`).
-    pub macro_name: Option<Box<str>>,
+    /// The token of the base type word (for a macro instance, the ultimate non-macro parent
+    /// word); `None` for entity 0. [`Document::type_name`] gives its text.
+    pub type_word: Option<TokenId>,
+    /// The token of the macro name the entity was written as, if any (e.g. `pioneer2dx` for a
+    /// `position`). [`Document::macro_name`] gives its text.
+    pub macro_word: Option<TokenId>,
     /// Where the entity's name is written (`None` for entity 0).
     pub loc: Option<Location>,
     /// Properties in the order first written.
     pub properties: Vec<Property>,
-}
-
-impl Entity {
-    /// The property with this name, without marking it used.
-    pub fn property(&self, name: &str) -> Option<&Property> {
-        self.properties.iter().find(|p| &*p.name == name)
-    }
+    /// An earlier entity this one is a copy of: made by the same text of a macro body, with the
+    /// same properties in the same order, all written at the same places. Reading one reads
+    /// the same as reading the other, so a reader may reuse what it read there.
+    pub copy_of: Option<EntityId>,
 }
 
 /// Length and angle multipliers from `unit_length` / `unit_angle` (stage-worldfile.md §7).
@@ -118,6 +168,10 @@ impl Default for Units {
 }
 
 /// A parsed worldfile or cfg file: entities in pre-order and their raw properties.
+///
+/// The document keeps the token stream it was parsed from and one store of values: entities and
+/// properties refer into them by index, so expanding a macro copies no text (a 10,000-robot
+/// world made of one `define` holds its body's text once).
 #[derive(Clone, Debug)]
 pub struct Document {
     /// Which language.
@@ -132,9 +186,36 @@ pub struct Document {
     pub plugins: Vec<(String, Location)>,
     /// Problems noticed while parsing that do not stop loading.
     pub warnings: Vec<Warning>,
+    /// The token stream (includes spliced in) that [`TokenId`]s index.
+    pub(crate) tokens: TokenStream,
+    /// Every value written, once: what [`ValueRange`]s index.
+    pub(crate) values: Vec<Value>,
 }
 
 impl Document {
+    /// A document from the parser's results: `tokens` is the stream the [`TokenId`]s index,
+    /// `values` the store the [`ValueRange`]s index.
+    pub(crate) fn new(
+        dialect: Dialect,
+        sources: SourceMap,
+        entities: Vec<Entity>,
+        plugins: Vec<(String, Location)>,
+        warnings: Vec<Warning>,
+        tokens: TokenStream,
+        values: Vec<Value>,
+    ) -> Self {
+        Document {
+            dialect,
+            sources,
+            entities,
+            units: Units::default(),
+            plugins,
+            warnings,
+            tokens,
+            values,
+        }
+    }
+
     /// The entity with this id.
     ///
     /// # Panics
@@ -143,9 +224,44 @@ impl Document {
         &self.entities[id]
     }
 
+    /// The text of token `id` (a name as written).
+    ///
+    /// # Panics
+    /// If the id is not from this document.
+    pub fn text(&self, id: TokenId) -> &str {
+        self.tokens.text(&self.tokens.tokens()[id])
+    }
+
+    /// The name of a property of this document.
+    pub fn name(&self, p: &Property) -> &str {
+        self.tokens.span_text(p.name)
+    }
+
+    /// The values of a property of this document.
+    pub fn values(&self, p: &Property) -> &[Value] {
+        &self.values[p.values.start..p.values.start + p.values.len]
+    }
+
+    /// The base type word of entity `id` (empty for entity 0).
+    pub fn type_name(&self, id: EntityId) -> &str {
+        self.entities[id].type_word.map_or("", |t| self.text(t))
+    }
+
+    /// The macro entity `id` was written as, if any.
+    pub fn macro_name(&self, id: EntityId) -> Option<&str> {
+        self.entities[id].macro_word.map(|t| self.text(t))
+    }
+
     /// The property `name` of entity `id`, without marking it used.
     pub fn property(&self, id: EntityId, name: &str) -> Option<&Property> {
-        self.entities.get(id).and_then(|e| e.property(name))
+        // Readers look up dozens of names per entity, most of them absent: the length in the
+        // span rejects most without reading any text.
+        let name = name.as_bytes();
+        self.entities.get(id).and_then(|e| {
+            e.properties
+                .iter()
+                .find(|p| p.name.len == name.len() && self.tokens.span_bytes(p.name) == name)
+        })
     }
 
     /// A location with its file name, for messages and resolved data.
@@ -158,11 +274,7 @@ impl Document {
         &'a self,
         type_name: &'a str,
     ) -> impl Iterator<Item = EntityId> + 'a {
-        self.entities
-            .iter()
-            .enumerate()
-            .filter(move |(_, e)| &*e.type_name == type_name)
-            .map(|(i, _)| i)
+        (0..self.entities.len()).filter(move |&id| self.type_name(id) == type_name)
     }
 
     /// Warnings for every property no reader looked at, in entity order (Stage's
@@ -174,22 +286,25 @@ impl Document {
                 let owner = if id == 0 {
                     "at top level".to_string()
                 } else {
-                    format!("in `{}`", entity_label(entity))
+                    format!("in `{}`", self.entity_label(id))
                 };
                 out.push(Warning::at(
                     self.loc(p.loc),
-                    format!("property `{}` {owner} is defined but not used", p.name),
+                    format!(
+                        "property `{}` {owner} is defined but not used",
+                        self.name(p)
+                    ),
                 ));
             }
         }
         out
     }
-}
 
-/// `type` or `macro (type)` for messages.
-pub fn entity_label(entity: &Entity) -> String {
-    match &entity.macro_name {
-        Some(m) => format!("{m} (a {})", entity.type_name),
-        None => entity.type_name.to_string(),
+    /// `type` or `macro (a type)` for messages.
+    pub fn entity_label(&self, id: EntityId) -> String {
+        match self.macro_name(id) {
+            Some(m) => format!("{m} (a {})", self.type_name(id)),
+            None => self.type_name(id).to_string(),
+        }
     }
 }

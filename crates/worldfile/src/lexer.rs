@@ -52,26 +52,107 @@ pub enum TokenKind {
     CloseTuple,
 }
 
-/// One token with its text and where it starts.
-#[derive(Clone, Debug, PartialEq)]
+/// One token: its class, where it starts, and where its text is in its [`TokenStream`].
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Token {
     /// Its class.
     pub kind: TokenKind,
-    /// Its text (a string's text without the quotes; empty for blanks and line ends).
-    pub text: Box<str>,
+    /// Where its text is in the stream's text (a string's text without the quotes; empty for
+    /// blanks and line ends).
+    pub text: TextSpan,
     /// Where it starts.
     pub loc: Location,
 }
 
+/// A byte range of a [`TokenStream`]'s text.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TextSpan {
+    /// First byte.
+    pub start: usize,
+    /// Length in bytes.
+    pub len: usize,
+}
+
+/// Tokens in order, with their texts one after another in a single string: a 10,000-robot
+/// worldfile has hundreds of thousands of tokens, and one allocation each would cost more than
+/// reading them.
+#[derive(Clone, Debug, Default)]
+pub struct TokenStream {
+    tokens: Vec<Token>,
+    text: String,
+}
+
+impl TokenStream {
+    /// An empty stream.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Appends a token with this text.
+    pub fn push(&mut self, kind: TokenKind, text: &str, loc: Location) {
+        let span = TextSpan {
+            start: self.text.len(),
+            len: text.len(),
+        };
+        self.text.push_str(text);
+        self.tokens.push(Token {
+            kind,
+            text: span,
+            loc,
+        });
+    }
+
+    /// The tokens in order.
+    pub fn tokens(&self) -> &[Token] {
+        &self.tokens
+    }
+
+    /// Number of tokens.
+    pub fn len(&self) -> usize {
+        self.tokens.len()
+    }
+
+    /// Whether there are no tokens.
+    pub fn is_empty(&self) -> bool {
+        self.tokens.is_empty()
+    }
+
+    /// The text of a token of this stream.
+    ///
+    /// # Panics
+    /// If the token is not from this stream.
+    pub fn text(&self, tok: &Token) -> &str {
+        self.span_text(tok.text)
+    }
+
+    /// The text of a span of this stream's text.
+    ///
+    /// # Panics
+    /// If the span is not from this stream.
+    pub fn span_text(&self, span: TextSpan) -> &str {
+        &self.text[span.start..span.start + span.len]
+    }
+
+    /// The bytes of a span of this stream's text (for comparisons, which need no UTF-8
+    /// boundary checks).
+    ///
+    /// # Panics
+    /// If the span is not from this stream.
+    pub fn span_bytes(&self, span: TextSpan) -> &[u8] {
+        &self.text.as_bytes()[span.start..span.start + span.len]
+    }
+}
+
 impl Token {
-    /// How the token is named in messages: "word `x`", "number `1`", "end of line", ...
-    pub fn describe(&self) -> String {
+    /// How the token is named in messages: "word `x`", "number `1`", "end of line", ...;
+    /// `text` is its text.
+    pub fn describe(&self, text: &str) -> String {
         match self.kind {
             TokenKind::Comment => "a comment".into(),
-            TokenKind::Word => format!("word `{}`", self.text),
-            TokenKind::Number => format!("number `{}`", self.text),
-            TokenKind::Str => format!("string \"{}\"", self.text),
-            TokenKind::Bool => format!("boolean `{}`", self.text),
+            TokenKind::Word => format!("word `{text}`"),
+            TokenKind::Number => format!("number `{text}`"),
+            TokenKind::Str => format!("string \"{text}\""),
+            TokenKind::Bool => format!("boolean `{text}`"),
             TokenKind::Space => "blank".into(),
             TokenKind::Eol => "end of line".into(),
             TokenKind::Open => "`(`".into(),
@@ -81,16 +162,16 @@ impl Token {
         }
     }
 
-    /// The text to underline in a diagnostic.
-    pub fn snippet(&self) -> String {
+    /// The text to underline in a diagnostic; `text` is its text.
+    pub fn snippet(&self, text: &str) -> String {
         match self.kind {
-            TokenKind::Str => format!("\"{}\"", self.text),
+            TokenKind::Str => format!("\"{text}\""),
             TokenKind::Eol => String::new(),
             TokenKind::Open => "(".into(),
             TokenKind::Close => ")".into(),
             TokenKind::OpenTuple => "[".into(),
             TokenKind::CloseTuple => "]".into(),
-            _ => self.text.to_string(),
+            _ => text.to_string(),
         }
     }
 }

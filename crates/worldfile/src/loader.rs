@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use crate::document::Document;
 use crate::error::{Error, ErrorKind};
-use crate::lexer::{Dialect, Token, TokenKind, next_token, rest_of_line};
+use crate::lexer::{Dialect, TokenKind, TokenStream, next_token, rest_of_line};
 use crate::parser;
 use crate::source::{FileId, Location, SourceMap};
 
@@ -142,13 +142,24 @@ pub fn parse_document(
     dialect: Dialect,
     opts: &LoadOptions,
 ) -> Result<Document, Error> {
+    let (tokens, sources) = lex_document(path, text, dialect, opts)?;
+    parser::parse(tokens, sources, dialect, &opts.limits)
+}
+
+/// The token stream of `text` as the file at `path`, includes spliced in, with the files read.
+pub(crate) fn lex_document(
+    path: &Path,
+    text: Vec<u8>,
+    dialect: Dialect,
+    opts: &LoadOptions,
+) -> Result<(TokenStream, SourceMap), Error> {
     let mut loader = Loader {
         sources: SourceMap::new(),
         dialect,
         opts,
         top: path.to_path_buf(),
         stack: Vec::new(),
-        tokens: Vec::new(),
+        tokens: TokenStream::new(),
     };
     let id = loader
         .sources
@@ -158,7 +169,7 @@ pub fn parse_document(
     let Loader {
         sources, tokens, ..
     } = loader;
-    parser::parse(tokens, sources, dialect, &opts.limits)
+    Ok((tokens, sources))
 }
 
 fn canonical_or_same(path: &Path) -> PathBuf {
@@ -172,7 +183,7 @@ struct Loader<'o> {
     top: PathBuf,
     /// Files being lexed, outermost first (canonical paths), for cycle detection.
     stack: Vec<PathBuf>,
-    tokens: Vec<Token>,
+    tokens: TokenStream,
 }
 
 impl Loader<'_> {
@@ -180,19 +191,22 @@ impl Loader<'_> {
         Error::at(kind, &self.sources, loc, snippet)
     }
 
-    fn push(&mut self, token: Token) -> Result<(), Error> {
-        if self.tokens.len() >= self.opts.limits.max_tokens {
-            let loc = token.loc;
-            return Err(self.err(
-                ErrorKind::TooLarge(format!(
-                    "more than {} tokens after includes",
-                    self.opts.limits.max_tokens
-                )),
+    fn push(&mut self, kind: TokenKind, text: &str, loc: Location) -> Result<(), Error> {
+        // The parser indexes tokens with u32, whatever the limit says.
+        let max_tokens = self.opts.limits.max_tokens.min(u32::MAX as usize);
+        if self.tokens.len() >= max_tokens {
+            let token = crate::lexer::Token {
+                kind,
+                text: Default::default(),
                 loc,
-                &token.snippet(),
+            };
+            return Err(self.err(
+                ErrorKind::TooLarge(format!("more than {max_tokens} tokens after includes")),
+                loc,
+                &token.snippet(text),
             ));
         }
-        self.tokens.push(token);
+        self.tokens.push(kind, text, loc);
         Ok(())
     }
 
@@ -221,13 +235,13 @@ impl Loader<'_> {
                 self.err(kind, loc, &snippet)
             })?;
             let text_bytes = &src[pos + lexeme.text.0..pos + lexeme.text.1];
-            let token = Token {
-                kind: lexeme.kind,
-                text: match lexeme.kind {
-                    TokenKind::Space | TokenKind::Eol => "".into(),
-                    _ => String::from_utf8_lossy(text_bytes).into(),
+            let text = match lexeme.kind {
+                TokenKind::Space | TokenKind::Eol => "".into(),
+                // Only strings and comments can hold bytes that are not UTF-8.
+                _ => match std::str::from_utf8(text_bytes) {
+                    Ok(text) => text.into(),
+                    Err(_) => String::from_utf8_lossy(text_bytes),
                 },
-                loc,
             };
             let word_end = pos + lexeme.len;
             pos = word_end;
@@ -237,9 +251,8 @@ impl Loader<'_> {
             }
             // `include` is handled as soon as the word ends, like upstream's tokenizer; a word
             // `include` that ends the file is just a word (and a parse error later).
-            let is_include =
-                lexeme.kind == TokenKind::Word && &*token.text == "include" && pos < src.len();
-            self.push(token)?;
+            let is_include = lexeme.kind == TokenKind::Word && text == "include" && pos < src.len();
+            self.push(lexeme.kind, &text, loc)?;
             if is_include {
                 pos = self.include(file, src, pos, loc, &mut line, &mut line_start)?;
             }
@@ -275,11 +288,7 @@ impl Loader<'_> {
             .iter()
             .take_while(|c| matches!(c, b' ' | b'\t'))
             .count();
-        self.push(Token {
-            kind: TokenKind::Space,
-            text: "".into(),
-            loc: here(pos, *line, *line_start),
-        })?;
+        self.push(TokenKind::Space, "", here(pos, *line, *line_start))?;
         pos += blanks;
         let str_loc = here(pos, *line, *line_start);
         if src.get(pos) != Some(&b'"') {
@@ -303,18 +312,10 @@ impl Loader<'_> {
         })?;
         let name =
             String::from_utf8_lossy(&src[pos + lexeme.text.0..pos + lexeme.text.1]).into_owned();
-        self.push(Token {
-            kind: TokenKind::Str,
-            text: name.clone().into(),
-            loc: str_loc,
-        })?;
+        self.push(TokenKind::Str, &name, str_loc)?;
         pos += lexeme.len;
         // Upstream ends the include statement with a line end of its own.
-        self.push(Token {
-            kind: TokenKind::Eol,
-            text: "".into(),
-            loc: here(pos, *line, *line_start),
-        })?;
+        self.push(TokenKind::Eol, "", here(pos, *line, *line_start))?;
         self.splice(&name, include_loc, str_loc)?;
         if self.dialect == Dialect::World {
             // Stage discards the rest of the include line (we also stop at end of file).

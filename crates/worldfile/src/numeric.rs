@@ -6,10 +6,8 @@
 //! when there is no numeric prefix at all (where Stage silently uses 0, we raise an error).
 
 use nom::branch::alt;
-use nom::bytes::complete::{tag_no_case, take_while, take_while1};
-use nom::character::complete::one_of;
-use nom::combinator::{opt, recognize};
-use nom::sequence::{pair, preceded};
+use nom::bytes::complete::{tag_no_case, take_while1};
+use nom::sequence::preceded;
 use nom::{IResult, Parser};
 
 /// A number read from the front of a text.
@@ -25,21 +23,33 @@ fn is_c_space(c: char) -> bool {
     matches!(c, ' ' | '\t' | '\n' | '\r' | '\x0b' | '\x0c')
 }
 
-fn digits(input: &str) -> IResult<&str, &str> {
-    take_while1(|c: char| c.is_ascii_digit())(input)
-}
-
-fn decimal(input: &str) -> IResult<&str, &str> {
-    // digits [. digits*] | . digits, then an optional exponent that has at least one digit.
-    let mantissa = alt((
-        recognize(pair(
-            digits,
-            opt(pair(one_of("."), take_while(|c: char| c.is_ascii_digit()))),
-        )),
-        recognize(pair(one_of("."), digits)),
-    ));
-    let exponent = recognize((one_of("eE"), opt(one_of("+-")), digits));
-    recognize(pair(mantissa, opt(exponent))).parse(input)
+/// Length of the decimal number at the start of `b`: `digits [. digits*] | . digits`, then an
+/// exponent if it has at least one digit. Scanned by hand: worldfiles are mostly numbers, and
+/// this runs for every one of them.
+fn decimal_len(b: &[u8]) -> Option<usize> {
+    let digits = |from: usize| b[from..].iter().take_while(|c| c.is_ascii_digit()).count();
+    let whole = digits(0);
+    let mut end = whole;
+    if b.get(end) == Some(&b'.') {
+        let fraction = digits(end + 1);
+        if whole == 0 && fraction == 0 {
+            return None;
+        }
+        end += 1 + fraction;
+    } else if whole == 0 {
+        return None;
+    }
+    if matches!(b.get(end), Some(b'e' | b'E')) {
+        let mut at = end + 1;
+        if matches!(b.get(at), Some(b'+' | b'-')) {
+            at += 1;
+        }
+        let exponent = digits(at);
+        if exponent > 0 {
+            end = at + exponent;
+        }
+    }
+    Some(end)
 }
 
 fn special(input: &str) -> IResult<&str, &str> {
@@ -61,19 +71,22 @@ fn hex(input: &str) -> IResult<&str, &str> {
 
 /// C `atof`: optional blanks and sign, then a decimal (with exponent), `inf`/`nan` or hex integer.
 pub fn atof(text: &str) -> Option<Prefix<f64>> {
-    let body = text.trim_start_matches(is_c_space);
+    let body = skip_c_spaces(text);
     let (after_sign, negative) = match body.as_bytes().first() {
         Some(b'-') => (&body[1..], true),
         Some(b'+') => (&body[1..], false),
         _ => (body, false),
     };
-    let (rest, value) = if let Ok((rest, h)) = hex(after_sign) {
+    let maybe_hex = matches!(after_sign.as_bytes(), [b'0', b'x' | b'X', _, ..]);
+    let (rest, value) = if let Some((rest, h)) = maybe_hex.then(|| hex(after_sign).ok()).flatten() {
         // Very long hex runs overflow to infinity, as strtod does.
         let v = h.chars().fold(0f64, |acc, c| {
             acc * 16.0 + c.to_digit(16).unwrap_or(0) as f64
         });
         (rest, v)
-    } else if let Ok((rest, d)) = decimal(after_sign) {
+    } else if let Some(len) = decimal_len(after_sign.as_bytes()) {
+        // the recognised text is ASCII, so `len` is a character boundary
+        let (d, rest) = after_sign.split_at(len);
         (rest, d.parse::<f64>().ok()?)
     } else if let Ok((rest, s)) = special(after_sign) {
         let v = if s.eq_ignore_ascii_case("nan") {
@@ -93,28 +106,61 @@ pub fn atof(text: &str) -> Option<Prefix<f64>> {
 
 /// C `atoi`: optional blanks and sign, then decimal digits. Saturates instead of overflowing.
 pub fn atoi(text: &str) -> Option<Prefix<i64>> {
-    let body = text.trim_start_matches(is_c_space);
-    let (rest, (sign, ds)) = pair(opt(one_of::<_, _, nom::error::Error<&str>>("+-")), digits)
-        .parse(body)
-        .ok()?;
-    let magnitude = ds.chars().fold(0i64, |acc, c| {
-        acc.saturating_mul(10)
-            .saturating_add(c.to_digit(10).unwrap_or(0) as i64)
-    });
-    let value = if sign == Some('-') {
-        -magnitude
-    } else {
-        magnitude
+    let body = skip_c_spaces(text);
+    let (negative, unsigned) = match body.as_bytes().first() {
+        Some(b'-') => (true, &body[1..]),
+        Some(b'+') => (false, &body[1..]),
+        _ => (false, body),
     };
+    let digits = unsigned.bytes().take_while(u8::is_ascii_digit).count();
+    if digits == 0 {
+        return None;
+    }
+    let magnitude = unsigned.as_bytes()[..digits].iter().fold(0i64, |acc, d| {
+        acc.saturating_mul(10).saturating_add(i64::from(d - b'0'))
+    });
     Some(Prefix {
-        value,
-        complete: rest.is_empty(),
+        value: if negative { -magnitude } else { magnitude },
+        complete: digits == unsigned.len(),
     })
+}
+
+/// `text` without the leading blanks C's number conversions skip (all ASCII, so the cut is
+/// a character boundary).
+fn skip_c_spaces(text: &str) -> &str {
+    let blanks = text
+        .bytes()
+        .take_while(|&b| is_c_space(char::from(b)))
+        .count();
+    &text[blanks..]
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nom::bytes::complete::take_while;
+    use nom::character::complete::one_of;
+    use nom::combinator::{opt, recognize};
+    use nom::sequence::pair;
+
+    fn digits(input: &str) -> IResult<&str, &str> {
+        take_while1(|c: char| c.is_ascii_digit())(input)
+    }
+
+    /// The decimal recogniser written with parser combinators: the reference [`decimal_len`] is
+    /// checked against.
+    fn decimal(input: &str) -> IResult<&str, &str> {
+        // digits [. digits*] | . digits, then an optional exponent that has at least one digit.
+        let mantissa = alt((
+            recognize(pair(
+                digits,
+                opt(pair(one_of("."), take_while(|c: char| c.is_ascii_digit()))),
+            )),
+            recognize(pair(one_of("."), digits)),
+        ));
+        let exponent = recognize((one_of("eE"), opt(one_of("+-")), digits));
+        recognize(pair(mantissa, opt(exponent))).parse(input)
+    }
 
     fn f(s: &str) -> Option<(f64, bool)> {
         atof(s).map(|p| (p.value, p.complete))
@@ -141,6 +187,43 @@ mod tests {
         assert_eq!(f("."), None);
         assert_eq!(f("abc"), None);
         assert_eq!(f(""), None);
+    }
+
+    /// `atoi` written with parser combinators: the reference the hand-written one is checked
+    /// against.
+    fn atoi_reference(text: &str) -> Option<Prefix<i64>> {
+        let body = text.trim_start_matches(is_c_space);
+        let (rest, (sign, ds)) = pair(opt(one_of::<_, _, nom::error::Error<&str>>("+-")), digits)
+            .parse(body)
+            .ok()?;
+        let magnitude = ds.chars().fold(0i64, |acc, c| {
+            acc.saturating_mul(10)
+                .saturating_add(i64::from(c.to_digit(10).unwrap_or(0)))
+        });
+        let value = if sign == Some('-') {
+            -magnitude
+        } else {
+            magnitude
+        };
+        Some(Prefix {
+            value,
+            complete: rest.is_empty(),
+        })
+    }
+
+    proptest::proptest! {
+        /// The hand-written `atoi` reads what the combinator one does.
+        #[test]
+        fn atoi_matches_the_grammar(text in "[ \t0-9+x.-]{0,24}") {
+            proptest::prop_assert_eq!(atoi(&text), atoi_reference(&text));
+        }
+
+        /// The hand-written decimal scanner recognises what the combinator one does.
+        #[test]
+        fn decimal_scanner_matches_the_grammar(text in "[0-9.eE+x-]{0,8}") {
+            let reference = decimal(&text).ok().map(|(rest, _)| text.len() - rest.len());
+            proptest::prop_assert_eq!(decimal_len(text.as_bytes()), reference);
+        }
     }
 
     #[test]

@@ -7,12 +7,20 @@
 //! tuples may span lines and hold comments, every failure is an error with a location (upstream
 //! sometimes fails silently or builds a partial world), stray `(` and macro cycles are errors
 //! (upstream nests entities / overflows its stack), and expansion is bounded by [`Limits`].
+//!
+//! What upstream re-parses, we parse once: a macro body's entities, once expanded, are copied
+//! for its later instances (until a new `define` could change what its words mean), and each
+//! value written is converted once and shared by every property that repeats it. Copies count
+//! against [`Limits`] exactly as the parse they stand for, so a 10,000-robot world of one
+//! `define` loads in the time of its instance lines, with the same document and errors.
 
 use std::collections::HashMap;
 
-use crate::document::{Document, Entity, EntityId, Property, Units, Value, ValueKind};
+use crate::document::{
+    Document, Entity, EntityId, Property, TokenId, Value, ValueKind, ValueRange,
+};
 use crate::error::{Error, ErrorKind, Warning};
-use crate::lexer::{Dialect, Token, TokenKind};
+use crate::lexer::{Dialect, Token, TokenKind, TokenStream};
 use crate::loader::Limits;
 use crate::source::{Location, SourceMap};
 
@@ -22,8 +30,44 @@ struct Macro {
     loc: Location,
 }
 
+/// The values a property written at a token were stored as, so that the next instance of the
+/// same macro body reuses them.
+#[derive(Clone, Copy)]
+struct Parsed {
+    values: ValueRange,
+    /// Index of the last token of the value (the `]` of a tuple).
+    end: usize,
+}
+
+/// What expanding a macro body made, kept so that later instances copy it instead of parsing
+/// the body again: its entities (the first is the body's own, whose parent is the instance's;
+/// the others' parents are offsets from the first), and what parsing it took, so that the
+/// copy still counts against [`Limits`] exactly as a parse would.
+struct Expansion {
+    /// The first entity of the expansion that was parsed (later ones are copies of it).
+    first: EntityId,
+    entities: Vec<Entity>,
+    steps: u64,
+    /// How much deeper than where it started the expansion nested.
+    depth: usize,
+}
+
 struct Parser<'a> {
+    stream: &'a TokenStream,
     toks: &'a [Token],
+    /// The document's value store: every value token is converted into it once.
+    values: Vec<Value>,
+    /// For each token that starts a property's value (a scalar or a `[`), 0 until it has been
+    /// parsed, then 1 + its index in `parsed` (zeroed memory costs nothing until touched).
+    parsed_at: Vec<u32>,
+    parsed: Vec<Parsed>,
+    /// For each type word, the most properties an entity made at it has had so far.
+    property_counts: Vec<u32>,
+    /// The entities each macro body (by the index of its PARENT word) expanded to, while the
+    /// set of macros stays the same.
+    expansions: HashMap<usize, Expansion>,
+    /// The deepest `depth` reached (to know how deep an expansion nests).
+    deepest: usize,
     sources: &'a SourceMap,
     dialect: Dialect,
     limits: &'a Limits,
@@ -34,29 +78,50 @@ struct Parser<'a> {
     warnings: Vec<Warning>,
     steps: u64,
     depth: usize,
+    /// Whether values met before are reused (off only in tests, to show reuse changes nothing).
+    reuse: bool,
 }
 
 /// Parses a spliced token stream into a document, then reads `unit_length`/`unit_angle`/`test`
 /// from the global entity.
 pub fn parse(
-    toks: Vec<Token>,
+    toks: TokenStream,
     sources: SourceMap,
     dialect: Dialect,
     limits: &Limits,
 ) -> Result<Document, Error> {
-    let (entities, plugins, warnings) = {
+    parse_reusing(toks, sources, dialect, limits, true)
+}
+
+/// [`parse`], with the reuse of values parsed in an earlier instance of a macro on or off.
+fn parse_reusing(
+    toks: TokenStream,
+    sources: SourceMap,
+    dialect: Dialect,
+    limits: &Limits,
+    reuse: bool,
+) -> Result<Document, Error> {
+    let (entities, values, plugins, warnings) = {
         let mut p = Parser {
-            toks: &toks,
+            stream: &toks,
+            toks: toks.tokens(),
             sources: &sources,
             dialect,
             limits,
+            values: Vec::new(),
+            parsed_at: vec![0; toks.len()],
+            parsed: Vec::new(),
+            property_counts: vec![0; toks.len()],
+            expansions: HashMap::new(),
+            deepest: 0,
             entities: vec![Entity {
                 parent: None,
                 children: Vec::new(),
-                type_name: "".into(),
-                macro_name: None,
+                type_word: None,
+                macro_word: None,
                 loc: None,
                 properties: Vec::new(),
+                copy_of: None,
             }],
             macros: HashMap::new(),
             expanding: Vec::new(),
@@ -64,24 +129,28 @@ pub fn parse(
             warnings: Vec::new(),
             steps: 0,
             depth: 0,
+            reuse,
         };
         p.file()?;
-        (p.entities, p.plugins, p.warnings)
+        (p.entities, p.values, p.plugins, p.warnings)
     };
-    let mut doc = Document {
-        dialect,
-        sources,
-        entities,
-        units: Units::default(),
-        plugins,
-        warnings,
-    };
+    let mut doc = Document::new(dialect, sources, entities, plugins, warnings, toks, values);
     link_children(&mut doc.entities);
     read_globals(&mut doc)?;
     Ok(doc)
 }
 
 fn link_children(entities: &mut [Entity]) {
+    // Counted first, so that each list is allocated once.
+    let mut counts = vec![0usize; entities.len()];
+    for e in entities.iter() {
+        if let Some(parent) = e.parent {
+            counts[parent] += 1;
+        }
+    }
+    for (e, count) in entities.iter_mut().zip(counts) {
+        e.children.reserve_exact(count);
+    }
     for id in 1..entities.len() {
         if let Some(parent) = entities[id].parent {
             entities[parent].children.push(id);
@@ -94,11 +163,7 @@ fn read_globals(doc: &mut Document) -> Result<(), Error> {
     let mut warnings = Vec::new();
     if let Some(p) = doc.property(0, "test") {
         p.mark_used();
-        let v = p
-            .values
-            .first()
-            .and_then(|v| crate::numeric::atoi(&v.text))
-            .map(|n| n.value);
+        let v = doc.values(p).first().and_then(Value::int).map(|n| n.value);
         if v.unwrap_or(0) != 0 {
             return Err(Error::at(ErrorKind::TestFile, &doc.sources, p.loc, "test"));
         }
@@ -130,7 +195,7 @@ fn unit_factor(
 ) -> Option<f64> {
     let p = doc.property(0, key)?;
     p.mark_used();
-    let word = p.values.first().map(|v| &*v.text);
+    let word = doc.values(p).first().map(|v| &*v.text);
     if let Some(&(_, factor)) = units.iter().find(|(name, _)| Some(*name) == word) {
         return Some(factor);
     }
@@ -153,7 +218,17 @@ fn is_blank(kind: TokenKind) -> bool {
 
 impl<'a> Parser<'a> {
     fn err(&self, kind: ErrorKind, tok: &Token) -> Error {
-        Error::at(kind, self.sources, tok.loc, &tok.snippet())
+        Error::at(kind, self.sources, tok.loc, &tok.snippet(self.text(tok)))
+    }
+
+    /// The text of a token of the stream being parsed.
+    fn text(&self, tok: &Token) -> &'a str {
+        self.stream.text(tok)
+    }
+
+    /// How a token is named in messages.
+    fn describe(&self, tok: &Token) -> String {
+        tok.describe(self.text(tok))
     }
 
     fn step(&mut self, at: &Token) -> Result<(), Error> {
@@ -178,7 +253,7 @@ impl<'a> Parser<'a> {
             self.step(tok)?;
             match tok.kind {
                 TokenKind::Word => {
-                    i = match &*tok.text {
+                    i = match self.text(tok) {
                         "include" => self.include_stmt(i)?,
                         "define" => self.define(i)?,
                         "plugin" if self.dialect == Dialect::Cfg => self.plugin(i)?,
@@ -187,7 +262,7 @@ impl<'a> Parser<'a> {
                 }
                 k if is_blank(k) => {}
                 _ => {
-                    return Err(self.err(ErrorKind::UnexpectedAtTopLevel(tok.describe()), tok));
+                    return Err(self.err(ErrorKind::UnexpectedAtTopLevel(self.describe(tok)), tok));
                 }
             }
             i += 1;
@@ -216,7 +291,7 @@ impl<'a> Parser<'a> {
             match tok.kind {
                 TokenKind::Str => {
                     seen = true;
-                    self.plugins.push((tok.text.to_string(), tok.loc));
+                    self.plugins.push((self.text(tok).to_string(), tok.loc));
                 }
                 TokenKind::Space => {}
                 TokenKind::Eol if seen => return Ok(j),
@@ -245,7 +320,7 @@ impl<'a> Parser<'a> {
                         parent = Some(j);
                     } else {
                         return Err(
-                            self.err(ErrorKind::ExtraMacroTokens(tok.text.to_string()), tok)
+                            self.err(ErrorKind::ExtraMacroTokens(self.text(tok).to_string()), tok)
                         );
                     }
                 }
@@ -264,19 +339,22 @@ impl<'a> Parser<'a> {
                         let (Some(name), Some(start)) = (name, parent) else {
                             return Err(self.err(ErrorKind::MissingMacroName, tok));
                         };
-                        if let Some(first) = self.macros.get(&*name.text) {
+                        if let Some(first) = self.macros.get(self.text(name)) {
                             // Upstream silently keeps the first definition.
                             let first_at = self.sources.resolve(first.loc);
                             self.warnings.push(Warning::at(
                                 self.sources.resolve(name.loc),
                                 format!(
                                     "macro `{}` is already defined at {first_at}; this definition is ignored (the first one wins, as in Stage)",
-                                    name.text
+                                    self.text(name)
                                 ),
                             ));
                         } else {
+                            // A new macro can change what a word in a body already
+                            // expanded means.
+                            self.expansions.clear();
                             self.macros.insert(
-                                &name.text,
+                                self.text(name),
                                 Macro {
                                     start,
                                     loc: name.loc,
@@ -290,7 +368,7 @@ impl<'a> Parser<'a> {
             }
         }
         let label = name
-            .map(|n| n.text.to_string())
+            .map(|n| self.text(n).to_string())
             .unwrap_or_else(|| "define".into());
         Err(self.err(ErrorKind::MissingCloseParen(label), &toks[i]))
     }
@@ -299,7 +377,7 @@ impl<'a> Parser<'a> {
     fn word_item(&mut self, entity: EntityId, i: usize) -> Result<usize, Error> {
         let toks = self.toks;
         let name = &toks[i];
-        if &*name.text == "define" {
+        if self.text(name) == "define" {
             return Err(self.err(ErrorKind::DefineNotAtTopLevel, name));
         }
         let mut j = i + 1;
@@ -309,7 +387,7 @@ impl<'a> Parser<'a> {
         let Some(next) = toks.get(j) else {
             return Err(self.err(
                 ErrorKind::ExpectedValueOrBody {
-                    name: name.text.to_string(),
+                    name: self.text(name).to_string(),
                     found: "end of file".into(),
                 },
                 name,
@@ -322,8 +400,8 @@ impl<'a> Parser<'a> {
             }
             _ => Err(self.err(
                 ErrorKind::ExpectedValueOrBody {
-                    name: name.text.to_string(),
-                    found: next.describe(),
+                    name: self.text(name).to_string(),
+                    found: self.describe(next),
                 },
                 next,
             )),
@@ -340,70 +418,218 @@ impl<'a> Parser<'a> {
             match tok.kind {
                 TokenKind::Space => {}
                 TokenKind::Number | TokenKind::Str | TokenKind::Bool => {
-                    self.set(entity, name, vec![value_of(tok)], false)?;
+                    let values = match self.parsed_value(j) {
+                        Some(done) => done.values,
+                        None => {
+                            let values = self.store(std::iter::once(tok));
+                            self.remember(j, Parsed { values, end: j });
+                            values
+                        }
+                    };
+                    self.set(entity, i, values, false);
                     return Ok(j);
                 }
                 TokenKind::OpenTuple => {
                     let (values, end) = self.tuple(name, j)?;
-                    self.set(entity, name, values, true)?;
+                    self.set(entity, i, values, true);
                     return Ok(end);
                 }
                 _ => break,
             }
             j += 1;
         }
-        Err(self.err(ErrorKind::ValueNotOnSameLine(name.text.to_string()), name))
-    }
-
-    /// `[ v v ... ]` starting at the `[` at `open`; returns the values and the index of `]`.
-    fn tuple(&mut self, name: &Token, open: usize) -> Result<(Vec<Value>, usize), Error> {
-        let toks = self.toks;
-        let mut values = Vec::new();
-        for (j, tok) in toks.iter().enumerate().skip(open + 1) {
-            self.step(tok)?;
-            match tok.kind {
-                TokenKind::Number | TokenKind::Str => values.push(value_of(tok)),
-                // Stage rejects line ends and comments inside tuples; we accept tuples that span
-                // lines (Player's cfg parser already does).
-                TokenKind::Space | TokenKind::Eol | TokenKind::Comment => {}
-                TokenKind::CloseTuple => return Ok((values, j)),
-                _ => return Err(self.err(ErrorKind::BadTupleElement(tok.describe()), tok)),
-            }
-        }
         Err(self.err(
-            ErrorKind::UnterminatedTuple(name.text.to_string()),
-            &toks[open],
+            ErrorKind::ValueNotOnSameLine(self.text(name).to_string()),
+            name,
         ))
     }
 
-    /// Stores a property: a worldfile replaces a same-named property whole; a cfg overwrites it
-    /// element by element, keeping any longer tail (player-cfg.md §3.1).
-    fn set(
-        &mut self,
-        entity: EntityId,
-        name: &Token,
-        values: Vec<Value>,
-        is_tuple: bool,
-    ) -> Result<(), Error> {
+    /// What the value starting at token `at` was parsed into, if it already was.
+    fn parsed_value(&self, at: usize) -> Option<Parsed> {
+        if !self.reuse {
+            return None;
+        }
+        match self.parsed_at[at] {
+            0 => None,
+            k => Some(self.parsed[k as usize - 1]),
+        }
+    }
+
+    /// Records what the value starting at token `at` was parsed into, for the next instance
+    /// of the macro body it is in.
+    fn remember(&mut self, at: usize, done: Parsed) {
+        // There are fewer parsed values than tokens, and the loader keeps the token count
+        // within u32; a value that did not fit would simply be parsed again.
+        if let Ok(k) = u32::try_from(self.parsed.len() + 1) {
+            self.parsed.push(done);
+            self.parsed_at[at] = k;
+        }
+    }
+
+    /// Appends the value tokens to the value store; returns where they are.
+    fn store<'t>(&mut self, toks: impl Iterator<Item = &'t Token>) -> ValueRange {
+        let start = self.values.len();
+        let stream = self.stream;
+        self.values
+            .extend(toks.map(|tok| value_of(tok, stream.text(tok))));
+        ValueRange {
+            start,
+            len: self.values.len() - start,
+        }
+    }
+
+    /// `[ v v ... ]` starting at the `[` at `open`; returns its values and the index of `]`.
+    ///
+    /// A tuple met again (in another instance of a macro) reuses its stored values, after
+    /// counting the parser steps reading it would take.
+    fn tuple(&mut self, name: &Token, open: usize) -> Result<(ValueRange, usize), Error> {
+        if let Some(done) = self.parsed_value(open) {
+            let steps = (done.end - open) as u64;
+            if self.steps + steps <= self.limits.max_parse_steps {
+                self.steps += steps;
+                return Ok((done.values, done.end));
+            }
+            // Too many steps: read it again to fail at the very token upstream would.
+        }
+        let toks = self.toks;
+        let mut end = None;
+        for (j, tok) in toks.iter().enumerate().skip(open + 1) {
+            self.step(tok)?;
+            match tok.kind {
+                TokenKind::Number | TokenKind::Str => {}
+                // Stage rejects line ends and comments inside tuples; we accept tuples that span
+                // lines (Player's cfg parser already does).
+                TokenKind::Space | TokenKind::Eol | TokenKind::Comment => {}
+                TokenKind::CloseTuple => {
+                    end = Some(j);
+                    break;
+                }
+                _ => return Err(self.err(ErrorKind::BadTupleElement(self.describe(tok)), tok)),
+            }
+        }
+        let Some(end) = end else {
+            return Err(self.err(
+                ErrorKind::UnterminatedTuple(self.text(name).to_string()),
+                &toks[open],
+            ));
+        };
+        let values = self.store(
+            toks[open + 1..end]
+                .iter()
+                .filter(|t| matches!(t.kind, TokenKind::Number | TokenKind::Str)),
+        );
+        self.remember(open, Parsed { values, end });
+        Ok((values, end))
+    }
+
+    /// Stores the property named by token `name`: a worldfile replaces a same-named property
+    /// whole; a cfg overwrites it element by element, keeping any longer tail
+    /// (player-cfg.md §3.1).
+    fn set(&mut self, entity: EntityId, name: TokenId, values: ValueRange, is_tuple: bool) {
+        let stream = self.stream;
+        let name_tok = &self.toks[name];
+        let text = stream.span_bytes(name_tok.text);
+        let (span, loc) = (name_tok.text, name_tok.loc);
         let props = &mut self.entities[entity].properties;
-        match props.iter_mut().find(|p| p.name == name.text) {
+        // The same token is the same name; otherwise compare the words.
+        let existing = props
+            .iter_mut()
+            .find(|p| p.name == span || stream.span_bytes(p.name) == text);
+        match existing {
             Some(existing) => match self.dialect {
                 Dialect::World => {
-                    *existing = Property::new(name.text.clone(), values, name.loc, is_tuple);
+                    *existing = Property::new(span, values, loc, is_tuple);
                 }
                 Dialect::Cfg => {
-                    for (k, v) in values.into_iter().enumerate() {
-                        if k < existing.values.len() {
-                            existing.values[k] = v;
-                        } else {
-                            existing.values.push(v);
-                        }
-                    }
+                    let old = existing.values;
+                    let merged = (0..old.len.max(values.len)).map(|k| {
+                        let from = if k < values.len { values } else { old };
+                        from.start + k
+                    });
+                    let merged: Vec<Value> = merged.map(|at| self.values[at].clone()).collect();
+                    let start = self.values.len();
+                    self.values.extend(merged);
+                    existing.values = ValueRange {
+                        start,
+                        len: self.values.len() - start,
+                    };
                     existing.is_tuple |= is_tuple;
                 }
             },
-            None => props.push(Property::new(name.text.clone(), values, name.loc, is_tuple)),
+            None => props.push(Property::new(span, values, loc, is_tuple)),
         }
+    }
+
+    /// Expands the macro body whose PARENT word is at `start` into a new entity under `parent`:
+    /// a copy of the last expansion of the same body when there is one and the copy stays
+    /// within the limits, else by parsing (which then fails at the very token a parse does).
+    ///
+    /// A body expands to the same entities every time while the set of macros is the same:
+    /// its tokens are the same, and a macro on the expansion stack cannot occur in it (it
+    /// would have been a cycle the first time).
+    fn expand(&mut self, parent: EntityId, start: usize) -> Result<(), Error> {
+        let base = self.entities.len();
+        if let Some(done) = self.expansions.get(&start).filter(|_| self.reuse) {
+            let fits = self.steps + done.steps <= self.limits.max_parse_steps
+                && self.depth + done.depth <= self.limits.max_nesting
+                && base + done.entities.len() <= self.limits.max_entities;
+            if fits {
+                self.steps += done.steps;
+                self.deepest = self.deepest.max(self.depth + done.depth);
+                let counts = &self.property_counts;
+                let first = done.first;
+                self.entities
+                    .extend(done.entities.iter().enumerate().map(|(k, e)| {
+                        let parent = match (k, e.parent) {
+                            (0, _) | (_, None) => parent,
+                            (_, Some(offset)) => base + offset,
+                        };
+                        // The instance adds its own properties to the body's entity: room for as
+                        // many as the last instance had.
+                        let room = e.type_word.map_or(0, |w| counts[w] as usize);
+                        let mut properties = Vec::with_capacity(e.properties.len().max(room));
+                        properties.extend_from_slice(&e.properties);
+                        Entity {
+                            parent: Some(parent),
+                            children: Vec::new(),
+                            type_word: e.type_word,
+                            macro_word: e.macro_word,
+                            loc: e.loc,
+                            properties,
+                            // the body's own entity gets the instance's properties too
+                            copy_of: (k > 0).then_some(first + k),
+                        }
+                    }));
+                return Ok(());
+            }
+        }
+        let (steps, deepest) = (self.steps, self.deepest);
+        self.deepest = self.depth;
+        let parsed = self.entity(parent, start);
+        let depth = self.deepest - self.depth;
+        self.deepest = self.deepest.max(deepest);
+        parsed?;
+        let entities = self.entities[base..]
+            .iter()
+            .enumerate()
+            .map(|(k, e)| Entity {
+                parent: if k == 0 {
+                    None
+                } else {
+                    e.parent.map(|p| p - base)
+                },
+                ..e.clone()
+            })
+            .collect();
+        self.expansions.insert(
+            start,
+            Expansion {
+                first: base,
+                entities,
+                steps: self.steps - steps,
+                depth,
+            },
+        );
         Ok(())
     }
 
@@ -419,6 +645,7 @@ impl<'a> Parser<'a> {
             ));
         }
         self.depth += 1;
+        self.deepest = self.deepest.max(self.depth);
         let result = self.entity_inner(parent, i);
         self.depth -= 1;
         result
@@ -428,7 +655,7 @@ impl<'a> Parser<'a> {
         let toks = self.toks;
         let name = &toks[i];
         self.step(name)?;
-        let text: &'a str = &toks[i].text;
+        let text: &'a str = self.text(&toks[i]);
         let id = if let Some(start) = self.macros.get(text).map(|m| m.start) {
             if self.expanding.contains(&text) {
                 let mut chain: Vec<String> = self
@@ -442,11 +669,11 @@ impl<'a> Parser<'a> {
             }
             self.expanding.push(text);
             let id = self.entities.len();
-            let expanded = self.entity(parent, start);
+            let expanded = self.expand(parent, start);
             self.expanding.pop();
             expanded?;
             // The outermost macro name and the instance's own location win.
-            self.entities[id].macro_name = Some(text.into());
+            self.entities[id].macro_word = Some(i);
             self.entities[id].loc = Some(name.loc);
             id
         } else {
@@ -460,10 +687,11 @@ impl<'a> Parser<'a> {
             self.entities.push(Entity {
                 parent: Some(parent),
                 children: Vec::new(),
-                type_name: name.text.clone(),
-                macro_name: None,
+                type_word: Some(i),
+                macro_word: None,
                 loc: Some(name.loc),
-                properties: Vec::new(),
+                properties: Vec::with_capacity(self.property_counts[i] as usize),
+                copy_of: None,
             });
             id
         };
@@ -477,17 +705,28 @@ impl<'a> Parser<'a> {
             Some(t) => {
                 return Err(self.err(
                     ErrorKind::ExpectedValueOrBody {
-                        name: name.text.to_string(),
-                        found: t.describe(),
+                        name: self.text(name).to_string(),
+                        found: self.describe(t),
                     },
                     t,
                 ));
             }
             None => {
-                return Err(self.err(ErrorKind::MissingCloseParen(name.text.to_string()), name));
+                return Err(self.err(
+                    ErrorKind::MissingCloseParen(self.text(name).to_string()),
+                    name,
+                ));
             }
         }
-        self.body(id, j + 1, name)
+        let end = self.body(id, j + 1, name)?;
+        // The next entity made at the same type word (another instance of the same macro body)
+        // allocates room for as many properties at once.
+        let e = &self.entities[id];
+        if let Some(word) = e.type_word {
+            let count = u32::try_from(e.properties.len()).unwrap_or(u32::MAX);
+            self.property_counts[word] = self.property_counts[word].max(count);
+        }
+        Ok(end)
     }
 
     /// Entity body items until the matching `)`; returns its index.
@@ -504,8 +743,8 @@ impl<'a> Parser<'a> {
                 _ => {
                     return Err(self.err(
                         ErrorKind::UnexpectedInBody {
-                            entity: name.text.to_string(),
-                            found: tok.describe(),
+                            entity: self.text(name).to_string(),
+                            found: self.describe(tok),
                         },
                         tok,
                     ));
@@ -513,18 +752,163 @@ impl<'a> Parser<'a> {
             }
             j += 1;
         }
-        Err(self.err(ErrorKind::MissingCloseParen(name.text.to_string()), name))
+        Err(self.err(
+            ErrorKind::MissingCloseParen(self.text(name).to_string()),
+            name,
+        ))
     }
 }
 
-fn value_of(tok: &Token) -> Value {
-    Value {
-        kind: match tok.kind {
-            TokenKind::Number => ValueKind::Number,
-            TokenKind::Bool => ValueKind::Bool,
-            _ => ValueKind::Str,
-        },
-        text: tok.text.clone(),
-        loc: tok.loc,
+fn value_of(tok: &Token, text: &str) -> Value {
+    let kind = match tok.kind {
+        TokenKind::Number => ValueKind::Number,
+        TokenKind::Bool => ValueKind::Bool,
+        _ => ValueKind::Str,
+    };
+    Value::new(kind, text.into(), tok.loc)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::loader::{LoadOptions, lex_document};
+
+    /// Parses `src` with reuse on or off, with `max_parse_steps` set to `steps`.
+    fn parse_src(src: &str, dialect: Dialect, steps: u64, reuse: bool) -> Result<Document, Error> {
+        let limits = Limits {
+            max_parse_steps: steps,
+            ..Limits::default()
+        };
+        parse_limited(src, dialect, &limits, reuse)
+    }
+
+    /// Parses `src` within `limits`, with reuse on or off.
+    fn parse_limited(
+        src: &str,
+        dialect: Dialect,
+        limits: &Limits,
+        reuse: bool,
+    ) -> Result<Document, Error> {
+        let opts = LoadOptions::default();
+        let (toks, sources) =
+            lex_document(Path::new("t.world"), src.into(), dialect, &opts).unwrap();
+        parse_reusing(toks, sources, dialect, limits, reuse)
+    }
+
+    /// Every property of every entity as text: `entity: name = values`.
+    fn listing(doc: &Document) -> Vec<String> {
+        let mut out = Vec::new();
+        for (id, e) in doc.entities.iter().enumerate() {
+            for p in &e.properties {
+                let values: Vec<String> = doc
+                    .values(p)
+                    .iter()
+                    .map(|v| format!("{}@{}:{}", v.text, v.loc.line, v.loc.col))
+                    .collect();
+                out.push(format!(
+                    "{id} {}: {}@{} = {values:?} tuple {}",
+                    doc.entity_label(id),
+                    doc.name(p),
+                    p.loc.line,
+                    p.is_tuple
+                ));
+            }
+        }
+        out
+    }
+
+    const MACROS: &str = "define ir sensor ( range [0 2] fov 30 color_rgba [1 0 0\n 0.3] )\n\
+        define bot position ( size [0.1 0.1 0.1] ranger ( ir ( pose [0 0 0 0] ) ir ( pose [0 0 0 90] ) ) )\n\
+        bot ( name \"a\" pose [1 2 0 3] )\nbot ( name \"b\" size [0.2 0.2 0.2] )\nbot ( )\n";
+
+    #[test]
+    fn macro_instances_share_their_body_values() {
+        let doc = parse_src(MACROS, Dialect::World, u64::MAX, true).unwrap();
+        let ranges = |name: &str| -> Vec<ValueRange> {
+            (1..doc.entities.len())
+                .filter_map(|id| doc.property(id, name))
+                .map(|p| p.values)
+                .collect()
+        };
+        // 6 sensors (two per robot), each with the same `range` values.
+        let range = ranges("range");
+        assert_eq!(range.len(), 6);
+        assert!(range.iter().all(|r| *r == range[0]));
+        // the second robot's own `size` replaces the macro's
+        let size = ranges("size");
+        assert_eq!(size.len(), 3);
+        assert_eq!(size[0], size[2]);
+        assert_ne!(size[0], size[1]);
+        // each value written is stored once: 2 + 1 + 4 (ir), 3 + 4 + 4 (bot), 1 + 4 + 1 + 3
+        assert_eq!(doc.values.len(), 27);
+    }
+
+    /// Raises one limit from 1 until `src` parses, checking at each value that reusing
+    /// values and expansions gives the same document, or the same error at the same token, as
+    /// parsing every instance afresh; returns the limit it parsed at.
+    fn same_with_and_without_reuse(src: &str, set: impl Fn(&mut Limits, u64)) -> u64 {
+        let mut limit = 1;
+        loop {
+            let mut limits = Limits::default();
+            set(&mut limits, limit);
+            let fresh = parse_limited(src, Dialect::World, &limits, false);
+            let reused = parse_limited(src, Dialect::World, &limits, true);
+            match (fresh, reused) {
+                (Ok(a), Ok(b)) => {
+                    assert_eq!(listing(&a), listing(&b));
+                    assert_eq!(a.entities.len(), b.entities.len());
+                    for (x, y) in a.entities.iter().zip(&b.entities) {
+                        assert_eq!(
+                            (x.parent, &x.children, x.type_word, x.macro_word, x.loc),
+                            (y.parent, &y.children, y.type_word, y.macro_word, y.loc)
+                        );
+                    }
+                    return limit;
+                }
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "limit {limit}"),
+                (a, b) => panic!("limit {limit}: {:?} vs {:?}", a.err(), b.err()),
+            }
+            limit += 1;
+        }
+    }
+
+    /// Reusing parsed values and expansions gives the same document, and the same error at
+    /// the same token for every parser step, nesting and entity limit, as parsing every
+    /// instance afresh.
+    #[test]
+    fn reuse_changes_nothing_but_the_work() {
+        let steps = same_with_and_without_reuse(MACROS, |l, n| l.max_parse_steps = n);
+        assert!(steps > 100, "parsed within {steps} steps");
+        let depth = same_with_and_without_reuse(MACROS, |l, n| l.max_nesting = n as usize);
+        assert_eq!(depth, 5, "bot, position, ranger, ir, sensor");
+        let entities = same_with_and_without_reuse(MACROS, |l, n| l.max_entities = n as usize);
+        assert_eq!(entities, 13, "the global entity and 3 x 4");
+        // a macro defined after a body was expanded changes the next expansion
+        let later = "define bot position ( gear ( ) )\nbot ( )\ndefine gear ranger ( )\nbot ( )\n";
+        same_with_and_without_reuse(later, |l, n| l.max_parse_steps = n);
+        let doc = parse_src(later, Dialect::World, u64::MAX, true).unwrap();
+        assert_eq!(doc.type_name(2), "gear");
+        assert_eq!(doc.type_name(4), "ranger");
+        assert_eq!(doc.macro_name(4), Some("gear"));
+    }
+
+    #[test]
+    fn cfg_fields_merge_element_wise_without_touching_the_first_values() {
+        let doc = parse_src(
+            "driver ( provides [\"a\" \"b\" \"c\"] provides [\"x\"] requires [\"r\"] requires [\"s\" \"t\"] )\n",
+            Dialect::Cfg,
+            u64::MAX,
+            true,
+        )
+        .unwrap();
+        let texts = |name: &str| -> Vec<String> {
+            let p = doc.property(1, name).unwrap();
+            doc.values(p).iter().map(|v| v.text.to_string()).collect()
+        };
+        assert_eq!(texts("provides"), ["x", "b", "c"]);
+        assert_eq!(texts("requires"), ["s", "t"]);
+        assert_eq!(doc.values.len(), 4 + 3 + 3 + 2);
     }
 }

@@ -8,7 +8,7 @@
 use crate::color::{ColorSpec, Rgba};
 use crate::document::{Document, EntityId, Property, Value};
 use crate::error::{Error, ErrorKind, Warning};
-use crate::numeric::{Prefix, atof, atoi};
+use crate::numeric::Prefix;
 
 /// A 2D-plus-height pose `[x y z a]` in metres and radians (heading normalised to [-π, π]).
 pub type Pose = [f64; 4];
@@ -64,7 +64,17 @@ impl<'d, 'w> Reader<'d, 'w> {
     pub fn prop(&self, name: &str) -> Option<&'d Property> {
         let p = self.doc.property(self.entity, name)?;
         p.mark_used();
-        if p.values.is_empty() { None } else { Some(p) }
+        if p.is_empty() { None } else { Some(p) }
+    }
+
+    /// The values of a property of the document being read.
+    pub fn values(&self, p: &Property) -> &'d [Value] {
+        self.doc.values(p)
+    }
+
+    /// The first value of a property [`Reader::prop`] returned (it has at least one).
+    fn first(&self, p: &Property) -> &'d Value {
+        &self.values(p)[0]
     }
 
     fn error(&self, kind: ErrorKind, value: &Value) -> Error {
@@ -72,33 +82,44 @@ impl<'d, 'w> Reader<'d, 'w> {
     }
 
     fn too_short(&self, p: &Property, needed: usize) -> Error {
+        let name = self.doc.name(p);
         Error::at(
             ErrorKind::TupleTooShort {
-                name: p.name.to_string(),
+                name: name.to_string(),
                 needed,
-                found: p.values.len(),
+                found: p.values.len,
             },
             &self.doc.sources,
             p.loc,
-            &p.name,
+            name,
         )
     }
 
     /// `atof` of one value, as an error if there is no number and a warning if there is junk.
+    #[inline]
     fn number(&mut self, p: &Property, v: &Value) -> Result<f64, Error> {
-        let parsed = atof(&v.text);
-        self.prefix_value(p, v, parsed, false)
+        match v.float() {
+            // the usual case, kept apart from the messages
+            Some(n) if n.complete => Ok(n.value),
+            parsed => self.prefix_value(p, v, parsed, false),
+        }
     }
 
     /// `atoi` of one value (a clean decimal such as `180.0` truncates silently, like Stage).
+    #[inline]
     fn integer(&mut self, p: &Property, v: &Value) -> Result<i64, Error> {
-        let parsed = atoi(&v.text);
-        let clean_float = atof(&v.text).is_some_and(|f| f.complete);
-        self.prefix_value(p, v, parsed, clean_float)
+        match v.int() {
+            Some(n) if n.complete => Ok(n.value),
+            parsed => {
+                let clean_float = v.float().is_some_and(|f| f.complete);
+                self.prefix_value(p, v, parsed, clean_float)
+            }
+        }
     }
 
     /// The value C's `atof`/`atoi` read from `v` (`parsed`): an error when there is no number,
     /// a warning when text follows it, unless `quiet`.
+    #[cold]
     fn prefix_value<T: Copy + std::fmt::Display>(
         &mut self,
         p: &Property,
@@ -111,7 +132,9 @@ impl<'d, 'w> Reader<'d, 'w> {
                 if !n.complete && !quiet {
                     let msg = format!(
                         "`{}` value `{}` is read as {} (the rest is ignored, as in Stage)",
-                        p.name, v.text, n.value
+                        self.doc.name(p),
+                        v.text,
+                        n.value
                     );
                     self.warn_at(p, msg);
                 }
@@ -119,7 +142,7 @@ impl<'d, 'w> Reader<'d, 'w> {
             }
             None => Err(self.error(
                 ErrorKind::NotANumber {
-                    name: p.name.to_string(),
+                    name: self.doc.name(p).to_string(),
                     text: v.text.to_string(),
                 },
                 v,
@@ -140,7 +163,7 @@ impl<'d, 'w> Reader<'d, 'w> {
         let Some(p) = self.prop(name) else {
             return Ok(None);
         };
-        let v = self.number(p, &p.values[0])?;
+        let v = self.number(p, self.first(p))?;
         Ok(Some(v * self.scale(format)))
     }
 
@@ -164,7 +187,7 @@ impl<'d, 'w> Reader<'d, 'w> {
         let Some(p) = self.prop(name) else {
             return Ok(None);
         };
-        self.integer(p, &p.values[0]).map(Some)
+        self.integer(p, self.first(p)).map(Some)
     }
 
     /// `ReadInt` as a flag (non-zero is true).
@@ -174,14 +197,14 @@ impl<'d, 'w> Reader<'d, 'w> {
 
     /// `ReadString`: the raw text of the first value.
     pub fn string(&mut self, name: &str) -> Result<Option<String>, Error> {
-        Ok(self.prop(name).map(|p| p.values[0].text.to_string()))
+        Ok(self.prop(name).map(|p| self.first(p).text.to_string()))
     }
 
     /// Every value's raw text (a scalar gives one string).
     pub fn strings(&mut self, name: &str) -> Result<Option<Vec<String>>, Error> {
         Ok(self
             .prop(name)
-            .map(|p| p.values.iter().map(|v| v.text.to_string()).collect()))
+            .map(|p| self.values(p).iter().map(|v| v.text.to_string()).collect()))
     }
 
     /// A string that must be one of `options`; anything else warns and keeps the default, as
@@ -194,7 +217,7 @@ impl<'d, 'w> Reader<'d, 'w> {
         let Some(p) = self.prop(name) else {
             return Ok(None);
         };
-        let text = &*p.values[0].text;
+        let text = &*self.first(p).text;
         match options.iter().find(|(n, _)| *n == text) {
             Some((_, v)) => Ok(Some(*v)),
             None => {
@@ -219,9 +242,10 @@ impl<'d, 'w> Reader<'d, 'w> {
         let Some(p) = self.tuple(name, N)? else {
             return Ok(None);
         };
+        let values = self.values(p);
         let mut out = [0.0; N];
         for (i, f) in format.bytes().enumerate() {
-            out[i] = self.number(p, &p.values[i])? * self.scale(f);
+            out[i] = self.number(p, &values[i])? * self.scale(f);
         }
         Ok(Some(out))
     }
@@ -231,9 +255,10 @@ impl<'d, 'w> Reader<'d, 'w> {
         let Some(p) = self.tuple(name, N)? else {
             return Ok(None);
         };
+        let values = self.values(p);
         let mut out = [0; N];
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = self.integer(p, &p.values[i])?;
+        for (o, v) in out.iter_mut().zip(values) {
+            *o = self.integer(p, v)?;
         }
         Ok(Some(out))
     }
@@ -246,7 +271,8 @@ impl<'d, 'w> Reader<'d, 'w> {
         let Some(p) = self.tuple(name, N)? else {
             return Ok(None);
         };
-        Ok(Some(std::array::from_fn(|i| p.values[i].text.to_string())))
+        let values = self.values(p);
+        Ok(Some(std::array::from_fn(|i| values[i].text.to_string())))
     }
 
     /// The property `name` as a tuple of `n` values (`ReadTuple`): too few is an error, more
@@ -255,7 +281,7 @@ impl<'d, 'w> Reader<'d, 'w> {
         let Some(p) = self.prop(name) else {
             return Ok(None);
         };
-        if p.values.len() < n {
+        if p.values.len < n {
             return Err(self.too_short(p, n));
         }
         self.warn_extra(p, n);
@@ -263,11 +289,11 @@ impl<'d, 'w> Reader<'d, 'w> {
     }
 
     fn warn_extra(&mut self, p: &Property, n: usize) {
-        if p.values.len() > n {
+        if p.values.len > n {
             let msg = format!(
                 "`{}` has {} values; only the first {n} are used",
-                p.name,
-                p.values.len()
+                self.doc.name(p),
+                p.values.len
             );
             self.warn_at(p, msg);
         }
@@ -289,27 +315,28 @@ impl<'d, 'w> Reader<'d, 'w> {
         };
         let l = self.doc.units.length;
         let a = self.doc.units.angle;
-        let pose = if p.values.len() == 3 {
+        let values = self.values(p);
+        let pose = if values.len() == 3 {
             let msg = format!(
                 "`{name}` has 3 values: read as the Stage 3 form [x y heading] with z = 0 (Stage 4.1.1 would exit: a pose is [x y z heading])"
             );
             self.warn_at(p, msg);
             [
-                self.number(p, &p.values[0])? * l,
-                self.number(p, &p.values[1])? * l,
+                self.number(p, &values[0])? * l,
+                self.number(p, &values[1])? * l,
                 0.0,
-                self.number(p, &p.values[2])? * a,
+                self.number(p, &values[2])? * a,
             ]
         } else {
-            if p.values.len() < 4 {
+            if values.len() < 4 {
                 return Err(self.too_short(p, 4));
             }
             self.warn_extra(p, 4);
             [
-                self.number(p, &p.values[0])? * l,
-                self.number(p, &p.values[1])? * l,
-                self.number(p, &p.values[2])? * l,
-                self.number(p, &p.values[3])? * a,
+                self.number(p, &values[0])? * l,
+                self.number(p, &values[1])? * l,
+                self.number(p, &values[2])? * l,
+                self.number(p, &values[3])? * a,
             ]
         };
         Ok(Some(pose))
@@ -321,14 +348,15 @@ impl<'d, 'w> Reader<'d, 'w> {
             return Ok(None);
         };
         let l = self.doc.units.length;
-        if p.values.len() == 2 {
+        let values = self.values(p);
+        if values.len() == 2 {
             let msg = format!(
                 "`{name}` has 2 values: read as the Stage 3 form [x y] with z = {default_z} (Stage 4.1.1 would exit: a size is [x y z])"
             );
             self.warn_at(p, msg);
             return Ok(Some([
-                self.number(p, &p.values[0])? * l,
-                self.number(p, &p.values[1])? * l,
+                self.number(p, &values[0])? * l,
+                self.number(p, &values[1])? * l,
                 default_z,
             ]));
         }
@@ -342,7 +370,7 @@ impl<'d, 'w> Reader<'d, 'w> {
             let Some(p) = self.prop("color") else {
                 return Ok(None);
             };
-            let name = &*p.values[0].text;
+            let name = &*self.first(p).text;
             if name.is_empty() {
                 return Ok(None);
             }

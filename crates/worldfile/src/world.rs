@@ -2,7 +2,8 @@
 //! `World::Load` builds a world (stage-worldfile.md §9–§11), with every property read into typed
 //! fields in SI units and radians. The simulator never needs the raw properties again.
 
-use std::collections::HashMap;
+use std::collections::btree_map::Entry;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -322,13 +323,27 @@ pub fn compose(p: Pose, q: Pose) -> Pose {
     frame(p).compose(&frame(q)).to_array()
 }
 
+/// How many models of each type a parent (or the world) has, for Stage's generated names.
+#[derive(Default)]
+struct TypeCounts([u32; crate::models::TYPES.len()]);
+
+impl TypeCounts {
+    /// The index the next model of type `t` gets (counting it).
+    fn next(&mut self, t: ModelType) -> u32 {
+        let count = &mut self.0[t as usize];
+        let index = *count;
+        *count += 1;
+        index
+    }
+}
+
 /// A model being built: its blocks are kept in block units until the end.
 struct Building {
     spec: ModelSpec,
     raw_blocks: Vec<RawBlock>,
     has_default_block: bool,
     global_at_load: Pose,
-    child_counts: HashMap<&'static str, u32>,
+    child_counts: TypeCounts,
 }
 
 struct Resolver<'d> {
@@ -338,8 +353,12 @@ struct Resolver<'d> {
     warnings: Vec<Warning>,
     models: Vec<Building>,
     model_of_entity: Vec<Option<ModelId>>,
-    world_counts: HashMap<&'static str, u32>,
+    world_counts: TypeCounts,
     bitmaps: HashMap<PathBuf, Arc<Vec<PixelRect>>>,
+    /// What reading a sensor gave (and warned), for the copies of it
+    /// ([`crate::document::Entity::copy_of`]).
+    /// (Few originals, looked up once per copy: a B-tree costs less than hashing here.)
+    sensor_reads: BTreeMap<EntityId, (SensorSpec, Vec<Warning>)>,
 }
 
 /// Builds the world from a parsed worldfile document.
@@ -357,13 +376,18 @@ pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
         models: Vec::new(),
         model_of_entity: vec![None; doc.entities.len()],
         // The hidden ground model is the first top-level `model` ("model:0").
-        world_counts: HashMap::from([("model", 1)]),
+        world_counts: {
+            let mut counts = TypeCounts::default();
+            counts.next(ModelType::Model);
+            counts
+        },
         bitmaps: HashMap::new(),
+        sensor_reads: BTreeMap::new(),
     };
     let settings = r.settings()?;
     let window = r.window()?;
     for id in 1..doc.entities.len() {
-        match &*doc.entity(id).type_name {
+        match doc.type_name(id) {
             "window" => {}
             "block" => r.block(id)?,
             "sensor" => r.sensor(id)?,
@@ -371,7 +395,7 @@ pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
         }
     }
     let mut models = Vec::with_capacity(r.models.len());
-    let mut names = HashMap::new();
+    let mut names = HashMap::with_capacity(2 * r.models.len());
     for b in std::mem::take(&mut r.models) {
         let mut spec = b.spec;
         let (blocks, notes) = body::scale(&b.raw_blocks, spec.size);
@@ -417,7 +441,7 @@ impl<'d> Resolver<'d> {
     fn entity_error(&self, kind: ErrorKind, entity: EntityId) -> Error {
         let e = self.doc.entity(entity);
         match e.loc {
-            Some(loc) => Error::at(kind, &self.doc.sources, loc, &e.type_name),
+            Some(loc) => Error::at(kind, &self.doc.sources, loc, self.doc.type_name(entity)),
             None => Error::new(kind),
         }
     }
@@ -446,7 +470,7 @@ impl<'d> Resolver<'d> {
                     .doc
                     .property(0, name)
                     .expect("a non-default value was read");
-                let v = &p.values[0];
+                let v = &self.doc.values(p)[0];
                 return Err(Error::at(
                     ErrorKind::OutOfRange {
                         name: name.into(),
@@ -488,7 +512,7 @@ impl<'d> Resolver<'d> {
         let parent = self.doc.entity(entity).parent?;
         let m = self.model_of_entity[parent];
         if m.is_none() && parent != 0 {
-            let outer = self.doc.entity(parent).type_name.to_string();
+            let outer = self.doc.type_name(parent).to_string();
             self.reader(entity).warn(format!(
                 "this model is inside `{outer}`, which is not a model: it becomes a top-level model, as in Stage"
             ));
@@ -497,7 +521,7 @@ impl<'d> Resolver<'d> {
     }
 
     fn model(&mut self, entity: EntityId) -> Result<(), Error> {
-        let word = self.doc.entity(entity).type_name.to_string();
+        let word = self.doc.type_name(entity).to_string();
         let Some((model_type, legacy)) = ModelType::from_word(&word) else {
             return Err(self.entity_error(ErrorKind::UnknownModelType(word), entity));
         };
@@ -513,9 +537,7 @@ impl<'d> Resolver<'d> {
             Some(p) => &mut self.models[p].child_counts,
             None => &mut self.world_counts,
         };
-        let k = counts.entry(info.name).or_insert(0);
-        let index = *k;
-        *k += 1;
+        let index = counts.next(model_type);
         let generated_name = match parent {
             Some(p) => format!("{}.{}:{index}", self.models[p].spec.name, info.name),
             None => format!("{}:{index}", info.name),
@@ -632,21 +654,20 @@ impl<'d> Resolver<'d> {
         };
         if let TypeSpec::Position(pos) = &mut spec {
             let given = self.doc.property(entity, "localization_origin");
-            if given.is_none_or(|p| p.values.is_empty()) {
+            if given.is_none_or(|p| p.is_empty()) {
                 pos.localization_origin = global_at_load;
             }
         }
 
         let power_pack = common.power_pack();
         let gui_move = common.gui_move.unwrap_or(parent.is_none());
-        let e = self.doc.entity(entity);
         let model = ModelSpec {
             id,
             parent,
             children: Vec::new(),
             model_type,
             type_word: word,
-            macro_name: e.macro_name.as_ref().map(|m| m.to_string()),
+            macro_name: self.doc.macro_name(entity).map(str::to_string),
             name,
             generated_name,
             location: self.entity_loc(entity),
@@ -669,7 +690,7 @@ impl<'d> Resolver<'d> {
             raw_blocks,
             has_default_block,
             global_at_load,
-            child_counts: HashMap::new(),
+            child_counts: TypeCounts::default(),
         });
         self.model_of_entity[entity] = Some(id);
         Ok(())
@@ -683,7 +704,7 @@ impl<'d> Resolver<'d> {
             .property(entity, "bitmap")
             .expect("caller checked it exists");
         p.mark_used();
-        let Some(v) = p.values.first() else {
+        let Some(v) = self.doc.values(p).first() else {
             return Err(Error::at(
                 ErrorKind::Io {
                     what: "bitmap",
@@ -692,7 +713,7 @@ impl<'d> Resolver<'d> {
                 },
                 &self.doc.sources,
                 p.loc,
-                &p.name,
+                self.doc.name(p),
             ));
         };
         let name = v.text.to_string();
@@ -758,7 +779,7 @@ impl<'d> Resolver<'d> {
         const MAX_POINTS: i64 = 100_000;
         if !(0..=MAX_POINTS).contains(&count) {
             let p = self.doc.property(entity, "points").expect("read above");
-            let v = &p.values[0];
+            let v = &self.doc.values(p)[0];
             return Err(Error::at(
                 ErrorKind::OutOfRange {
                     name: "points".into(),
@@ -789,8 +810,8 @@ impl<'d> Resolver<'d> {
         }
         let z = r.floats::<2>("z", "ll")?.unwrap_or([0.0, 0.0]);
         let color = match r.prop("color") {
-            Some(p) if !p.values[0].text.is_empty() => {
-                let name = p.values[0].text.to_string();
+            Some(p) if !r.values(p)[0].text.is_empty() => {
+                let name = r.values(p)[0].text.to_string();
                 Some(r.named_color(p, &name))
             }
             _ => None,
@@ -825,14 +846,43 @@ impl<'d> Resolver<'d> {
         let Some(model) = ranger else {
             return Err(self.entity_error(ErrorKind::SensorOutsideRanger, entity));
         };
-        let mut r = self.reader(entity);
-        let sensor = SensorSpec::read(&mut r)?;
-        if sensor.samples < 1 {
-            r.warn("sensor `samples` is below 1: it produces no data");
-        }
+        let sensor = match self.doc.entity(entity).copy_of {
+            // A copy of an earlier sensor reads as that one did: the same spec, the same
+            // warnings, the same properties used.
+            Some(original) => {
+                let (sensor, warnings) = match self.sensor_reads.entry(original) {
+                    Entry::Occupied(read) => read.into_mut(),
+                    Entry::Vacant(slot) => {
+                        let mut warnings = Vec::new();
+                        let sensor =
+                            read_sensor(&mut Reader::new(self.doc, original, &mut warnings))?;
+                        slot.insert((sensor, warnings))
+                    }
+                };
+                let doc = self.doc;
+                let read = &doc.entity(original).properties;
+                for (p, q) in doc.entity(entity).properties.iter().zip(read) {
+                    if q.is_used() {
+                        p.mark_used();
+                    }
+                }
+                self.warnings.extend(warnings.iter().cloned());
+                sensor.clone()
+            }
+            None => read_sensor(&mut self.reader(entity))?,
+        };
         if let TypeSpec::Ranger(ranger) = &mut self.models[model].spec.spec {
             ranger.sensors.push(sensor);
         }
         Ok(())
     }
+}
+
+/// A `sensor` entity's properties, with a warning when it produces no data.
+fn read_sensor(r: &mut Reader<'_, '_>) -> Result<SensorSpec, Error> {
+    let sensor = SensorSpec::read(r)?;
+    if sensor.samples < 1 {
+        r.warn("sensor `samples` is below 1: it produces no data");
+    }
+    Ok(sensor)
 }

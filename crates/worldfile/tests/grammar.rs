@@ -27,19 +27,15 @@ fn cfg(src: &str) -> Result<Document, Error> {
 }
 
 fn values(doc: &Document, entity: usize, name: &str) -> Vec<String> {
-    doc.property(entity, name)
-        .unwrap_or_else(|| panic!("no {name}"))
-        .values
-        .iter()
-        .map(|v| v.text.to_string())
-        .collect()
+    let p = doc
+        .property(entity, name)
+        .unwrap_or_else(|| panic!("no {name}"));
+    doc.values(p).iter().map(|v| v.text.to_string()).collect()
 }
 
 fn types(doc: &Document) -> Vec<(Option<usize>, String)> {
-    doc.entities
-        .iter()
-        .skip(1)
-        .map(|e| (e.parent, e.type_name.to_string()))
+    (1..doc.entities.len())
+        .map(|id| (doc.entity(id).parent, doc.type_name(id).to_string()))
         .collect()
 }
 
@@ -105,7 +101,7 @@ fn crlf_and_cr_line_ends_count_lines() {
 fn tuples_and_empty_tuples() {
     let d = world("t [ 1 \"a\" -2 ]\ne [ ]\n").unwrap();
     assert_eq!(values(&d, 0, "t"), ["1", "a", "-2"]);
-    assert!(d.property(0, "e").unwrap().values.is_empty());
+    assert!(d.property(0, "e").unwrap().is_empty());
 }
 
 #[test]
@@ -165,7 +161,7 @@ fn cfg_fields_merge_element_wise_and_tuples_span_lines() {
     assert_eq!(values(&d, 1, "p"), ["z", "b", "c"]);
     assert_eq!(values(&d, 1, "flag"), ["yes"]);
     assert_eq!(
-        d.property(1, "flag").unwrap().values[0].kind,
+        d.values(d.property(1, "flag").unwrap())[0].kind,
         worldfile::ValueKind::Bool
     );
 }
@@ -240,7 +236,7 @@ fn define_inherits_properties_and_copies_children() {
     assert_eq!(values(&d, 1, "size"), ["2", "2", "2"]);
     assert_eq!(values(&d, 1, "color"), ["red"]);
     assert_eq!(values(&d, 5, "color"), ["blue"]);
-    assert_eq!(d.entity(1).macro_name.as_deref(), Some("derived"));
+    assert_eq!(d.macro_name(1), Some("derived"));
     // Inherited properties point into the define; the instance points at itself.
     assert_eq!(d.property(1, "size").unwrap().loc.line, 2);
     assert_eq!(d.entity(5).loc.unwrap().line, 4);

@@ -489,3 +489,49 @@ fn dump_is_json() {
     assert_eq!(json["models"][0]["color"], "Random");
     assert_eq!(json["models"][1]["location"], "t.world:1:36");
 }
+
+/// Sensors copied from a macro body read as the sensor they copy: the same specs, the same
+/// warnings in the same places, the same properties reported unused, as reading each.
+#[test]
+fn copied_sensors_read_like_the_sensor_they_copy() {
+    let src = "define ir sensor ( range [0 1.2.3] fov 30 samples 0 shade 3 )\n\
+               define bot position ( ranger ( ir ( pose [0 0 0 0] ) ir ( pose [0 0 0 90] size [1 2] ) ) )\n\
+               bot ( name \"a\" )\nbot ( name \"b\" )\nbot ( name \"c\" )\n";
+    let opts = LoadOptions::default();
+    let doc = worldfile::loader::parse_document(
+        Path::new("t.world"),
+        src.as_bytes().to_vec(),
+        worldfile::Dialect::World,
+        &opts,
+    )
+    .unwrap();
+    let copies = doc.entities.iter().filter(|e| e.copy_of.is_some()).count();
+    // the ranger and both sensors of the 2nd and 3rd robots (in the 1st, each `ir` instance
+    // adds its own pose to the sensor the body makes: not a copy)
+    assert_eq!(copies, 6);
+    let mut each_read = doc.clone();
+    for e in &mut each_read.entities {
+        e.copy_of = None;
+    }
+    let copied = worldfile::world::resolve(&doc, &opts).unwrap();
+    let read = worldfile::world::resolve(&each_read, &opts).unwrap();
+    assert_eq!(copied, read);
+    let sensors: usize = copied
+        .models
+        .iter()
+        .filter_map(|m| m.sensors())
+        .map(<[_]>::len)
+        .sum();
+    assert_eq!(sensors, 6);
+    let count = |what: &str| {
+        copied
+            .warnings
+            .iter()
+            .filter(|w| w.message.contains(what))
+            .count()
+    };
+    assert_eq!(count("`range` value `1.2.3` is read as 1.2"), 6);
+    assert_eq!(count("produces no data"), 6);
+    assert_eq!(count("property `shade`"), 6);
+    assert_eq!(count("Stage 3 form [x y]"), 3);
+}

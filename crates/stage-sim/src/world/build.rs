@@ -89,7 +89,9 @@ impl World {
         }
         let space = Space::new(bodies, &dynamic, nodes.iter().map(|n| n.root).collect());
 
-        let mut names = HashMap::new();
+        // sized once: growing it would hash every name again at each doubling
+        let aliases: usize = desc.models.iter().map(|m| m.aliases.len()).sum();
+        let mut names = HashMap::with_capacity(n + aliases);
         for (i, m) in desc.models.iter().enumerate() {
             for a in &m.aliases {
                 names.insert(a.clone(), ModelId(i as u32));

@@ -46,13 +46,14 @@ impl Reader<'_, '_> {
             return Ok(Some(Vec::new()));
         };
         let count = usize::try_from(count).unwrap_or(0);
-        if count > p.values.len() {
+        let values = self.values(p);
+        if count > values.len() {
             // Stage exits: the tuple is too short for `colors_count`.
             return Err(Error::at(
                 ErrorKind::TupleTooShort {
                     name: name.into(),
                     needed: count,
-                    found: p.values.len(),
+                    found: values.len(),
                 },
                 &self.doc().sources,
                 p.loc,
@@ -60,7 +61,7 @@ impl Reader<'_, '_> {
             ));
         }
         let mut out = Vec::with_capacity(count);
-        for v in &p.values[..count] {
+        for v in &values[..count] {
             out.push(self.named_color(p, &v.text));
         }
         Ok(Some(out))

@@ -38,8 +38,8 @@ pub(crate) fn read(r: &mut Reader<'_, '_>) -> Result<WifiSpec, Error> {
         }
         p.mark_used();
         spec.properties.insert(
-            p.name.to_string(),
-            p.values.iter().map(|v| v.text.to_string()).collect(),
+            doc.name(p).to_string(),
+            doc.values(p).iter().map(|v| v.text.to_string()).collect(),
         );
     }
     Ok(spec)

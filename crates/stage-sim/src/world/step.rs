@@ -106,8 +106,10 @@ impl World {
                     slot.ctrl.update(world, &mut slot.cmds);
                 }
             };
-            if slots.len() >= 512 {
-                slots.par_iter_mut().with_min_len(32).for_each(run);
+            // on the pool's own threads (`on_sim_threads`) a split costs about a microsecond:
+            // cave's 100 controllers gain ~3% steps/s from it (5 alternating runs, 2 cores)
+            if slots.len() >= 64 {
+                slots.par_iter_mut().with_min_len(16).for_each(run);
             } else {
                 slots.iter_mut().for_each(run);
             }

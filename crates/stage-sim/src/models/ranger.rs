@@ -282,11 +282,6 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
         let n = sensor.samples.max(1) as usize;
         let o = origin(sensor);
         let max = sensor.range[1];
-        let (start, incr) = fan_angles(sensor);
-        let bearing = |t: usize| start + t as f64 * incr;
-        let [_, _, ic, is] = d.dirs[k];
-        // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
-        let rotate = |[c, s]: [f64; 2]| [c * ic - s * is, c * is + s * ic];
         if n == 1 {
             // this and the following one-sample transducers from the same origin with the same
             // reach: one fan, so that what the rays share is worked out once
@@ -332,12 +327,17 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
             k += run;
             continue;
         }
+        let (start, incr) = fan_angles(sensor);
+        let bearing = |t: usize| start + t as f64 * incr;
+        let [_, _, ic, is] = d.dirs[k];
+        // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
+        let rotate = |[c, s]: [f64; 2]| [c * ic - s * is, c * is + s * ic];
         let scan = &mut d.scans[k];
         scan.ranges.resize(n, 0.0);
         scan.intensities.resize(n, 0.0);
         scan.bearings.resize(n, 0.0);
         let first = first_dir(d.dirs[k]);
-        if n >= 2 * FAN_CHUNK {
+        if n >= SHORT_FAN {
             // long fan: the casts in parallel chunks, each thread sweeping the directions up
             // to its chunks (the same sequence of rotations as below, so the same directions),
             // then the noise in ray order so that the random stream does not depend on how the

@@ -124,7 +124,7 @@ impl Space {
             Some([x0, y0, x1, y1]) => {
                 for y in y0..=y1 {
                     for x in x0..=x1 {
-                        near(cand, &g.cells[(y * g.nx + x) as usize]);
+                        near(cand, &g.cells[(y * g.lat.nx + x) as usize]);
                     }
                 }
             }

@@ -2,7 +2,8 @@
 //! box covers changes, so moves cost O(1) and the grid is never rebuilt.
 
 use super::body::Body;
-use crate::geom::{Aabb, floor_i32};
+use super::lattice::Lattice;
+use crate::geom::Aabb;
 use crate::node::ModelId;
 
 /// A moving model as a grid cell lists it: its box and tree root beside its id, so that a
@@ -20,11 +21,7 @@ pub(super) struct CellEntry {
 
 /// The uniform grid holding dynamic bodies (model entries per cell).
 pub(super) struct DynGrid {
-    pub(super) origin: [f64; 2],
-    pub(super) cell: f64,
-    inv_cell: f64,
-    pub(super) nx: i32,
-    pub(super) ny: i32,
+    pub(super) lat: Lattice,
     pub(super) cells: Vec<Vec<CellEntry>>,
     /// Models whose box leaves the grid: tested by every query.
     pub(super) overflow: Vec<ModelId>,
@@ -43,11 +40,7 @@ impl DynGrid {
             (bounds.min, nx, ny)
         };
         DynGrid {
-            origin,
-            cell,
-            inv_cell: 1.0 / cell,
-            nx,
-            ny,
+            lat: Lattice::new(origin, cell, nx, ny),
             cells: vec![Vec::new(); (nx * ny) as usize],
             overflow: Vec::new(),
             span: vec![None; nmodels],
@@ -55,38 +48,10 @@ impl DynGrid {
         }
     }
 
-    #[inline]
-    pub(super) fn cell_of(&self, p: [f64; 2]) -> [i32; 2] {
-        [
-            floor_i32((p[0] - self.origin[0]) * self.inv_cell),
-            floor_i32((p[1] - self.origin[1]) * self.inv_cell),
-        ]
-    }
-
-    /// The box the cells cover.
-    pub(super) fn bounds(&self) -> Aabb {
-        Aabb {
-            min: self.origin,
-            max: [
-                self.origin[0] + self.nx as f64 * self.cell,
-                self.origin[1] + self.ny as f64 * self.cell,
-            ],
-        }
-    }
-
-    /// The cell holding `p` when `p` lies strictly inside the grid: where every ray from `p`
-    /// starts its walk (the cell the walk would find for itself, worked out once per origin).
-    pub(super) fn cell_inside(&self, p: [f64; 2]) -> Option<[i32; 2]> {
-        let b = self.bounds();
-        let inside = p[0] > b.min[0] && p[0] < b.max[0] && p[1] > b.min[1] && p[1] < b.max[1];
-        let c = self.cell_of(p);
-        (inside && c[0] >= 0 && c[0] < self.nx && c[1] >= 0 && c[1] < self.ny).then_some(c)
-    }
-
     pub(super) fn span_of(&self, b: &Aabb) -> Option<[i32; 4]> {
-        let lo = self.cell_of(b.min);
-        let hi = self.cell_of(b.max);
-        (lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.nx && hi[1] < self.ny)
+        let lo = self.lat.cell_of(b.min);
+        let hi = self.lat.cell_of(b.max);
+        (lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.lat.nx && hi[1] < self.lat.ny)
             .then_some([lo[0], lo[1], hi[0], hi[1]])
     }
 
@@ -94,7 +59,7 @@ impl DynGrid {
         if let Some([x0, y0, x1, y1]) = self.span[m.index()].take() {
             for y in y0..=y1 {
                 for x in x0..=x1 {
-                    let c = &mut self.cells[(y * self.nx + x) as usize];
+                    let c = &mut self.cells[(y * self.lat.nx + x) as usize];
                     if let Some(i) = c.iter().position(|e| e.model == m) {
                         c.remove(i);
                     }
@@ -132,7 +97,7 @@ impl DynGrid {
                 };
                 for y in y0..=y1 {
                     for x in x0..=x1 {
-                        self.cells[(y * self.nx + x) as usize].push(entry);
+                        self.cells[(y * self.lat.nx + x) as usize].push(entry);
                     }
                 }
                 self.span[m.index()] = new;
@@ -154,7 +119,7 @@ impl DynGrid {
         if let Some([x0, y0, x1, y1]) = self.span[m.index()] {
             for y in y0..=y1 {
                 for x in x0..=x1 {
-                    let c = &mut self.cells[(y * self.nx + x) as usize];
+                    let c = &mut self.cells[(y * self.lat.nx + x) as usize];
                     if let Some(e) = c.iter_mut().find(|e| e.model == m) {
                         f(e);
                     }

@@ -41,6 +41,7 @@ mod body;
 mod contact;
 mod dyn_grid;
 mod exposed;
+mod lattice;
 mod ray;
 mod static_grid;
 mod static_index;

@@ -66,18 +66,8 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
     #[inline(always)]
     fn consider_all(&mut self, list: &[ModelId]) -> f64 {
         let sp = self.space;
-        let Ray {
-            o, inv, skip_root, ..
-        } = self.ray;
         for &m in list {
-            // the cheap rejections inline: the caster's own tree, a box the ray misses
-            if Some(sp.roots[m.index()]) == skip_root
-                || !sp.aabbs[m.index()].ray_meets(o, inv, self.best_t)
-                || !(self.accept)(m)
-            {
-                continue;
-            }
-            self.test_body(m);
+            self.consider(m, sp.roots[m.index()], &sp.aabbs[m.index()]);
         }
         self.best_t
     }
@@ -86,19 +76,24 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
     /// and root.
     #[inline(always)]
     fn consider_cell(&mut self, list: &[CellEntry]) -> f64 {
+        for e in list {
+            self.consider(e.model, e.root, &e.aabb);
+        }
+        self.best_t
+    }
+
+    /// Tests model `m` (of the tree rooted at `root`, within box `aabb`) after the cheap
+    /// rejections, inline: the caster's own tree, a box the ray misses, a model that lets the
+    /// ray through.
+    #[inline(always)]
+    fn consider(&mut self, m: ModelId, root: ModelId, aabb: &Aabb) {
         let Ray {
             o, inv, skip_root, ..
         } = self.ray;
-        for e in list {
-            if Some(e.root) == skip_root
-                || !e.aabb.ray_meets(o, inv, self.best_t)
-                || !(self.accept)(e.model)
-            {
-                continue;
-            }
-            self.test_body(e.model);
+        if Some(root) == skip_root || !aabb.ray_meets(o, inv, self.best_t) || !(self.accept)(m) {
+            return;
         }
-        self.best_t
+        self.test_body(m);
     }
 
     /// Tests model `m`'s blocks (its box met the ray) unless this ray has tested it already.
@@ -231,7 +226,11 @@ impl Space {
                 }
             }
         }
-        let start = self.statics.grid.as_ref().and_then(|g| g.cell_inside(o));
+        let start = self
+            .statics
+            .grid
+            .as_ref()
+            .and_then(|g| g.lat.cell_inside(o));
         let shared = Shared {
             o,
             range,
@@ -246,7 +245,7 @@ impl Space {
             dyn_start: if small {
                 None
             } else {
-                self.grid.cell_inside(o)
+                self.grid.lat.cell_inside(o)
             },
         };
         for (i, &d) in dirs.iter().enumerate() {
@@ -362,7 +361,7 @@ impl Space {
     /// Visits the grid cells along the ray (DDA) in order, until the cell entry distance passes
     /// `limit`; `visit` gets each cell's models and answers the limit from then on (the best
     /// hit so far). `start` is the cell holding `o` when the caller knows it
-    /// (`DynGrid::cell_inside`).
+    /// (`Lattice::cell_inside`).
     #[inline(always)]
     fn walk_grid(
         &self,
@@ -378,18 +377,18 @@ impl Space {
         let [mut cx, mut cy] = match start {
             Some(c) => c,
             None => {
-                let Some(t_enter) = g.bounds().ray_entry(o, inv, limit) else {
+                let Some(t_enter) = g.lat.bounds().ray_entry(o, inv, limit) else {
                     return;
                 };
                 let p = [o[0] + d[0] * t_enter, o[1] + d[1] * t_enter];
-                let c0 = g.cell_of(p);
-                [c0[0].clamp(0, g.nx - 1), c0[1].clamp(0, g.ny - 1)]
+                let c0 = g.lat.cell_of(p);
+                [c0[0].clamp(0, g.lat.nx - 1), c0[1].clamp(0, g.lat.ny - 1)]
             }
         };
         let step_x = if d[0] >= 0.0 { 1 } else { -1 };
         let step_y = if d[1] >= 0.0 { 1 } else { -1 };
         let next_boundary = |c: i32, k: usize, step: i32| -> f64 {
-            let edge = g.origin[k] + (c + if step > 0 { 1 } else { 0 }) as f64 * g.cell;
+            let edge = g.lat.origin[k] + (c + if step > 0 { 1 } else { 0 }) as f64 * g.lat.cell;
             (edge - o[k]) * inv[k]
         };
         let mut t_max_x = if d[0] == 0.0 {
@@ -402,11 +401,11 @@ impl Space {
         } else {
             next_boundary(cy, 1, step_y)
         };
-        let t_dx = (g.cell * inv[0]).abs();
-        let t_dy = (g.cell * inv[1]).abs();
+        let t_dx = (g.lat.cell * inv[0]).abs();
+        let t_dy = (g.lat.cell * inv[1]).abs();
         let mut t_cell;
         loop {
-            let list = &g.cells[(cy * g.nx + cx) as usize];
+            let list = &g.cells[(cy * g.lat.nx + cx) as usize];
             if !list.is_empty() {
                 limit = visit(list);
             }
@@ -420,7 +419,7 @@ impl Space {
             t_max_x += if along_x { t_dx } else { 0.0 };
             t_max_y += if along_x { 0.0 } else { t_dy };
             // one unsigned compare per axis: a negative index wraps to a huge one
-            if cx as u32 >= g.nx as u32 || cy as u32 >= g.ny as u32 || t_cell > limit {
+            if cx as u32 >= g.lat.nx as u32 || cy as u32 >= g.lat.ny as u32 || t_cell > limit {
                 return;
             }
         }
@@ -605,7 +604,7 @@ mod tests {
             vec![ModelId(0), ModelId(1), ModelId(2)],
         );
         let grid = space.statics.grid.as_ref().unwrap();
-        assert!(grid.open_reach(grid.cell_inside([-5.0, 0.0]).unwrap()) > 2.0);
+        assert!(grid.open_reach(grid.lat.cell_inside([-5.0, 0.0]).unwrap()) > 2.0);
         let dirs: Vec<[f64; 2]> = (-2..=2)
             .map(|i| {
                 let (s, c) = (i as f64 * 0.01).sin_cos();

@@ -12,6 +12,7 @@
 //!   the answer is the exact lexicographic minimum of (distance, model, block) over the edges
 //!   tested, so it does not depend on the cell size or on the order of the lists.
 
+use super::lattice::Lattice;
 use crate::geom::{Aabb, floor_i32};
 
 /// How far (m) beyond its cells an edge may lie and still be listed there: far above the
@@ -36,11 +37,7 @@ pub(super) struct ListedEdge {
 
 /// See the module docs.
 pub(super) struct StaticGrid {
-    origin: [f64; 2],
-    cell: f64,
-    inv_cell: f64,
-    nx: i32,
-    ny: i32,
+    pub(super) lat: Lattice,
     /// Cell `c`'s edges are `edges[first[c]..first[c + 1]]`.
     first: Vec<u32>,
     edges: Vec<GridEdge>,
@@ -87,11 +84,7 @@ impl StaticGrid {
         let nx = ((w / cell).ceil() as i32).max(1);
         let ny = ((h / cell).ceil() as i32).max(1);
         let mut g = StaticGrid {
-            origin,
-            cell,
-            inv_cell: 1.0 / cell,
-            nx,
-            ny,
+            lat: Lattice::new(origin, cell, nx, ny),
             first: vec![0; (nx * ny) as usize + 1],
             edges: Vec::new(),
             clear: Vec::new(),
@@ -152,45 +145,37 @@ impl StaticGrid {
     fn for_cells_of(&self, a: [f64; 2], b: [f64; 2], mut f: impl FnMut(usize)) {
         let lo = [a[0].min(b[0]) - EDGE_PAD, a[1].min(b[1]) - EDGE_PAD];
         let hi = [a[0].max(b[0]) + EDGE_PAD, a[1].max(b[1]) + EDGE_PAD];
-        let c0 = self.cell_of(lo);
-        let c1 = self.cell_of(hi);
+        let c0 = self.lat.cell_of(lo);
+        let c1 = self.lat.cell_of(hi);
         let (x0, y0) = (c0[0].max(0), c0[1].max(0));
-        let (x1, y1) = (c1[0].min(self.nx - 1), c1[1].min(self.ny - 1));
+        let (x1, y1) = (c1[0].min(self.lat.nx - 1), c1[1].min(self.lat.ny - 1));
         let axis_aligned = a[0] == b[0] || a[1] == b[1];
         for y in y0..=y1 {
             for x in x0..=x1 {
                 if !axis_aligned {
                     // a slanted edge only goes into the cells its padded line crosses
                     let mn = [
-                        self.origin[0] + x as f64 * self.cell - EDGE_PAD,
-                        self.origin[1] + y as f64 * self.cell - EDGE_PAD,
+                        self.lat.origin[0] + x as f64 * self.lat.cell - EDGE_PAD,
+                        self.lat.origin[1] + y as f64 * self.lat.cell - EDGE_PAD,
                     ];
                     let mx = [
-                        mn[0] + self.cell + 2.0 * EDGE_PAD,
-                        mn[1] + self.cell + 2.0 * EDGE_PAD,
+                        mn[0] + self.lat.cell + 2.0 * EDGE_PAD,
+                        mn[1] + self.lat.cell + 2.0 * EDGE_PAD,
                     ];
                     if !segment_meets_box(a, b, mn, mx) {
                         continue;
                     }
                 }
-                f((y * self.nx + x) as usize);
+                f((y * self.lat.nx + x) as usize);
             }
         }
-    }
-
-    #[inline]
-    fn cell_of(&self, p: [f64; 2]) -> [i32; 2] {
-        [
-            floor_i32((p[0] - self.origin[0]) * self.inv_cell),
-            floor_i32((p[1] - self.origin[1]) * self.inv_cell),
-        ]
     }
 
     /// Walks the cells along the ray `o + t·d` (`inv` = 1/d) from its entry into the grid, in
     /// order, calling `visit` with each non-empty cell's edges; stops when the next cell begins
     /// beyond `limit()` (re-read after each visit) or the ray leaves the grid.
     ///
-    /// `start`: the cell of `o` when `o` lies inside the grid ([`StaticGrid::cell_inside`]),
+    /// `start`: the cell of `o` when `o` lies inside the grid (`Lattice::cell_inside`),
     /// worked out once for a fan of rays from one origin; `None` finds where the ray enters.
     #[inline]
     pub fn walk(
@@ -205,11 +190,14 @@ impl StaticGrid {
         let [mut cx, mut cy] = match start {
             Some(c) => c,
             None => {
-                let Some(t0) = self.bounds().ray_entry(o, inv, limit) else {
+                let Some(t0) = self.lat.bounds().ray_entry(o, inv, limit) else {
                     return;
                 };
-                let c0 = self.cell_of([o[0] + d[0] * t0, o[1] + d[1] * t0]);
-                [c0[0].clamp(0, self.nx - 1), c0[1].clamp(0, self.ny - 1)]
+                let c0 = self.lat.cell_of([o[0] + d[0] * t0, o[1] + d[1] * t0]);
+                [
+                    c0[0].clamp(0, self.lat.nx - 1),
+                    c0[1].clamp(0, self.lat.ny - 1),
+                ]
             }
         };
         let mut limit = limit;
@@ -224,16 +212,16 @@ impl StaticGrid {
             if d[k] == 0.0 {
                 (f64::INFINITY, 0.0)
             } else {
-                ((self.origin[k] - o[k]) * inv[k], self.cell * inv[k])
+                ((self.lat.origin[k] - o[k]) * inv[k], self.lat.cell * inv[k])
             }
         };
         let (base_x, step_x) = axis(0);
         let (base_y, step_y) = axis(1);
         let tx_of = |i: i32| -> f64 { base_x + i as f64 * step_x };
         let ty_of = |i: i32| -> f64 { base_y + i as f64 * step_y };
-        let (nx, ny) = (self.nx as u32, self.ny as u32);
+        let (nx, ny) = (self.lat.nx as u32, self.lat.ny as u32);
         loop {
-            let c = (cy * self.nx + cx) as usize;
+            let c = (cy * self.lat.nx + cx) as usize;
             let k = self.clear[c] as i32;
             let t_next;
             if k <= 1 {
@@ -258,7 +246,7 @@ impl StaticGrid {
                 let ty = ty_of(cy + sy * r + fy);
                 if tx < ty {
                     t_next = tx;
-                    let y = floor_i32((o[1] + d[1] * tx - self.origin[1]) * self.inv_cell);
+                    let y = floor_i32((o[1] + d[1] * tx - self.lat.origin[1]) * self.lat.inv_cell);
                     cy = if sy > 0 {
                         y.clamp(cy, cy + r)
                     } else {
@@ -267,7 +255,7 @@ impl StaticGrid {
                     cx += sx * (r + 1);
                 } else {
                     t_next = ty;
-                    let x = floor_i32((o[0] + d[0] * ty - self.origin[0]) * self.inv_cell);
+                    let x = floor_i32((o[0] + d[0] * ty - self.lat.origin[0]) * self.lat.inv_cell);
                     cx = if sx > 0 {
                         x.clamp(cx, cx + r)
                     } else {
@@ -284,33 +272,13 @@ impl StaticGrid {
         }
     }
 
-    /// The box the cells cover.
-    fn bounds(&self) -> Aabb {
-        Aabb {
-            min: self.origin,
-            max: [
-                self.origin[0] + self.nx as f64 * self.cell,
-                self.origin[1] + self.ny as f64 * self.cell,
-            ],
-        }
-    }
-
-    /// The cell holding `p` when `p` lies strictly inside the grid: where every ray from `p`
-    /// starts its walk (the same cell [`StaticGrid::walk`] finds for each ray).
-    pub fn cell_inside(&self, p: [f64; 2]) -> Option<[i32; 2]> {
-        let b = self.bounds();
-        let inside = (0..2).all(|k| p[k] > b.min[k] && p[k] < b.max[k]);
-        let c = self.cell_of(p);
-        (inside && c[0] >= 0 && c[0] < self.nx && c[1] >= 0 && c[1] < self.ny).then_some(c)
-    }
-
     /// How far from any point of cell `c` no listed edge lies (0 when unknown): the reach of
     /// the cell's clearance block, less a margin far above rounding. A ray from that cell that
     /// ends closer meets no edge, so its walk can be skipped.
     pub fn open_reach(&self, c: [i32; 2]) -> f64 {
-        let k = self.clear[(c[1] * self.nx + c[0]) as usize];
+        let k = self.clear[(c[1] * self.lat.nx + c[0]) as usize];
         if k >= 2 {
-            f64::from(k - 1) * self.cell - 1e-6
+            f64::from(k - 1) * self.lat.cell - 1e-6
         } else {
             0.0
         }
@@ -322,13 +290,14 @@ impl StaticGrid {
     /// leaves the grid or covers many cells).
     pub fn no_edge_near(&self, b: &Aabb) -> bool {
         const PAD: f64 = 1e-6;
-        let lo = self.cell_of([b.min[0] - PAD, b.min[1] - PAD]);
-        let hi = self.cell_of([b.max[0] + PAD, b.max[1] + PAD]);
-        let inside = lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.nx && hi[1] < self.ny;
+        let lo = self.lat.cell_of([b.min[0] - PAD, b.min[1] - PAD]);
+        let hi = self.lat.cell_of([b.max[0] + PAD, b.max[1] + PAD]);
+        let inside = lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.lat.nx && hi[1] < self.lat.ny;
         if !inside || (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) > 64 {
             return false;
         }
-        (lo[1]..=hi[1]).all(|y| (lo[0]..=hi[0]).all(|x| !self.touched[(y * self.nx + x) as usize]))
+        (lo[1]..=hi[1])
+            .all(|y| (lo[0]..=hi[0]).all(|x| !self.touched[(y * self.lat.nx + x) as usize]))
     }
 
     /// How many different edges the cells list.
@@ -342,7 +311,7 @@ impl StaticGrid {
     /// Number of cells.
     #[cfg(test)]
     pub fn cell_count(&self) -> usize {
-        (self.nx * self.ny) as usize
+        (self.lat.nx * self.lat.ny) as usize
     }
 }
 
@@ -477,6 +446,6 @@ mod tests {
         let mut n = 0;
         g.for_cells_of(e.a, e.b, |_| n += 1);
         assert!(n < g.cell_count() / 4, "{n} of {} cells", g.cell_count());
-        assert!(n >= g.nx as usize, "{n} cells");
+        assert!(n >= g.lat.nx as usize, "{n} cells");
     }
 }

@@ -1,0 +1,56 @@
+//! The cell layout both grids share (the static edges' and the moving bodies'): where a point
+//! falls, the box the cells cover, and the cell a fan of rays starts in.
+
+use crate::geom::{Aabb, floor_i32};
+
+/// `nx × ny` square cells of side `cell` from `origin`; cell `(x, y)` is index `y·nx + x`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Lattice {
+    pub(super) origin: [f64; 2],
+    pub(super) cell: f64,
+    pub(super) inv_cell: f64,
+    pub(super) nx: i32,
+    pub(super) ny: i32,
+}
+
+impl Lattice {
+    pub(super) fn new(origin: [f64; 2], cell: f64, nx: i32, ny: i32) -> Lattice {
+        Lattice {
+            origin,
+            cell,
+            inv_cell: 1.0 / cell,
+            nx,
+            ny,
+        }
+    }
+
+    /// The cell `p` falls in (outside the grid too: negative or past `nx`/`ny`).
+    #[inline]
+    pub(super) fn cell_of(&self, p: [f64; 2]) -> [i32; 2] {
+        [
+            floor_i32((p[0] - self.origin[0]) * self.inv_cell),
+            floor_i32((p[1] - self.origin[1]) * self.inv_cell),
+        ]
+    }
+
+    /// The box the cells cover.
+    pub(super) fn bounds(&self) -> Aabb {
+        Aabb {
+            min: self.origin,
+            max: [
+                self.origin[0] + self.nx as f64 * self.cell,
+                self.origin[1] + self.ny as f64 * self.cell,
+            ],
+        }
+    }
+
+    /// The cell holding `p` when `p` lies strictly inside the grid: where every ray from `p`
+    /// starts its walk (the cell a walk finds for itself), worked out once for a fan of rays
+    /// from one origin.
+    pub(super) fn cell_inside(&self, p: [f64; 2]) -> Option<[i32; 2]> {
+        let b = self.bounds();
+        let inside = (0..2).all(|k| p[k] > b.min[k] && p[k] < b.max[k]);
+        let c = self.cell_of(p);
+        (inside && c[0] >= 0 && c[0] < self.nx && c[1] >= 0 && c[1] < self.ny).then_some(c)
+    }
+}

@@ -48,6 +48,31 @@ impl Body {
     }
 }
 
+#[cfg(test)]
+impl Body {
+    /// A test body of one block per rectangle `[x, y, w, h]` (corners counter-clockwise from
+    /// `(x, y)`), z from 0 to 1.
+    pub(super) fn from_rects(rects: &[[f64; 4]]) -> Body {
+        let mut body = Body::default();
+        for &[x, y, w, h] in rects {
+            let start = body.pts.len() as u32;
+            let pts = [[x, y], [x + w, y], [x + w, y + h], [x, y + h]];
+            let mut aabb = Aabb::EMPTY;
+            pts.iter().for_each(|p| aabb.add(*p));
+            body.pts.extend_from_slice(&pts);
+            body.blocks.push(WorldBlock {
+                zmin: 0.0,
+                zmax: 1.0,
+                start,
+                end: start + 4,
+                aabb,
+            });
+            body.aabb.merge(&aabb);
+        }
+        body
+    }
+}
+
 /// The edges of a closed polygon (a 2-point polygon is a single segment).
 #[inline]
 pub(super) fn edges_of(p: &[[f64; 2]]) -> impl Iterator<Item = ([f64; 2], [f64; 2])> + '_ {

@@ -186,28 +186,6 @@ impl Space {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::space::WorldBlock;
-
-    /// A body of one block per rectangle `[x, y, w, h]`, z from 0 to 1.
-    fn body_of_rects(rects: &[[f64; 4]]) -> Body {
-        let mut body = Body::default();
-        for &[x, y, w, h] in rects {
-            let start = body.pts.len() as u32;
-            let pts = [[x, y], [x + w, y], [x + w, y + h], [x, y + h]];
-            let mut aabb = Aabb::EMPTY;
-            pts.iter().for_each(|p| aabb.add(*p));
-            body.pts.extend_from_slice(&pts);
-            body.blocks.push(WorldBlock {
-                zmin: 0.0,
-                zmax: 1.0,
-                start,
-                end: start + 4,
-                aabb,
-            });
-            body.aabb.merge(&aabb);
-        }
-        body
-    }
 
     /// Contacts with static blocks where the static grid vouches for open space (no query)
     /// and where it does not: on a wall's outline, and across the side two blocks of one wall
@@ -216,11 +194,11 @@ mod tests {
     fn static_contacts_in_open_space_on_walls_and_inside_them() {
         // a wall of two touching 10 m blocks (shared side at x = 10): 5 m grid cells, the
         // middle ones crossed by the shared side only
-        let wall = body_of_rects(&[[0.0, 0.0, 10.0, 10.0], [10.0, 0.0, 10.0, 10.0]]);
+        let wall = Body::from_rects(&[[0.0, 0.0, 10.0, 10.0], [10.0, 0.0, 10.0, 10.0]]);
         let space = Space::new(vec![wall], &[false], vec![ModelId(0)]);
         let grid = space.statics.grid.as_ref().unwrap();
         let touches = |x: f64, y: f64| {
-            let b = body_of_rects(&[[x, y, 0.1, 0.1]]);
+            let b = Body::from_rects(&[[x, y, 0.1, 0.1]]);
             (
                 space.touches_static(&b, |_| true),
                 grid.no_edge_near(&b.aabb),
@@ -233,6 +211,6 @@ mod tests {
         // across the shared side, which no ray needs: contact (found by the query)
         assert_eq!(touches(9.95, 5.0), (true, false));
         // leaving the grid: no vouching
-        assert!(!grid.no_edge_near(&body_of_rects(&[[-50.0, 0.0, 0.1, 0.1]]).aabb));
+        assert!(!grid.no_edge_near(&Body::from_rects(&[[-50.0, 0.0, 0.1, 0.1]]).aabb));
     }
 }

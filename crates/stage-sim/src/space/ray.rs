@@ -504,24 +504,11 @@ impl Space {
 mod tests {
     use super::*;
     use crate::rng::SimRng;
-    use crate::space::{Body, WorldBlock};
+    use crate::space::Body;
     use std::f64::consts::PI;
 
     fn rect_body(x: f64, y: f64, w: f64, h: f64) -> Body {
-        let pts = vec![[x, y], [x + w, y], [x + w, y + h], [x, y + h]];
-        let mut aabb = Aabb::EMPTY;
-        pts.iter().for_each(|p| aabb.add(*p));
-        Body {
-            blocks: vec![WorldBlock {
-                zmin: 0.0,
-                zmax: 1.0,
-                start: 0,
-                end: 4,
-                aabb,
-            }],
-            pts,
-            aabb,
-        }
+        Body::from_rects(&[[x, y, w, h]])
     }
 
     /// The BVH walk and the grid walk together find exactly what a brute-force scan of every
@@ -641,7 +628,7 @@ mod tests {
     /// most block sides are shared, wholly or in part, with the rows above and below.
     fn bitmap_body(rng: &mut SimRng, at: [f64; 2], size: f64) -> (Body, Vec<bool>) {
         let occupied: Vec<bool> = (0..24 * 24).map(|_| rng.uniform(0.0, 1.0) < 0.5).collect();
-        let mut body = Body::default();
+        let mut rects = Vec::new();
         for y in 0..24 {
             let mut x = 0;
             while x < 24 {
@@ -653,23 +640,15 @@ mod tests {
                 while x < 24 && occupied[y * 24 + x] {
                     x += 1;
                 }
-                let run = rect_body(
+                rects.push([
                     at[0] + x0 as f64 * size,
                     at[1] + y as f64 * size,
                     (x - x0) as f64 * size,
                     size,
-                );
-                let start = body.pts.len() as u32;
-                body.pts.extend_from_slice(&run.pts);
-                body.blocks.push(WorldBlock {
-                    start,
-                    end: start + 4,
-                    ..run.blocks[0]
-                });
-                body.aabb.merge(&run.aabb);
+                ]);
             }
         }
-        (body, occupied)
+        (Body::from_rects(&rects), occupied)
     }
 
     /// Fans find what single rays find, and both what a brute-force scan of every edge of

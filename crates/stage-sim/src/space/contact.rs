@@ -121,11 +121,9 @@ impl Space {
             )
         };
         match g.span_of(&bb) {
-            Some([x0, y0, x1, y1]) => {
-                for y in y0..=y1 {
-                    for x in x0..=x1 {
-                        near(cand, &g.cells[(y * g.lat.nx + x) as usize]);
-                    }
+            Some(span) => {
+                for i in g.lat.cells_in(span) {
+                    near(cand, &g.cells[i]);
                 }
             }
             None => {

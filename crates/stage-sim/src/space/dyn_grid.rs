@@ -56,13 +56,11 @@ impl DynGrid {
     }
 
     fn remove(&mut self, m: ModelId) {
-        if let Some([x0, y0, x1, y1]) = self.span[m.index()].take() {
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let c = &mut self.cells[(y * self.lat.nx + x) as usize];
-                    if let Some(i) = c.iter().position(|e| e.model == m) {
-                        c.remove(i);
-                    }
+        if let Some(span) = self.span[m.index()].take() {
+            for i in self.lat.cells_in(span) {
+                let c = &mut self.cells[i];
+                if let Some(k) = c.iter().position(|e| e.model == m) {
+                    c.remove(k);
                 }
             }
         }
@@ -89,16 +87,14 @@ impl DynGrid {
         }
         self.remove(m);
         match new {
-            Some([x0, y0, x1, y1]) => {
+            Some(span) => {
                 let entry = CellEntry {
                     aabb: *b,
                     model: m,
                     root,
                 };
-                for y in y0..=y1 {
-                    for x in x0..=x1 {
-                        self.cells[(y * self.lat.nx + x) as usize].push(entry);
-                    }
+                for i in self.lat.cells_in(span) {
+                    self.cells[i].push(entry);
                 }
                 self.span[m.index()] = new;
             }
@@ -116,13 +112,10 @@ impl DynGrid {
 
     /// Calls `f` on each cell entry of model `m`.
     fn each_entry(&mut self, m: ModelId, mut f: impl FnMut(&mut CellEntry)) {
-        if let Some([x0, y0, x1, y1]) = self.span[m.index()] {
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let c = &mut self.cells[(y * self.lat.nx + x) as usize];
-                    if let Some(e) = c.iter_mut().find(|e| e.model == m) {
-                        f(e);
-                    }
+        if let Some(span) = self.span[m.index()] {
+            for i in self.lat.cells_in(span) {
+                if let Some(e) = self.cells[i].iter_mut().find(|e| e.model == m) {
+                    f(e);
                 }
             }
         }

@@ -33,6 +33,13 @@ impl Lattice {
         ]
     }
 
+    /// The indices of the cells `x0..=x1 × y0..=y1` (a span as `[x0, y0, x1, y1]`, inside
+    /// the grid), row by row.
+    pub(super) fn cells_in(&self, [x0, y0, x1, y1]: [i32; 4]) -> impl Iterator<Item = usize> {
+        let nx = self.nx;
+        (y0..=y1).flat_map(move |y| (x0..=x1).map(move |x| (y * nx + x) as usize))
+    }
+
     /// The box the cells cover.
     pub(super) fn bounds(&self) -> Aabb {
         Aabb {

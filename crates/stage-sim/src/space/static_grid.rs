@@ -296,8 +296,9 @@ impl StaticGrid {
         if !inside || (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) > 64 {
             return false;
         }
-        (lo[1]..=hi[1])
-            .all(|y| (lo[0]..=hi[0]).all(|x| !self.touched[(y * self.lat.nx + x) as usize]))
+        self.lat
+            .cells_in([lo[0], lo[1], hi[0], hi[1]])
+            .all(|c| !self.touched[c])
     }
 
     /// How many different edges the cells list.

@@ -227,7 +227,7 @@ impl World {
         let d = PyDict::new(py);
         d.set_item("ranges", player_view::ranger_ranges(r))?;
         d.set_item("intensities", player_view::ranger_intensities(r))?;
-        let bearings: Vec<f64> = r.scans.iter().flat_map(|s| s.bearings.clone()).collect();
+        let bearings = r.bearings().to_vec();
         d.set_item("bearings", bearings)?;
         d.set_item("time", r.time_us as f64 / 1e6)?;
         Ok(d)

@@ -240,8 +240,8 @@ impl Controller for Flocking {
         let Ok(data) = world.ranger_scans(self.ranger) else {
             return;
         };
-        let r = |k: usize| data.scans.get(k).and_then(|s| s.ranges.first()).copied();
-        if data.scans.len() < 8 {
+        let r = |k: usize| data.first_range(k);
+        if data.scans().len() < 8 {
             return;
         }
         let (mut dx, mut dy) = (0.0, 0.0);
@@ -305,13 +305,10 @@ impl Controller for Wander {
         const MIN_FRONT: f64 = 1.0;
         const STOP_DIST: f64 = 0.3;
         const AVOID_DURATION: u32 = 10;
-        let Some(scan) = world
-            .ranger_scans(self.laser)
-            .map_or(None, |r| r.scans.first())
-        else {
+        let Some(scan) = world.ranger_scans(self.laser).map_or(None, |r| r.scan(0)) else {
             return;
         };
-        let r = &scan.ranges;
+        let r = scan.ranges;
         let n = r.len();
         if n < 1 {
             return;
@@ -403,13 +400,13 @@ impl Controller for Expand {
         let Ok(data) = world.ranger_scans(self.ranger) else {
             return;
         };
-        let first = |k: usize| data.scans.get(k).and_then(|s| s.ranges.first()).copied();
+        let first = |k: usize| data.first_range(k);
         if self.dirs.len() != data.sensors.len() {
             self.dirs = data.sensors.iter().map(|s| s.pose.a.sin_cos()).collect();
         }
         let (mut dx, mut dy) = (0.0, 0.0);
-        for (k, &(s, c)) in self.dirs.iter().enumerate() {
-            if let Some(r) = first(k) {
+        for (&(s, c), r) in self.dirs.iter().zip(data.first_ranges()) {
+            if let Some(r) = r {
                 dx += r * c;
                 dy += r * s;
             }

@@ -57,16 +57,16 @@ fn laser_facing_wall_reads_exact_ranges_on_every_sample() {
     let mut w = World::from_desc(&d, 1).unwrap();
     let lid = ModelId(l as u32);
     assert!(
-        w.ranger_scans(lid).unwrap().scans.is_empty(),
+        w.ranger_scans(lid).unwrap().scans().len() == 0,
         "no data before subscription"
     );
     w.subscribe(lid).unwrap();
     run(&mut w, 1);
     let data = w.ranger_scans(lid).unwrap();
     assert_eq!(data.time_us, 100_000);
-    let scan = &data.scans[0];
+    let scan = data.scan(0).unwrap();
     assert_eq!(scan.ranges.len(), 181);
-    for (i, (&r, &b)) in scan.ranges.iter().zip(&scan.bearings).enumerate() {
+    for (i, (&r, &b)) in scan.ranges.iter().zip(scan.bearings).enumerate() {
         let expect_b = -PI / 2.0 + i as f64 * PI / 180.0;
         assert!((b - expect_b).abs() < 1e-9);
         let c = expect_b.cos();
@@ -91,7 +91,12 @@ fn sensors_only_see_blocks_in_their_height_band() {
     let mut w = World::from_desc(&d, 1).unwrap();
     w.subscribe(ModelId(l as u32)).unwrap();
     run(&mut w, 1);
-    let r = w.ranger_scans(ModelId(l as u32)).unwrap().scans[0].ranges[0];
+    let r = w
+        .ranger_scans(ModelId(l as u32))
+        .unwrap()
+        .scan(0)
+        .unwrap()
+        .ranges[0];
     assert!((r - 4.0).abs() < 1e-9, "saw {r}");
 }
 
@@ -109,7 +114,7 @@ fn ranger_return_negative_is_transparent_and_sets_intensity() {
     let mut w = World::from_desc(&d, 1).unwrap();
     w.subscribe(ModelId(l as u32)).unwrap();
     run(&mut w, 1);
-    let s = &w.ranger_scans(ModelId(l as u32)).unwrap().scans[0];
+    let s = w.ranger_scans(ModelId(l as u32)).unwrap().scan(0).unwrap();
     assert!((s.ranges[0] - 3.0).abs() < 1e-9);
     assert_eq!(s.intensities[0], 2.0);
 }
@@ -123,7 +128,7 @@ fn a_ray_starting_inside_a_box_stops_at_its_far_wall() {
     let mut w = World::from_desc(&d, 1).unwrap();
     w.subscribe(ModelId(l as u32)).unwrap();
     run(&mut w, 1);
-    let s = &w.ranger_scans(ModelId(l as u32)).unwrap().scans[0];
+    let s = w.ranger_scans(ModelId(l as u32)).unwrap().scan(0).unwrap();
     assert!((s.ranges[0] - 1.0).abs() < 1e-9);
 }
 
@@ -306,7 +311,7 @@ fn unsubscribed_models_do_not_move_or_sense() {
     w.position_cmd_vel(ModelId(0), 1.0, 0.0, 0.0).unwrap();
     run(&mut w, 5);
     assert_eq!(w.pose(ModelId(0)).unwrap().x, 0.0);
-    assert!(w.ranger_scans(ModelId(l as u32)).unwrap().scans.is_empty());
+    assert!(w.ranger_scans(ModelId(l as u32)).unwrap().scans().len() == 0);
     w.subscribe(ModelId(0)).unwrap();
     w.position_cmd_vel(ModelId(0), 1.0, 0.0, 0.0).unwrap();
     run(&mut w, 5);
@@ -642,11 +647,11 @@ fn lasernoise_controller_perturbs_ranges_multiplicatively() {
     let mut w = World::from_desc(&d, 9).unwrap();
     assert!(w.warnings().is_empty(), "{:?}", w.warnings());
     run(&mut w, 1);
-    let s = &w.ranger_scans(ModelId(l as u32)).unwrap().scans[0];
+    let s = w.ranger_scans(ModelId(l as u32)).unwrap().scan(0).unwrap();
     let rel: Vec<f64> = s
         .ranges
         .iter()
-        .zip(&s.bearings)
+        .zip(s.bearings)
         .map(|(r, b)| r / (2.0 / b.cos()) - 1.0)
         .collect();
     let mean = rel.iter().sum::<f64>() / rel.len() as f64;
@@ -696,13 +701,13 @@ fn teleporting_a_static_model_moves_it_for_sensors_and_contacts() {
     let (lid, bid) = (ModelId(l as u32), ModelId(b as u32));
     w.subscribe(lid).unwrap();
     run(&mut w, 1);
-    assert!((w.ranger_scans(lid).unwrap().scans[0].ranges[0] - 2.9).abs() < 1e-9);
+    assert!((w.ranger_scans(lid).unwrap().scan(0).unwrap().ranges[0] - 2.9).abs() < 1e-9);
     w.set_pose(bid, Pose::new(1.0, 0.0, 0.0, 0.0)).unwrap();
     run(&mut w, 1);
-    assert!((w.ranger_scans(lid).unwrap().scans[0].ranges[0] - 0.9).abs() < 1e-9);
+    assert!((w.ranger_scans(lid).unwrap().scan(0).unwrap().ranges[0] - 0.9).abs() < 1e-9);
     w.set_pose(bid, Pose::new(1.0, 5.0, 0.0, 0.0)).unwrap();
     run(&mut w, 1);
-    assert_eq!(w.ranger_scans(lid).unwrap().scans[0].ranges[0], 8.0);
+    assert_eq!(w.ranger_scans(lid).unwrap().scan(0).unwrap().ranges[0], 8.0);
     // and it blocks a robot at its new place
     w.set_pose(bid, Pose::new(0.5, 0.0, 0.0, 0.0)).unwrap();
     w.subscribe(ModelId(0)).unwrap();

@@ -682,7 +682,7 @@ fn ranger(
                 color.with_alpha(90),
             );
         }
-        let Some(scan) = r.scans.get(k) else { continue };
+        let Some(scan) = r.scan(k) else { continue };
         let n = scan.ranges.len().min(scan.bearings.len());
         if n == 0 {
             continue;
@@ -690,7 +690,7 @@ fn ranger(
         lod::ray_directions(origin.a, &scan.bearings[..n], &mut dirs);
         ends.clear();
         ends.extend(
-            (dirs.iter().zip(&scan.ranges)).map(|(d, rr)| [o[0] + rr * d[0], o[1] + rr * d[1]]),
+            (dirs.iter().zip(scan.ranges)).map(|(d, rr)| [o[0] + rr * d[0], o[1] + rr * d[1]]),
         );
         if vis.ranger_ranges {
             if n == 1 {

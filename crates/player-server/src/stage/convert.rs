@@ -7,22 +7,21 @@ use stage_sim::{Blob, RangerData, SensorScan};
 /// Player's ranges for a ranger (spec §8.3): one transducer gives all its samples, several give
 /// the first sample of each.
 pub fn ranger_ranges(d: &RangerData) -> Vec<f64> {
-    flatten(d, |s| &s.ranges)
+    flatten(d, d.ranges(), |s| s.ranges)
 }
 
 /// Intensities flattened like [`ranger_ranges`].
 pub fn ranger_intensities(d: &RangerData) -> Vec<f64> {
-    flatten(d, |s| &s.intensities)
+    flatten(d, d.intensities(), |s| s.intensities)
 }
 
-fn flatten(d: &RangerData, f: impl Fn(&SensorScan) -> &Vec<f64>) -> Vec<f64> {
-    if d.scans.len() == 1 {
-        f(&d.scans[0]).clone()
+/// `all` (one of `d`'s flat sample lists) when `d` has one transducer, else the first sample of
+/// each transducer's part of it (`part`).
+fn flatten<'a>(d: &'a RangerData, all: &[f64], part: fn(SensorScan<'a>) -> &'a [f64]) -> Vec<f64> {
+    if d.scans().len() == 1 {
+        all.to_vec()
     } else {
-        d.scans
-            .iter()
-            .filter_map(|s| f(s).first().copied())
-            .collect()
+        d.scans().filter_map(|s| part(s).first().copied()).collect()
     }
 }
 
@@ -77,16 +76,19 @@ mod tests {
 
     #[test]
     fn one_transducer_gives_every_sample_several_give_the_first_of_each() {
-        let scan = |r: &[f64]| SensorScan {
-            ranges: r.to_vec(),
-            intensities: r.iter().map(|v| v * 10.0).collect(),
-            ..SensorScan::default()
-        };
+        fn scan<'a>(ranges: &'a [f64], intensities: &'a [f64]) -> SensorScan<'a> {
+            SensorScan {
+                ranges,
+                intensities,
+                bearings: &[],
+            }
+        }
+        let (a, ta) = ([1.0, 2.0, 3.0], [10.0, 20.0, 30.0]);
+        let (b, tb) = ([4.0, 5.0], [40.0, 50.0]);
         let mut d = RangerData::new(Vec::new());
-        d.scans = vec![scan(&[1.0, 2.0, 3.0])];
+        d.set_scans([scan(&a, &ta)]);
         assert_eq!(ranger_ranges(&d), [1.0, 2.0, 3.0]);
-        d.scans.push(scan(&[4.0, 5.0]));
-        d.scans.push(scan(&[]));
+        d.set_scans([scan(&a, &ta), scan(&b, &tb), scan(&[], &[])]);
         assert_eq!(ranger_ranges(&d), [1.0, 4.0]);
         assert_eq!(ranger_intensities(&d), [10.0, 40.0]);
     }

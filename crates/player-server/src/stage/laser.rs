@@ -99,7 +99,7 @@ impl Interface for Laser {
         let data = out.new_sample(b.answer(b.world.ranger_scans(b.model)), |s| s.time_us)?;
         let scan_id = self.scans;
         self.scans = self.scans.wrapping_add(1);
-        let (Some(sensor), Some(scan)) = (data.sensors.first(), data.scans.first()) else {
+        let (Some(sensor), Some(scan)) = (data.sensors.first(), data.scan(0)) else {
             return None;
         };
         let cfg = ScanConfig::of(self.scan.as_ref(), sensor);

@@ -28,12 +28,7 @@ impl Interface for Sonar {
     /// DATA RANGES: the first sample of each transducer, as floats.
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
         let data = out.new_sample(b.answer(b.world.ranger_scans(b.model)), |s| s.time_us)?;
-        let ranges: Vec<f32> = data
-            .scans
-            .iter()
-            .filter_map(|s| s.ranges.first())
-            .map(|&r| r as f32)
-            .collect();
+        let ranges: Vec<f32> = data.first_ranges().flatten().map(|r| r as f32).collect();
         if !ranges.is_empty() {
             out.publish(SonarData::Ranges(SonarDataRanges { ranges }));
         }

@@ -67,26 +67,38 @@ impl SensorDesc {
 /// (simple.world, 2 cores: chunks of 10 were 8% slower, of 20 3%, of 45-60 5-10%).
 const FAN_CHUNK: usize = 28;
 
-/// One transducer's latest scan.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct SensorScan {
+/// One transducer's latest scan: its part of the ranger's sample lists.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorScan<'a> {
     /// Range per sample (m); `range.max` on a miss.
-    pub ranges: Vec<f64>,
+    pub ranges: &'a [f64],
     /// Intensity per sample: the hit model's `ranger_return`, 0 on a miss.
-    pub intensities: Vec<f64>,
+    pub intensities: &'a [f64],
     /// Bearing of each sample relative to the sensor heading (rad).
-    pub bearings: Vec<f64>,
+    pub bearings: &'a [f64],
 }
 
 /// A ranger's configuration and data (what a server publishes as Player `ranger` data).
+///
+/// The samples of every transducer sit in three flat lists, transducer after transducer,
+/// rather than three small lists per transducer: a swarmbot's 12 one-sample IR sensors are
+/// written by every update and read by its controller every step, and 36 separate allocations
+/// per robot scatter that work over memory.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RangerData {
     /// Sim time of the update that produced the scans (µs); 0 before the first update.
     pub time_us: u64,
     /// Transducer configuration, in entity order.
     pub sensors: Vec<SensorDesc>,
-    /// Latest scan per transducer (empty before the first update and after shutdown).
-    pub scans: Vec<SensorScan>,
+    /// Every transducer's ranges, one after the other (empty before the first update and after
+    /// shutdown).
+    ranges: Vec<f64>,
+    /// Intensities, laid out as `ranges`.
+    intensities: Vec<f64>,
+    /// Bearings, laid out as `ranges`.
+    bearings: Vec<f64>,
+    /// Per transducer, one past its last sample in the flat lists (empty: no scans).
+    ends: Vec<usize>,
     /// Per transducer: cos/sin of the first ray's heading and of the angular step.
     dirs: Vec<[f64; 4]>,
 }
@@ -95,10 +107,8 @@ impl RangerData {
     /// A ranger with the given transducers and no data yet.
     pub fn new(sensors: Vec<SensorDesc>) -> RangerData {
         RangerData {
-            time_us: 0,
             sensors,
-            scans: Vec::new(),
-            dirs: Vec::new(),
+            ..RangerData::default()
         }
     }
 
@@ -109,8 +119,99 @@ impl RangerData {
 
     /// Clears the data (shutdown).
     pub fn clear(&mut self) {
-        self.scans.clear();
+        self.ranges.clear();
+        self.intensities.clear();
+        self.bearings.clear();
+        self.ends.clear();
         self.time_us = 0;
+    }
+
+    /// The latest scan of each transducer, in entity order (none before the first update and
+    /// after shutdown).
+    pub fn scans(&self) -> impl ExactSizeIterator<Item = SensorScan<'_>> + '_ {
+        (0..self.ends.len()).map(|k| self.scan(k).expect("k < ends.len()"))
+    }
+
+    /// Transducer `k`'s latest scan, if there is one.
+    pub fn scan(&self, k: usize) -> Option<SensorScan<'_>> {
+        let r = self.span_of(k)?;
+        Some(SensorScan {
+            ranges: &self.ranges[r.clone()],
+            intensities: &self.intensities[r.clone()],
+            bearings: &self.bearings[r],
+        })
+    }
+
+    /// Each transducer's first range, in entity order (`None` for a transducer without
+    /// samples): what Player's sonar and Stage's swarm controllers read of one-sample
+    /// transducers.
+    pub fn first_ranges(&self) -> impl Iterator<Item = Option<f64>> + '_ {
+        let mut start = 0;
+        self.ends.iter().map(move |&end| {
+            let first = (start < end).then(|| self.ranges[start]);
+            start = end;
+            first
+        })
+    }
+
+    /// Transducer `k`'s first range, if it has a scan with samples.
+    pub fn first_range(&self, k: usize) -> Option<f64> {
+        let r = self.span_of(k)?;
+        self.ranges[r].first().copied()
+    }
+
+    /// Every transducer's ranges, one transducer after the other.
+    pub fn ranges(&self) -> &[f64] {
+        &self.ranges
+    }
+
+    /// Every transducer's intensities, laid out as [`RangerData::ranges`].
+    pub fn intensities(&self) -> &[f64] {
+        &self.intensities
+    }
+
+    /// Every transducer's bearings, laid out as [`RangerData::ranges`].
+    pub fn bearings(&self) -> &[f64] {
+        &self.bearings
+    }
+
+    /// Replaces the scans with `scans`, one per transducer (data that did not come from an
+    /// update: a converter's test, a replayed log).
+    pub fn set_scans<'a>(&mut self, scans: impl IntoIterator<Item = SensorScan<'a>>) {
+        self.clear();
+        for s in scans {
+            let n = s.ranges.len();
+            let fill = |dst: &mut Vec<f64>, src: &[f64]| {
+                dst.extend((0..n).map(|i| src.get(i).copied().unwrap_or(0.0)))
+            };
+            fill(&mut self.ranges, s.ranges);
+            fill(&mut self.intensities, s.intensities);
+            fill(&mut self.bearings, s.bearings);
+            self.ends.push(self.ranges.len());
+        }
+    }
+
+    /// Where transducer `k`'s samples sit in the flat lists (`None`: no such scan).
+    fn span_of(&self, k: usize) -> Option<std::ops::Range<usize>> {
+        let end = *self.ends.get(k)?;
+        let start = if k == 0 { 0 } else { self.ends[k - 1] };
+        Some(start..end)
+    }
+
+    /// Lays the flat lists out for the transducers (once, after `new` or a shutdown): each gets
+    /// `samples` slots (at least one) and its bearings, which never change.
+    fn lay_out(&mut self) {
+        self.clear();
+        for s in &self.sensors {
+            let n = s.samples.max(1) as usize;
+            let (start, incr) = fan_angles(s);
+            self.bearings
+                .extend((0..n).map(|t| if n > 1 { start + t as f64 * incr } else { 0.0 }));
+            self.ends.push(self.bearings.len());
+        }
+        let total = self.bearings.len();
+        self.ranges.resize(total, 0.0);
+        self.intensities.resize(total, 0.0);
     }
 }
 
@@ -142,9 +243,9 @@ impl ModelKind for RangerData {
     /// Feeds every transducer's ranges, intensities and bearings to the determinism digest.
     fn digest(&self, d: &mut Digest) {
         d.u64(self.time_us);
-        for s in &self.scans {
+        for s in self.scans() {
             d.u64(s.ranges.len() as u64);
-            for ((&r, &i), &b) in s.ranges.iter().zip(&s.intensities).zip(&s.bearings) {
+            for ((&r, &i), &b) in s.ranges.iter().zip(s.intensities).zip(s.bearings) {
                 d.f64(r);
                 d.f64(i);
                 d.f64(b);
@@ -249,7 +350,9 @@ const LONGEST_RUN: usize = 16;
 fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
     let frame = v.body_frame(m);
     let root = v.root(m);
-    d.scans.resize_with(d.sensors.len(), SensorScan::default);
+    if d.ends.len() != d.sensors.len() {
+        d.lay_out();
+    }
     let (fs, fc) = frame.a.sin_cos();
     if d.dirs.len() != d.sensors.len() {
         d.dirs = d
@@ -273,18 +376,19 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
         ]
     };
     let first_dir = |[sc, ss, _, _]: [f64; 4]| [fc * sc - fs * ss, fs * sc + fc * ss];
-    // a run's directions and readings (set up once per update, not per run)
+    // a run's directions (set up once per update, not per run)
     let mut dirs = [[0.0; 2]; LONGEST_RUN];
-    let mut readings = [(0.0, 0.0); LONGEST_RUN];
     let mut k = 0;
     while k < d.sensors.len() {
         let sensor = &d.sensors[k];
         let n = sensor.samples.max(1) as usize;
         let o = origin(sensor);
         let max = sensor.range[1];
+        let first_sample = if k == 0 { 0 } else { d.ends[k - 1] };
         if n == 1 {
             // this and the following one-sample transducers from the same origin with the same
-            // reach: one fan, so that what the rays share is worked out once
+            // reach: one fan, so that what the rays share is worked out once. Their samples are
+            // consecutive in the flat lists.
             let mut run = 1;
             while k + run < d.sensors.len()
                 && run < LONGEST_RUN
@@ -294,48 +398,33 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
             {
                 run += 1;
             }
+            let samples = first_sample..first_sample + run;
+            let (ranges, intensities) =
+                (&mut d.ranges[samples.clone()], &mut d.intensities[samples]);
             if run == 1 {
                 // a lone ray: a fan's shared setup would cost more than it saves
-                readings[0] = cast_ray(v, o, first_dir(d.dirs[k]), max, root);
+                (ranges[0], intensities[0]) = cast_ray(v, o, first_dir(d.dirs[k]), max, root);
             } else {
                 for (j, slot) in dirs[..run].iter_mut().enumerate() {
                     *slot = first_dir(d.dirs[k + j]);
                 }
                 cast_fan(v, o, &dirs[..run], max, root, |i, r, s| {
-                    readings[i] = (r, s)
+                    ranges[i] = r;
+                    intensities[i] = s;
                 });
             }
             // noise in transducer order, as ray by ray
-            for (j, &(r, s)) in readings[..run].iter().enumerate() {
-                let (sensor, scan) = (&d.sensors[k + j], &mut d.scans[k + j]);
-                let r = with_noise(sensor, r, rng);
-                if let ([range], [intensity], [_]) = (
-                    &mut scan.ranges[..],
-                    &mut scan.intensities[..],
-                    &scan.bearings[..],
-                ) {
-                    *range = r;
-                    *intensity = s;
-                } else {
-                    *scan = SensorScan {
-                        ranges: vec![r],
-                        intensities: vec![s],
-                        bearings: vec![0.0],
-                    };
-                }
+            for (sensor, r) in d.sensors[k..k + run].iter().zip(ranges.iter_mut()) {
+                *r = with_noise(sensor, *r, rng);
             }
             k += run;
             continue;
         }
-        let (start, incr) = fan_angles(sensor);
-        let bearing = |t: usize| start + t as f64 * incr;
         let [_, _, ic, is] = d.dirs[k];
         // sweep the fan by rotating the direction vector (one sine/cosine per sensor)
         let rotate = |[c, s]: [f64; 2]| [c * ic - s * is, c * is + s * ic];
-        let scan = &mut d.scans[k];
-        scan.ranges.resize(n, 0.0);
-        scan.intensities.resize(n, 0.0);
-        scan.bearings.resize(n, 0.0);
+        let samples = first_sample..first_sample + n;
+        let (ranges, intensities) = (&mut d.ranges[samples.clone()], &mut d.intensities[samples]);
         let first = first_dir(d.dirs[k]);
         if n >= SHORT_FAN {
             // long fan: the casts in parallel chunks, each thread sweeping the directions up
@@ -343,10 +432,9 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
             // then the noise in ray order so that the random stream does not depend on how the
             // casts were split. Each chunk's part of the scan waits behind a lock of its own,
             // taken once, by whichever thread claims the chunk.
-            let parts: Vec<Mutex<(&mut [f64], &mut [f64])>> = scan
-                .ranges
+            let parts: Vec<Mutex<(&mut [f64], &mut [f64])>> = ranges
                 .chunks_mut(FAN_CHUNK)
-                .zip(scan.intensities.chunks_mut(FAN_CHUNK))
+                .zip(intensities.chunks_mut(FAN_CHUNK))
                 .map(Mutex::new)
                 .collect();
             // per thread: the index of the next direction and that direction
@@ -374,13 +462,8 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
             drop(parts);
             // this path runs on one thread between parallel parts: skip what cannot change
             if sensor.noise > 0.0 || sensor.noise_relative > 0.0 {
-                for r in scan.ranges.iter_mut() {
+                for r in ranges.iter_mut() {
                     *r = with_noise(sensor, *r, rng);
-                }
-            }
-            if scan.bearings[0] != bearing(0) || scan.bearings[n - 1] != bearing(n - 1) {
-                for (t, b) in scan.bearings.iter_mut().enumerate() {
-                    *b = bearing(t);
                 }
             }
         } else {
@@ -391,17 +474,72 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
                 *slot = dir;
                 dir = rotate(dir);
             }
-            let (ranges, intensities) = (&mut scan.ranges, &mut scan.intensities);
             cast_fan(v, o, &dirs[..n], max, root, |i, r, s| {
                 ranges[i] = r;
                 intensities[i] = s;
             });
-            for t in 0..n {
-                scan.ranges[t] = with_noise(sensor, scan.ranges[t], rng);
-                scan.bearings[t] = bearing(t);
+            for r in ranges.iter_mut() {
+                *r = with_noise(sensor, *r, rng);
             }
         }
         k += 1;
     }
     d.time_us = v.sim_time;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sensor(samples: u32, fov_deg: f64) -> SensorDesc {
+        SensorDesc {
+            samples,
+            fov: fov_deg.to_radians(),
+            ..SensorDesc::default()
+        }
+    }
+
+    /// The flat lists give each transducer its own samples, in entity order: a laid-out ranger
+    /// has a slot per sample (one for a transducer of none) and each fan's bearings; scans set
+    /// from outside read back as given.
+    #[test]
+    fn scans_are_each_transducers_part_of_the_flat_lists() {
+        let mut d = RangerData::new(vec![sensor(1, 30.0), sensor(3, 90.0), sensor(0, 10.0)]);
+        assert_eq!(d.scans().len(), 0, "no scans before the first update");
+        assert_eq!(d.first_range(0), None);
+        d.lay_out();
+        let lens: Vec<usize> = d.scans().map(|s| s.ranges.len()).collect();
+        assert_eq!(lens, [1, 3, 1]);
+        let q = 45f64.to_radians();
+        assert_eq!(d.scan(1).unwrap().bearings, [-q, 0.0, q]);
+        assert_eq!(d.bearings(), [0.0, -q, 0.0, q, 0.0]);
+        assert!(d.scan(3).is_none());
+
+        d.set_scans([
+            SensorScan {
+                ranges: &[1.0, 2.0],
+                intensities: &[5.0],
+                bearings: &[0.1, 0.2],
+            },
+            SensorScan {
+                ranges: &[],
+                intensities: &[],
+                bearings: &[],
+            },
+            SensorScan {
+                ranges: &[3.0],
+                intensities: &[6.0],
+                bearings: &[0.3],
+            },
+        ]);
+        assert_eq!(d.ranges(), [1.0, 2.0, 3.0]);
+        // a short list is padded with zeros to the transducer's sample count
+        assert_eq!(d.intensities(), [5.0, 0.0, 6.0]);
+        assert_eq!(d.scan(2).unwrap().bearings, [0.3]);
+        let firsts: Vec<Option<f64>> = d.first_ranges().collect();
+        assert_eq!(firsts, [Some(1.0), None, Some(3.0)]);
+        assert_eq!((d.first_range(1), d.first_range(2)), (None, Some(3.0)));
+        d.clear();
+        assert_eq!((d.scans().len(), d.ranges().len()), (0, 0));
+    }
 }

@@ -67,8 +67,6 @@ pub struct Node {
     pub origin: Pose,
     /// Children's z measured from this model's top.
     pub stack_children: bool,
-    /// What the model is to collisions and to other models' sensors.
-    pub returns: Returns,
     /// Update period (µs).
     pub update_interval_us: u64,
     /// Mass (kg).

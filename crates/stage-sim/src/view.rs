@@ -2,13 +2,14 @@
 //! poses and colours at the end of the previous step, and the spatial index.
 
 use crate::color::Color;
-use crate::node::{ModelId, Node};
+use crate::node::{ModelId, Node, Returns};
 use crate::pose::Pose;
 use crate::space::Space;
 
 /// Read-only view of the world handed to model updates (phase 1).
 pub(crate) struct View<'a> {
     pub nodes: &'a [Node],
+    pub returns: &'a [Returns],
     pub globals: &'a [Pose],
     pub colors: &'a [Color],
     pub space: &'a Space,

@@ -72,12 +72,12 @@ impl ModelKind for FiducialModel {
         let (f, cfg, d) = (m, &self.cfg, &mut self.data);
         d.fiducials.clear();
         let fg = v.globals[f.index()];
-        let key = fnode.returns.fiducial_key;
+        let key = v.returns[f.index()].fiducial_key;
         let root = v.root(f);
         let frame = v.body_frame(f);
         for &h in v.fiducial_targets {
-            let hn = &v.nodes[h.index()];
-            if hn.returns.fiducial == 0 || hn.returns.fiducial_key != key || v.root(h) == root {
+            let hr = v.returns[h.index()];
+            if hr.fiducial == 0 || hr.fiducial_key != key || v.root(h) == root {
                 continue;
             }
             let hg = v.globals[h.index()];
@@ -117,7 +117,7 @@ impl ModelKind for FiducialModel {
             }
             d.fiducials.push(Fiducial {
                 id: if dist < cfg.range_max_id {
-                    hn.returns.fiducial
+                    hr.fiducial
                 } else {
                     0
                 },
@@ -125,7 +125,7 @@ impl ModelKind for FiducialModel {
                 range: dist,
                 bearing: dtheta,
                 heading: normalize(hg.a - fg.a),
-                geom: hn.size,
+                geom: v.nodes[h.index()].size,
                 pose: hg,
             });
         }

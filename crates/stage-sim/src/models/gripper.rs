@@ -190,7 +190,7 @@ impl ModelKind for GripperModel {
         let [px, py, _] = g.cfg.paddle_size;
         let pos = d.paddle_pos;
         let frame = v.body_frame(m);
-        let pred = |h: ModelId| h != m && v.nodes[h.index()].returns.gripper;
+        let pred = |h: ModelId| h != m && v.returns[h.index()].gripper;
         let cast = |x: f64, y: f64, a: f64, len: f64| -> Option<ModelId> {
             if len <= 0.0 {
                 return None;

@@ -101,12 +101,24 @@ pub struct RangerData {
     ends: Vec<usize>,
     /// Per transducer: cos/sin of the first ray's heading and of the angular step.
     dirs: Vec<[f64; 4]>,
+    /// How the transducers are cast, in entity order: each entry a number of consecutive
+    /// transducers cast together (one-sample transducers at one origin with one reach, as one
+    /// fan), so that an update reads its transducers' descriptions only for their origins.
+    runs: Vec<usize>,
+    /// No transducer adds noise (the updates skip the noise pass).
+    quiet: bool,
+    /// The flat lists, bearings, directions and runs are set up for the transducers.
+    laid_out: bool,
+    /// [`RangerData::ray_count`] of the transducers given to `new`: the step asks every ranger
+    /// for it, one after another, before it shares the updates out.
+    rays: usize,
 }
 
 impl RangerData {
     /// A ranger with the given transducers and no data yet.
     pub fn new(sensors: Vec<SensorDesc>) -> RangerData {
         RangerData {
+            rays: sensors.iter().map(|s| s.samples as usize).sum(),
             sensors,
             ..RangerData::default()
         }
@@ -123,6 +135,7 @@ impl RangerData {
         self.intensities.clear();
         self.bearings.clear();
         self.ends.clear();
+        self.laid_out = false;
         self.time_us = 0;
     }
 
@@ -199,7 +212,8 @@ impl RangerData {
     }
 
     /// Lays the flat lists out for the transducers (once, after `new` or a shutdown): each gets
-    /// `samples` slots (at least one) and its bearings, which never change.
+    /// `samples` slots (at least one) and its bearings, which never change; works out each
+    /// transducer's directions and how the transducers are cast.
     fn lay_out(&mut self) {
         self.clear();
         for s in &self.sensors {
@@ -212,6 +226,41 @@ impl RangerData {
         let total = self.bearings.len();
         self.ranges.resize(total, 0.0);
         self.intensities.resize(total, 0.0);
+        self.dirs = self
+            .sensors
+            .iter()
+            .map(|s| {
+                let (start, incr) = fan_angles(s);
+                let (ss, sc) = (s.pose.a + start).sin_cos();
+                let (is, ic) = incr.sin_cos();
+                [sc, ss, ic, is]
+            })
+            .collect();
+        // a one-sample transducer joins the run before it when that run is of one-sample
+        // transducers at the same place in the body frame with the same reach
+        let single = |s: &SensorDesc| s.samples.max(1) == 1;
+        let place = |s: &SensorDesc| (s.pose.x, s.pose.y, s.pose.z + s.size[2] / 2.0, s.range[1]);
+        self.runs.clear();
+        let mut k = 0;
+        while k < self.sensors.len() {
+            let first = &self.sensors[k];
+            let mut run = 1;
+            while single(first)
+                && k + run < self.sensors.len()
+                && run < LONGEST_RUN
+                && single(&self.sensors[k + run])
+                && place(&self.sensors[k + run]) == place(first)
+            {
+                run += 1;
+            }
+            self.runs.push(run);
+            k += run;
+        }
+        self.quiet = self
+            .sensors
+            .iter()
+            .all(|s| s.noise <= 0.0 && s.noise_relative <= 0.0);
+        self.laid_out = true;
     }
 }
 
@@ -228,7 +277,7 @@ pub(crate) fn start(sensors: &[SensorDesc], _: &Pose, _: &mut SimRng) -> RangerD
 
 impl ModelKind for RangerData {
     fn ray_cost(&self) -> usize {
-        self.ray_count()
+        self.rays
     }
 
     #[inline]
@@ -268,7 +317,7 @@ pub(crate) fn laser_as_ranger(l: &wm::LaserSpec, rng: &mut SimRng) -> (KindDesc,
 /// Whether model `h` stops ranger rays (a negative `ranger_return` lets them through).
 #[inline(always)]
 fn stops_rays(v: &View, h: ModelId) -> bool {
-    v.nodes[h.index()].returns.ranger >= 0.0
+    v.returns[h.index()].ranger >= 0.0
 }
 
 /// What a transducer reads for a ray's `hit`: the range and the intensity (the model's
@@ -276,7 +325,7 @@ fn stops_rays(v: &View, h: ModelId) -> bool {
 #[inline(always)]
 fn reading(v: &View, hit: Option<RayHit>, max: f64) -> (f64, f64) {
     match hit {
-        Some(h) => (h.range, v.nodes[h.model.index()].returns.ranger),
+        Some(h) => (h.range, v.returns[h.model.index()].ranger),
         None => (max, 0.0),
     }
 }
@@ -350,22 +399,10 @@ const LONGEST_RUN: usize = 16;
 fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
     let frame = v.body_frame(m);
     let root = v.root(m);
-    if d.ends.len() != d.sensors.len() {
+    if !d.laid_out {
         d.lay_out();
     }
     let (fs, fc) = frame.a.sin_cos();
-    if d.dirs.len() != d.sensors.len() {
-        d.dirs = d
-            .sensors
-            .iter()
-            .map(|s| {
-                let (start, incr) = fan_angles(s);
-                let (ss, sc) = (s.pose.a + start).sin_cos();
-                let (is, ic) = incr.sin_cos();
-                [sc, ss, ic, is]
-            })
-            .collect();
-    }
     // a transducer's ray origin (x, y and the height for the z test) and its first direction
     let origin = |sensor: &SensorDesc| -> [f64; 3] {
         let (sx, sy) = (sensor.pose.x, sensor.pose.y);
@@ -379,25 +416,16 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
     // a run's directions (set up once per update, not per run)
     let mut dirs = [[0.0; 2]; LONGEST_RUN];
     let mut k = 0;
-    while k < d.sensors.len() {
+    for r in 0..d.runs.len() {
+        let run = d.runs[r];
         let sensor = &d.sensors[k];
         let n = sensor.samples.max(1) as usize;
         let o = origin(sensor);
         let max = sensor.range[1];
         let first_sample = if k == 0 { 0 } else { d.ends[k - 1] };
         if n == 1 {
-            // this and the following one-sample transducers from the same origin with the same
-            // reach: one fan, so that what the rays share is worked out once. Their samples are
-            // consecutive in the flat lists.
-            let mut run = 1;
-            while k + run < d.sensors.len()
-                && run < LONGEST_RUN
-                && d.sensors[k + run].samples.max(1) == 1
-                && d.sensors[k + run].range[1] == max
-                && origin(&d.sensors[k + run]) == o
-            {
-                run += 1;
-            }
+            // one-sample transducers from one origin with one reach: one fan, so that what the
+            // rays share is worked out once. Their samples are consecutive in the flat lists.
             let samples = first_sample..first_sample + run;
             let (ranges, intensities) =
                 (&mut d.ranges[samples.clone()], &mut d.intensities[samples]);
@@ -414,8 +442,10 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
                 });
             }
             // noise in transducer order, as ray by ray
-            for (sensor, r) in d.sensors[k..k + run].iter().zip(ranges.iter_mut()) {
-                *r = with_noise(sensor, *r, rng);
+            if !d.quiet {
+                for (sensor, r) in d.sensors[k..k + run].iter().zip(ranges.iter_mut()) {
+                    *r = with_noise(sensor, *r, rng);
+                }
             }
             k += run;
             continue;
@@ -541,5 +571,29 @@ mod tests {
         assert_eq!((d.first_range(1), d.first_range(2)), (None, Some(3.0)));
         d.clear();
         assert_eq!((d.scans().len(), d.ranges().len()), (0, 0));
+    }
+
+    /// One-sample transducers at one place with one reach are cast together (up to
+    /// LONGEST_RUN); a fan, another place or another reach starts a new run. Noise anywhere
+    /// keeps the noise pass.
+    #[test]
+    fn runs_group_one_sample_transducers_at_one_place() {
+        let at = |x: f64, range: f64| SensorDesc {
+            pose: Pose::new(x, 0.0, 0.0, 0.0),
+            range: [0.0, range],
+            ..sensor(1, 30.0)
+        };
+        let mut sensors = vec![at(0.0, 2.0); 3];
+        sensors.push(at(0.1, 2.0));
+        sensors.push(at(0.1, 3.0));
+        sensors.push(sensor(5, 90.0));
+        sensors.extend(vec![at(0.0, 2.0); LONGEST_RUN + 2]);
+        let mut d = RangerData::new(sensors);
+        d.lay_out();
+        assert_eq!(d.runs, [3, 1, 1, 1, LONGEST_RUN, 2]);
+        assert!(d.quiet);
+        d.sensors[4].noise = 0.01;
+        d.lay_out();
+        assert!(!d.quiet);
     }
 }

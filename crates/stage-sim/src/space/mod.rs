@@ -158,6 +158,12 @@ impl Space {
         }
     }
 
+    /// The root of model `m`'s tree.
+    #[inline]
+    pub(crate) fn root_of(&self, m: ModelId) -> ModelId {
+        self.roots[m.index()]
+    }
+
     /// Models whose bodies are registered as static (never moved).
     pub(crate) fn is_static(&self, m: ModelId) -> bool {
         self.is_static[m.index()]

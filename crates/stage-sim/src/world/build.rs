@@ -63,7 +63,6 @@ impl World {
                 size: m.size,
                 origin: m.origin,
                 stack_children: m.stack_children,
-                returns: m.returns,
                 update_interval_us: m.update_interval_us.max(1),
                 mass: m.mass,
                 blocks: local_blocks(m)?,
@@ -101,11 +100,14 @@ impl World {
 
         let mut states = Vec::with_capacity(n);
         let mut positions = Vec::new();
+        let mut grippers = Vec::new();
         for (i, m) in desc.models.iter().enumerate() {
             let mut rng = SimRng::new(seed, i as u64);
             let kind = KindState::new(&m.kind, &globals[i], &mut rng);
-            if matches!(kind, KindState::Position(_)) {
-                positions.push(ModelId(i as u32));
+            match kind {
+                KindState::Position(_) => positions.push(ModelId(i as u32)),
+                KindState::Gripper(_) => grippers.push(ModelId(i as u32)),
+                _ => {}
             }
             // a kind that shapes its own body (the gripper's base and paddles, spec §11.2)
             if let Some(blocks) = kind.own_blocks(m.size) {
@@ -126,8 +128,9 @@ impl World {
                 kind,
             });
         }
+        let returns: Vec<Returns> = desc.models.iter().map(|m| m.returns).collect();
         let fiducial_targets = (0..n as u32)
-            .filter(|&i| nodes[i as usize].returns.fiducial != 0)
+            .filter(|&i| returns[i as usize].fiducial != 0)
             .map(ModelId)
             .collect();
 
@@ -143,12 +146,14 @@ impl World {
             colors: desc.models.iter().map(|m| m.color).collect(),
             says: desc.models.iter().map(|m| m.say.clone()).collect(),
             nodes,
+            returns,
             poses,
             globals,
             space,
             states,
             names,
             positions,
+            grippers,
             fiducial_targets,
             controllers: Vec::new(),
             warnings: Vec::new(),

@@ -39,6 +39,7 @@ use crate::rng::SimRng;
 use crate::space::Space;
 
 pub use crate::desc::WorldConfig;
+use crate::node::Returns;
 pub use crate::node::{LocalBlock, ModelId, Node};
 pub(crate) use crate::view::View;
 
@@ -88,6 +89,9 @@ pub struct World {
     sim_time: u64,
     updates: u64,
     nodes: Vec<Node>,
+    /// Each model's `*_return` properties, apart from the rest of its node: the ray and contact
+    /// loops read them for every candidate they meet.
+    returns: Vec<Returns>,
     poses: Vec<Pose>,
     globals: Vec<Pose>,
     colors: Vec<Color>,
@@ -96,6 +100,8 @@ pub struct World {
     states: Vec<ModelState>,
     names: HashMap<String, ModelId>,
     positions: Vec<ModelId>,
+    /// The gripper models, in creation order (their grasps and releases come before the moves).
+    grippers: Vec<ModelId>,
     fiducial_targets: Vec<ModelId>,
     controllers: Vec<ControllerSlot>,
     warnings: Vec<String>,

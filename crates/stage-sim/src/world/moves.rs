@@ -121,7 +121,7 @@ impl World {
             }
         }
         // the contact test's order-independent half (World::contact)
-        let accept = obstacle_to(&self.nodes, self.nodes[i].root);
+        let accept = obstacle_to(&self.space, &self.returns, self.nodes[i].root);
         let body_after = |j: usize| -> &Body {
             if plan.refresh[j] {
                 &plan.bodies[j]
@@ -129,7 +129,7 @@ impl World {
                 self.space.body(plan.models[j])
             }
         };
-        let movers = (0..n).filter(|&j| self.nodes[plan.models[j].index()].returns.obstacle);
+        let movers = (0..n).filter(|&j| self.returns[plan.models[j].index()].obstacle);
         let ground = movers.clone().any(|j| below_ground(body_after(j)));
         plan.static_hit = ground
             || movers
@@ -152,18 +152,18 @@ impl World {
                 }
             }
             let root = self.nodes[i].root;
-            let nodes = &self.nodes;
+            let returns = &self.returns;
             self.subtree.clear();
             self.subtree.extend(
                 plan.models
                     .iter()
                     .copied()
-                    .filter(|&x| nodes[x.index()].returns.obstacle),
+                    .filter(|&x| returns[x.index()].obstacle),
             );
             let hit = self.space.touches_dynamic(
                 &self.subtree,
                 &mut self.scratch,
-                obstacle_to(nodes, root),
+                obstacle_to(&self.space, returns, root),
             );
             if hit {
                 self.poses[i] = old;

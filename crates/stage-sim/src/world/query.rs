@@ -255,15 +255,15 @@ impl World {
 
     /// The model's own `fiducial_return` (Player fiducial GET_ID).
     pub fn fiducial_id(&self, m: ModelId) -> Result<i32> {
-        Ok(self.nodes[self.check(m)?].returns.fiducial)
+        Ok(self.returns[self.check(m)?].fiducial)
     }
 
     /// Sets the model's own `fiducial_return` (Player fiducial SET_ID).
     pub fn set_fiducial_id(&mut self, m: ModelId, id: i32) -> Result<()> {
         let i = self.check(m)?;
-        self.nodes[i].returns.fiducial = id;
+        self.returns[i].fiducial = id;
         self.fiducial_targets = (0..self.nodes.len() as u32)
-            .filter(|&i| self.nodes[i as usize].returns.fiducial != 0)
+            .filter(|&i| self.returns[i as usize].fiducial != 0)
             .map(ModelId)
             .collect();
         Ok(())

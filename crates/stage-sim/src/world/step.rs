@@ -47,6 +47,7 @@ impl World {
         if any {
             let view = View {
                 nodes: &self.nodes,
+                returns: &self.returns,
                 globals: &self.globals,
                 colors: &self.colors,
                 space: &self.space,
@@ -75,7 +76,8 @@ impl World {
 
         // ---- phase 2: grasps, body changes, moves ----
         if any {
-            for i in 0..self.states.len() {
+            for k in 0..self.grippers.len() {
+                let i = self.grippers[k].index();
                 if !self.due[i] {
                     continue;
                 }
@@ -189,12 +191,16 @@ impl World {
         self.collect_subtree(m);
         let root = self.nodes[m.index()].root;
         let mut movers = std::mem::take(&mut self.subtree);
-        movers.retain(|&s| self.nodes[s.index()].returns.obstacle);
+        movers.retain(|&s| self.returns[s.index()].obstacle);
         let ground = movers.iter().any(|&s| below_ground(self.space.body(s)));
         let hit = ground
             || self
                 .space
-                .first_contact(&movers, &mut self.scratch, obstacle_to(&self.nodes, root))
+                .first_contact(
+                    &movers,
+                    &mut self.scratch,
+                    obstacle_to(&self.space, &self.returns, root),
+                )
                 .is_some();
         self.subtree = movers;
         hit

@@ -105,11 +105,12 @@ pub(super) fn below_ground(body: &Body) -> bool {
 
 /// Which models stop a move of the tree rooted at `root`: unrelated ones with
 /// `obstacle_return`.
-pub(super) fn obstacle_to(nodes: &[Node], root: ModelId) -> impl Fn(ModelId) -> bool + Copy + '_ {
-    move |o| {
-        let n = &nodes[o.index()];
-        n.root != root && n.returns.obstacle
-    }
+pub(super) fn obstacle_to<'a>(
+    space: &'a Space,
+    returns: &'a [Returns],
+    root: ModelId,
+) -> impl Fn(ModelId) -> bool + Copy + 'a {
+    move |o| space.root_of(o) != root && returns[o.index()].obstacle
 }
 
 /// The global pose of a child at `pose` in `parent`'s frame (stacked on top of it if the

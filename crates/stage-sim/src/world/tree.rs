@@ -60,20 +60,26 @@ pub(super) fn body_of(node: &Node, global: &Pose, out: &mut Body) {
     }
     let frame = global.compose(&node.origin);
     let (s, c) = frame.a.sin_cos();
+    // the points written into slots made at once (a pioneer's outline is dozens of points, and
+    // every robot's outline is rebuilt at every move)
+    let total = node.blocks.iter().map(|b| b.pts.len()).sum();
+    out.pts.resize(total, [0.0; 2]);
+    let mut next = 0;
     for b in &node.blocks {
-        let start = out.pts.len() as u32;
+        let start = next as u32;
         let mut bb = Aabb::EMPTY;
-        for p in &b.pts {
+        for (p, slot) in b.pts.iter().zip(&mut out.pts[next..]) {
             let w = [frame.x + p[0] * c - p[1] * s, frame.y + p[0] * s + p[1] * c];
             bb.add(w);
-            out.pts.push(w);
+            *slot = w;
         }
+        next += b.pts.len();
         out.aabb.merge(&bb);
         out.blocks.push(WorldBlock {
             zmin: frame.z + b.z[0],
             zmax: frame.z + b.z[1],
             start,
-            end: out.pts.len() as u32,
+            end: next as u32,
             aabb: bb,
         });
     }

@@ -526,6 +526,20 @@ macro_rules! message_table {
                     /// A REQ converts to the request itself; build ACK/NACK replies explicitly.
                     $renum => $iface($imsg::Req)
                 );
+
+                impl $renum {
+                    /// The request a reply body of this interface answers: an ACK's, or the
+                    /// REQ form a driver's reply on the same server carries (a reply built
+                    /// from the request converts to it). `None` for a NACK, which answers
+                    /// nothing, and for any other body. One accessor for every driver that
+                    /// reads the answer of a device it asked, whichever server answered.
+                    pub fn in_reply(body: &Body) -> Option<&$renum> {
+                        match body {
+                            Body::$iface($imsg::Req(r) | $imsg::Ack(r)) => Some(r),
+                            _ => None,
+                        }
+                    }
+                }
             )?
             $( body_from!($senum => $iface($imsg::Synch)); )?
         )+

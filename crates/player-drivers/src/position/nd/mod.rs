@@ -659,11 +659,8 @@ impl Driver for Nd {
         let body = reply.as_ref().ok().map(|m| &m.body);
         match asked {
             Asked::Forwarded(pending) => ctx.answer(pending, passed_on(reply)),
-            Asked::RobotGeom => match body {
-                Some(Body::Position2d(
-                    Position2dMsg::Ack(Position2dReq::GetGeom(Some(g)))
-                    | Position2dMsg::Req(Position2dReq::GetGeom(Some(g))),
-                )) => {
+            Asked::RobotGeom => match body.and_then(Position2dReq::in_reply) {
+                Some(Position2dReq::GetGeom(Some(g))) => {
                     tracing::info!(
                         "nd: robot geom: {:.3} {:.3} {:.3} {:.3} {:.3}",
                         g.size.sl,
@@ -676,22 +673,12 @@ impl Driver for Nd {
                 }
                 _ => tracing::error!("nd: failed to get geometry of underlying position device"),
             },
-            Asked::LaserGeom => match body {
-                Some(Body::Laser(
-                    LaserMsg::Ack(LaserReq::GetGeom(Some(g)))
-                    | LaserMsg::Req(LaserReq::GetGeom(Some(g))),
-                )) => {
-                    self.laser_pose = Some(g.pose);
-                }
+            Asked::LaserGeom => match body.and_then(LaserReq::in_reply) {
+                Some(LaserReq::GetGeom(Some(g))) => self.laser_pose = Some(g.pose),
                 _ => tracing::error!("nd: failed to get laser geometry"),
             },
-            Asked::SonarGeom => match body {
-                Some(Body::Sonar(
-                    SonarMsg::Ack(SonarReq::GetGeom(Some(g)))
-                    | SonarMsg::Req(SonarReq::GetGeom(Some(g))),
-                )) => {
-                    self.sonar_poses = Some(g.poses.clone());
-                }
+            Asked::SonarGeom => match body.and_then(SonarReq::in_reply) {
+                Some(SonarReq::GetGeom(Some(g))) => self.sonar_poses = Some(g.poses.clone()),
                 _ => tracing::error!("nd: failed to get sonar geometry"),
             },
         }

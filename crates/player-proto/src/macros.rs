@@ -528,11 +528,11 @@ macro_rules! message_table {
                 );
 
                 impl $renum {
-                    /// The request a reply body of this interface answers: an ACK's, or the
-                    /// REQ form a driver's reply on the same server carries (a reply built
-                    /// from the request converts to it). `None` for a NACK, which answers
-                    /// nothing, and for any other body. One accessor for every driver that
-                    /// reads the answer of a device it asked, whichever server answered.
+                    /// The request a reply body of this interface answers: an ACK's (what a
+                    /// server delivers), or the same request in its REQ form, which is what a
+                    /// reply made from the request with `into()` is (as drivers' tests hand
+                    /// them). `None` for a NACK, which answers nothing, and for any other body.
+                    /// One accessor for every reader of a device's answer that takes both.
                     pub fn in_reply(body: &Body) -> Option<&$renum> {
                         match body {
                             Body::$iface($imsg::Req(r) | $imsg::Ack(r)) => Some(r),

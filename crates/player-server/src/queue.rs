@@ -512,6 +512,16 @@ mod tests {
         messages.into_iter().map(|m| q.push(m)).collect()
     }
 
+    /// The probe of a rule on ranger DATA: a ranger:0 DATA (tag 1) then a position2d:0 DATA
+    /// (tag 2), which the rule does not match.
+    fn push_ranger_then_position2d(q: &mut OutQueue) -> Vec<PushOutcome> {
+        let probe = [
+            data(InterfaceCode::RANGER, 0, 1.0),
+            data(InterfaceCode::POSITION2D, 0, 2.0),
+        ];
+        push_each(q, probe)
+    }
+
     fn pull_queue() -> OutQueue {
         let mut q = OutQueue::default();
         q.set_pull(true);
@@ -706,12 +716,8 @@ mod tests {
     fn ignore_rule_drops_silently_even_replies() {
         let mut q = OutQueue::default();
         q.add_replace_rule(rule(62, -1, -1, -1, 2)).unwrap();
-        let pushed = [
-            data(InterfaceCode::RANGER, 0, 1.0),
-            data(InterfaceCode::POSITION2D, 0, 2.0),
-        ];
         assert_eq!(
-            push_each(&mut q, pushed),
+            push_ranger_then_position2d(&mut q),
             [PushOutcome::Ignored, PushOutcome::Queued]
         );
         q.add_replace_rule(rule(-1, -1, 4, -1, 2)).unwrap();
@@ -725,12 +731,8 @@ mod tests {
         let mut q = pull_queue();
         q.add_replace_rule(rule(62, 0, 1, -1, 2)).unwrap(); // ignore ranger:0 DATA
         q.add_replace_rule(rule(-1, -1, 1, -1, 1)).unwrap(); // replace all DATA
-        let pushed = [
-            data(InterfaceCode::RANGER, 0, 1.0),
-            data(InterfaceCode::POSITION2D, 0, 2.0),
-        ];
         assert_eq!(
-            push_each(&mut q, pushed),
+            push_ranger_then_position2d(&mut q),
             [PushOutcome::Ignored, PushOutcome::Queued]
         );
         // Same match fields: the action changes, the rule keeps its place (first).

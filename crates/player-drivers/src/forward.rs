@@ -118,6 +118,26 @@ impl Asker {
     }
 }
 
+/// A client's request a converter passed on to its input device with nothing to keep from
+/// the answer: the client's reply follows from how the device answered.
+#[derive(Debug)]
+pub(crate) enum Relayed {
+    /// An empty ACK when the device acknowledged, else a NACK ([`acked`]): POWER.
+    Acked(PendingReply),
+    /// The device's answer unchanged ([`passed_on`]): property requests.
+    PassedOn(PendingReply),
+}
+
+impl Relayed {
+    /// Answers the client with what the device's `reply` makes of it.
+    pub(crate) fn answer(self, ctx: &mut Context<'_>, reply: Result<Message, RequestError>) {
+        match self {
+            Relayed::Acked(pending) => ctx.answer(pending, acked(&reply)),
+            Relayed::PassedOn(pending) => ctx.answer(pending, passed_on(reply)),
+        }
+    }
+}
+
 /// The `handle_request` and `handle_reply` of a driver that passes every request to one of
 /// its input devices, `self.$device`, and sends the answer back unchanged (tracked in
 /// `self.waiting`, a `Waiting<PendingReply>`): upstream's filters that sit in front of a
@@ -181,18 +201,20 @@ pub(crate) fn ack_or_nack(body: Option<impl Into<Body>>) -> Reply {
 
 /// What every converter does first with a request (upstream's `ToRanger` / `FromRanger`
 /// `ProcessMessage`): a property request goes to the `input` device as it is, its answer
-/// later found as `property(pending)` in `waiting`; a CAPABILITIES request is answered for the
-/// `handled` subtypes. `None` for any other request: the converter's own to handle.
+/// later found in `waiting` as `relayed` of a [`Relayed::PassedOn`]; a CAPABILITIES request is
+/// answered for the `handled` subtypes. `None` for any other request: the converter's own to
+/// handle.
 pub(crate) fn converter_request<K>(
     ctx: &mut Context<'_>,
     waiting: &mut Waiting<K>,
     input: player_proto::DeviceAddr,
     body: &Body,
     handled: &[u8],
-    property: fn(PendingReply) -> K,
+    relayed: fn(Relayed) -> K,
 ) -> Option<Reply> {
     if is_forwarded_property(body) {
-        return Some(waiting.forward(ctx, input, body.clone(), property));
+        let what = |pending| relayed(Relayed::PassedOn(pending));
+        return Some(waiting.forward(ctx, input, body.clone(), what));
     }
     capability_reply(body, handled)
 }

@@ -526,6 +526,20 @@ macro_rules! message_table {
                     /// A REQ converts to the request itself; build ACK/NACK replies explicitly.
                     $renum => $iface($imsg::Req)
                 );
+
+                impl $renum {
+                    /// The request a reply body of this interface answers: an ACK's (what a
+                    /// server delivers), or the same request in its REQ form, which is what a
+                    /// reply made from the request with `into()` is (as drivers' tests hand
+                    /// them). `None` for a NACK, which answers nothing, and for any other body.
+                    /// One accessor for every reader of a device's answer that takes both.
+                    pub fn in_reply(body: &Body) -> Option<&$renum> {
+                        match body {
+                            Body::$iface($imsg::Req(r) | $imsg::Ack(r)) => Some(r),
+                            _ => None,
+                        }
+                    }
+                }
             )?
             $( body_from!($senum => $iface($imsg::Synch)); )?
         )+

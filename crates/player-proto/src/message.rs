@@ -674,6 +674,21 @@ mod tests {
     }
 
     #[test]
+    fn in_reply_reads_the_ack_and_the_local_req_form_only() {
+        let geom = SonarReq::GetGeom(Some(SonarGeom::default()));
+        let ack = Body::Sonar(SonarMsg::Ack(geom.clone()));
+        let req: Body = geom.clone().into();
+        assert_eq!(SonarReq::in_reply(&ack), Some(&geom));
+        assert_eq!(SonarReq::in_reply(&req), Some(&geom));
+        assert_eq!(SonarReq::in_reply(&Body::Sonar(SonarMsg::Nack(geom))), None);
+        let data = Body::Sonar(SonarMsg::Data(SonarData::Geom(SonarGeom::default())));
+        assert_eq!(SonarReq::in_reply(&data), None);
+        let laser: Body = LaserReq::GetGeom(None).into();
+        assert_eq!(SonarReq::in_reply(&laser), None);
+        assert_eq!(LaserReq::in_reply(&laser), Some(&LaserReq::GetGeom(None)));
+    }
+
+    #[test]
     fn spec_3_8_1_position2d_data_state() {
         let msg = Message {
             header: MsgHeader {

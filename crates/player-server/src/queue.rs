@@ -504,6 +504,24 @@ mod tests {
         }
     }
 
+    /// Pushes each message in turn: what became of each.
+    fn push_each(
+        q: &mut OutQueue,
+        messages: impl IntoIterator<Item = Outgoing>,
+    ) -> Vec<PushOutcome> {
+        messages.into_iter().map(|m| q.push(m)).collect()
+    }
+
+    /// The probe of a rule on ranger DATA: a ranger:0 DATA (tag 1) then a position2d:0 DATA
+    /// (tag 2), which the rule does not match.
+    fn push_ranger_then_position2d(q: &mut OutQueue) -> Vec<PushOutcome> {
+        let probe = [
+            data(InterfaceCode::RANGER, 0, 1.0),
+            data(InterfaceCode::POSITION2D, 0, 2.0),
+        ];
+        push_each(q, probe)
+    }
+
     fn pull_queue() -> OutQueue {
         let mut q = OutQueue::default();
         q.set_pull(true);
@@ -619,18 +637,15 @@ mod tests {
     fn overflow_drops_data_beyond_1024_and_reports_it() {
         // Gotcha 24: the 1025th DATA is dropped, the next round ends with SYNCH OVERFLOW.
         let mut q = pull_queue();
-        for i in 0..1024 {
-            assert_eq!(
-                q.push(data(InterfaceCode::RANGER, 0, f64::from(i))),
-                PushOutcome::Queued
-            );
-        }
-        for i in 0..5 {
-            assert_eq!(
-                q.push(data(InterfaceCode::RANGER, 0, f64::from(2000 + i))),
-                PushOutcome::Dropped
-            );
-        }
+        let ranger = |i: i32| data(InterfaceCode::RANGER, 0, f64::from(i));
+        assert_eq!(
+            push_each(&mut q, (0..1024).map(ranger)),
+            [PushOutcome::Queued; 1024]
+        );
+        assert_eq!(
+            push_each(&mut q, (2000..2005).map(ranger)),
+            [PushOutcome::Dropped; 5]
+        );
         assert_eq!(q.dropped(), 5);
         // Replies are never dropped for length.
         assert_eq!(q.push(ack(3000.0)), PushOutcome::Queued);
@@ -664,22 +679,17 @@ mod tests {
         // §7.1 step 4: the replacing message goes to the end (can reorder devices).
         let mut q = pull_queue();
         q.add_replace_rule(rule(-1, -1, 1, -1, 1)).unwrap();
+        let pushed = [
+            data(InterfaceCode::POSITION2D, 0, 1.0),
+            data(InterfaceCode::RANGER, 0, 2.0),
+            intns(3.0),
+            data(InterfaceCode::POSITION2D, 0, 4.0),
+            data(InterfaceCode::RANGER, 1, 5.0),
+        ];
+        use PushOutcome::{Queued, Replaced};
         assert_eq!(
-            q.push(data(InterfaceCode::POSITION2D, 0, 1.0)),
-            PushOutcome::Queued
-        );
-        assert_eq!(
-            q.push(data(InterfaceCode::RANGER, 0, 2.0)),
-            PushOutcome::Queued
-        );
-        assert_eq!(q.push(intns(3.0)), PushOutcome::Queued);
-        assert_eq!(
-            q.push(data(InterfaceCode::POSITION2D, 0, 4.0)),
-            PushOutcome::Replaced
-        );
-        assert_eq!(
-            q.push(data(InterfaceCode::RANGER, 1, 5.0)),
-            PushOutcome::Queued
+            push_each(&mut q, pushed),
+            [Queued, Queued, Queued, Replaced, Queued]
         );
         q.push_front(data_ack(6.0));
         q.request_data();
@@ -707,12 +717,8 @@ mod tests {
         let mut q = OutQueue::default();
         q.add_replace_rule(rule(62, -1, -1, -1, 2)).unwrap();
         assert_eq!(
-            q.push(data(InterfaceCode::RANGER, 0, 1.0)),
-            PushOutcome::Ignored
-        );
-        assert_eq!(
-            q.push(data(InterfaceCode::POSITION2D, 0, 2.0)),
-            PushOutcome::Queued
+            push_ranger_then_position2d(&mut q),
+            [PushOutcome::Ignored, PushOutcome::Queued]
         );
         q.add_replace_rule(rule(-1, -1, 4, -1, 2)).unwrap();
         assert_eq!(q.push(ack(3.0)), PushOutcome::Ignored);
@@ -726,23 +732,16 @@ mod tests {
         q.add_replace_rule(rule(62, 0, 1, -1, 2)).unwrap(); // ignore ranger:0 DATA
         q.add_replace_rule(rule(-1, -1, 1, -1, 1)).unwrap(); // replace all DATA
         assert_eq!(
-            q.push(data(InterfaceCode::RANGER, 0, 1.0)),
-            PushOutcome::Ignored
-        );
-        assert_eq!(
-            q.push(data(InterfaceCode::POSITION2D, 0, 2.0)),
-            PushOutcome::Queued
+            push_ranger_then_position2d(&mut q),
+            [PushOutcome::Ignored, PushOutcome::Queued]
         );
         // Same match fields: the action changes, the rule keeps its place (first).
         q.add_replace_rule(rule(62, 0, 1, -1, 0)).unwrap();
         assert_eq!(q.rules.len(), 2);
+        let ranger = |tag| data(InterfaceCode::RANGER, 0, tag);
         assert_eq!(
-            q.push(data(InterfaceCode::RANGER, 0, 3.0)),
-            PushOutcome::Queued
-        );
-        assert_eq!(
-            q.push(data(InterfaceCode::RANGER, 0, 4.0)),
-            PushOutcome::Queued
+            push_each(&mut q, [ranger(3.0), ranger(4.0)]),
+            [PushOutcome::Queued, PushOutcome::Queued]
         );
         assert_eq!(q.len(), 3, "accept rule first: ranger:0 no longer replaced");
     }
@@ -751,12 +750,11 @@ mod tests {
     fn rule_with_unusual_action_queues_beyond_the_length_limit() {
         let mut q = OutQueue::default();
         q.add_replace_rule(rule(-1, -1, 1, -1, 7)).unwrap();
-        for i in 0..1100 {
-            assert_eq!(
-                q.push(data(InterfaceCode::RANGER, 0, f64::from(i))),
-                PushOutcome::Queued
-            );
-        }
+        let ranger = |i: i32| data(InterfaceCode::RANGER, 0, f64::from(i));
+        assert_eq!(
+            push_each(&mut q, (0..1100).map(ranger)),
+            [PushOutcome::Queued; 1100]
+        );
         assert_eq!(q.dropped(), 0);
     }
 

@@ -3,7 +3,7 @@
 //! that need another device's map (`mapscale`, `mapcspace`, `wavefront`) keep one [`MapFetch`]
 //! and hand it every reply; it says when the grid is complete or why it cannot be.
 
-use player_proto::{Body, DeviceAddr, MapInfo, MapMsg, MapReq, Message};
+use player_proto::{DeviceAddr, MapInfo, MapReq, Message};
 use player_server::map::OccupancyGrid;
 use player_server::{Context, RequestError, RequestTicket};
 
@@ -48,21 +48,13 @@ impl MapFetch {
     ) -> Fetched {
         match self {
             MapFetch::Info(device, t) if *t == ticket => match reply {
-                // A reply's body may carry its request's type, as the bus passes it on.
-                Ok(Message {
-                    body:
-                        Body::Map(
-                            MapMsg::Ack(MapReq::GetInfo(Some(info)))
-                            | MapMsg::Req(MapReq::GetInfo(Some(info))),
-                        ),
-                    ..
-                }) => {
-                    let device = *device;
-                    self.ask_tiles(ctx, device, info)
-                }
-                Ok(msg) => {
-                    Fetched::Failed(format!("GET_INFO answered with {}", msg.body.constant()))
-                }
+                Ok(msg) => match MapReq::in_reply(&msg.body) {
+                    Some(MapReq::GetInfo(Some(info))) => {
+                        let device = *device;
+                        self.ask_tiles(ctx, device, info)
+                    }
+                    _ => Fetched::Failed(format!("GET_INFO answered with {}", msg.body.constant())),
+                },
                 Err(e) => Fetched::Failed(e.to_string()),
             },
             MapFetch::Tiles { grid, waiting, .. } => {
@@ -73,36 +65,33 @@ impl MapFetch {
                 let Some(grid) = grid.as_mut() else {
                     return Fetched::Pending;
                 };
-                match reply {
-                    Ok(Message {
-                        body:
-                            Body::Map(
-                                MapMsg::Ack(MapReq::GetData(Some(tile)))
-                                | MapMsg::Req(MapReq::GetData(Some(tile))),
-                            ),
-                        ..
-                    }) if grid.put_tile(
-                        tile.col,
-                        tile.row,
-                        tile.width,
-                        tile.height,
-                        &tile.data,
-                    ) =>
+                let msg = match reply {
+                    Ok(msg) => msg,
+                    Err(e) => return Fetched::Failed(e.to_string()),
+                };
+                match MapReq::in_reply(&msg.body) {
+                    Some(MapReq::GetData(Some(tile)))
+                        if grid.put_tile(
+                            tile.col,
+                            tile.row,
+                            tile.width,
+                            tile.height,
+                            &tile.data,
+                        ) =>
                     {
                         self.done_if_complete()
                     }
-                    Ok(msg) => Fetched::Failed(format!(
+                    _ => Fetched::Failed(format!(
                         "GET_DATA answered with an unusable {}",
                         msg.body.constant()
                     )),
-                    Err(e) => Fetched::Failed(e.to_string()),
                 }
             }
             MapFetch::Info(..) => Fetched::NotMine(reply),
         }
     }
 
-    fn ask_tiles(&mut self, ctx: &mut Context<'_>, device: DeviceAddr, info: MapInfo) -> Fetched {
+    fn ask_tiles(&mut self, ctx: &mut Context<'_>, device: DeviceAddr, info: &MapInfo) -> Fetched {
         let Some(grid) = OccupancyGrid::new(info.width, info.height, info.scale, info.origin, 0)
         else {
             return Fetched::Failed(format!(

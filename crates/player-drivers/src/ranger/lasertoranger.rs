@@ -34,9 +34,7 @@ use player_server::{
     Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
-use crate::forward::{
-    Asker, Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on,
-};
+use crate::forward::{Asker, Relayed, Waiting, ack_or_nack, acked, answer_body, converter_request};
 use crate::options;
 
 /// The name cfg files use.
@@ -175,8 +173,7 @@ enum Asked {
     SetConfig(PendingReply),
     Intensity(PendingReply),
     Geom(PendingReply),
-    Power(PendingReply),
-    Property(PendingReply),
+    Relayed(Relayed),
 }
 
 /// The driver. See the module docs.
@@ -208,14 +205,11 @@ impl LaserToRanger {
     }
 
     fn answer_config(&mut self, reply: &Result<Message, RequestError>) -> Option<RangerConfig> {
-        match answer_body(reply)? {
-            Body::Laser(LaserMsg::Req(r) | LaserMsg::Ack(r)) => match r {
-                LaserReq::GetConfig(Some(c)) | LaserReq::SetConfig(Some(c)) => {
-                    self.laser_config = c.clone();
-                    Some(ranger_config(c, self.force.as_ref()))
-                }
-                _ => None,
-            },
+        match LaserReq::in_reply(answer_body(reply)?)? {
+            LaserReq::GetConfig(Some(c)) | LaserReq::SetConfig(Some(c)) => {
+                self.laser_config = c.clone();
+                Some(ranger_config(c, self.force.as_ref()))
+            }
             _ => None,
         }
     }
@@ -284,7 +278,7 @@ impl Driver for LaserToRanger {
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
         let body = &request.body;
         let (laser, waiting) = (self.laser, &mut self.waiting);
-        if let Some(reply) = converter_request(ctx, waiting, laser, body, &HANDLED, Asked::Property)
+        if let Some(reply) = converter_request(ctx, waiting, laser, body, &HANDLED, Asked::Relayed)
         {
             return reply;
         }
@@ -293,7 +287,7 @@ impl Driver for LaserToRanger {
         };
         let (asked, to_laser): (fn(PendingReply) -> Asked, Body) = match req {
             RangerReq::Power(Some(p)) => (
-                Asked::Power,
+                |p| Asked::Relayed(Relayed::Acked(p)),
                 LaserReq::Power(Some(LaserPowerConfig { state: p.state })).into(),
             ),
             RangerReq::Intns(Some(i)) => {
@@ -365,11 +359,8 @@ impl Driver for LaserToRanger {
                 ctx.answer(pending, acked(&reply));
             }
             Asked::Geom(pending) => {
-                let geom = match answer_body(&reply) {
-                    Some(Body::Laser(
-                        LaserMsg::Req(LaserReq::GetGeom(Some(g)))
-                        | LaserMsg::Ack(LaserReq::GetGeom(Some(g))),
-                    )) => {
+                let geom = match answer_body(&reply).and_then(LaserReq::in_reply) {
+                    Some(LaserReq::GetGeom(Some(g))) => {
                         self.geom = ranger_geom(g, self.buggy_geom);
                         Some(RangerReq::GetGeom(Some(self.geom.clone())))
                     }
@@ -377,8 +368,7 @@ impl Driver for LaserToRanger {
                 };
                 ctx.answer(pending, ack_or_nack(geom));
             }
-            Asked::Power(pending) => ctx.answer(pending, acked(&reply)),
-            Asked::Property(pending) => ctx.answer(pending, passed_on(reply)),
+            Asked::Relayed(relayed) => relayed.answer(ctx, reply),
         }
     }
 
@@ -403,8 +393,7 @@ impl Driver for LaserToRanger {
     }
 
     fn handle_command(&mut self, _ctx: &mut Context<'_>, command: &Message) {
-        // The ranger interface has no commands.
-        tracing::debug!("{NAME}: ignoring {}", command.body.constant());
+        super::ignore_command(NAME, command);
     }
 }
 

@@ -32,9 +32,7 @@ use player_server::{
     Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
-use crate::forward::{
-    Asker, Waiting, ack_or_nack, acked, answer_body, converter_request, passed_on,
-};
+use crate::forward::{Asker, Relayed, Waiting, ack_or_nack, answer_body, converter_request};
 
 /// The name cfg files use.
 pub const NAME: &str = "rangertolaser";
@@ -120,8 +118,7 @@ fn scan_pose(geom: &RangerGeom) -> Pose2d {
 enum Asked {
     Config(Asker),
     Geom(PendingReply),
-    Power(PendingReply),
-    Property(PendingReply),
+    Relayed(Relayed),
     /// The ranger SET_CONFIG half of a laser SET_CONFIG.
     SetConfig(PendingReply),
     /// The ranger INTNS half of a laser SET_CONFIG.
@@ -254,13 +251,13 @@ impl RangerToLaser {
             }
         };
         if ranges_half {
-            let config = match ranger_req(&msg.body) {
+            let config = match RangerReq::in_reply(&msg.body) {
                 Some(RangerReq::SetConfig(Some(c))) => c.clone(),
                 _ => job.requested.clone(),
             };
             job.config = Some(config);
         } else {
-            let state = match ranger_req(&msg.body) {
+            let state = match RangerReq::in_reply(&msg.body) {
                 Some(RangerReq::Intns(Some(i))) => i.state,
                 _ => job.intensity,
             };
@@ -275,14 +272,6 @@ impl RangerToLaser {
             let answer = Reply::ack(LaserReq::SetConfig(Some(self.config.clone())));
             ctx.answer(pending, answer);
         }
-    }
-}
-
-/// The ranger request (or ACK) a body carries.
-fn ranger_req(body: &Body) -> Option<&RangerReq> {
-    match body {
-        Body::Ranger(RangerMsg::Req(r) | RangerMsg::Ack(r)) => Some(r),
-        _ => None,
     }
 }
 
@@ -306,14 +295,13 @@ impl Driver for RangerToLaser {
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
         let body = &request.body;
         let (ranger, waiting) = (self.ranger, &mut self.waiting);
-        if let Some(reply) =
-            converter_request(ctx, waiting, ranger, body, &HANDLED, Asked::Property)
+        if let Some(reply) = converter_request(ctx, waiting, ranger, body, &HANDLED, Asked::Relayed)
         {
             return reply;
         }
         let (asked, to_ranger): (fn(PendingReply) -> Asked, Body) = match body {
             Body::Laser(LaserMsg::Req(LaserReq::Power(Some(p)))) => (
-                Asked::Power,
+                |p| Asked::Relayed(Relayed::Acked(p)),
                 RangerReq::Power(Some(RangerPowerConfig { state: p.state })).into(),
             ),
             Body::Laser(LaserMsg::Req(LaserReq::GetGeom(_))) => {
@@ -360,11 +348,12 @@ impl Driver for RangerToLaser {
         let Some(asked) = self.waiting.take(ticket) else {
             return;
         };
-        let config_of =
-            |reply: &Result<Message, RequestError>| match ranger_req(answer_body(reply)?) {
-                Some(RangerReq::GetConfig(Some(c))) => Some(c.clone()),
-                _ => None,
-            };
+        let config_of = |reply: &Result<Message, RequestError>| match RangerReq::in_reply(
+            answer_body(reply)?,
+        ) {
+            Some(RangerReq::GetConfig(Some(c))) => Some(c.clone()),
+            _ => None,
+        };
         match asked {
             Asked::Config(asker) => {
                 let config = config_of(&reply).map(|c| {
@@ -380,7 +369,7 @@ impl Driver for RangerToLaser {
                 });
             }
             Asked::Geom(pending) => {
-                let geom = match answer_body(&reply).and_then(ranger_req) {
+                let geom = match answer_body(&reply).and_then(RangerReq::in_reply) {
                     Some(RangerReq::GetGeom(Some(g))) => {
                         Some(LaserReq::GetGeom(Some(laser_geom(g))))
                     }
@@ -388,8 +377,7 @@ impl Driver for RangerToLaser {
                 };
                 ctx.answer(pending, ack_or_nack(geom));
             }
-            Asked::Power(pending) => ctx.answer(pending, acked(&reply)),
-            Asked::Property(pending) => ctx.answer(pending, passed_on(reply)),
+            Asked::Relayed(relayed) => relayed.answer(ctx, reply),
             Asked::SetConfig(pending) => self.set_config_part(ctx, pending, true, reply),
             Asked::SetIntensity(pending) => self.set_config_part(ctx, pending, false, reply),
         }
@@ -412,8 +400,7 @@ impl Driver for RangerToLaser {
     }
 
     fn handle_command(&mut self, _ctx: &mut Context<'_>, command: &Message) {
-        // The laser interface has no commands.
-        tracing::debug!("{NAME}: ignoring {}", command.body.constant());
+        super::ignore_command(NAME, command);
     }
 
     fn wake(&mut self, ctx: &mut Context<'_>) {

@@ -24,7 +24,7 @@ use player_server::{
     Context, Driver, DriverBlock, DriverError, PendingReply, Reply, RequestError, RequestTicket,
 };
 
-use crate::forward::{Asker, Waiting, acked, answer_body, converter_request, passed_on};
+use crate::forward::{Asker, Relayed, Waiting, answer_body, converter_request};
 
 /// The name cfg files use.
 pub const NAME: &str = "sonartoranger";
@@ -84,8 +84,7 @@ pub fn ranger_ranges(sonar: &SonarDataRanges) -> RangerDataRange {
 #[derive(Debug)]
 enum Asked {
     Geom(Asker),
-    Power(PendingReply),
-    Property(PendingReply),
+    Relayed(Relayed),
 }
 
 /// The driver. See the module docs.
@@ -117,9 +116,8 @@ impl SonarToRanger {
     }
 
     fn converted_geom(&mut self, reply: &Result<Message, RequestError>) -> Option<RangerGeom> {
-        match answer_body(reply)? {
-            Body::Sonar(SonarMsg::Req(SonarReq::GetGeom(Some(g))))
-            | Body::Sonar(SonarMsg::Ack(SonarReq::GetGeom(Some(g)))) => {
+        match SonarReq::in_reply(answer_body(reply)?)? {
+            SonarReq::GetGeom(Some(g)) => {
                 self.geom = ranger_geom(g, self.buggy_geom);
                 Some(self.geom.clone())
             }
@@ -140,13 +138,13 @@ impl Driver for SonarToRanger {
     fn handle_request(&mut self, ctx: &mut Context<'_>, request: &Message) -> Reply {
         let body = &request.body;
         let (sonar, waiting) = (self.sonar, &mut self.waiting);
-        if let Some(reply) = converter_request(ctx, waiting, sonar, body, &HANDLED, Asked::Property)
+        if let Some(reply) = converter_request(ctx, waiting, sonar, body, &HANDLED, Asked::Relayed)
         {
             return reply;
         }
         let (asked, to_sonar): (fn(PendingReply) -> Asked, Body) = match body {
             Body::Ranger(RangerMsg::Req(RangerReq::Power(Some(p)))) => (
-                Asked::Power,
+                |p| Asked::Relayed(Relayed::Acked(p)),
                 SonarReq::Power(Some(SonarPowerConfig { state: p.state })).into(),
             ),
             Body::Ranger(RangerMsg::Req(RangerReq::GetGeom(_))) => (
@@ -181,8 +179,7 @@ impl Driver for SonarToRanger {
                     )
                 });
             }
-            Asked::Power(pending) => ctx.answer(pending, acked(&reply)),
-            Asked::Property(pending) => ctx.answer(pending, passed_on(reply)),
+            Asked::Relayed(relayed) => relayed.answer(ctx, reply),
         }
     }
 
@@ -201,8 +198,7 @@ impl Driver for SonarToRanger {
     }
 
     fn handle_command(&mut self, _ctx: &mut Context<'_>, command: &Message) {
-        // The ranger interface has no commands.
-        tracing::debug!("{NAME}: ignoring {}", command.body.constant());
+        super::ignore_command(NAME, command);
     }
 }
 

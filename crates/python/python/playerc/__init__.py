@@ -225,6 +225,12 @@ def _bbox3d(v):
     return player_bbox3d_t(*v)
 
 
+def _planar(pose, size):
+    """libplayerc's planar geometry of a 2-D device (position2d, laser) from the 3-D one on
+    the wire: pose ``[x, y, yaw]`` and size ``[length, width]``."""
+    return [pose[0], pose[1], pose[5]], [size[1], size[0]]
+
+
 # --- the client ---------------------------------------------------------------------------------
 
 
@@ -449,6 +455,21 @@ class _device:
     def _apply(self, fields):
         self.__dict__.update(fields)
 
+    def _take(self, fields, *names):
+        """Copies the named fields a message carries; the others keep their values."""
+        for name in names:
+            if name in fields:
+                setattr(self, name, fields[name])
+
+    def _take_array(self, fields, name, count, make):
+        """A libplayerc array and its count: when the message carries ``name``, the proxy's
+        ``name`` becomes the list of its entries, each made by ``make``, and ``count`` their
+        number; otherwise both keep their values."""
+        if name in fields:
+            items = [make(entry) for entry in fields[name]]
+            setattr(self, name, items)
+            setattr(self, count, len(items))
+
 
 class playerc_position2d(_device):
     """``playerc_position2d_t``: px py pa (odometry), vx vy va, stall, pose/size (geometry)."""
@@ -466,9 +487,8 @@ class playerc_position2d(_device):
         fields = dict(fields)
         pose, size = fields.pop("pose", None), fields.pop("size", None)
         self.__dict__.update(fields)
-        if pose is not None:  # a GEOM data message: libplayerc's [x, y, yaw] and [l, w]
-            self.pose = [pose[0], pose[1], pose[5]]
-            self.size = [size[1], size[0]]
+        if pose is not None:  # a GEOM data message
+            self.pose, self.size = _planar(pose, size)
 
     def enable(self, enable):
         return self._call(self._conn().position2d_enable, self.index, bool(enable))
@@ -477,8 +497,7 @@ class playerc_position2d(_device):
         g = self._answer("position2d_get_geom")
         if g is None:
             return -1
-        self.pose = [g["pose"][0], g["pose"][1], g["pose"][5]]
-        self.size = [g["size"][1], g["size"][0]]
+        self.pose, self.size = _planar(g["pose"], g["size"])
         self.info.freshgeom = 1
         return 0
 
@@ -629,8 +648,7 @@ class playerc_laser(_device):
         g = self._answer("laser_get_geom")
         if g is None:
             return -1
-        self.pose = [g["pose"][0], g["pose"][1], g["pose"][5]]
-        self.size = [g["size"][1], g["size"][0]]
+        self.pose, self.size = _planar(g["pose"], g["size"])
         return 0
 
     def get_config(self):
@@ -677,11 +695,12 @@ class playerc_blobfinder(_device):
         self.blobs = []
 
     def _apply(self, fields):
-        self.width = fields.get("width", self.width)
-        self.height = fields.get("height", self.height)
-        if "blobs" in fields:
-            self.blobs = [playerc_blobfinder_blob_t(**b) for b in fields["blobs"]]
-            self.blobs_count = len(self.blobs)
+        self._take(fields, "width", "height")
+        self._take_array(fields, "blobs", "blobs_count", lambda b: playerc_blobfinder_blob_t(**b))
+
+
+def _fiducial_item(f):
+    return player_fiducial_item_t(id=f["id"], pose=_pose3d(f["pose"]), upose=_pose3d(f["upose"]))
 
 
 class playerc_fiducial(_device):
@@ -698,14 +717,7 @@ class playerc_fiducial(_device):
         )
 
     def _apply(self, fields):
-        if "fiducials" in fields:
-            self.fiducials = [
-                player_fiducial_item_t(
-                    id=f["id"], pose=_pose3d(f["pose"]), upose=_pose3d(f["upose"])
-                )
-                for f in fields["fiducials"]
-            ]
-            self.fiducials_count = len(self.fiducials)
+        self._take_array(fields, "fiducials", "fiducials_count", _fiducial_item)
 
     def get_geom(self):
         g = self._answer("fiducial_get_geom")
@@ -961,6 +973,12 @@ class playerc_planner(_device):
         return self._call(self._conn().planner_enable, self.index, bool(state))
 
 
+def _hypoth(h):
+    return player_localize_hypoth_t(
+        mean=player_pose2d_t(*h["mean"]), cov=list(h["cov"]), alpha=h["alpha"]
+    )
+
+
 class playerc_localize(_device):
     """``playerc_localize_t``: pending_count, pending_time, hypoth_count, hypoths[i] (mean,
     cov, alpha), mean/variance/particles after ``get_particles()``."""
@@ -978,16 +996,8 @@ class playerc_localize(_device):
         self.particles = []
 
     def _apply(self, fields):
-        self.pending_count = fields.get("pending_count", self.pending_count)
-        self.pending_time = fields.get("pending_time", self.pending_time)
-        if "hypoths" in fields:
-            self.hypoths = [
-                player_localize_hypoth_t(
-                    mean=player_pose2d_t(*h["mean"]), cov=list(h["cov"]), alpha=h["alpha"]
-                )
-                for h in fields["hypoths"]
-            ]
-            self.hypoth_count = len(self.hypoths)
+        self._take(fields, "pending_count", "pending_time")
+        self._take_array(fields, "hypoths", "hypoth_count", _hypoth)
 
     def set_pose(self, pose, cov):
         return self._call(self._conn().localize_set_pose, self.index, list(pose), list(cov))

@@ -57,6 +57,12 @@ def _field(name):
     return get
 
 
+def _getter_name(field):
+    """libplayerc++'s name for the getter of the playerc field ``field``: ``Get`` and the field
+    in CamelCase (``min_angle``: ``GetMinAngle``)."""
+    return "Get" + "".join(word.capitalize() for word in field.split("_"))
+
+
 def _element(name):
     """A libplayerc++ indexed getter (``GetRange(i)``, ...) that returns element ``i`` of the
     playerc proxy's array field ``name``: one line per getter instead of a method each."""
@@ -65,6 +71,25 @@ def _element(name):
         return getattr(self._dev, name)[aIndex]
 
     return get
+
+
+def _component(name, k):
+    """A libplayerc++ indexed getter (``GetBearing(i)``, ...) that returns component ``k`` of
+    element ``i`` of the playerc proxy's array field ``name`` (an array of tuples)."""
+
+    def get(self, aIndex):
+        return getattr(self._dev, name)[aIndex][k]
+
+    return get
+
+
+def _planar(args):
+    """``(x, y, a)`` of libplayerc++'s two overloads of a planar command: ``(x, a)``, which
+    has no sideways part, or ``(x, y, a)``."""
+    if len(args) == 2:
+        return args[0], 0.0, args[1]
+    x, y, a = args
+    return x, y, a
 
 
 class _forward:
@@ -165,9 +190,26 @@ class PlayerClient:
 
 
 class ClientProxy:
-    """``PlayerCc::ClientProxy``: subscribes on construction."""
+    """``PlayerCc::ClientProxy``: subscribes on construction.
+
+    Most libplayerc++ getters return the playerc field of the same name: a proxy class lists
+    such fields in ``_fields`` (``"min_angle"`` gives ``GetMinAngle()``) and the array fields
+    read one element at a time in ``_elements`` (``"intensity"`` gives ``GetIntensity(i)``);
+    a getter named otherwise is written out in the class."""
 
     _playerc = None
+    _fields = ()
+    _elements = ()
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        getters = [(name, _field) for name in cls.__dict__.get("_fields", ())]
+        getters += [(name, _element) for name in cls.__dict__.get("_elements", ())]
+        for name, getter in getters:
+            method = _getter_name(name)
+            if method in cls.__dict__:
+                raise TypeError(f"{cls.__name__}.{method} is both written out and listed")
+            setattr(cls, method, getter(name))
 
     def __init__(self, aPc, aIndex=0):
         self._client = aPc
@@ -218,17 +260,13 @@ class Position2dProxy(ClientProxy):
         if len(args) == 1:
             v = args[0]
             x, y, a = v.px, v.py, v.pa
-        elif len(args) == 2:
-            (x, a), y = args, 0.0
         else:
-            x, y, a = args
+            x, y, a = _planar(args)
         self._ok("SetSpeed", self._dev.set_cmd_vel(x, y, a, 1))
 
     def SetVelHead(self, *args):
-        if len(args) == 2:
-            (x, h), y = args, 0.0
-        else:
-            x, y, h = args
+        """``SetVelHead(x, heading)`` or ``SetVelHead(x, y, heading)``."""
+        x, y, h = _planar(args)
         self._ok("SetVelHead", self._dev.set_cmd_vel_head(x, y, h, 1))
 
     def GoTo(self, *args):
@@ -272,9 +310,9 @@ class RangerProxy(ClientProxy):
 
     _playerc = _pc.playerc_ranger
 
-    GetElementCount = _field("element_count")
-    GetDevicePose = _field("device_pose")
-    GetDeviceSize = _field("device_size")
+    _fields = ("element_count", "device_pose", "device_size", "min_angle", "max_angle",
+               "angular_res", "min_range", "max_range", "range_res", "frequency")
+
     GetElementPose = _element("element_poses")
     GetElementSize = _element("element_sizes")
     GetRangeCount = _field("ranges_count")
@@ -302,42 +340,25 @@ class RangerProxy(ClientProxy):
     def RequestConfigure(self):
         self._ok("RequestConfigure", self._dev.get_config()[0])
 
-    GetMinAngle = _field("min_angle")
-    GetMaxAngle = _field("max_angle")
-    GetAngularRes = _field("angular_res")
-    GetMinRange = _field("min_range")
-    GetMaxRange = _field("max_range")
-    GetRangeRes = _field("range_res")
-    GetFrequency = _field("frequency")
-
 
 class LaserProxy(ClientProxy):
     """``PlayerCc::LaserProxy``."""
 
     _playerc = _pc.playerc_laser
+    _fields = ("max_range", "scan_res", "range_res", "scanning_frequency", "min_angle",
+               "max_angle")
+    _elements = ("intensity",)
 
     GetCount = _field("scan_count")
+    GetID = _field("laser_id")
 
-    def GetRange(self, aIndex):
-        return self._dev.scan[aIndex][0]
-
-    def GetBearing(self, aIndex):
-        return self._dev.scan[aIndex][1]
-
+    GetRange = _component("scan", 0)
+    GetBearing = _component("scan", 1)
     __getitem__ = GetRange
-    GetIntensity = _element("intensity")
 
     def GetPoint(self, aIndex):
         x, y = self._dev.point[aIndex]
         return player_point_2d_t(x, y)
-
-    GetMaxRange = _field("max_range")
-    GetScanRes = _field("scan_res")
-    GetRangeRes = _field("range_res")
-    GetScanningFrequency = _field("scanning_frequency")
-    GetMinAngle = _field("min_angle")
-    GetMaxAngle = _field("max_angle")
-    GetID = _field("laser_id")
 
     RequestGeom = _forward("get_geom")
 
@@ -364,11 +385,11 @@ class SonarProxy(ClientProxy):
     """``PlayerCc::SonarProxy``."""
 
     _playerc = _pc.playerc_sonar
+    _fields = ("pose_count",)
 
     GetCount = _field("scan_count")
     GetScan = _element("scan")
     __getitem__ = GetScan
-    GetPoseCount = _field("pose_count")
 
     def GetPose(self, aIndex):
         x, y, a = self._dev.poses[aIndex]
@@ -381,12 +402,11 @@ class BlobfinderProxy(ClientProxy):
     """``PlayerCc::BlobfinderProxy``."""
 
     _playerc = _pc.playerc_blobfinder
+    _fields = ("width", "height")
 
     GetCount = _field("blobs_count")
     GetBlob = _element("blobs")
     __getitem__ = GetBlob
-    GetWidth = _field("width")
-    GetHeight = _field("height")
 
 
 class FiducialProxy(ClientProxy):
@@ -411,15 +431,8 @@ class GripperProxy(ClientProxy):
     """``PlayerCc::GripperProxy``."""
 
     _playerc = _pc.playerc_gripper
-
-    GetState = _field("state")
-    GetBeams = _field("beams")
-    GetStored = _field("stored")
-    GetCapacity = _field("capacity")
-    GetNumBeams = _field("num_beams")
-    GetPose = _field("pose")
-    GetOuterSize = _field("outer_size")
-    GetInnerSize = _field("inner_size")
+    _fields = ("state", "beams", "stored", "capacity", "num_beams", "pose", "outer_size",
+               "inner_size")
 
     RequestGeometry = _forward("get_geom")
     Open = _forward("open_cmd")
@@ -493,12 +506,9 @@ class CameraProxy(ClientProxy):
     """``PlayerCc::CameraProxy``."""
 
     _playerc = _pc.playerc_camera
+    _fields = ("width", "height", "format", "compression")
 
-    GetWidth = _field("width")
-    GetHeight = _field("height")
     GetDepth = _field("bpp")
-    GetFormat = _field("format")
-    GetCompression = _field("compression")
     GetImageSize = _field("image_count")
 
     def GetImage(self):
@@ -517,6 +527,7 @@ class MapProxy(ClientProxy):
     """``PlayerCc::MapProxy``."""
 
     _playerc = _pc.playerc_map
+    _fields = ("resolution", "width", "height")
 
     RequestMap = _forward("get_map")
 
@@ -525,10 +536,6 @@ class MapProxy(ClientProxy):
 
     def GetCell(self, x, y):
         return self._dev.cells[self.GetCellIndex(x, y)]
-
-    GetResolution = _field("resolution")
-    GetWidth = _field("width")
-    GetHeight = _field("height")
 
     def GetOriginX(self):
         return self._dev.origin[0]
@@ -544,44 +551,26 @@ class PlannerProxy(ClientProxy):
     """``PlayerCc::PlannerProxy``."""
 
     _playerc = _pc.playerc_planner
+    _fields = ("path_valid", "path_done", "px", "py", "pa", "gx", "gy", "ga", "wx", "wy", "wa",
+               "waypoint_count")
 
     SetGoalPose = _forward("set_cmd_pose")
     RequestWaypoints = _forward("get_waypoints")
     SetEnable = _forward("enable")
 
-    GetPathValid = _field("path_valid")
-    GetPathDone = _field("path_done")
-    GetPx = _field("px")
-    GetPy = _field("py")
-    GetPa = _field("pa")
-    GetGx = _field("gx")
-    GetGy = _field("gy")
-    GetGa = _field("ga")
-    GetWx = _field("wx")
-    GetWy = _field("wy")
-    GetWa = _field("wa")
-
-    def GetIx(self, i):
-        return self._dev.waypoints[i][0]
-
-    def GetIy(self, i):
-        return self._dev.waypoints[i][1]
-
-    def GetIa(self, i):
-        return self._dev.waypoints[i][2]
+    GetIx = _component("waypoints", 0)
+    GetIy = _component("waypoints", 1)
+    GetIa = _component("waypoints", 2)
 
     GetCurrentWaypointId = _field("curr_waypoint")
-    GetWaypointCount = _field("waypoint_count")
 
 
 class LocalizeProxy(ClientProxy):
     """``PlayerCc::LocalizeProxy``."""
 
     _playerc = _pc.playerc_localize
+    _fields = ("pending_count", "pending_time", "hypoth_count", "num_particles")
 
-    GetPendingCount = _field("pending_count")
-    GetPendingTime = _field("pending_time")
-    GetHypothCount = _field("hypoth_count")
     GetHypoth = _element("hypoths")
 
     def GetParticles(self):
@@ -590,8 +579,6 @@ class LocalizeProxy(ClientProxy):
 
     def GetParticlePose(self, index):
         return self._dev.particles[index].pose
-
-    GetNumParticles = _field("num_particles")
 
     SetPose = _forward("set_pose")
 

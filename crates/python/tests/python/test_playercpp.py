@@ -81,3 +81,26 @@ def test_errors_raise_player_error(server):
         sim.GetPose2d("nobody")
     assert e.value.GetErrorFun() == "SimulationProxy::GetPose2d"
     robot.Disconnect()
+
+
+def test_listed_fields_become_getters_of_libplayercpp_names():
+    """``_fields``/``_elements`` give ``Get`` + CamelCase getters reading the playerc field."""
+
+    class Dev:
+        min_angle = -1.5
+        scanning_frequency = 10.0
+        intensity = [3, 4]
+
+    lp = object.__new__(LaserProxy)  # no server: only the getters are under test
+    lp._dev = Dev()
+    assert lp.GetMinAngle() == -1.5
+    assert lp.GetScanningFrequency() == 10.0
+    assert lp.GetIntensity(1) == 4
+    assert hasattr(PlannerProxy, "GetWaypointCount") and hasattr(GripperProxy, "GetNumBeams")
+    with pytest.raises(TypeError, match="both written out and listed"):
+
+        class Clash(ClientProxy):
+            _fields = ("width",)
+
+            def GetWidth(self):
+                return 0

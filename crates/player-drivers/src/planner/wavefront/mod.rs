@@ -719,15 +719,9 @@ impl Driver for Wavefront {
     ) {
         if self.geom_ticket == Some(ticket) {
             self.geom_ticket = None;
-            match reply {
-                Ok(Message {
-                    body:
-                        Body::Position2d(
-                            Position2dMsg::Ack(Position2dReq::GetGeom(Some(g)))
-                            | Position2dMsg::Req(Position2dReq::GetGeom(Some(g))),
-                        ),
-                    ..
-                }) => {
+            let answer = reply.as_ref().ok().map(|m| &m.body);
+            match answer.and_then(Position2dReq::in_reply) {
+                Some(Position2dReq::GetGeom(Some(g))) => {
                     self.robot_radius = Some(g.size.sw / 2.0);
                     tracing::debug!(
                         "wavefront {}: robot radius {:.3} m",
@@ -736,11 +730,11 @@ impl Driver for Wavefront {
                     );
                     self.send_map();
                 }
-                other => tracing::error!(
+                _ => tracing::error!(
                     "wavefront {}: failed to get the geometry of {}: {:?}; cannot plan",
                     self.addr,
                     self.output,
-                    other.map(|m| m.body.constant())
+                    reply.as_ref().map(|m| m.body.constant())
                 ),
             }
             return;
@@ -1016,11 +1010,10 @@ mod tests {
             "{first:?}"
         );
         let (reply, _, _) = h.request(me, PlannerReq::GetWaypoints(None));
-        let Reply::Ack(Some(Body::Planner(
-            PlannerMsg::Req(PlannerReq::GetWaypoints(Some(w)))
-            | PlannerMsg::Ack(PlannerReq::GetWaypoints(Some(w))),
-        ))) = reply
-        else {
+        let Reply::Ack(Some(answer)) = &reply else {
+            panic!("{reply:?}")
+        };
+        let Some(PlannerReq::GetWaypoints(Some(w))) = PlannerReq::in_reply(answer) else {
             panic!("{reply:?}")
         };
         assert_eq!(w.waypoints.len(), 2);

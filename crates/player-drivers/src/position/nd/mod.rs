@@ -351,6 +351,22 @@ impl Navigator {
         self.robot.as_ref().map(|(r, _)| r)
     }
 
+    /// One ND iteration from `pose` towards `target` among the obstacle `points`, with the
+    /// robot's geometry facing `forwards` (reversed when backing up); `Err` when ND halts.
+    fn nd_step(
+        &mut self,
+        forwards: bool,
+        target: (f64, f64),
+        pose: Pose,
+        points: &[(f64, f64)],
+    ) -> Result<alg::Step, alg::Halt> {
+        let goal_tol = self.settings.dist_eps;
+        let robot = self.robot(forwards).expect("geometry known");
+        // Upstream hands ND a velocity it never fills in (zero in practice); ND only reads
+        // it to brake when the rear is about to graze something.
+        alg::iterate(robot, target, goal_tol, pose, Velocities::default(), points)
+    }
+
     fn give_up(&mut self) -> Decision {
         self.stalled = true;
         self.goal = None;
@@ -380,8 +396,6 @@ impl Navigator {
             self.goal = None;
             return Decision::Arrived;
         }
-        // Upstream hands ND a velocity it never fills in (zero in practice); ND only reads
-        // it to brake when the rear is about to graze something.
         let mut pose = Pose {
             x: odom.px,
             y: odom.py,
@@ -394,15 +408,7 @@ impl Navigator {
                 odom.px + 10.0 * goal.pa.cos(),
                 odom.py + 10.0 * goal.pa.sin(),
             );
-            let robot = self.robot(true).expect("geometry known");
-            let Ok(step) = alg::iterate(
-                robot,
-                fake,
-                s.dist_eps,
-                pose,
-                Velocities::default(),
-                &points,
-            ) else {
+            let Ok(step) = self.nd_step(true, fake, pose, &points) else {
                 return self.give_up();
             };
             vx = 0.0;
@@ -433,15 +439,7 @@ impl Navigator {
                 // ND thinks the robot faces the other way, with its geometry reversed.
                 pose.a = normalize(pose.a + std::f64::consts::PI);
             }
-            let robot = self.robot(!backwards).expect("geometry known");
-            let Ok(step) = alg::iterate(
-                robot,
-                (goal.px, goal.py),
-                s.dist_eps,
-                pose,
-                Velocities::default(),
-                &points,
-            ) else {
+            let Ok(step) = self.nd_step(!backwards, (goal.px, goal.py), pose, &points) else {
                 return self.give_up();
             };
             vx = step.cmd.v;
@@ -659,11 +657,8 @@ impl Driver for Nd {
         let body = reply.as_ref().ok().map(|m| &m.body);
         match asked {
             Asked::Forwarded(pending) => ctx.answer(pending, passed_on(reply)),
-            Asked::RobotGeom => match body {
-                Some(Body::Position2d(
-                    Position2dMsg::Ack(Position2dReq::GetGeom(Some(g)))
-                    | Position2dMsg::Req(Position2dReq::GetGeom(Some(g))),
-                )) => {
+            Asked::RobotGeom => match body.and_then(Position2dReq::in_reply) {
+                Some(Position2dReq::GetGeom(Some(g))) => {
                     tracing::info!(
                         "nd: robot geom: {:.3} {:.3} {:.3} {:.3} {:.3}",
                         g.size.sl,
@@ -676,22 +671,12 @@ impl Driver for Nd {
                 }
                 _ => tracing::error!("nd: failed to get geometry of underlying position device"),
             },
-            Asked::LaserGeom => match body {
-                Some(Body::Laser(
-                    LaserMsg::Ack(LaserReq::GetGeom(Some(g)))
-                    | LaserMsg::Req(LaserReq::GetGeom(Some(g))),
-                )) => {
-                    self.laser_pose = Some(g.pose);
-                }
+            Asked::LaserGeom => match body.and_then(LaserReq::in_reply) {
+                Some(LaserReq::GetGeom(Some(g))) => self.laser_pose = Some(g.pose),
                 _ => tracing::error!("nd: failed to get laser geometry"),
             },
-            Asked::SonarGeom => match body {
-                Some(Body::Sonar(
-                    SonarMsg::Ack(SonarReq::GetGeom(Some(g)))
-                    | SonarMsg::Req(SonarReq::GetGeom(Some(g))),
-                )) => {
-                    self.sonar_poses = Some(g.poses.clone());
-                }
+            Asked::SonarGeom => match body.and_then(SonarReq::in_reply) {
+                Some(SonarReq::GetGeom(Some(g))) => self.sonar_poses = Some(g.poses.clone()),
                 _ => tracing::error!("nd: failed to get sonar geometry"),
             },
         }

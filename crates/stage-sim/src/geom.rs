@@ -155,6 +155,15 @@ fn ray_crossing<const SEGMENT: bool>(
 /// other way round.
 #[inline]
 pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Option<f64> {
+    // a rectangle (every default body, every bitmap block): the same tests, unrolled
+    if let Ok(quad) = <&[[f64; 2]; 4]>::try_from(pts) {
+        return ray_quad(o, d, quad, tmax);
+    }
+    ray_polygon_loop(o, d, pts, tmax)
+}
+
+/// [`ray_polygon`] for any number of points.
+fn ray_polygon_loop(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Option<f64> {
     let n = pts.len();
     if n < 2 {
         return None;
@@ -180,6 +189,27 @@ pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Opt
     }
     if n > 2 {
         edge(pts[n - 1], pts[0], sa, first);
+    }
+    best
+}
+
+/// [`ray_polygon`] for four points, with the same arithmetic in the same order (so the same
+/// answers to the last bit) written out for the compiler to keep in registers.
+#[inline(always)]
+fn ray_quad(o: [f64; 2], d: [f64; 2], p: &[[f64; 2]; 4], tmax: f64) -> Option<f64> {
+    let side = |p: [f64; 2]| (p[0] - o[0]) * d[1] - (p[1] - o[1]) * d[0];
+    let s = [side(p[0]), side(p[1]), side(p[2]), side(p[3])];
+    let mut best: Option<f64> = None;
+    for i in 0..4 {
+        let j = (i + 1) % 4;
+        let (sa, sb) = (s[i], s[j]);
+        let crosses = (sa <= 0.0 && sb >= 0.0) || (sa >= 0.0 && sb <= 0.0);
+        if crosses && !(sa == 0.0 && sb == 0.0) {
+            let limit = best.unwrap_or(tmax);
+            if let Some(t) = ray_crossing::<false>(o, d, p[i], p[j], limit) {
+                best = Some(t);
+            }
+        }
     }
     best
 }
@@ -255,6 +285,63 @@ mod tests {
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let t = ray_segment([0.0, 0.0], [s, s], [1.0, -5.0], [1.0, 5.0], 10.0).unwrap();
         assert!((t - 2f64.sqrt()).abs() < 1e-12);
+    }
+
+    /// The unrolled four-point case answers exactly as the loop does, degenerate rays included:
+    /// through vertices, along edges, from a corner, parallel to the axes.
+    #[test]
+    fn quads_answer_as_the_loop_does() {
+        use crate::rng::SimRng;
+        let mut rng = SimRng::new(4, 4);
+        let square = [[1.0, -1.0], [3.0, -1.0], [3.0, 1.0], [1.0, 1.0]];
+        let mut cases: Vec<([f64; 2], [f64; 2], [[f64; 2]; 4])> = Vec::new();
+        let diag = std::f64::consts::FRAC_1_SQRT_2;
+        for o in [
+            [0.0, 0.0],
+            [0.0, -1.0],
+            [1.0, -1.0],
+            [0.0, -2.0],
+            [2.0, 0.0],
+        ] {
+            for d in [
+                [1.0, 0.0],
+                [0.0, 1.0],
+                [diag, diag],
+                [-1.0, 0.0],
+                [diag, -diag],
+            ] {
+                cases.push((o, d, square));
+            }
+        }
+        for _ in 0..2000 {
+            let q = std::array::from_fn(|_| [rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0)]);
+            // from a random point or from a vertex, towards a random point or a vertex
+            let o = if rng.uniform(0.0, 1.0) < 0.2 {
+                q[0]
+            } else {
+                [rng.uniform(-3.0, 3.0), rng.uniform(-3.0, 3.0)]
+            };
+            let to = if rng.uniform(0.0, 1.0) < 0.3 {
+                q[2]
+            } else {
+                [rng.uniform(-3.0, 3.0), rng.uniform(-3.0, 3.0)]
+            };
+            let len = (to[0] - o[0]).hypot(to[1] - o[1]);
+            if len > 0.0 {
+                cases.push((o, [(to[0] - o[0]) / len, (to[1] - o[1]) / len], q));
+            }
+        }
+        for (o, d, q) in cases {
+            for tmax in [0.5, 10.0] {
+                let quad = ray_polygon(o, d, &q, tmax);
+                let looped = ray_polygon_loop(o, d, &q, tmax);
+                assert_eq!(
+                    quad.map(f64::to_bits),
+                    looped.map(f64::to_bits),
+                    "{q:?} from {o:?} along {d:?}"
+                );
+            }
+        }
     }
 
     /// Away from vertices on the ray's line, a polygon's crossing is the nearest of its edges'

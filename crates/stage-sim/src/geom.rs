@@ -155,15 +155,6 @@ fn ray_crossing<const SEGMENT: bool>(
 /// other way round.
 #[inline]
 pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Option<f64> {
-    // a rectangle (every default body, every bitmap block): the same tests, unrolled
-    if let Ok(quad) = <&[[f64; 2]; 4]>::try_from(pts) {
-        return ray_quad(o, d, quad, tmax);
-    }
-    ray_polygon_loop(o, d, pts, tmax)
-}
-
-/// [`ray_polygon`] for any number of points.
-fn ray_polygon_loop(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Option<f64> {
     let n = pts.len();
     if n < 2 {
         return None;
@@ -193,10 +184,11 @@ fn ray_polygon_loop(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Op
     best
 }
 
-/// [`ray_polygon`] for four points, with the same arithmetic in the same order (so the same
-/// answers to the last bit) written out for the compiler to keep in registers.
+/// [`ray_polygon`] for four points (a rectangle: every default body), with the same
+/// arithmetic in the same order, so the same answers to the last bit, unrolled for the
+/// compiler to keep in registers: the moving-body ray tests' polygon test.
 #[inline(always)]
-fn ray_quad(o: [f64; 2], d: [f64; 2], p: &[[f64; 2]; 4], tmax: f64) -> Option<f64> {
+pub fn ray_quad(o: [f64; 2], d: [f64; 2], p: &[[f64; 2]; 4], tmax: f64) -> Option<f64> {
     let side = |p: [f64; 2]| (p[0] - o[0]) * d[1] - (p[1] - o[1]) * d[0];
     let s = [side(p[0]), side(p[1]), side(p[2]), side(p[3])];
     let mut best: Option<f64> = None;
@@ -294,7 +286,8 @@ mod tests {
         use crate::rng::SimRng;
         let mut rng = SimRng::new(4, 4);
         let square = [[1.0, -1.0], [3.0, -1.0], [3.0, 1.0], [1.0, 1.0]];
-        let mut cases: Vec<([f64; 2], [f64; 2], [[f64; 2]; 4])> = Vec::new();
+        type Case = ([f64; 2], [f64; 2], [[f64; 2]; 4]);
+        let mut cases: Vec<Case> = Vec::new();
         let diag = std::f64::consts::FRAC_1_SQRT_2;
         for o in [
             [0.0, 0.0],
@@ -333,8 +326,8 @@ mod tests {
         }
         for (o, d, q) in cases {
             for tmax in [0.5, 10.0] {
-                let quad = ray_polygon(o, d, &q, tmax);
-                let looped = ray_polygon_loop(o, d, &q, tmax);
+                let quad = ray_quad(o, d, &q, tmax);
+                let looped = ray_polygon(o, d, &q, tmax);
                 assert_eq!(
                     quad.map(f64::to_bits),
                     looped.map(f64::to_bits),

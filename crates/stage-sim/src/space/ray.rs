@@ -8,7 +8,7 @@ use parry2d::math::Point;
 
 use super::Space;
 use super::dyn_grid::CellEntry;
-use crate::geom::{Aabb, ray_polygon, ray_segment};
+use crate::geom::{Aabb, ray_polygon, ray_quad, ray_segment};
 
 /// A ray hit: the model, which of its blocks, and the distance from the ray origin.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,7 +116,12 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
             if !z_sees(z, blk.zmin, blk.zmax) || !(one || blk.aabb.ray_meets(o, inv, bt)) {
                 continue;
             }
-            if let Some(t) = ray_polygon(o, d, body.block_pts(bi), bt) {
+            let pts = body.block_pts(bi);
+            let hit = match <&[[f64; 2]; 4]>::try_from(pts) {
+                Ok(quad) => ray_quad(o, d, quad, bt),
+                Err(_) => ray_polygon(o, d, pts, bt),
+            };
+            if let Some(t) = hit {
                 if bb.is_none() || t < bt {
                     bt = t;
                     bb = Some(bi as u32);

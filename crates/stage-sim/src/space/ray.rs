@@ -96,7 +96,9 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
         self.test_body(m);
     }
 
-    /// Tests model `m`'s blocks (its box met the ray) unless this ray has tested it already.
+    /// Tests model `m`'s blocks (its box met the ray) unless this ray has tested it already
+    /// (a body listed in several cells of the walk): the check inline, the test not.
+    #[inline(always)]
     fn test_body(&mut self, m: ModelId) {
         if self.tested[..self.count].contains(&m) {
             return;
@@ -105,6 +107,12 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
             self.tested[self.count] = m;
             self.count += 1;
         }
+        self.test_blocks(m);
+    }
+
+    /// Tests model `m`'s blocks against the ray, keeping the nearest accepted hit.
+    #[inline(never)]
+    fn test_blocks(&mut self, m: ModelId) {
         let Ray { o, d, inv, z, .. } = self.ray;
         let tmax = self.best_t;
         let body = &self.space.bodies[m.index()];

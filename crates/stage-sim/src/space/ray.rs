@@ -50,14 +50,16 @@ struct Ray {
 
 /// One ray's search among the dynamic bodies: the nearest accepted hit so far and the models
 /// already tested (a body spanning several grid cells is listed in each; testing one again
-/// cannot change the answer, as the best hit only gets nearer).
+/// cannot change the answer, as the best hit only gets nearer). The first four are kept: a
+/// ray rarely tests more bodies, and eight slots cost hospital 0.8% more instructions to set
+/// up per ray than they saved.
 struct DynamicSearch<'s, A> {
     space: &'s Space,
     ray: Ray,
     accept: &'s A,
     best_t: f64,
     best: Option<RayHit>,
-    tested: [ModelId; 8],
+    tested: [ModelId; 4],
     count: usize,
 }
 
@@ -357,7 +359,7 @@ impl Space {
             accept,
             best_t: ray.range,
             best: None,
-            tested: [ModelId(0); 8],
+            tested: [ModelId(0); 4],
             count: 0,
         };
         if let Some(few) = few {

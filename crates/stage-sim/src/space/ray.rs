@@ -118,21 +118,29 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
         let Ray { o, d, inv, z, .. } = self.ray;
         let tmax = self.best_t;
         let body = &self.space.bodies[m.index()];
+        let crossing = |pts: &[[f64; 2]], limit: f64| match <&[[f64; 2]; 4]>::try_from(pts) {
+            Ok(quad) => ray_quad(o, d, quad, limit),
+            Err(_) => ray_polygon(o, d, pts, limit),
+        };
         let mut bt = tmax;
         let mut bb = None;
-        // a lone block's box is the body's, which the ray has just been found to meet
-        let one = body.blocks.len() == 1;
-        for (bi, blk) in body.blocks.iter().enumerate() {
-            if !z_sees(z, blk.zmin, blk.zmax) || !(one || blk.aabb.ray_meets(o, inv, bt)) {
-                continue;
+        if let [blk] = &body.blocks[..] {
+            // a lone block (a robot's default body): its box is the body's, which the ray has
+            // just been found to meet
+            if z_sees(z, blk.zmin, blk.zmax)
+                && let Some(t) = crossing(body.block_pts(0), bt)
+            {
+                bt = t;
+                bb = Some(0);
             }
-            let pts = body.block_pts(bi);
-            let hit = match <&[[f64; 2]; 4]>::try_from(pts) {
-                Ok(quad) => ray_quad(o, d, quad, bt),
-                Err(_) => ray_polygon(o, d, pts, bt),
-            };
-            if let Some(t) = hit {
-                if bb.is_none() || t < bt {
+        } else {
+            for (bi, blk) in body.blocks.iter().enumerate() {
+                if !z_sees(z, blk.zmin, blk.zmax) || !blk.aabb.ray_meets(o, inv, bt) {
+                    continue;
+                }
+                if let Some(t) = crossing(body.block_pts(bi), bt)
+                    && (bb.is_none() || t < bt)
+                {
                     bt = t;
                     bb = Some(bi as u32);
                 }

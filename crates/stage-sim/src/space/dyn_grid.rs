@@ -49,10 +49,7 @@ impl DynGrid {
     }
 
     pub(super) fn span_of(&self, b: &Aabb) -> Option<[i32; 4]> {
-        let lo = self.lat.cell_of(b.min);
-        let hi = self.lat.cell_of(b.max);
-        (lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.lat.nx && hi[1] < self.lat.ny)
-            .then_some([lo[0], lo[1], hi[0], hi[1]])
+        self.lat.span_of(b)
     }
 
     fn remove(&mut self, m: ModelId) {

@@ -33,6 +33,34 @@ impl Lattice {
         ]
     }
 
+    /// The cells box `b` covers, as `[x0, y0, x1, y1]`, when they all lie inside the grid.
+    pub(super) fn span_of(&self, b: &Aabb) -> Option<[i32; 4]> {
+        let lo = self.cell_of(b.min);
+        let hi = self.cell_of(b.max);
+        (lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.nx && hi[1] < self.ny)
+            .then_some([lo[0], lo[1], hi[0], hi[1]])
+    }
+
+    /// The cell where the walk of the ray `o + t·d` (`inv` = 1/d) begins: `start` when the
+    /// caller knows the cell holding `o` ([`Lattice::cell_inside`]), else the cell where the
+    /// ray enters the grid within `limit` (`None`: it does not).
+    #[inline(always)]
+    pub(super) fn walk_start(
+        &self,
+        o: [f64; 2],
+        d: [f64; 2],
+        inv: [f64; 2],
+        limit: f64,
+        start: Option<[i32; 2]>,
+    ) -> Option<[i32; 2]> {
+        if start.is_some() {
+            return start;
+        }
+        let t0 = self.bounds().ray_entry(o, inv, limit)?;
+        let c = self.cell_of([o[0] + d[0] * t0, o[1] + d[1] * t0]);
+        Some([c[0].clamp(0, self.nx - 1), c[1].clamp(0, self.ny - 1)])
+    }
+
     /// The indices of the cells `x0..=x1 × y0..=y1` (a span as `[x0, y0, x1, y1]`, inside
     /// the grid), row by row.
     pub(super) fn cells_in(&self, [x0, y0, x1, y1]: [i32; 4]) -> impl Iterator<Item = usize> {

@@ -397,16 +397,8 @@ impl Space {
     ) {
         let g = &self.grid;
         let mut limit = limit;
-        let [mut cx, mut cy] = match start {
-            Some(c) => c,
-            None => {
-                let Some(t_enter) = g.lat.bounds().ray_entry(o, inv, limit) else {
-                    return;
-                };
-                let p = [o[0] + d[0] * t_enter, o[1] + d[1] * t_enter];
-                let c0 = g.lat.cell_of(p);
-                [c0[0].clamp(0, g.lat.nx - 1), c0[1].clamp(0, g.lat.ny - 1)]
-            }
+        let Some([mut cx, mut cy]) = g.lat.walk_start(o, d, inv, limit, start) else {
+            return;
         };
         let step_x = if d[0] >= 0.0 { 1 } else { -1 };
         let step_y = if d[1] >= 0.0 { 1 } else { -1 };

@@ -187,18 +187,8 @@ impl StaticGrid {
         start: Option<[i32; 2]>,
         mut visit: impl FnMut(&[GridEdge]) -> f64,
     ) {
-        let [mut cx, mut cy] = match start {
-            Some(c) => c,
-            None => {
-                let Some(t0) = self.lat.bounds().ray_entry(o, inv, limit) else {
-                    return;
-                };
-                let c0 = self.lat.cell_of([o[0] + d[0] * t0, o[1] + d[1] * t0]);
-                [
-                    c0[0].clamp(0, self.lat.nx - 1),
-                    c0[1].clamp(0, self.lat.ny - 1),
-                ]
-            }
+        let Some([mut cx, mut cy]) = self.lat.walk_start(o, d, inv, limit, start) else {
+            return;
         };
         let mut limit = limit;
         let sx: i32 = if d[0] >= 0.0 { 1 } else { -1 };
@@ -290,15 +280,14 @@ impl StaticGrid {
     /// leaves the grid or covers many cells).
     pub fn no_edge_near(&self, b: &Aabb) -> bool {
         const PAD: f64 = 1e-6;
-        let lo = self.lat.cell_of([b.min[0] - PAD, b.min[1] - PAD]);
-        let hi = self.lat.cell_of([b.max[0] + PAD, b.max[1] + PAD]);
-        let inside = lo[0] >= 0 && lo[1] >= 0 && hi[0] < self.lat.nx && hi[1] < self.lat.ny;
-        if !inside || (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) > 64 {
+        let padded = Aabb {
+            min: [b.min[0] - PAD, b.min[1] - PAD],
+            max: [b.max[0] + PAD, b.max[1] + PAD],
+        };
+        let Some(span @ [x0, y0, x1, y1]) = self.lat.span_of(&padded) else {
             return false;
-        }
-        self.lat
-            .cells_in([lo[0], lo[1], hi[0], hi[1]])
-            .all(|c| !self.touched[c])
+        };
+        (x1 - x0 + 1) * (y1 - y0 + 1) <= 64 && self.lat.cells_in(span).all(|c| !self.touched[c])
     }
 
     /// How many different edges the cells list.

@@ -46,6 +46,11 @@ impl Default for SensorDesc {
 }
 
 impl SensorDesc {
+    /// Whether the transducer adds any noise to its ranges (see `with_noise`).
+    fn is_noisy(&self) -> bool {
+        self.noise > 0.0 || self.noise_relative > 0.0
+    }
+
     /// A ranger transducer from its worldfile properties (`random` colours drawn from `rng`).
     pub(crate) fn from_spec(s: &wm::SensorSpec, rng: &mut SimRng) -> SensorDesc {
         SensorDesc {
@@ -117,11 +122,12 @@ pub struct RangerData {
 impl RangerData {
     /// A ranger with the given transducers and no data yet.
     pub fn new(sensors: Vec<SensorDesc>) -> RangerData {
-        RangerData {
-            rays: sensors.iter().map(|s| s.samples as usize).sum(),
+        let mut d = RangerData {
             sensors,
             ..RangerData::default()
-        }
+        };
+        d.rays = d.ray_count();
+        d
     }
 
     /// Total rays per update.
@@ -207,8 +213,12 @@ impl RangerData {
     /// Where transducer `k`'s samples sit in the flat lists (`None`: no such scan).
     fn span_of(&self, k: usize) -> Option<std::ops::Range<usize>> {
         let end = *self.ends.get(k)?;
-        let start = if k == 0 { 0 } else { self.ends[k - 1] };
-        Some(start..end)
+        Some(self.start_of(k)..end)
+    }
+
+    /// Where transducer `k < ends.len()`'s samples begin in the flat lists.
+    fn start_of(&self, k: usize) -> usize {
+        if k == 0 { 0 } else { self.ends[k - 1] }
     }
 
     /// Lays the flat lists out for the transducers (once, after `new` or a shutdown): each gets
@@ -216,26 +226,20 @@ impl RangerData {
     /// transducer's directions and how the transducers are cast.
     fn lay_out(&mut self) {
         self.clear();
+        self.dirs.clear();
         for s in &self.sensors {
             let n = s.samples.max(1) as usize;
             let (start, incr) = fan_angles(s);
             self.bearings
-                .extend((0..n).map(|t| if n > 1 { start + t as f64 * incr } else { 0.0 }));
+                .extend((0..n).map(|t| start + t as f64 * incr));
             self.ends.push(self.bearings.len());
+            let (ss, sc) = (s.pose.a + start).sin_cos();
+            let (is, ic) = incr.sin_cos();
+            self.dirs.push([sc, ss, ic, is]);
         }
         let total = self.bearings.len();
         self.ranges.resize(total, 0.0);
         self.intensities.resize(total, 0.0);
-        self.dirs = self
-            .sensors
-            .iter()
-            .map(|s| {
-                let (start, incr) = fan_angles(s);
-                let (ss, sc) = (s.pose.a + start).sin_cos();
-                let (is, ic) = incr.sin_cos();
-                [sc, ss, ic, is]
-            })
-            .collect();
         // a one-sample transducer joins the run before it when that run is of one-sample
         // transducers at the same place in the body frame with the same reach
         let single = |s: &SensorDesc| s.samples.max(1) == 1;
@@ -256,10 +260,7 @@ impl RangerData {
             self.runs.push(run);
             k += run;
         }
-        self.quiet = self
-            .sensors
-            .iter()
-            .all(|s| s.noise <= 0.0 && s.noise_relative <= 0.0);
+        self.quiet = !self.sensors.iter().any(SensorDesc::is_noisy);
         self.laid_out = true;
     }
 }
@@ -422,7 +423,7 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
         let n = sensor.samples.max(1) as usize;
         let o = origin(sensor);
         let max = sensor.range[1];
-        let first_sample = if k == 0 { 0 } else { d.ends[k - 1] };
+        let first_sample = d.start_of(k);
         if n == 1 {
             // one-sample transducers from one origin with one reach: one fan, so that what the
             // rays share is worked out once. Their samples are consecutive in the flat lists.
@@ -491,7 +492,7 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
             });
             drop(parts);
             // this path runs on one thread between parallel parts: skip what cannot change
-            if sensor.noise > 0.0 || sensor.noise_relative > 0.0 {
+            if sensor.is_noisy() {
                 for r in ranges.iter_mut() {
                     *r = with_noise(sensor, *r, rng);
                 }

@@ -129,10 +129,7 @@ impl World {
             });
         }
         let returns: Vec<Returns> = desc.models.iter().map(|m| m.returns).collect();
-        let fiducial_targets = (0..n as u32)
-            .filter(|&i| returns[i as usize].fiducial != 0)
-            .map(ModelId)
-            .collect();
+        let fiducial_targets = fiducial_targets(&returns);
 
         let mut world = World {
             cfg: WorldConfig {

@@ -262,10 +262,7 @@ impl World {
     pub fn set_fiducial_id(&mut self, m: ModelId, id: i32) -> Result<()> {
         let i = self.check(m)?;
         self.returns[i].fiducial = id;
-        self.fiducial_targets = (0..self.nodes.len() as u32)
-            .filter(|&i| self.returns[i as usize].fiducial != 0)
-            .map(ModelId)
-            .collect();
+        self.fiducial_targets = super::tree::fiducial_targets(&self.returns);
         Ok(())
     }
 

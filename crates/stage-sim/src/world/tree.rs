@@ -209,3 +209,11 @@ impl World {
         Ok(self.nodes[self.check(a)?].root == self.nodes[self.check(b)?].root)
     }
 }
+
+/// The models a fiducial finder can see: those with a non-zero `fiducial_return`, in id order.
+pub(super) fn fiducial_targets(returns: &[Returns]) -> Vec<ModelId> {
+    (0..returns.len() as u32)
+        .filter(|&i| returns[i as usize].fiducial != 0)
+        .map(ModelId)
+        .collect()
+}

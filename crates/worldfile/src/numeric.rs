@@ -71,12 +71,7 @@ fn hex(input: &str) -> IResult<&str, &str> {
 
 /// C `atof`: optional blanks and sign, then a decimal (with exponent), `inf`/`nan` or hex integer.
 pub fn atof(text: &str) -> Option<Prefix<f64>> {
-    let body = skip_c_spaces(text);
-    let (after_sign, negative) = match body.as_bytes().first() {
-        Some(b'-') => (&body[1..], true),
-        Some(b'+') => (&body[1..], false),
-        _ => (body, false),
-    };
+    let (negative, after_sign) = split_sign(skip_c_spaces(text));
     let maybe_hex = matches!(after_sign.as_bytes(), [b'0', b'x' | b'X', _, ..]);
     let (rest, value) = if let Some((rest, h)) = maybe_hex.then(|| hex(after_sign).ok()).flatten() {
         // Very long hex runs overflow to infinity, as strtod does.
@@ -106,12 +101,7 @@ pub fn atof(text: &str) -> Option<Prefix<f64>> {
 
 /// C `atoi`: optional blanks and sign, then decimal digits. Saturates instead of overflowing.
 pub fn atoi(text: &str) -> Option<Prefix<i64>> {
-    let body = skip_c_spaces(text);
-    let (negative, unsigned) = match body.as_bytes().first() {
-        Some(b'-') => (true, &body[1..]),
-        Some(b'+') => (false, &body[1..]),
-        _ => (false, body),
-    };
+    let (negative, unsigned) = split_sign(skip_c_spaces(text));
     let digits = unsigned.bytes().take_while(u8::is_ascii_digit).count();
     if digits == 0 {
         return None;
@@ -123,6 +113,16 @@ pub fn atoi(text: &str) -> Option<Prefix<i64>> {
         value: if negative { -magnitude } else { magnitude },
         complete: digits == unsigned.len(),
     })
+}
+
+/// Whether `text` starts with a minus, and `text` without its sign (`+` or `-`), as C's
+/// number conversions read one.
+fn split_sign(text: &str) -> (bool, &str) {
+    match text.as_bytes().first() {
+        Some(b'-') => (true, &text[1..]),
+        Some(b'+') => (false, &text[1..]),
+        _ => (false, text),
+    }
 }
 
 /// `text` without the leading blanks C's number conversions skip (all ASCII, so the cut is

@@ -159,29 +159,46 @@ pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Opt
     if n < 2 {
         return None;
     }
-    // the same expression as `ns` in `ray_segment`, for the edge's first end
-    let side = |p: [f64; 2]| (p[0] - o[0]) * d[1] - (p[1] - o[1]) * d[0];
     let mut best: Option<f64> = None;
-    let mut edge = |a: [f64; 2], b: [f64; 2], sa: f64, sb: f64| {
-        let crosses = (sa <= 0.0 && sb >= 0.0) || (sa >= 0.0 && sb <= 0.0);
-        if crosses && !(sa == 0.0 && sb == 0.0) {
-            let limit = best.unwrap_or(tmax);
-            if let Some(t) = ray_crossing::<false>(o, d, a, b, limit) {
-                best = Some(t);
-            }
-        }
-    };
-    let first = side(pts[0]);
+    let first = side_of(o, d, pts[0]);
     let mut sa = first;
     for w in pts.windows(2) {
-        let sb = side(w[1]);
-        edge(w[0], w[1], sa, sb);
+        let sb = side_of(o, d, w[1]);
+        cross_edge(o, d, (w[0], sa), (w[1], sb), tmax, &mut best);
         sa = sb;
     }
     if n > 2 {
-        edge(pts[n - 1], pts[0], sa, first);
+        cross_edge(o, d, (pts[n - 1], sa), (pts[0], first), tmax, &mut best);
     }
     best
+}
+
+/// Which side of the line of the ray `o + t·d` point `p` lies on (its sign; 0 on the line):
+/// the same expression as `ns` in [`ray_segment`], for an edge's first end.
+#[inline(always)]
+fn side_of(o: [f64; 2], d: [f64; 2], p: [f64; 2]) -> f64 {
+    (p[0] - o[0]) * d[1] - (p[1] - o[1]) * d[0]
+}
+
+/// One edge `a–b` of a polygon in the search for its nearest crossing, given the sides `sa`,
+/// `sb` of its ends ([`side_of`]): an edge whose ends lie on different sides (or one on the
+/// line, but not both) gets its distance, kept in `best` when within `best` or `tmax`.
+#[inline(always)]
+fn cross_edge(
+    o: [f64; 2],
+    d: [f64; 2],
+    (a, sa): ([f64; 2], f64),
+    (b, sb): ([f64; 2], f64),
+    tmax: f64,
+    best: &mut Option<f64>,
+) {
+    let crosses = (sa <= 0.0 && sb >= 0.0) || (sa >= 0.0 && sb <= 0.0);
+    if crosses && !(sa == 0.0 && sb == 0.0) {
+        let limit = best.unwrap_or(tmax);
+        if let Some(t) = ray_crossing::<false>(o, d, a, b, limit) {
+            *best = Some(t);
+        }
+    }
 }
 
 /// [`ray_polygon`] for four points (a rectangle: every default body), with the same
@@ -189,19 +206,16 @@ pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Opt
 /// compiler to keep in registers: the moving-body ray tests' polygon test.
 #[inline(always)]
 pub fn ray_quad(o: [f64; 2], d: [f64; 2], p: &[[f64; 2]; 4], tmax: f64) -> Option<f64> {
-    let side = |p: [f64; 2]| (p[0] - o[0]) * d[1] - (p[1] - o[1]) * d[0];
-    let s = [side(p[0]), side(p[1]), side(p[2]), side(p[3])];
+    let s = [
+        side_of(o, d, p[0]),
+        side_of(o, d, p[1]),
+        side_of(o, d, p[2]),
+        side_of(o, d, p[3]),
+    ];
     let mut best: Option<f64> = None;
     for i in 0..4 {
         let j = (i + 1) % 4;
-        let (sa, sb) = (s[i], s[j]);
-        let crosses = (sa <= 0.0 && sb >= 0.0) || (sa >= 0.0 && sb <= 0.0);
-        if crosses && !(sa == 0.0 && sb == 0.0) {
-            let limit = best.unwrap_or(tmax);
-            if let Some(t) = ray_crossing::<false>(o, d, p[i], p[j], limit) {
-                best = Some(t);
-            }
-        }
+        cross_edge(o, d, (p[i], s[i]), (p[j], s[j]), tmax, &mut best);
     }
     best
 }

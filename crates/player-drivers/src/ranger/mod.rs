@@ -14,7 +14,7 @@ pub mod lasertoranger;
 pub mod rangertolaser;
 pub mod sonartoranger;
 
-use player_proto::{DeviceAddr, InterfaceCode, Message};
+use player_proto::{DeviceAddr, InterfaceCode};
 use player_server::{DriverBlock, DriverError};
 
 /// The one device of `interface` a converter block provides (upstream's single-interface
@@ -47,10 +47,4 @@ pub(crate) fn provided(
 /// drivers that leave those fields uninitialised.
 pub(crate) fn buggy_geom(block: &DriverBlock) -> Result<bool, DriverError> {
     Ok(crate::options::flag(block, "buggy_geom")?.unwrap_or(false))
-}
-
-/// A converter's `handle_command`: the interfaces the converters provide (ranger, laser) have
-/// no commands, so a command is a client's mistake, logged for debugging and otherwise dropped.
-pub(crate) fn ignore_command(driver: &str, command: &Message) {
-    tracing::debug!("{driver}: ignoring {}", command.body.constant());
 }

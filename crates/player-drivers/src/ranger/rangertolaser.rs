@@ -399,10 +399,6 @@ impl Driver for RangerToLaser {
         }
     }
 
-    fn handle_command(&mut self, _ctx: &mut Context<'_>, command: &Message) {
-        super::ignore_command(NAME, command);
-    }
-
     fn wake(&mut self, ctx: &mut Context<'_>) {
         if !self.intensities_follow {
             self.flush(ctx);

@@ -196,10 +196,6 @@ impl Driver for SonarToRanger {
             other => tracing::debug!("{NAME}: not converting {}", other.constant()),
         }
     }
-
-    fn handle_command(&mut self, _ctx: &mut Context<'_>, command: &Message) {
-        super::ignore_command(NAME, command);
-    }
 }
 
 #[cfg(test)]

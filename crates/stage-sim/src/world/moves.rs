@@ -20,6 +20,7 @@ use rayon::prelude::*;
 
 use super::tree::{below_ground, body_of, global_of_parent, obstacle_to, tree_of};
 use super::{KindState, ModelId, World};
+use crate::geom::Aabb;
 use crate::pose::Pose;
 use crate::space::Body;
 
@@ -60,17 +61,14 @@ pub(super) struct MovePlan {
 /// kept between steps).
 #[derive(Debug, Default)]
 pub(super) struct PlannedOutlines {
-    /// Per model: `(plan, index in the plan's tree)` of its planned outline, `NONE` when it
-    /// has none (it stays where it is, or its move is refused before installing).
-    slot: Vec<(u32, u32)>,
+    /// Per model: the box of its planned outline, [`Aabb::EMPTY`] when it has none (it stays
+    /// where it is, or its move is refused before installing).
+    planned: Vec<Aabb>,
     /// How far any planned box lies from the registered one (per side, plus a margin).
     reach: f64,
     /// Per plan: whether its move is certainly free of contact with moving bodies.
     free: Vec<bool>,
 }
-
-/// No planned outline (see [`PlannedOutlines::slot`]).
-const NONE: (u32, u32) = (u32::MAX, u32::MAX);
 
 impl World {
     /// Moves every position model (phase 2 of [`World::step`]).
@@ -121,33 +119,34 @@ impl World {
     /// cannot tell (a tree moved one at a time, whose outlines are not known beforehand, or a
     /// planned outline of a model the dynamic grid does not list), and nothing is marked.
     fn free_moves(&self, plans: &[MovePlan], outlines: &mut PlannedOutlines) -> bool {
-        outlines.slot.resize(self.nodes.len(), NONE);
-        let reach = self.index_planned_outlines(plans, &mut outlines.slot);
+        outlines.planned.resize(self.nodes.len(), Aabb::EMPTY);
+        let reach = self.index_planned_outlines(plans, &mut outlines.planned);
         if let Some(reach) = reach {
             // a margin for the rounding of the box differences (coordinates below 1e9 m)
             let reach = reach + 1e-6;
-            let slot = &outlines.slot;
+            let planned = &outlines.planned;
             plans
                 .par_iter()
                 .enumerate()
                 .with_min_len(8)
-                .map(|(k, plan)| self.move_is_free(k, plan, slot, reach, plans))
+                .map(|(k, plan)| self.move_is_free(k, plan, planned, reach))
                 .collect_into_vec(&mut outlines.free);
         }
         for plan in plans {
             for &x in &plan.models {
-                outlines.slot[x.index()] = NONE;
+                outlines.planned[x.index()] = Aabb::EMPTY;
             }
         }
         reach.is_some()
     }
 
-    /// Notes in `slot` where each planned outline that the ordered pass may install is, and
-    /// answers how far any of them lies from the model's registered box; `None` when the free
-    /// test cannot be made (see [`World::free_moves`]). `slot` is left for the caller to clear.
-    fn index_planned_outlines(&self, plans: &[MovePlan], slot: &mut [(u32, u32)]) -> Option<f64> {
+    /// Notes in `planned` the box of each planned outline that the ordered pass may install,
+    /// and answers how far any of them lies from the model's registered box; `None` when the
+    /// free test cannot be made (see [`World::free_moves`]). `planned` is left for the caller
+    /// to clear.
+    fn index_planned_outlines(&self, plans: &[MovePlan], planned: &mut [Aabb]) -> Option<f64> {
         let mut reach = 0.0f64;
-        for (k, plan) in plans.iter().enumerate() {
+        for plan in plans {
             match plan.kind {
                 PlanKind::Still => continue,
                 PlanKind::OneByOne => return None,
@@ -175,31 +174,20 @@ impl World {
                     return None;
                 }
                 reach = reach.max(shift);
-                slot[x.index()] = (k as u32, j as u32);
+                planned[x.index()] = new.aabb;
             }
         }
         Some(reach)
     }
 
     /// Whether plan `k`'s moved tree meets no moving body, by boxes, where that body is now nor
-    /// where its plan puts it (`slot`, `reach`: see [`PlannedOutlines`]).
-    fn move_is_free(
-        &self,
-        k: usize,
-        plan: &MovePlan,
-        slot: &[(u32, u32)],
-        reach: f64,
-        plans: &[MovePlan],
-    ) -> bool {
+    /// where its plan puts it (`planned`, `reach`: see [`PlannedOutlines`]).
+    fn move_is_free(&self, k: usize, plan: &MovePlan, planned: &[Aabb], reach: f64) -> bool {
         if plan.kind != PlanKind::Planned || plan.static_hit {
             return false;
         }
         let root = self.nodes[self.positions[k].index()].root;
         let accept = obstacle_to(&self.space, &self.returns, root);
-        let after = |o: ModelId| {
-            let (p, j) = slot[o.index()];
-            (p != u32::MAX).then(|| plans[p as usize].bodies[j as usize].aabb)
-        };
         plan.models.iter().enumerate().all(|(j, &x)| {
             if !self.returns[x.index()].obstacle {
                 return true;
@@ -212,7 +200,7 @@ impl World {
             body.is_empty()
                 || !self
                     .space
-                    .may_meet_dynamic(x, &body.aabb, reach, accept, after)
+                    .may_meet_dynamic(x, &body.aabb, reach, accept, planned)
         })
     }
 

@@ -159,54 +159,6 @@ impl Space {
         None
     }
 
-    /// Whether the box `bb` (of model `m`'s outline after a planned move, not yet registered)
-    /// meets, while the other moves of the step are installed one by one, the box of a moving
-    /// body that `accept` admits: each other model `o` is then at its registered outline or
-    /// at its own planned one, whose box is `planned[o]` ([`Aabb::EMPTY`]: it stays), and
-    /// `reach` bounds how far any box moves between the two (a planned box lies within its
-    /// registered box grown by `reach`, which is how the grid finds it here). `false` means
-    /// that neither box of any other model meets `bb`, so that [`Space::touches_dynamic`]
-    /// answers "no contact" for that outline whatever the order: its outline test only looks
-    /// at models whose box meets the mover's. Every planned box must belong to a model that the
-    /// grid lists. Boxes only, without the outline test or the candidates' sorting: a test
-    /// cheaper than the one it spares.
-    pub(crate) fn may_meet_dynamic(
-        &self,
-        m: ModelId,
-        bb: &Aabb,
-        reach: f64,
-        accept: impl Fn(ModelId) -> bool,
-        planned: &[Aabb],
-    ) -> bool {
-        let mut wide = *bb;
-        wide.min[0] -= reach;
-        wide.min[1] -= reach;
-        wide.max[0] += reach;
-        wide.max[1] += reach;
-        let meets = |o: ModelId, now: &Aabb| {
-            o != m && (now.intersects(bb) || planned[o.index()].intersects(bb)) && accept(o)
-        };
-        let in_cell = |c: &[CellEntry]| {
-            c.iter()
-                .any(|e| e.aabb.intersects(&wide) && meets(e.model, &e.aabb))
-        };
-        let g = &self.grid;
-        let in_cells = match g.span_of(&wide) {
-            Some([x0, y0, x1, y1]) => {
-                let nx = g.lat.nx;
-                // plain loops: the iterator chain of `cells_in` cost a third more here
-                (y0..=y1).any(|y| {
-                    let row = (y * nx) as usize;
-                    g.cells[row + x0 as usize..=row + x1 as usize]
-                        .iter()
-                        .any(|c| in_cell(c))
-                })
-            }
-            None => g.cells.iter().any(|c| in_cell(c)),
-        };
-        in_cells || g.overflow.iter().any(|&o| meets(o, &self.aabbs[o.index()]))
-    }
-
     fn edge_hits_body(&self, body: &Body, a: [f64; 2], b: [f64; 2], zmin: f64, zmax: f64) -> bool {
         let mut eb = Aabb::EMPTY;
         eb.add(a);

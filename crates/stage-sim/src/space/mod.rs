@@ -158,12 +158,6 @@ impl Space {
         }
     }
 
-    /// Whether model `m` has been listed in the dynamic grid (a moving body, or a static one
-    /// moved since); its box is then registered whenever its body is not empty.
-    pub(crate) fn in_dynamic_grid(&self, m: ModelId) -> bool {
-        self.is_member[m.index()]
-    }
-
     /// The root of model `m`'s tree.
     #[inline]
     pub(crate) fn root_of(&self, m: ModelId) -> ModelId {

@@ -160,11 +160,10 @@ impl World {
             subtree: Vec::new(),
             scratch: Vec::new(),
             move_plans: Vec::new(),
-            planned_outlines: Default::default(),
             #[cfg(test)]
             moves_one_by_one: false,
             #[cfg(test)]
-            move_counts: (0, 0),
+            planned_moves: 0,
         };
         // gripper bodies were replaced above: refresh their world outlines
         for i in 0..n {

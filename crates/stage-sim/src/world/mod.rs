@@ -112,15 +112,13 @@ pub struct World {
     subtree: Vec<ModelId>,
     scratch: Vec<ModelId>,
     move_plans: Vec<moves::MovePlan>,
-    planned_outlines: moves::PlannedOutlines,
     /// Test switch: every robot moves with [`World::move_model`], one by one (the reference
-    /// the faster passes are compared with).
+    /// the planned pass is compared with).
     #[cfg(test)]
     moves_one_by_one: bool,
-    /// Test counts: planned moves installed without the ordered contact test (found free
-    /// beforehand), and with it.
+    /// Test count: moves installed from a plan ([`moves`]).
     #[cfg(test)]
-    move_counts: (u64, u64),
+    planned_moves: u64,
 }
 
 impl World {

@@ -7,20 +7,11 @@
 //! then only installs the outlines and tests them against moving bodies. Robots whose outlines
 //! do depend on earlier moves (a robot carried by another, or carrying one) take the plain
 //! one-at-a-time path. Either way the outcome is bit-identical to moving them one by one.
-//!
-//! With more than one thread, the ordered pass is also spared most of its contact tests: a
-//! planned tree whose moved outlines' boxes meet no other moving body's box in either of the
-//! two places that body can be while the moves are installed (where it stands, or where its
-//! own plan puts it; a robot that stays or is refused stays where it stands) is found free of
-//! contact in the ordered pass whatever the order, so that test is made beforehand, for every
-//! robot at once, in parallel ([`World::free_moves`]). The ordered pass still installs every outline in
-//! creation order, so the dynamic grid ends exactly as one-by-one moves leave it.
 
 use rayon::prelude::*;
 
 use super::tree::{below_ground, body_of, global_of_parent, obstacle_to, tree_of};
 use super::{KindState, ModelId, World};
-use crate::geom::Aabb;
 use crate::pose::Pose;
 use crate::space::Body;
 
@@ -57,19 +48,6 @@ pub(super) struct MovePlan {
     static_hit: bool,
 }
 
-/// Where the planned outlines of this step are, by model, for the free-move test (buffers
-/// kept between steps).
-#[derive(Debug, Default)]
-pub(super) struct PlannedOutlines {
-    /// Per model: the box of its planned outline, [`Aabb::EMPTY`] when it has none (it stays
-    /// where it is, or its move is refused before installing).
-    planned: Vec<Aabb>,
-    /// How far any planned box lies from the registered one (per side, plus a margin).
-    reach: f64,
-    /// Per plan: whether its move is certainly free of contact with moving bodies.
-    free: Vec<bool>,
-}
-
 impl World {
     /// Moves every position model (phase 2 of [`World::step`]).
     pub(super) fn move_all(&mut self, dt: f64) {
@@ -95,113 +73,15 @@ impl World {
                 plans.iter_mut().enumerate().for_each(plan);
             }
         }
-        let mut outlines = std::mem::take(&mut self.planned_outlines);
-        let shortcut = plans.len() >= PARALLEL_MIN_MOVERS
-            && rayon::current_num_threads() > 1
-            && self.free_moves(&plans, &mut outlines);
         for (k, plan) in plans.iter_mut().enumerate() {
             let m = self.positions[k];
             match plan.kind {
                 PlanKind::Still => {}
                 PlanKind::OneByOne => self.move_model(m, dt),
-                PlanKind::Planned => {
-                    let free = shortcut && outlines.free[k];
-                    self.apply_move(m, plan, free)
-                }
+                PlanKind::Planned => self.apply_move(m, plan),
             }
         }
         self.move_plans = plans;
-        self.planned_outlines = outlines;
-    }
-
-    /// Finds, in parallel, the planned moves that the ordered pass would find free of contact
-    /// with moving bodies whatever the order (`outlines.free`, by plan); `false` when this step
-    /// cannot tell (a tree moved one at a time, whose outlines are not known beforehand, or a
-    /// planned outline of a model the dynamic grid does not list), and nothing is marked.
-    fn free_moves(&self, plans: &[MovePlan], outlines: &mut PlannedOutlines) -> bool {
-        outlines.planned.resize(self.nodes.len(), Aabb::EMPTY);
-        let reach = self.index_planned_outlines(plans, &mut outlines.planned);
-        if let Some(reach) = reach {
-            // a margin for the rounding of the box differences (coordinates below 1e9 m)
-            let reach = reach + 1e-6;
-            let planned = &outlines.planned;
-            plans
-                .par_iter()
-                .enumerate()
-                .with_min_len(8)
-                .map(|(k, plan)| self.move_is_free(k, plan, planned, reach))
-                .collect_into_vec(&mut outlines.free);
-        }
-        for plan in plans {
-            for &x in &plan.models {
-                outlines.planned[x.index()] = Aabb::EMPTY;
-            }
-        }
-        reach.is_some()
-    }
-
-    /// Notes in `planned` the box of each planned outline that the ordered pass may install,
-    /// and answers how far any of them lies from the model's registered box; `None` when the
-    /// free test cannot be made (see [`World::free_moves`]). `planned` is left for the caller
-    /// to clear.
-    fn index_planned_outlines(&self, plans: &[MovePlan], planned: &mut [Aabb]) -> Option<f64> {
-        let mut reach = 0.0f64;
-        for plan in plans {
-            match plan.kind {
-                PlanKind::Still => continue,
-                PlanKind::OneByOne => return None,
-                PlanKind::Planned if plan.static_hit => continue,
-                PlanKind::Planned => {}
-            }
-            for (j, &x) in plan.models.iter().enumerate() {
-                let new = &plan.bodies[j];
-                if !plan.refresh[j] || new.is_empty() {
-                    continue;
-                }
-                let old = &self.space.body(x).aabb;
-                if !self.space.in_dynamic_grid(x) || old.is_empty() {
-                    return None;
-                }
-                let shift = (0..2)
-                    .map(|a| {
-                        (new.aabb.min[a] - old.min[a])
-                            .abs()
-                            .max((new.aabb.max[a] - old.max[a]).abs())
-                    })
-                    .fold(0.0, f64::max);
-                // a box at infinity would make every other box a candidate
-                if !shift.is_finite() {
-                    return None;
-                }
-                reach = reach.max(shift);
-                planned[x.index()] = new.aabb;
-            }
-        }
-        Some(reach)
-    }
-
-    /// Whether plan `k`'s moved tree meets no moving body, by boxes, where that body is now nor
-    /// where its plan puts it (`planned`, `reach`: see [`PlannedOutlines`]).
-    fn move_is_free(&self, k: usize, plan: &MovePlan, planned: &[Aabb], reach: f64) -> bool {
-        if plan.kind != PlanKind::Planned || plan.static_hit {
-            return false;
-        }
-        let root = self.nodes[self.positions[k].index()].root;
-        let accept = obstacle_to(&self.space, &self.returns, root);
-        plan.models.iter().enumerate().all(|(j, &x)| {
-            if !self.returns[x.index()].obstacle {
-                return true;
-            }
-            let body = if plan.refresh[j] {
-                &plan.bodies[j]
-            } else {
-                self.space.body(x)
-            };
-            body.is_empty()
-                || !self
-                    .space
-                    .may_meet_dynamic(x, &body.aabb, reach, accept, planned)
-        })
     }
 
     /// Plans model `m`'s move from the state before any move of this step.
@@ -265,11 +145,13 @@ impl World {
         plan.kind = PlanKind::Planned;
     }
 
-    /// Installs a planned move unless it touches something, then records the stall; `free`:
-    /// the move is known to touch no moving body ([`World::free_moves`]), so only static
-    /// contacts are looked at.
-    fn apply_move(&mut self, m: ModelId, plan: &mut MovePlan, free: bool) {
+    /// Installs a planned move unless it touches something, then records the stall.
+    fn apply_move(&mut self, m: ModelId, plan: &mut MovePlan) {
         let i = m.index();
+        #[cfg(test)]
+        {
+            self.planned_moves += 1;
+        }
         let hit = plan.static_hit || {
             let old = self.poses[i];
             self.poses[i] = plan.pose;
@@ -280,28 +162,20 @@ impl World {
                     self.space.commit_body(x);
                 }
             }
-            #[cfg(test)]
-            if free {
-                self.move_counts.0 += 1;
-            } else {
-                self.move_counts.1 += 1;
-            }
-            let hit = !free && {
-                let root = self.nodes[i].root;
-                let returns = &self.returns;
-                self.subtree.clear();
-                self.subtree.extend(
-                    plan.models
-                        .iter()
-                        .copied()
-                        .filter(|&x| returns[x.index()].obstacle),
-                );
-                self.space.touches_dynamic(
-                    &self.subtree,
-                    &mut self.scratch,
-                    obstacle_to(&self.space, returns, root),
-                )
-            };
+            let root = self.nodes[i].root;
+            let returns = &self.returns;
+            self.subtree.clear();
+            self.subtree.extend(
+                plan.models
+                    .iter()
+                    .copied()
+                    .filter(|&x| returns[x.index()].obstacle),
+            );
+            let hit = self.space.touches_dynamic(
+                &self.subtree,
+                &mut self.scratch,
+                obstacle_to(&self.space, returns, root),
+            );
             if hit {
                 self.poses[i] = old;
                 self.refresh_subtree(m);
@@ -321,13 +195,13 @@ impl World {
         self.moves_one_by_one = on;
     }
 
-    /// Planned moves installed so far without the ordered contact test, and with it.
-    pub(crate) fn move_counts(&self) -> (u64, u64) {
-        self.move_counts
+    /// Moves installed from a plan so far.
+    pub(crate) fn planned_moves(&self) -> u64 {
+        self.planned_moves
     }
 
     /// The dynamic grid's contents, order within a cell left out (see
-    /// [`Space::dynamic_grid_as_sets`]).
+    /// [`Space::dynamic_grid_as_sets`](crate::space::Space::dynamic_grid_as_sets)).
     pub(crate) fn dynamic_grid_as_sets(&self) -> Vec<Vec<(u32, [u64; 4], u32)>> {
         self.space.dynamic_grid_as_sets()
     }

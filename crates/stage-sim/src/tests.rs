@@ -973,3 +973,116 @@ fn a_camera_digest_follows_its_pixels() {
     let e = digest(&c);
     assert!(a != b && b != e && a != e);
 }
+
+/// A crowded random world for comparing the move passes: `robots` robots of random sizes on
+/// a jittered lattice (neighbours touching, overlapping or a hair apart), some with a laser,
+/// some that are no obstacle, between static walls; with `carried`, every seventh robot rides
+/// on the robot before it.
+fn crowded_world(seed: u64, robots: usize, carried: bool) -> WorldDesc {
+    let mut rng = crate::rng::SimRng::new(seed, 0);
+    let mut d = WorldDesc::default();
+    let side = (robots as f64).sqrt().ceil() as usize;
+    let pitch = 0.6;
+    let span = side as f64 * pitch;
+    for (i, (x, y, sx, sy)) in [
+        (-0.4, span / 2.0, 0.1, span + 1.0),
+        (span + 0.2, span / 2.0, 0.1, span + 1.0),
+        (span / 2.0, -0.4, span + 1.0, 0.1),
+        (span / 2.0, span + 0.2, span + 1.0, 0.1),
+        (span / 2.0, span / 2.0, 0.3, 0.3),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        d.add(wall(&format!("w{i}"), x, y, sx, sy, 1.0), None);
+    }
+    let mut last = None;
+    for i in 0..robots {
+        let (col, row) = ((i % side) as f64, (i / side) as f64);
+        let x = col * pitch + rng.uniform(-0.03, 0.03);
+        let y = row * pitch + rng.uniform(-0.03, 0.03);
+        let drive = if i % 5 == 0 { Drive::Omni } else { Drive::Diff };
+        let mut r = robot(&format!("r{i}"), x, y, rng.uniform(-PI, PI), drive);
+        let s = rng.uniform(0.3, 0.5);
+        r.size = [s, rng.uniform(0.3, 0.44), 0.5];
+        r.returns.obstacle = i % 11 != 3;
+        let rides = carried && i % 7 == 6 && last.is_some();
+        if rides {
+            r.pose = Pose::new(0.0, 0.0, 0.5, 0.0);
+            r.size = [0.2, 0.2, 0.2];
+        }
+        let id = d.add(r, if rides { last } else { None });
+        if i % 4 == 1 {
+            d.add(laser(8, PI, 2.0), Some(id));
+        }
+        last = Some(id);
+    }
+    d
+}
+
+/// The moves planned in parallel and installed in order leave every pose, stall, outline,
+/// sensor reading and the dynamic grid (as sets per cell) bit for bit as one-by-one moves do,
+/// step after step, on crowded worlds where robots push into each other and into walls, with
+/// and without robots carried by robots (whose trees move one by one in either pass).
+#[test]
+fn planned_moves_match_one_by_one_moves_bit_for_bit() {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        for (seed, robots, carried) in [(1, 60, false), (2, 150, false), (3, 80, true)] {
+            let d = crowded_world(seed, robots, carried);
+            let mut fast = World::from_desc(&d, seed).unwrap();
+            let mut plain = World::from_desc(&d, seed).unwrap();
+            plain.set_moves_one_by_one(true);
+            let mut rng = crate::rng::SimRng::new(seed, 1);
+            let ids: Vec<ModelId> = (0..robots)
+                .map(|i| fast.model_by_name(&format!("r{i}")).unwrap())
+                .collect();
+            for w in [&mut fast, &mut plain] {
+                for &id in &ids {
+                    w.subscribe(id).unwrap();
+                }
+            }
+            let mut stalls = 0;
+            for step in 0..120 {
+                if step % 10 == 0 {
+                    for &id in &ids {
+                        let v = rng.uniform(-0.3, 0.6);
+                        let vy = rng.uniform(-0.2, 0.2);
+                        let va = rng.uniform(-2.0, 2.0);
+                        for w in [&mut fast, &mut plain] {
+                            w.position_cmd_vel(id, v, vy, va).unwrap();
+                        }
+                    }
+                }
+                fast.step();
+                plain.step();
+                let what = format!("seed {seed}, step {step}");
+                assert_eq!(fast.state_digest(), plain.state_digest(), "{what}");
+                for m in 0..fast.model_count() {
+                    let m = ModelId(m as u32);
+                    assert_eq!(fast.pose(m).unwrap(), plain.pose(m).unwrap(), "{what}");
+                    let (a, b) = (fast.body(m).unwrap(), plain.body(m).unwrap());
+                    assert_eq!(a.pts, b.pts, "{what}, model {m:?}");
+                    assert_eq!(a.blocks, b.blocks, "{what}, model {m:?}");
+                    assert_eq!(a.aabb, b.aabb, "{what}, model {m:?}");
+                }
+                for &id in &ids {
+                    let stall = fast.position_state(id).unwrap().stall;
+                    assert_eq!(stall, plain.position_state(id).unwrap().stall, "{what}");
+                    stalls += stall as usize;
+                }
+                assert!(
+                    fast.dynamic_grid_as_sets() == plain.dynamic_grid_as_sets(),
+                    "{what}: the dynamic grids differ"
+                );
+            }
+            assert!(stalls > 1000, "seed {seed}: only {stalls} stalls");
+            let planned = fast.planned_moves();
+            assert!(planned > 1000, "seed {seed}: only {planned} planned moves");
+            assert_eq!(plain.planned_moves(), 0, "the plain world moved one by one");
+        }
+    });
+}

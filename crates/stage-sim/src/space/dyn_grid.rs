@@ -119,6 +119,42 @@ impl DynGrid {
     }
 }
 
+#[cfg(test)]
+impl super::Space {
+    /// Per cell, then the overflow list last, its entries as `(model, box bits, root)`,
+    /// sorted: what two grids that must answer every query alike have to agree on.
+    pub(crate) fn dynamic_grid_as_sets(&self) -> Vec<Vec<(u32, [u64; 4], u32)>> {
+        let bits = |b: &Aabb| {
+            [
+                b.min[0].to_bits(),
+                b.min[1].to_bits(),
+                b.max[0].to_bits(),
+                b.max[1].to_bits(),
+            ]
+        };
+        let g = &self.grid;
+        let mut out: Vec<Vec<(u32, [u64; 4], u32)>> = g
+            .cells
+            .iter()
+            .map(|c| {
+                c.iter()
+                    .map(|e| (e.model.0, bits(&e.aabb), e.root.0))
+                    .collect()
+            })
+            .collect();
+        out.push(
+            g.overflow
+                .iter()
+                .map(|&m| (m.0, bits(&self.aabbs[m.index()]), self.roots[m.index()].0))
+                .collect(),
+        );
+        for cell in &mut out {
+            cell.sort_unstable();
+        }
+        out
+    }
+}
+
 /// Edge of the dynamic grid's cells: three typical (median) moving bodies across, within
 /// `[0.25, 2]` m — small enough that a cell holds few robots, large enough that short sensor
 /// rays cross few cells (callgrind, instructions per step against four across: cave −6%,

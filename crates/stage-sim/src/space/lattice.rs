@@ -63,9 +63,19 @@ impl Lattice {
 
     /// The indices of the cells `x0..=x1 × y0..=y1` (a span as `[x0, y0, x1, y1]`, inside
     /// the grid), row by row.
-    pub(super) fn cells_in(&self, [x0, y0, x1, y1]: [i32; 4]) -> impl Iterator<Item = usize> {
-        let nx = self.nx;
-        (y0..=y1).flat_map(move |y| (x0..=x1).map(move |x| (y * nx + x) as usize))
+    #[inline]
+    pub(super) fn cells_in(&self, [x0, y0, x1, y1]: [i32; 4]) -> CellsIn {
+        if x1 < x0 || y1 < y0 {
+            return CellsIn::default();
+        }
+        let width = (x1 - x0 + 1) as usize;
+        CellsIn {
+            next: (y0 * self.nx + x0) as usize,
+            left_in_row: width,
+            rows_after: (y1 - y0) as usize,
+            width,
+            skip: self.nx as usize - width,
+        }
     }
 
     /// The box the cells cover.
@@ -87,5 +97,75 @@ impl Lattice {
         let inside = (0..2).all(|k| p[k] > b.min[k] && p[k] < b.max[k]);
         let c = self.cell_of(p);
         (inside && c[0] >= 0 && c[0] < self.nx && c[1] >= 0 && c[1] < self.ny).then_some(c)
+    }
+}
+
+/// The cells of a span, row by row ([`Lattice::cells_in`]): a counter that steps over the
+/// rest of each grid row. Every move runs through a few spans (the static grid's contact
+/// shortcut, the dynamic grid's update and contact test); against a flattened range of ranges,
+/// callgrind counts per step, one thread: hospital −0.8%, cave −0.8%, a 1,000-robot swarm
+/// −0.9%, simple −0.2% (hospital's ordered move pass −8%).
+#[derive(Clone, Debug, Default)]
+pub(super) struct CellsIn {
+    /// The next cell's index.
+    next: usize,
+    /// Cells left in the current row, `next` included.
+    left_in_row: usize,
+    /// Rows after the current one.
+    rows_after: usize,
+    /// Cells per row of the span.
+    width: usize,
+    /// Grid cells between the end of one row of the span and the start of the next.
+    skip: usize,
+}
+
+impl Iterator for CellsIn {
+    type Item = usize;
+
+    #[inline]
+    fn next(&mut self) -> Option<usize> {
+        if self.left_in_row == 0 {
+            if self.rows_after == 0 {
+                return None;
+            }
+            self.rows_after -= 1;
+            self.next += self.skip;
+            self.left_in_row = self.width;
+        }
+        let i = self.next;
+        self.next += 1;
+        self.left_in_row -= 1;
+        Some(i)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A span's cells come row by row, each row left to right, exactly the cells inside the
+    /// span; an inverted span has none.
+    #[test]
+    fn cells_in_lists_a_span_row_by_row() {
+        let lat = Lattice::new([0.0, 0.0], 1.0, 7, 5);
+        for span in [
+            [0, 0, 0, 0],
+            [6, 4, 6, 4],
+            [2, 1, 5, 1],
+            [3, 0, 3, 4],
+            [1, 1, 4, 3],
+            [0, 0, 6, 4],
+            [3, 2, 2, 2],
+            [3, 2, 3, 1],
+        ] {
+            let [x0, y0, x1, y1] = span;
+            let mut expected = Vec::new();
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    expected.push((y * 7 + x) as usize);
+                }
+            }
+            assert_eq!(lat.cells_in(span).collect::<Vec<_>>(), expected, "{span:?}");
+        }
     }
 }

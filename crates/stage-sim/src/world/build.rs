@@ -160,6 +160,10 @@ impl World {
             subtree: Vec::new(),
             scratch: Vec::new(),
             move_plans: Vec::new(),
+            #[cfg(test)]
+            moves_one_by_one: false,
+            #[cfg(test)]
+            planned_moves: 0,
         };
         // gripper bodies were replaced above: refresh their world outlines
         for i in 0..n {

@@ -112,6 +112,13 @@ pub struct World {
     subtree: Vec<ModelId>,
     scratch: Vec<ModelId>,
     move_plans: Vec<moves::MovePlan>,
+    /// Test switch: every robot moves with [`World::move_model`], one by one (the reference
+    /// the planned pass is compared with).
+    #[cfg(test)]
+    moves_one_by_one: bool,
+    /// Test count: moves installed from a plan ([`moves`]).
+    #[cfg(test)]
+    planned_moves: u64,
 }
 
 impl World {

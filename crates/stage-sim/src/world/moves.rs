@@ -51,6 +51,13 @@ pub(super) struct MovePlan {
 impl World {
     /// Moves every position model (phase 2 of [`World::step`]).
     pub(super) fn move_all(&mut self, dt: f64) {
+        #[cfg(test)]
+        if self.moves_one_by_one {
+            for k in 0..self.positions.len() {
+                self.move_model(self.positions[k], dt);
+            }
+            return;
+        }
         let mut plans = std::mem::take(&mut self.move_plans);
         plans.resize_with(self.positions.len(), MovePlan::default);
         {
@@ -141,6 +148,10 @@ impl World {
     /// Installs a planned move unless it touches something, then records the stall.
     fn apply_move(&mut self, m: ModelId, plan: &mut MovePlan) {
         let i = m.index();
+        #[cfg(test)]
+        {
+            self.planned_moves += 1;
+        }
         let hit = plan.static_hit || {
             let old = self.poses[i];
             self.poses[i] = plan.pose;
@@ -174,5 +185,24 @@ impl World {
         if let KindState::Position(p) = &mut self.states[i].kind {
             p.set_stall(hit);
         }
+    }
+}
+
+#[cfg(test)]
+impl World {
+    /// Moves every robot one by one with [`World::move_model`] (`true`), or as in a run.
+    pub(crate) fn set_moves_one_by_one(&mut self, on: bool) {
+        self.moves_one_by_one = on;
+    }
+
+    /// Moves installed from a plan so far.
+    pub(crate) fn planned_moves(&self) -> u64 {
+        self.planned_moves
+    }
+
+    /// The dynamic grid's contents, order within a cell left out (see
+    /// [`Space::dynamic_grid_as_sets`](crate::space::Space::dynamic_grid_as_sets)).
+    pub(crate) fn dynamic_grid_as_sets(&self) -> Vec<Vec<(u32, [u64; 4], u32)>> {
+        self.space.dynamic_grid_as_sets()
     }
 }

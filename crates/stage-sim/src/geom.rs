@@ -77,18 +77,58 @@ impl Aabb {
 
     /// The slab test, both axes written out: the parameter interval `(t0, t1)` of the ray inside
     /// the box, clipped to `[0, tmax]` (empty when `t0 > t1`).
+    ///
+    /// Along each axis the nearer face's distance is `min(a, b)` and the farther's `max(b, a)`
+    /// as x86's `minpd`/`maxpd` pick them (`x < y ? x : y`, `x > y ? x : y`): a NaN (0·∞, the
+    /// origin on a face of an axis-parallel ray) keeps the interval open along that axis, and
+    /// equal distances differ at most in a zero's sign, which no comparison here sees and the
+    /// interval never carries (`t0` starts at +0 and only grows past it). Written with SSE2
+    /// (the x86-64 baseline) because the compiler, left to itself, pairs the two axes' compares
+    /// in one register and then branches on each lane, and which face comes first is the ray's
+    /// direction, a coin toss the predictor lost on about one slab test in six (callgrind's
+    /// branch simulation, hospital).
     #[inline(always)]
     fn ray_span(&self, o: [f64; 2], inv: [f64; 2], tmax: f64) -> (f64, f64) {
-        // NaN (0·inf on a face) keeps the interval: treat as inside along that axis
-        #[inline(always)]
-        fn axis(min: f64, max: f64, o: f64, inv: f64, t0: f64, t1: f64) -> (f64, f64) {
-            let a = (min - o) * inv;
-            let b = (max - o) * inv;
-            let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
-            (if lo > t0 { lo } else { t0 }, if hi < t1 { hi } else { t1 })
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{
+                _mm_cvtsd_f64, _mm_max_pd, _mm_max_sd, _mm_min_pd, _mm_min_sd, _mm_mul_pd,
+                _mm_set_pd, _mm_set_sd, _mm_setzero_pd, _mm_sub_pd, _mm_unpackhi_pd,
+            };
+            // SAFETY: these intrinsics only need SSE2, which every x86-64 processor has (the
+            // target's baseline, always enabled); none of them reads or writes memory
+            unsafe {
+                // lanes (low, high) = (x, y)
+                let o = _mm_set_pd(o[1], o[0]);
+                let inv = _mm_set_pd(inv[1], inv[0]);
+                let a = _mm_mul_pd(_mm_sub_pd(_mm_set_pd(self.min[1], self.min[0]), o), inv);
+                let b = _mm_mul_pd(_mm_sub_pd(_mm_set_pd(self.max[1], self.max[0]), o), inv);
+                let near = _mm_min_pd(a, b);
+                let far = _mm_max_pd(b, a);
+                // x, then y: t0 = near > t0 ? near : t0, t1 = far < t1 ? far : t1
+                let t0 = _mm_max_sd(near, _mm_setzero_pd());
+                let t1 = _mm_min_sd(far, _mm_set_sd(tmax));
+                let t0 = _mm_max_sd(_mm_unpackhi_pd(near, near), t0);
+                let t1 = _mm_min_sd(_mm_unpackhi_pd(far, far), t1);
+                (_mm_cvtsd_f64(t0), _mm_cvtsd_f64(t1))
+            }
         }
-        let (t0, t1) = axis(self.min[0], self.max[0], o[0], inv[0], 0.0, tmax);
-        axis(self.min[1], self.max[1], o[1], inv[1], t0, t1)
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            #[inline(always)]
+            fn axis(min: f64, max: f64, o: f64, inv: f64, t0: f64, t1: f64) -> (f64, f64) {
+                let a = (min - o) * inv;
+                let b = (max - o) * inv;
+                let near = if a < b { a } else { b };
+                let far = if b > a { b } else { a };
+                (
+                    if near > t0 { near } else { t0 },
+                    if far < t1 { far } else { t1 },
+                )
+            }
+            let (t0, t1) = axis(self.min[0], self.max[0], o[0], inv[0], 0.0, tmax);
+            axis(self.min[1], self.max[1], o[1], inv[1], t0, t1)
+        }
     }
 }
 
@@ -156,6 +196,21 @@ fn ray_crossing<const SEGMENT: bool>(
 #[inline]
 pub fn ray_polygon(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Option<f64> {
     let n = pts.len();
+    if !(3..=MASKED_VERTICES).contains(&n) {
+        return ray_polygon_edge_by_edge(o, d, pts, tmax);
+    }
+    let (le, ge) = side_masks(o, d, pts);
+    nearest_crossing(o, d, pts, crossed_edges(le, ge, n), tmax)
+}
+
+/// The most vertices [`side_masks`] can answer for: one bit each in a `u64`.
+const MASKED_VERTICES: usize = 64;
+
+/// [`ray_polygon`] one edge after another: each vertex's side worked out as the walk reaches
+/// it, then the edge's crossing rule. The path for a segment (2 points) and for outlines of
+/// more than [`MASKED_VERTICES`] points, and the reference the masked form is tested against.
+fn ray_polygon_edge_by_edge(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]], tmax: f64) -> Option<f64> {
+    let n = pts.len();
     if n < 2 {
         return None;
     }
@@ -201,21 +256,112 @@ fn cross_edge(
     }
 }
 
-/// [`ray_polygon`] for four points (a rectangle: every default body), with the same
-/// arithmetic in the same order, so the same answers to the last bit, unrolled for the
-/// compiler to keep in registers: the moving-body ray tests' polygon test.
+/// [`ray_polygon`] for four points (a rectangle: every default body), the same masked test
+/// with the length known, for the compiler to unroll and keep in registers and the edge
+/// indices wrapping by a mask: the moving-body ray tests' polygon test.
 #[inline(always)]
 pub fn ray_quad(o: [f64; 2], d: [f64; 2], p: &[[f64; 2]; 4], tmax: f64) -> Option<f64> {
-    let s = [
-        side_of(o, d, p[0]),
-        side_of(o, d, p[1]),
-        side_of(o, d, p[2]),
-        side_of(o, d, p[3]),
-    ];
+    let (le, ge) = side_masks(o, d, p);
+    let mut edges = crossed_edges(le, ge, 4);
     let mut best: Option<f64> = None;
-    for i in 0..4 {
-        let j = (i + 1) % 4;
-        cross_edge(o, d, (p[i], s[i]), (p[j], s[j]), tmax, &mut best);
+    // nearest_crossing's loop with the wrap to vertex 0 as a mask (no bounds checks)
+    while edges != 0 {
+        let i = edges.trailing_zeros() as usize & 3;
+        edges &= edges - 1;
+        if let Some(t) = ray_crossing::<false>(o, d, p[i], p[(i + 1) & 3], best.unwrap_or(tmax)) {
+            best = Some(t);
+        }
+    }
+    best
+}
+
+/// The sides of the ray's line the vertices `pts` (at most [`MASKED_VERTICES`]) lie on, as
+/// two masks: bit `i` of the first is set when [`side_of`] vertex `i` is ≤ 0, of the second
+/// when it is ≥ 0 (both: on the line; neither: NaN, as the edge-by-edge comparisons answer).
+///
+/// Masks instead of a comparison per edge because whether an edge's ends straddle the ray's
+/// line is a coin toss to the branch predictor: the per-edge branches were 14% of the
+/// hospital's mispredicted branches (callgrind's branch simulation), for about as many
+/// instructions as the masks take. On x86-64 two vertices at a time in SSE2 lanes (part of
+/// the architecture's baseline): each lane does [`side_of`]'s own subtractions and products in
+/// its order, with no fused multiply-add, so every side is the scalar one to the bit and the
+/// masks are the scalar comparisons'.
+#[inline(always)]
+fn side_masks(o: [f64; 2], d: [f64; 2], pts: &[[f64; 2]]) -> (u64, u64) {
+    let (mut le, mut ge) = (0u64, 0u64);
+    let pairs = pts.chunks_exact(2);
+    let rest = pairs.remainder();
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{
+            _mm_cmpge_pd, _mm_cmple_pd, _mm_movemask_pd, _mm_mul_pd, _mm_set_pd, _mm_setzero_pd,
+            _mm_sub_pd, _mm_unpackhi_pd, _mm_unpacklo_pd,
+        };
+        // SAFETY: these intrinsics only need SSE2, which every x86-64 processor has (the
+        // target's baseline, always enabled); none of them reads or writes memory
+        unsafe {
+            // lanes (low, high): the origin (x, y) and the direction crossed over, (dy, dx)
+            let origin = _mm_set_pd(o[1], o[0]);
+            let across = _mm_set_pd(d[0], d[1]);
+            let zero = _mm_setzero_pd();
+            for (k, pair) in pairs.enumerate() {
+                // (px - ox)·dy and (py - oy)·dx of each vertex, then their difference
+                let w0 = _mm_set_pd(pair[0][1], pair[0][0]);
+                let w1 = _mm_set_pd(pair[1][1], pair[1][0]);
+                let w0 = _mm_mul_pd(_mm_sub_pd(w0, origin), across);
+                let w1 = _mm_mul_pd(_mm_sub_pd(w1, origin), across);
+                let sides = _mm_sub_pd(_mm_unpacklo_pd(w0, w1), _mm_unpackhi_pd(w0, w1));
+                le |= (_mm_movemask_pd(_mm_cmple_pd(sides, zero)) as u64) << (2 * k);
+                ge |= (_mm_movemask_pd(_mm_cmpge_pd(sides, zero)) as u64) << (2 * k);
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    for (k, pair) in pairs.enumerate() {
+        for (j, &p) in pair.iter().enumerate() {
+            let s = side_of(o, d, p);
+            le |= ((s <= 0.0) as u64) << (2 * k + j);
+            ge |= ((s >= 0.0) as u64) << (2 * k + j);
+        }
+    }
+    if let [p] = rest {
+        let s = side_of(o, d, *p);
+        let i = pts.len() - 1;
+        le |= ((s <= 0.0) as u64) << i;
+        ge |= ((s >= 0.0) as u64) << i;
+    }
+    (le, ge)
+}
+
+/// The edges `i → i+1` (the last closing on vertex 0) of an `n`-point outline (3 to
+/// [`MASKED_VERTICES`]) that [`cross_edge`] gives a distance, from [`side_masks`]: bit `i` set
+/// when one end lies on or below the line and the other on or above it, not both on it.
+#[inline(always)]
+fn crossed_edges(le: u64, ge: u64, n: usize) -> u64 {
+    let next = |m: u64| (m >> 1) | ((m & 1) << (n - 1));
+    let on_line = le & ge;
+    ((le & next(ge)) | (ge & next(le))) & !(on_line & next(on_line))
+}
+
+/// The nearest crossing within `tmax` of the edges of `pts` marked in `edges`
+/// ([`crossed_edges`]), visited in the edge-by-edge order with its limits, so the answer is
+/// [`ray_polygon_edge_by_edge`]'s to the bit.
+#[inline(always)]
+fn nearest_crossing(
+    o: [f64; 2],
+    d: [f64; 2],
+    pts: &[[f64; 2]],
+    mut edges: u64,
+    tmax: f64,
+) -> Option<f64> {
+    let mut best: Option<f64> = None;
+    while edges != 0 {
+        let i = edges.trailing_zeros() as usize;
+        edges &= edges - 1;
+        let j = if i + 1 == pts.len() { 0 } else { i + 1 };
+        if let Some(t) = ray_crossing::<false>(o, d, pts[i], pts[j], best.unwrap_or(tmax)) {
+            best = Some(t);
+        }
     }
     best
 }
@@ -293,8 +439,8 @@ mod tests {
         assert!((t - 2f64.sqrt()).abs() < 1e-12);
     }
 
-    /// The unrolled four-point case answers exactly as the loop does, degenerate rays included:
-    /// through vertices, along edges, from a corner, parallel to the axes.
+    /// The four-point case answers exactly as the edge-by-edge loop does, degenerate rays
+    /// included: through vertices, along edges, from a corner, parallel to the axes.
     #[test]
     fn quads_answer_as_the_loop_does() {
         use crate::rng::SimRng;
@@ -340,14 +486,83 @@ mod tests {
         }
         for (o, d, q) in cases {
             for tmax in [0.5, 10.0] {
-                let quad = ray_quad(o, d, &q, tmax);
-                let looped = ray_polygon(o, d, &q, tmax);
-                assert_eq!(
-                    quad.map(f64::to_bits),
-                    looped.map(f64::to_bits),
-                    "{q:?} from {o:?} along {d:?}"
-                );
+                let looped = ray_polygon_edge_by_edge(o, d, &q, tmax).map(f64::to_bits);
+                let quad = ray_quad(o, d, &q, tmax).map(f64::to_bits);
+                let masked = ray_polygon(o, d, &q, tmax).map(f64::to_bits);
+                assert_eq!(quad, looped, "{q:?} from {o:?} along {d:?}");
+                assert_eq!(masked, looped, "{q:?} from {o:?} along {d:?}");
             }
+        }
+    }
+
+    /// The masked polygon test (sides two vertices at a time) answers exactly as the
+    /// edge-by-edge loop, for outlines of 2 to 70 points (past the 64 a mask holds), convex or
+    /// not, on a lattice where vertices fall on the ray's line, the ray runs along edges or
+    /// starts at a vertex, and at random; and a NaN side counts on neither side in both.
+    #[test]
+    fn masked_polygons_answer_as_the_loop_does() {
+        use crate::rng::SimRng;
+        let mut rng = SimRng::new(8, 21);
+        let mut hits = 0;
+        for k in 0..6000 {
+            let n = 2 + k % 69;
+            let on_lattice = k % 3 == 0;
+            let coord = |rng: &mut SimRng| {
+                if on_lattice {
+                    (rng.uniform(-4.0, 4.0)).round() * 0.5
+                } else {
+                    rng.uniform(-2.0, 2.0)
+                }
+            };
+            let mut pts: Vec<[f64; 2]> =
+                (0..n).map(|_| [coord(&mut rng), coord(&mut rng)]).collect();
+            let o = if k % 7 == 0 {
+                pts[k % n]
+            } else {
+                [coord(&mut rng), coord(&mut rng)]
+            };
+            let d = match k % 5 {
+                0 => [1.0, 0.0],
+                1 => [0.0, -1.0],
+                2 => [std::f64::consts::FRAC_1_SQRT_2; 2],
+                _ => {
+                    let a: f64 = rng.uniform(-4.0, 4.0);
+                    [a.cos(), a.sin()]
+                }
+            };
+            if k % 4 == 1 {
+                // an edge on the ray's line to within rounding: its ends' sides come out 0 or
+                // nearly, on either side, while its direction may differ from the ray's
+                for p in &mut pts[..2] {
+                    let t = rng.uniform(-1.0, 3.0);
+                    *p = [o[0] + t * d[0], o[1] + t * d[1]];
+                }
+            }
+            for tmax in [0.7, 10.0] {
+                let looped = ray_polygon_edge_by_edge(o, d, &pts, tmax);
+                let masked = ray_polygon(o, d, &pts, tmax);
+                assert_eq!(
+                    masked.map(f64::to_bits),
+                    looped.map(f64::to_bits),
+                    "{pts:?} from {o:?} along {d:?} within {tmax}"
+                );
+                if let Ok(quad) = <&[[f64; 2]; 4]>::try_from(&pts[..]) {
+                    assert_eq!(
+                        ray_quad(o, d, quad, tmax).map(f64::to_bits),
+                        looped.map(f64::to_bits),
+                        "{pts:?} from {o:?} along {d:?} within {tmax}"
+                    );
+                }
+                hits += looped.is_some() as usize;
+            }
+        }
+        assert!(hits > 3000, "{hits} hits");
+        let square = [[1.0, -1.0], [3.0, -1.0], [3.0, 1.0], [f64::NAN, 1.0]];
+        for d in [[1.0, 0.0], [0.0, 1.0], [0.6, 0.8]] {
+            assert_eq!(
+                ray_polygon([0.0, 0.0], d, &square, 10.0).map(f64::to_bits),
+                ray_polygon_edge_by_edge([0.0, 0.0], d, &square, 10.0).map(f64::to_bits),
+            );
         }
     }
 
@@ -457,5 +672,74 @@ mod tests {
         );
         assert_eq!(b.ray_entry([0.0, 3.0], [1.0, f64::INFINITY], 5.0), None);
         assert!((signed_area(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]) - 0.5).abs() < 1e-12);
+    }
+
+    /// The slab test as first written, each axis's faces ordered by `a <= b` (a branch): the
+    /// reference [`Aabb::ray_span`]'s selects must answer as.
+    fn ray_span_by_branches(b: &Aabb, o: [f64; 2], inv: [f64; 2], tmax: f64) -> (f64, f64) {
+        let axis = |min: f64, max: f64, o: f64, inv: f64, t0: f64, t1: f64| {
+            let a = (min - o) * inv;
+            let b = (max - o) * inv;
+            let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+            (if lo > t0 { lo } else { t0 }, if hi < t1 { hi } else { t1 })
+        };
+        let (t0, t1) = axis(b.min[0], b.max[0], o[0], inv[0], 0.0, tmax);
+        axis(b.min[1], b.max[1], o[1], inv[1], t0, t1)
+    }
+
+    /// The branch-free slab test meets the same boxes at the same entry distances as the
+    /// branching one, to the bit: random rays and boxes, and the degenerate ones where a NaN
+    /// (0·∞) or equal face distances arise: axis-parallel rays from a face or a corner, flat
+    /// and point boxes, a zero reach.
+    #[test]
+    fn slab_test_answers_as_the_branching_form() {
+        use crate::rng::SimRng;
+        let mut rng = SimRng::new(3, 21);
+        let mut met = 0;
+        let mut check = |b: Aabb, o: [f64; 2], d: [f64; 2], tmax: f64| {
+            let inv = [1.0 / d[0], 1.0 / d[1]];
+            let (r0, r1) = ray_span_by_branches(&b, o, inv, tmax);
+            let want = (r0 <= r1).then_some(r0.to_bits());
+            assert_eq!(
+                b.ray_entry(o, inv, tmax).map(f64::to_bits),
+                want,
+                "{b:?} from {o:?} along {d:?} within {tmax}"
+            );
+            assert_eq!(b.ray_meets(o, inv, tmax), want.is_some());
+            met += want.is_some() as usize;
+        };
+        let grid = |rng: &mut SimRng| (rng.uniform(-3.0, 3.0)).round() * 0.5;
+        let axes = [
+            [1.0, 0.0],
+            [-1.0, 0.0],
+            [0.0, 1.0],
+            [0.0, -1.0],
+            [-0.0, 1.0],
+        ];
+        for k in 0..20000 {
+            let lattice = k % 2 == 0;
+            let pick = |rng: &mut SimRng| {
+                if lattice {
+                    grid(rng)
+                } else {
+                    rng.uniform(-2.0, 2.0)
+                }
+            };
+            let mut b = Aabb::EMPTY;
+            b.add([pick(&mut rng), pick(&mut rng)]);
+            if k % 5 != 0 {
+                b.add([pick(&mut rng), pick(&mut rng)]);
+            }
+            let o = [pick(&mut rng), pick(&mut rng)];
+            let d = if k % 3 == 0 {
+                axes[k % axes.len()]
+            } else {
+                let a: f64 = rng.uniform(-4.0, 4.0);
+                [a.cos(), a.sin()]
+            };
+            let tmax = [0.0, 0.5, 4.0][k % 3];
+            check(b, o, d, tmax);
+        }
+        assert!(met > 2500, "{met} met");
     }
 }

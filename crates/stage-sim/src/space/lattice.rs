@@ -139,6 +139,40 @@ impl Iterator for CellsIn {
     }
 }
 
+/// Where a grid walk (DDA) leaves its cell, from the distances `t_next` at which the ray
+/// crosses its next x and its next y boundary: 1 when across the x boundary
+/// (`t_next[0] < t_next[1]`), 0 when across the y boundary, and that distance.
+///
+/// Without a branch: which axis a slanted ray crosses next is a coin toss the predictor loses
+/// about half the time, and the compiler, left to itself, turned the scalar form's selects
+/// into a branch (callgrind's branch simulation: 13% of the hospital's mispredicted branches
+/// were on that line). On x86-64 it is SSE2 (the target's baseline): `cmpltsd` and `minsd`
+/// are `x < y` and `x < y ? x : y` exactly; the caller looks its steps up by the answer.
+#[inline(always)]
+pub(super) fn next_crossing(t_next: [f64; 2]) -> (usize, f64) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{
+            _mm_cmplt_sd, _mm_cvtsd_f64, _mm_min_sd, _mm_movemask_pd, _mm_set_pd, _mm_set_sd,
+        };
+        // SAFETY: these intrinsics only need SSE2, which every x86-64 processor has (the
+        // target's baseline, always enabled); none of them reads or writes memory
+        unsafe {
+            let (x, y) = (_mm_set_sd(t_next[0]), _mm_set_pd(0.0, t_next[1]));
+            let x_first = _mm_movemask_pd(_mm_cmplt_sd(x, y)) & 1;
+            (x_first as usize, _mm_cvtsd_f64(_mm_min_sd(x, y)))
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let x_first = t_next[0] < t_next[1];
+        (
+            x_first as usize,
+            if x_first { t_next[0] } else { t_next[1] },
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -166,6 +200,36 @@ mod tests {
                 }
             }
             assert_eq!(lat.cells_in(span).collect::<Vec<_>>(), expected, "{span:?}");
+        }
+    }
+
+    /// The branch-free choice of the next boundary answers as the comparison and select it
+    /// replaces, to the bit: ties (y first), infinities (an axis-parallel ray), zeros of
+    /// either sign and NaN (x never first).
+    #[test]
+    fn next_crossing_is_the_nearer_boundary() {
+        let values = [
+            0.0,
+            -0.0,
+            0.25,
+            0.5,
+            1.0,
+            3.75,
+            1e300,
+            f64::INFINITY,
+            f64::NAN,
+        ];
+        for &x in &values {
+            for &y in &values {
+                let x_first = x < y;
+                let want = (x_first as usize, if x_first { x } else { y });
+                let got = next_crossing([x, y]);
+                assert_eq!(
+                    (got.0, got.1.to_bits()),
+                    (want.0, want.1.to_bits()),
+                    "{x}, {y}"
+                );
+            }
         }
     }
 }

@@ -8,6 +8,7 @@ use parry2d::math::Point;
 
 use super::Space;
 use super::dyn_grid::CellEntry;
+use super::lattice::next_crossing;
 use crate::geom::{Aabb, ray_polygon, ray_quad, ray_segment};
 
 /// A ray hit: the model, which of its blocks, and the distance from the ray origin.
@@ -406,33 +407,35 @@ impl Space {
             let edge = g.lat.origin[k] + (c + if step > 0 { 1 } else { 0 }) as f64 * g.lat.cell;
             (edge - o[k]) * inv[k]
         };
-        let mut t_max_x = if d[0] == 0.0 {
-            f64::INFINITY
-        } else {
-            next_boundary(cx, 0, step_x)
-        };
-        let mut t_max_y = if d[1] == 0.0 {
-            f64::INFINITY
-        } else {
-            next_boundary(cy, 1, step_y)
-        };
-        let t_dx = (g.lat.cell * inv[0]).abs();
-        let t_dy = (g.lat.cell * inv[1]).abs();
-        let mut t_cell;
+        let mut t_next = [
+            if d[0] == 0.0 {
+                f64::INFINITY
+            } else {
+                next_boundary(cx, 0, step_x)
+            },
+            if d[1] == 0.0 {
+                f64::INFINITY
+            } else {
+                next_boundary(cy, 1, step_y)
+            },
+        ];
+        // what a step across a y (index 0) or an x (index 1) boundary adds to the cells and to
+        // the next crossings (+0.0 to the other axis's, which leaves it as it is), looked up by
+        // the step's axis instead of chosen by a branch
+        let cell_steps = [[0, step_y], [step_x, 0]];
+        let t_steps = [
+            [0.0, (g.lat.cell * inv[1]).abs()],
+            [(g.lat.cell * inv[0]).abs(), 0.0],
+        ];
         loop {
             let list = &g.cells[(cy * g.lat.nx + cx) as usize];
             if !list.is_empty() {
                 limit = visit(list);
             }
-            // the step written without a branch: which axis a ray crosses next is a coin toss
-            // the predictor loses half the time on slanted rays (selects of the same values;
-            // adding 0.0 to the other axis's positive or infinite crossing leaves it as is)
-            let along_x = t_max_x < t_max_y;
-            t_cell = if along_x { t_max_x } else { t_max_y };
-            cx += if along_x { step_x } else { 0 };
-            cy += if along_x { 0 } else { step_y };
-            t_max_x += if along_x { t_dx } else { 0.0 };
-            t_max_y += if along_x { 0.0 } else { t_dy };
+            let (axis, t_cell) = next_crossing(t_next);
+            t_next = [t_next[0] + t_steps[axis][0], t_next[1] + t_steps[axis][1]];
+            cx += cell_steps[axis][0];
+            cy += cell_steps[axis][1];
             // one unsigned compare per axis: a negative index wraps to a huge one
             if cx as u32 >= g.lat.nx as u32 || cy as u32 >= g.lat.ny as u32 || t_cell > limit {
                 return;

@@ -317,9 +317,27 @@ impl Document {
     }
 
     fn used_flag(&self, id: EntityId, index: usize) -> &Cell<bool> {
-        let count = self.properties(id).len();
-        assert!(index < count, "entity {id} has {count} properties, not {index}");
-        &self.used[self.entities[id].used_at + index]
+        let flags = self.used_flags(id);
+        let count = flags.len();
+        assert!(
+            index < count,
+            "entity {id} has {count} properties, not {index}"
+        );
+        &flags[index]
+    }
+
+    /// The `used` flags of entity `id`'s properties, in their order.
+    fn used_flags(&self, id: EntityId) -> &[Cell<bool>] {
+        let at = self.entities[id].used_at;
+        &self.used[at..at + self.properties(id).len()]
+    }
+
+    /// Marks as read, on entity `copy`, every property read on `original`, which it copies
+    /// ([`Entity::copy_of`]): reading a copy is reading its original again.
+    pub(crate) fn mark_used_as(&self, copy: EntityId, original: EntityId) {
+        for (to, from) in self.used_flags(copy).iter().zip(self.used_flags(original)) {
+            to.set(to.get() | from.get());
+        }
     }
 
     /// The values of a property of this document.
@@ -345,21 +363,27 @@ impl Document {
     /// The property `name` of entity `id`, marked used.
     pub fn use_property(&self, id: EntityId, name: &str) -> Option<&Property> {
         let (index, p) = self.find_property(id, name)?;
-        self.mark_used(id, index);
+        // the index was just found among the entity's properties
+        self.used[self.entities[id].used_at + index].set(true);
         Some(p)
     }
 
     /// The property `name` of entity `id` with its index among the entity's properties.
+    #[inline]
     fn find_property(&self, id: EntityId, name: &str) -> Option<(usize, &Property)> {
-        if id >= self.entities.len() {
-            return None;
-        }
+        let e = self.entities.get(id)?;
+        let owner = match e.copy_of {
+            Some(original) => &self.entities[original],
+            None => e,
+        };
         // Readers look up dozens of names per entity, most of them absent: the length in the
         // span rejects most without reading any text.
-        let name = name.as_bytes();
-        self.properties(id).iter().enumerate().find(|(_, p)| {
-            p.name.len as usize == name.len() && &self.text.as_bytes()[p.name.range()] == name
-        })
+        let (name, text) = (name.as_bytes(), self.text.as_bytes());
+        let index = owner
+            .properties
+            .iter()
+            .position(|p| p.name.len as usize == name.len() && &text[p.name.range()] == name)?;
+        Some((index, &owner.properties[index]))
     }
 
     /// A location with its file name, for messages and resolved data.
@@ -380,8 +404,8 @@ impl Document {
     pub fn unused_property_warnings(&self) -> Vec<Warning> {
         let mut out = Vec::new();
         for id in 0..self.entities.len() {
-            let properties = self.properties(id).iter().enumerate();
-            for (_, p) in properties.filter(|(k, _)| !self.is_used(id, *k)) {
+            let properties = self.properties(id).iter().zip(self.used_flags(id));
+            for (p, _) in properties.filter(|(_, used)| !used.get()) {
                 let owner = if id == 0 {
                     "at top level".to_string()
                 } else {

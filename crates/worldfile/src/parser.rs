@@ -597,13 +597,27 @@ impl<'a> Parser<'a> {
             .map(|(k, e)| {
                 if k == 0 {
                     // the body's own entity: each instance adds its properties to a copy
-                    Entity::new(None, e.type_word, e.macro_word, e.loc, e.properties.clone(), None)
+                    Entity::new(
+                        None,
+                        e.type_word,
+                        e.macro_word,
+                        e.loc,
+                        e.properties.clone(),
+                        None,
+                    )
                 } else {
                     // the others are copied whole: later copies share the records of the
                     // entity that holds them
                     let original = e.copy_of.unwrap_or(base + k);
                     let parent = e.parent.map(|p| p - base);
-                    Entity::new(parent, e.type_word, e.macro_word, e.loc, Vec::new(), Some(original))
+                    Entity::new(
+                        parent,
+                        e.type_word,
+                        e.macro_word,
+                        e.loc,
+                        Vec::new(),
+                        Some(original),
+                    )
                 }
             })
             .collect();
@@ -878,6 +892,44 @@ mod tests {
         assert_eq!(doc.type_name(2), "gear");
         assert_eq!(doc.type_name(4), "ranger");
         assert_eq!(doc.macro_name(4), Some("gear"));
+    }
+
+    /// A copy shares the property records of the entity it copies, never its `used` flags:
+    /// each entity still reports what was not read on it.
+    #[test]
+    fn copies_share_properties_but_not_used_flags() {
+        let src = "define ir sensor ( range [0 2] fov 30 )\n\
+                   define bot position ( ranger ( ir ( ) ) )\nbot ( )\nbot ( )\n";
+        let doc = parse_src(src, Dialect::World, u64::MAX, true).unwrap();
+        let types: Vec<&str> = (1..doc.entities.len())
+            .map(|id| doc.type_name(id))
+            .collect();
+        assert_eq!(types, ["position", "ranger", "sensor"].repeat(2));
+        // the second robot's ranger and sensor copy the first's; its position takes the
+        // instance's own properties and is not a copy
+        let copies: Vec<Option<EntityId>> = doc.entities.iter().map(|e| e.copy_of).collect();
+        assert_eq!(copies, [None, None, None, None, None, Some(2), Some(3)]);
+        assert!(std::ptr::eq(doc.properties(6), doc.properties(3)));
+        assert!(doc.entities[6].properties.is_empty());
+        assert_eq!(doc.children(5), [6]);
+        assert_eq!(doc.children(6), [] as [EntityId; 0]);
+        // reading the copy marks the copy only
+        assert!(doc.use_property(6, "range").is_some());
+        assert!(doc.is_used(6, 0) && !doc.is_used(3, 0));
+        doc.mark_used_as(3, 6);
+        assert!(doc.is_used(3, 0) && !doc.is_used(3, 1));
+        let unused: Vec<String> = doc
+            .unused_property_warnings()
+            .iter()
+            .map(|w| w.message.clone())
+            .collect();
+        assert_eq!(
+            unused,
+            [
+                "property `fov` in `ir (a sensor)` is defined but not used",
+                "property `fov` in `ir (a sensor)` is defined but not used",
+            ]
+        );
     }
 
     #[test]

@@ -485,7 +485,6 @@ impl<'d> Resolver<'d> {
         }
     }
 
-
     fn settings(&mut self) -> Result<WorldSettings, Error> {
         let path = self.top.display().to_string();
         let mut r = self.reader(0);
@@ -899,12 +898,7 @@ impl<'d> Resolver<'d> {
                         slot.insert((sensor, warnings))
                     }
                 };
-                let doc = self.doc;
-                for k in 0..doc.properties(original).len() {
-                    if doc.is_used(original, k) {
-                        doc.mark_used(entity, k);
-                    }
-                }
+                self.doc.mark_used_as(entity, original);
                 self.warnings.extend(warnings.iter().cloned());
                 sensor.clone()
             }

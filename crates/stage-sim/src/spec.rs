@@ -89,7 +89,7 @@ impl World {
     pub fn from_owned_spec(spec: WorldSpec, seed: u64) -> Result<World> {
         let (desc, warnings) = desc_from_spec(&spec, seed);
         drop(spec);
-        let mut w = World::from_desc(&desc, seed)?;
+        let mut w = World::from_owned_desc(desc, seed)?;
         w.add_warnings(warnings);
         Ok(w)
     }

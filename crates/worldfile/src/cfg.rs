@@ -374,8 +374,8 @@ impl CfgFile {
     }
 }
 
+/// The first value of a field [`Document::use_property`] returned, as text.
 fn field_text(doc: &Document, p: &Property) -> Option<String> {
-    p.mark_used();
     doc.values(p).first().map(|v| v.text.to_string())
 }
 
@@ -409,7 +409,10 @@ fn read_driver(
 ) -> Result<DriverSpec, Error> {
     let entity = doc.entity(section);
     let location = entity.loc.map(|l| doc.loc(l));
-    let field = |name: &str| doc.property(section, name).and_then(|p| field_text(doc, p));
+    let field = |name: &str| {
+        doc.use_property(section, name)
+            .and_then(|p| field_text(doc, p))
+    };
     let Some(name) = field("name") else {
         return Err(match entity.loc {
             Some(loc) => Error::at(ErrorKind::MissingDriverName, &doc.sources, loc, "driver"),
@@ -420,10 +423,9 @@ fn read_driver(
     let mut renamed = Vec::new();
     let mut addresses = |field: &str| -> Vec<DeviceAddr> {
         let mut out = Vec::new();
-        let Some(p) = doc.property(section, field) else {
+        let Some(p) = doc.use_property(section, field) else {
             return out;
         };
-        p.mark_used();
         for v in doc.values(p) {
             match DeviceAddr::parse(&v.text) {
                 Ok(mut a) => {
@@ -453,8 +455,8 @@ fn read_driver(
     let provides = addresses("provides");
     let requires = addresses("requires");
     warnings.append(&mut renamed);
-    let options = entity
-        .properties
+    let options = doc
+        .properties(section)
         .iter()
         .filter(|p| !DRIVER_FIELDS.contains(&doc.name(p)))
         .map(|p| {
@@ -475,7 +477,7 @@ fn read_driver(
         model: field("model"),
         worldfile: field("worldfile"),
         alwayson: doc
-            .property(section, "alwayson")
+            .use_property(section, "alwayson")
             .and_then(|p| read_bool(doc, p, warnings)),
         options,
     })

@@ -64,14 +64,27 @@ pub struct Token {
     pub loc: Location,
 }
 
-/// A byte range of a [`TokenStream`]'s text.
+/// A byte range of a [`TokenStream`]'s text. 32-bit offsets (the stream refuses text past
+/// 4 GiB) keep the records that name words, one per entity and property, small.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TextSpan {
     /// First byte.
-    pub start: usize,
+    pub start: u32,
     /// Length in bytes.
-    pub len: usize,
+    pub len: u32,
 }
+
+impl TextSpan {
+    /// The byte range it covers.
+    pub(crate) fn range(self) -> std::ops::Range<usize> {
+        self.start as usize..self.start as usize + self.len as usize
+    }
+}
+
+/// [`TokenStream::push`] refused a token: the stream's text would pass 4 GiB, beyond what a
+/// [`TextSpan`] can address.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TextTooLong;
 
 /// Tokens in order, with their texts one after another in a single string: a 10,000-robot
 /// worldfile has hundreds of thousands of tokens, and one allocation each would cost more than
@@ -88,18 +101,30 @@ impl TokenStream {
         Self::default()
     }
 
-    /// Appends a token with this text.
-    pub fn push(&mut self, kind: TokenKind, text: &str, loc: Location) {
-        let span = TextSpan {
-            start: self.text.len(),
-            len: text.len(),
+    /// Appends a token with this text; refused (nothing appended) when the stream's text
+    /// would pass what a [`TextSpan`] addresses.
+    pub fn push(&mut self, kind: TokenKind, text: &str, loc: Location) -> Result<(), TextTooLong> {
+        let end = self.text.len() + text.len();
+        let (Ok(start), Ok(len), Ok(_)) = (
+            u32::try_from(self.text.len()),
+            u32::try_from(text.len()),
+            u32::try_from(end),
+        ) else {
+            return Err(TextTooLong);
         };
         self.text.push_str(text);
         self.tokens.push(Token {
             kind,
-            text: span,
+            text: TextSpan { start, len },
             loc,
         });
+        Ok(())
+    }
+
+    /// The text of every token, one after another: what a [`TextSpan`] indexes once the
+    /// tokens themselves are no longer needed.
+    pub fn into_text(self) -> String {
+        self.text
     }
 
     /// The tokens in order.
@@ -130,7 +155,7 @@ impl TokenStream {
     /// # Panics
     /// If the span is not from this stream.
     pub fn span_text(&self, span: TextSpan) -> &str {
-        &self.text[span.start..span.start + span.len]
+        &self.text[span.range()]
     }
 
     /// The bytes of a span of this stream's text (for comparisons, which need no UTF-8
@@ -139,7 +164,7 @@ impl TokenStream {
     /// # Panics
     /// If the span is not from this stream.
     pub fn span_bytes(&self, span: TextSpan) -> &[u8] {
-        &self.text.as_bytes()[span.start..span.start + span.len]
+        &self.text.as_bytes()[span.range()]
     }
 }
 

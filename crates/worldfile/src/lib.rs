@@ -39,9 +39,7 @@ pub use bitmap::BitmapRows;
 pub use body::BlockSpec;
 pub use cfg::{CfgFile, DeviceAddr, DriverSpec, Host};
 pub use color::{ColorSpec, Rgba};
-pub use document::{
-    Document, Entity, EntityId, Property, TokenId, Units, Value, ValueKind, ValueRange,
-};
+pub use document::{Document, Entity, EntityId, Property, Units, Value, ValueKind, ValueRange};
 pub use error::{Error, ErrorKind, Warning};
 pub use lexer::Dialect;
 pub use loader::{Limits, LoadOptions};

@@ -194,20 +194,19 @@ impl Loader<'_> {
     fn push(&mut self, kind: TokenKind, text: &str, loc: Location) -> Result<(), Error> {
         // The parser indexes tokens with u32, whatever the limit says.
         let max_tokens = self.opts.limits.max_tokens.min(u32::MAX as usize);
-        if self.tokens.len() >= max_tokens {
-            let token = crate::lexer::Token {
-                kind,
-                text: Default::default(),
-                loc,
-            };
-            return Err(self.err(
-                ErrorKind::TooLarge(format!("more than {max_tokens} tokens after includes")),
-                loc,
-                &token.snippet(text),
-            ));
-        }
-        self.tokens.push(kind, text, loc);
-        Ok(())
+        let too_large = if self.tokens.len() >= max_tokens {
+            format!("more than {max_tokens} tokens after includes")
+        } else if self.tokens.push(kind, text, loc).is_err() {
+            "more than 4 GiB of token text after includes".to_string()
+        } else {
+            return Ok(());
+        };
+        let token = crate::lexer::Token {
+            kind,
+            text: Default::default(),
+            loc,
+        };
+        Err(self.err(ErrorKind::TooLarge(too_large), loc, &token.snippet(text)))
     }
 
     fn lex_file(&mut self, file: FileId) -> Result<(), Error> {

@@ -10,15 +10,15 @@
 //!
 //! What upstream re-parses, we parse once: a macro body's entities, once expanded, are copied
 //! for its later instances (until a new `define` could change what its words mean), and each
-//! value written is converted once and shared by every property that repeats it. Copies count
-//! against [`Limits`] exactly as the parse they stand for, so a 10,000-robot world of one
-//! `define` loads in the time of its instance lines, with the same document and errors.
+//! value written is converted once and shared by every property that repeats it. A copied
+//! entity other than the body's own (which the instance adds properties to) shares the
+//! property records of the entity it copies. Copies count against [`Limits`] exactly as the
+//! parse they stand for, so a 10,000-robot world of one `define` loads in the time of its
+//! instance lines, with the same document and errors.
 
 use std::collections::HashMap;
 
-use crate::document::{
-    Document, Entity, EntityId, Property, TokenId, Value, ValueKind, ValueRange,
-};
+use crate::document::{Document, Entity, EntityId, Property, Value, ValueKind, ValueRange};
 use crate::error::{Error, ErrorKind, Warning};
 use crate::lexer::{Dialect, Token, TokenKind, TokenStream};
 use crate::loader::Limits;
@@ -41,12 +41,13 @@ struct Parsed {
 
 /// What expanding a macro body made, kept so that later instances copy it instead of parsing
 /// the body again: its entities (the first is the body's own, whose parent is the instance's;
-/// the others' parents are offsets from the first), and what parsing it took, so that the
-/// copy still counts against [`Limits`] exactly as a parse would.
+/// the others' parents are offsets from the first, and they hold no properties, as their
+/// copies share those of the entities they copy), and what parsing it took, so that the copy
+/// still counts against [`Limits`] exactly as a parse would.
 struct Expansion {
-    /// The first entity of the expansion that was parsed (later ones are copies of it).
-    first: EntityId,
     entities: Vec<Entity>,
+    /// The type word token of each entity, for [`Parser::type_tokens`].
+    type_tokens: Vec<u32>,
     steps: u64,
     /// How much deeper than where it started the expansion nested.
     depth: usize,
@@ -63,6 +64,9 @@ struct Parser<'a> {
     parsed: Vec<Parsed>,
     /// For each type word, the most properties an entity made at it has had so far.
     property_counts: Vec<u32>,
+    /// For each entity, the token of its type word (entity 0: none, `u32::MAX`), which
+    /// indexes `property_counts`.
+    type_tokens: Vec<u32>,
     /// The entities each macro body (by the index of its PARENT word) expanded to, while the
     /// set of macros stays the same.
     expansions: HashMap<usize, Expansion>,
@@ -94,7 +98,7 @@ pub fn parse(
 }
 
 /// [`parse`], with the reuse of values parsed in an earlier instance of a macro on or off.
-fn parse_reusing(
+pub(crate) fn parse_reusing(
     toks: TokenStream,
     sources: SourceMap,
     dialect: Dialect,
@@ -112,17 +116,10 @@ fn parse_reusing(
             parsed_at: vec![0; toks.len()],
             parsed: Vec::new(),
             property_counts: vec![0; toks.len()],
+            type_tokens: vec![u32::MAX],
             expansions: HashMap::new(),
             deepest: 0,
-            entities: vec![Entity {
-                parent: None,
-                children: Vec::new(),
-                type_word: None,
-                macro_word: None,
-                loc: None,
-                properties: Vec::new(),
-                copy_of: None,
-            }],
+            entities: vec![Entity::new(None, None, None, None, Vec::new(), None)],
             macros: HashMap::new(),
             expanding: Vec::new(),
             plugins: Vec::new(),
@@ -134,35 +131,17 @@ fn parse_reusing(
         p.file()?;
         (p.entities, p.values, p.plugins, p.warnings)
     };
-    let mut doc = Document::new(dialect, sources, entities, plugins, warnings, toks, values);
-    link_children(&mut doc.entities);
+    // the tokens themselves are not needed any more, only their text
+    let text = toks.into_text();
+    let mut doc = Document::new(dialect, sources, entities, plugins, warnings, text, values);
     read_globals(&mut doc)?;
     Ok(doc)
-}
-
-fn link_children(entities: &mut [Entity]) {
-    // Counted first, so that each list is allocated once.
-    let mut counts = vec![0usize; entities.len()];
-    for e in entities.iter() {
-        if let Some(parent) = e.parent {
-            counts[parent] += 1;
-        }
-    }
-    for (e, count) in entities.iter_mut().zip(counts) {
-        e.children.reserve_exact(count);
-    }
-    for id in 1..entities.len() {
-        if let Some(parent) = entities[id].parent {
-            entities[parent].children.push(id);
-        }
-    }
 }
 
 /// `unit_length`, `unit_angle` (after a successful parse, like upstream) and `test`.
 fn read_globals(doc: &mut Document) -> Result<(), Error> {
     let mut warnings = Vec::new();
-    if let Some(p) = doc.property(0, "test") {
-        p.mark_used();
+    if let Some(p) = doc.use_property(0, "test") {
         let v = doc.values(p).first().and_then(Value::int).map(|n| n.value);
         if v.unwrap_or(0) != 0 {
             return Err(Error::at(ErrorKind::TestFile, &doc.sources, p.loc, "test"));
@@ -193,8 +172,7 @@ fn unit_factor(
     default: &str,
     warnings: &mut Vec<Warning>,
 ) -> Option<f64> {
-    let p = doc.property(0, key)?;
-    p.mark_used();
+    let p = doc.use_property(0, key)?;
     let word = doc.values(p).first().map(|v| &*v.text);
     if let Some(&(_, factor)) = units.iter().find(|(name, _)| Some(*name) == word) {
         return Some(factor);
@@ -525,7 +503,7 @@ impl<'a> Parser<'a> {
     /// Stores the property named by token `name`: a worldfile replaces a same-named property
     /// whole; a cfg overwrites it element by element, keeping any longer tail
     /// (player-cfg.md §3.1).
-    fn set(&mut self, entity: EntityId, name: TokenId, values: ValueRange, is_tuple: bool) {
+    fn set(&mut self, entity: EntityId, name: usize, values: ValueRange, is_tuple: bool) {
         let stream = self.stream;
         let name_tok = &self.toks[name];
         let text = stream.span_bytes(name_tok.text);
@@ -577,29 +555,33 @@ impl<'a> Parser<'a> {
                 self.steps += done.steps;
                 self.deepest = self.deepest.max(self.depth + done.depth);
                 let counts = &self.property_counts;
-                let first = done.first;
                 self.entities
                     .extend(done.entities.iter().enumerate().map(|(k, e)| {
                         let parent = match (k, e.parent) {
                             (0, _) | (_, None) => parent,
                             (_, Some(offset)) => base + offset,
                         };
-                        // The instance adds its own properties to the body's entity: room for as
-                        // many as the last instance had.
-                        let room = e.type_word.map_or(0, |w| counts[w] as usize);
-                        let mut properties = Vec::with_capacity(e.properties.len().max(room));
-                        properties.extend_from_slice(&e.properties);
-                        Entity {
-                            parent: Some(parent),
-                            children: Vec::new(),
-                            type_word: e.type_word,
-                            macro_word: e.macro_word,
-                            loc: e.loc,
+                        // The instance adds its own properties to the body's entity (room for as
+                        // many as the last instance had); the others share the records of the
+                        // entities they copy.
+                        let properties = if k == 0 {
+                            let room = counts[done.type_tokens[0] as usize] as usize;
+                            let mut properties = Vec::with_capacity(e.properties.len().max(room));
+                            properties.extend_from_slice(&e.properties);
+                            properties
+                        } else {
+                            Vec::new()
+                        };
+                        Entity::new(
+                            Some(parent),
+                            e.type_word,
+                            e.macro_word,
+                            e.loc,
                             properties,
-                            // the body's own entity gets the instance's properties too
-                            copy_of: (k > 0).then_some(first + k),
-                        }
+                            e.copy_of,
+                        )
                     }));
+                self.type_tokens.extend_from_slice(&done.type_tokens);
                 return Ok(());
             }
         }
@@ -612,20 +594,39 @@ impl<'a> Parser<'a> {
         let entities = self.entities[base..]
             .iter()
             .enumerate()
-            .map(|(k, e)| Entity {
-                parent: if k == 0 {
-                    None
+            .map(|(k, e)| {
+                if k == 0 {
+                    // the body's own entity: each instance adds its properties to a copy
+                    Entity::new(
+                        None,
+                        e.type_word,
+                        e.macro_word,
+                        e.loc,
+                        e.properties.clone(),
+                        None,
+                    )
                 } else {
-                    e.parent.map(|p| p - base)
-                },
-                ..e.clone()
+                    // the others are copied whole: later copies share the records of the
+                    // entity that holds them
+                    let original = e.copy_of.unwrap_or(base + k);
+                    let parent = e.parent.map(|p| p - base);
+                    Entity::new(
+                        parent,
+                        e.type_word,
+                        e.macro_word,
+                        e.loc,
+                        Vec::new(),
+                        Some(original),
+                    )
+                }
             })
             .collect();
+        let type_tokens = self.type_tokens[base..].to_vec();
         self.expansions.insert(
             start,
             Expansion {
-                first: base,
                 entities,
+                type_tokens,
                 steps: self.steps - steps,
                 depth,
             },
@@ -673,7 +674,7 @@ impl<'a> Parser<'a> {
             self.expanding.pop();
             expanded?;
             // The outermost macro name and the instance's own location win.
-            self.entities[id].macro_word = Some(i);
+            self.entities[id].macro_word = Some(name.text);
             self.entities[id].loc = Some(name.loc);
             id
         } else {
@@ -684,15 +685,16 @@ impl<'a> Parser<'a> {
                     name,
                 ));
             }
-            self.entities.push(Entity {
-                parent: Some(parent),
-                children: Vec::new(),
-                type_word: Some(i),
-                macro_word: None,
-                loc: Some(name.loc),
-                properties: Vec::with_capacity(self.property_counts[i] as usize),
-                copy_of: None,
-            });
+            self.entities.push(Entity::new(
+                Some(parent),
+                Some(name.text),
+                None,
+                Some(name.loc),
+                Vec::with_capacity(self.property_counts[i] as usize),
+                None,
+            ));
+            // the loader keeps the token count within u32
+            self.type_tokens.push(i as u32);
             id
         };
         // Skip to this name's own `(`.
@@ -721,11 +723,9 @@ impl<'a> Parser<'a> {
         let end = self.body(id, j + 1, name)?;
         // The next entity made at the same type word (another instance of the same macro body)
         // allocates room for as many properties at once.
-        let e = &self.entities[id];
-        if let Some(word) = e.type_word {
-            let count = u32::try_from(e.properties.len()).unwrap_or(u32::MAX);
-            self.property_counts[word] = self.property_counts[word].max(count);
-        }
+        let word = self.type_tokens[id] as usize;
+        let count = u32::try_from(self.entities[id].properties.len()).unwrap_or(u32::MAX);
+        self.property_counts[word] = self.property_counts[word].max(count);
         Ok(end)
     }
 
@@ -800,8 +800,8 @@ mod tests {
     /// Every property of every entity as text: `entity: name = values`.
     fn listing(doc: &Document) -> Vec<String> {
         let mut out = Vec::new();
-        for (id, e) in doc.entities.iter().enumerate() {
-            for p in &e.properties {
+        for id in 0..doc.entities.len() {
+            for p in doc.properties(id) {
                 let values: Vec<String> = doc
                     .values(p)
                     .iter()
@@ -859,10 +859,10 @@ mod tests {
                 (Ok(a), Ok(b)) => {
                     assert_eq!(listing(&a), listing(&b));
                     assert_eq!(a.entities.len(), b.entities.len());
-                    for (x, y) in a.entities.iter().zip(&b.entities) {
+                    for (id, (x, y)) in a.entities.iter().zip(&b.entities).enumerate() {
                         assert_eq!(
-                            (x.parent, &x.children, x.type_word, x.macro_word, x.loc),
-                            (y.parent, &y.children, y.type_word, y.macro_word, y.loc)
+                            (x.parent, a.children(id), x.type_word, x.macro_word, x.loc),
+                            (y.parent, b.children(id), y.type_word, y.macro_word, y.loc)
                         );
                     }
                     return limit;
@@ -892,6 +892,44 @@ mod tests {
         assert_eq!(doc.type_name(2), "gear");
         assert_eq!(doc.type_name(4), "ranger");
         assert_eq!(doc.macro_name(4), Some("gear"));
+    }
+
+    /// A copy shares the property records of the entity it copies, never its `used` flags:
+    /// each entity still reports what was not read on it.
+    #[test]
+    fn copies_share_properties_but_not_used_flags() {
+        let src = "define ir sensor ( range [0 2] fov 30 )\n\
+                   define bot position ( ranger ( ir ( ) ) )\nbot ( )\nbot ( )\n";
+        let doc = parse_src(src, Dialect::World, u64::MAX, true).unwrap();
+        let types: Vec<&str> = (1..doc.entities.len())
+            .map(|id| doc.type_name(id))
+            .collect();
+        assert_eq!(types, ["position", "ranger", "sensor"].repeat(2));
+        // the second robot's ranger and sensor copy the first's; its position takes the
+        // instance's own properties and is not a copy
+        let copies: Vec<Option<EntityId>> = doc.entities.iter().map(|e| e.copy_of).collect();
+        assert_eq!(copies, [None, None, None, None, None, Some(2), Some(3)]);
+        assert!(std::ptr::eq(doc.properties(6), doc.properties(3)));
+        assert!(doc.entities[6].properties.is_empty());
+        assert_eq!(doc.children(5), [6]);
+        assert_eq!(doc.children(6), [] as [EntityId; 0]);
+        // reading the copy marks the copy only
+        assert!(doc.use_property(6, "range").is_some());
+        assert!(doc.is_used(6, 0) && !doc.is_used(3, 0));
+        doc.mark_used_as(3, 6);
+        assert!(doc.is_used(3, 0) && !doc.is_used(3, 1));
+        let unused: Vec<String> = doc
+            .unused_property_warnings()
+            .iter()
+            .map(|w| w.message.clone())
+            .collect();
+        assert_eq!(
+            unused,
+            [
+                "property `fov` in `ir (a sensor)` is defined but not used",
+                "property `fov` in `ir (a sensor)` is defined but not used",
+            ]
+        );
     }
 
     #[test]

@@ -62,8 +62,7 @@ impl<'d, 'w> Reader<'d, 'w> {
 
     /// The property, marked used. A tuple with no values counts as absent.
     pub fn prop(&self, name: &str) -> Option<&'d Property> {
-        let p = self.doc.property(self.entity, name)?;
-        p.mark_used();
+        let p = self.doc.use_property(self.entity, name)?;
         if p.is_empty() { None } else { Some(p) }
     }
 

@@ -337,9 +337,9 @@ impl TypeCounts {
     }
 }
 
-/// A model being built: its blocks are kept in block units until the end.
+/// What a model being built needs beside its [`ModelSpec`]: its blocks are kept in block units
+/// until the end.
 struct Building {
-    spec: ModelSpec,
     raw_blocks: Vec<RawBlock>,
     has_default_block: bool,
     global_at_load: Pose,
@@ -351,7 +351,11 @@ struct Resolver<'d> {
     opts: &'d LoadOptions,
     top: PathBuf,
     warnings: Vec<Warning>,
-    models: Vec<Building>,
+    /// The models so far, in the store the world keeps (sized from the document at the start:
+    /// a large world's models are a large part of its load, and are not copied again).
+    models: Vec<ModelSpec>,
+    /// What each model still needs while the world is being built.
+    building: Vec<Building>,
     model_of_entity: Vec<Option<ModelId>>,
     world_counts: TypeCounts,
     bitmaps: HashMap<PathBuf, Arc<Vec<PixelRect>>>,
@@ -361,6 +365,37 @@ struct Resolver<'d> {
     sensor_reads: BTreeMap<EntityId, (SensorSpec, Vec<Warning>)>,
 }
 
+/// What an entity of a worldfile is to the resolver, by its type word.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Role {
+    /// The GUI window: read once, apart.
+    Window,
+    /// A block of its model's body.
+    Block,
+    /// A sensor of its ranger.
+    Sensor,
+    /// A model (of a known type or not).
+    Model,
+}
+
+fn entity_role(doc: &Document, id: EntityId) -> Role {
+    match doc.type_name(id) {
+        "window" => Role::Window,
+        "block" => Role::Block,
+        "sensor" => Role::Sensor,
+        _ => Role::Model,
+    }
+}
+
+/// Records a warning about a model, at its location.
+fn warn_model(warnings: &mut Vec<Warning>, model: &ModelSpec, message: &str) {
+    let msg = format!("model `{}`: {message}", model.name);
+    warnings.push(match &model.location {
+        Some(l) => Warning::at(l.clone(), msg),
+        None => Warning::general(msg),
+    });
+}
+
 /// Builds the world from a parsed worldfile document.
 pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
     let top = doc
@@ -368,12 +403,16 @@ pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
         .top_path()
         .map(Path::to_path_buf)
         .unwrap_or_default();
+    let model_count = (1..doc.entities.len())
+        .filter(|&id| entity_role(doc, id) == Role::Model)
+        .count();
     let mut r = Resolver {
         doc,
         opts,
         top: top.clone(),
         warnings: doc.warnings.clone(),
-        models: Vec::new(),
+        models: Vec::with_capacity(model_count),
+        building: Vec::with_capacity(model_count),
         model_of_entity: vec![None; doc.entities.len()],
         // The hidden ground model is the first top-level `model` ("model:0").
         world_counts: {
@@ -387,34 +426,34 @@ pub fn resolve(doc: &Document, opts: &LoadOptions) -> Result<WorldSpec, Error> {
     let settings = r.settings()?;
     let window = r.window()?;
     for id in 1..doc.entities.len() {
-        match doc.type_name(id) {
-            "window" => {}
-            "block" => r.block(id)?,
-            "sensor" => r.sensor(id)?,
-            _ => r.model(id)?,
+        match entity_role(doc, id) {
+            Role::Window => {}
+            Role::Block => r.block(id)?,
+            Role::Sensor => r.sensor(id)?,
+            Role::Model => r.model(id)?,
         }
     }
-    let mut models = Vec::with_capacity(r.models.len());
-    let mut names = HashMap::with_capacity(2 * r.models.len());
-    for b in std::mem::take(&mut r.models) {
-        let mut spec = b.spec;
+    let mut models = std::mem::take(&mut r.models);
+    let mut names = HashMap::with_capacity(2 * models.len());
+    for (spec, b) in models.iter_mut().zip(std::mem::take(&mut r.building)) {
         let (blocks, notes) = body::scale(&b.raw_blocks, spec.size);
         if notes.flat_z {
-            r.warn_model(
-                &spec,
+            warn_model(
+                &mut r.warnings,
+                spec,
                 "the blocks have no height (no `z`, or all `z` at 0): Stage would compute NaN heights; each block is made full height instead",
             );
         }
         if notes.flat_xy {
-            r.warn_model(
-                &spec,
+            warn_model(
+                &mut r.warnings,
+                spec,
                 "the blocks have no extent along x or y (Stage divides by zero here); that axis is collapsed to the centre",
             );
         }
         spec.blocks = blocks;
         names.insert(spec.generated_name.clone(), spec.id);
         names.insert(spec.name.clone(), spec.id);
-        models.push(spec);
     }
     let mut warnings = r.warnings;
     warnings.extend(doc.unused_property_warnings());
@@ -444,14 +483,6 @@ impl<'d> Resolver<'d> {
             Some(loc) => Error::at(kind, &self.doc.sources, loc, self.doc.type_name(entity)),
             None => Error::new(kind),
         }
-    }
-
-    fn warn_model(&mut self, model: &ModelSpec, message: &str) {
-        let msg = format!("model `{}`: {message}", model.name);
-        self.warnings.push(match &model.location {
-            Some(l) => Warning::at(l.clone(), msg),
-            None => Warning::general(msg),
-        });
     }
 
     fn settings(&mut self) -> Result<WorldSettings, Error> {
@@ -534,12 +565,12 @@ impl<'d> Resolver<'d> {
 
         // Stage names the model before loading it: `type:k` or `parent.type:k`.
         let counts = match parent {
-            Some(p) => &mut self.models[p].child_counts,
+            Some(p) => &mut self.building[p].child_counts,
             None => &mut self.world_counts,
         };
         let index = counts.next(model_type);
         let generated_name = match parent {
-            Some(p) => format!("{}.{}:{index}", self.models[p].spec.name, info.name),
+            Some(p) => format!("{}.{}:{index}", self.models[p].name, info.name),
             None => format!("{}:{index}", info.name),
         };
 
@@ -645,13 +676,22 @@ impl<'d> Resolver<'d> {
             None => pose,
             Some(p) => {
                 let parent = &self.models[p];
-                let mut g = compose(parent.global_at_load, pose);
-                if parent.spec.common.stack_children {
-                    g[2] += parent.spec.size[2];
+                let mut g = compose(self.building[p].global_at_load, pose);
+                if parent.common.stack_children {
+                    g[2] += parent.size[2];
                 }
                 g
             }
         };
+        if let TypeSpec::Ranger(ranger) = &mut spec {
+            // its sensors are its `sensor` children, read after it: room for all at once
+            let doc = self.doc;
+            let sensors = doc.children(entity).iter();
+            let count = sensors
+                .filter(|&&c| entity_role(doc, c) == Role::Sensor)
+                .count();
+            ranger.sensors.reserve_exact(count);
+        }
         if let TypeSpec::Position(pos) = &mut spec {
             let given = self.doc.property(entity, "localization_origin");
             if given.is_none_or(|p| p.is_empty()) {
@@ -683,10 +723,10 @@ impl<'d> Resolver<'d> {
             spec,
         };
         if let Some(p) = parent {
-            self.models[p].spec.children.push(id);
+            self.models[p].children.push(id);
         }
-        self.models.push(Building {
-            spec: model,
+        self.models.push(model);
+        self.building.push(Building {
             raw_blocks,
             has_default_block,
             global_at_load,
@@ -701,9 +741,8 @@ impl<'d> Resolver<'d> {
     fn bitmap(&mut self, entity: EntityId) -> Result<Arc<Vec<PixelRect>>, Error> {
         let p = self
             .doc
-            .property(entity, "bitmap")
+            .use_property(entity, "bitmap")
             .expect("caller checked it exists");
-        p.mark_used();
         let Some(v) = self.doc.values(p).first() else {
             return Err(Error::at(
                 ErrorKind::Io {
@@ -821,7 +860,7 @@ impl<'d> Resolver<'d> {
             return Err(self.entity_error(ErrorKind::TooFewPoints(points.len()), entity));
         }
         let loc = self.entity_loc(entity);
-        let b = &mut self.models[model];
+        let b = &mut self.building[model];
         if b.has_default_block {
             b.raw_blocks.clear();
             b.has_default_block = false;
@@ -842,7 +881,7 @@ impl<'d> Resolver<'d> {
     fn sensor(&mut self, entity: EntityId) -> Result<(), Error> {
         let parent = self.doc.entity(entity).parent.unwrap_or(0);
         let ranger = self.model_of_entity[parent]
-            .filter(|m| matches!(self.models[*m].spec.spec, TypeSpec::Ranger(_)));
+            .filter(|m| matches!(self.models[*m].spec, TypeSpec::Ranger(_)));
         let Some(model) = ranger else {
             return Err(self.entity_error(ErrorKind::SensorOutsideRanger, entity));
         };
@@ -859,19 +898,13 @@ impl<'d> Resolver<'d> {
                         slot.insert((sensor, warnings))
                     }
                 };
-                let doc = self.doc;
-                let read = &doc.entity(original).properties;
-                for (p, q) in doc.entity(entity).properties.iter().zip(read) {
-                    if q.is_used() {
-                        p.mark_used();
-                    }
-                }
+                self.doc.mark_used_as(entity, original);
                 self.warnings.extend(warnings.iter().cloned());
                 sensor.clone()
             }
             None => read_sensor(&mut self.reader(entity))?,
         };
-        if let TypeSpec::Ranger(ranger) = &mut self.models[model].spec.spec {
+        if let TypeSpec::Ranger(ranger) = &mut self.models[model].spec {
             ranger.sensors.push(sensor);
         }
         Ok(())
@@ -885,4 +918,57 @@ fn read_sensor(r: &mut Reader<'_, '_>) -> Result<SensorSpec, Error> {
         r.warn("sensor `samples` is below 1: it produces no data");
     }
     Ok(sensor)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::loader::lex_document;
+    use crate::parser::parse_reusing;
+
+    /// Sensors copied from a macro body read as the sensor they copy: the same specs, the same
+    /// warnings in the same places, the same properties reported unused, as reading each.
+    #[test]
+    fn copied_sensors_read_like_the_sensor_they_copy() {
+        let src = "define ir sensor ( range [0 1.2.3] fov 30 samples 0 shade 3 )\n\
+                   define bot position ( ranger ( ir ( pose [0 0 0 0] ) ir ( pose [0 0 0 90] size [1 2] ) ) )\n\
+                   bot ( name \"a\" )\nbot ( name \"b\" )\nbot ( name \"c\" )\n";
+        let opts = LoadOptions::default();
+        let parse = |reuse| {
+            let (toks, sources) =
+                lex_document(Path::new("t.world"), src.into(), Dialect::World, &opts).unwrap();
+            parse_reusing(toks, sources, Dialect::World, &opts.limits, reuse).unwrap()
+        };
+        let doc = parse(true);
+        let copies = doc.entities.iter().filter(|e| e.copy_of.is_some()).count();
+        // the ranger and both sensors of the 2nd and 3rd robots (in the 1st, each `ir` instance
+        // adds its own pose to the sensor the body makes: not a copy)
+        assert_eq!(copies, 6);
+        // the same text parsed afresh at every instance: no copies, each sensor read
+        let each_read = parse(false);
+        assert!(each_read.entities.iter().all(|e| e.copy_of.is_none()));
+        let copied = resolve(&doc, &opts).unwrap();
+        let read = resolve(&each_read, &opts).unwrap();
+        assert_eq!(copied, read);
+        let sensors: usize = copied
+            .models
+            .iter()
+            .filter_map(|m| m.sensors())
+            .map(<[_]>::len)
+            .sum();
+        assert_eq!(sensors, 6);
+        let count = |what: &str| {
+            copied
+                .warnings
+                .iter()
+                .filter(|w| w.message.contains(what))
+                .count()
+        };
+        assert_eq!(count("`range` value `1.2.3` is read as 1.2"), 6);
+        assert_eq!(count("produces no data"), 6);
+        assert_eq!(count("property `shade`"), 6);
+        assert_eq!(count("Stage 3 form [x y]"), 3);
+    }
 }

@@ -196,7 +196,7 @@ fn nested_entities_in_pre_order() {
             (Some(0), "d".into())
         ]
     );
-    assert_eq!(d.entity(1).children, [2]);
+    assert_eq!(d.children(1), [2]);
     assert_eq!(values(&d, 2, "y"), ["2"]);
     assert_eq!(d.entity(3).loc.unwrap().line, 3);
 }
@@ -231,8 +231,8 @@ fn define_inherits_properties_and_copies_children() {
         ["model", "child", "other", "own", "model", "child", "other"]
     );
     // Each instance has its own copies of the macro's children.
-    assert_eq!(d.entity(1).children, [2, 3, 4]);
-    assert_eq!(d.entity(5).children, [6, 7]);
+    assert_eq!(d.children(1), [2, 3, 4]);
+    assert_eq!(d.children(5), [6, 7]);
     assert_eq!(values(&d, 1, "size"), ["2", "2", "2"]);
     assert_eq!(values(&d, 1, "color"), ["red"]);
     assert_eq!(values(&d, 5, "color"), ["blue"]);

@@ -10,6 +10,7 @@ use anyhow::Context;
 use clap::Parser;
 use stage_sim::World;
 use viewer::handle::{Pacing, WorldHandle, spawn_simulation};
+use viewer::world_scene::WorldGui;
 use viewer::world_window::{self, WindowOptions};
 use worldfile::{LoadOptions, WorldSpec};
 
@@ -122,13 +123,20 @@ fn main() -> anyhow::Result<()> {
                 eprintln!("{w}");
             }
         }
-        let mut world = World::from_spec(&spec, args.seed)
+        // what the window needs from the spec is taken first: the world is built from the
+        // spec itself, which is released before the world is (peak memory of a large world)
+        let gui = WorldGui::from_spec(&spec);
+        let window = spec.window.clone();
+        let title = f
+            .file_name()
+            .map_or_else(|| spec.path.clone(), |n| n.to_string_lossy().into_owned());
+        let mut world = World::from_owned_spec(spec, args.seed)
             .map_err(|e| anyhow::anyhow!("{}: {e}", f.display()))?;
         if let Some(q) = args.quit_time {
             anyhow::ensure!(q.is_finite() && q >= 0.0, "--quit-time must be >= 0");
             world.set_quit_time_us((q * 1e6) as u64);
         }
-        worlds.push(WorldHandle::from_spec(world, &spec));
+        worlds.push(WorldHandle::new(world, gui, window, &title));
     }
     println!("{banner}");
 

@@ -13,9 +13,41 @@ use crate::space::{Body, Space};
 use super::tree::*;
 use super::*;
 
+/// The models' type-specific descriptions when the world takes them from its description
+/// ([`World::from_owned_desc`]), in model order; each is released once its state is made.
+type OwnedKinds = Vec<KindDesc>;
+
+/// Model `i`'s type-specific description: from `kinds` when the world took them, else from
+/// the description.
+fn kind_of<'a>(desc: &'a WorldDesc, kinds: &'a Option<OwnedKinds>, i: usize) -> &'a KindDesc {
+    match kinds {
+        Some(kinds) => &kinds[i],
+        None => &desc.models[i].kind,
+    }
+}
+
 impl World {
     /// Builds a world from a description; `seed` drives every random choice.
     pub fn from_desc(desc: &WorldDesc, seed: u64) -> Result<World> {
+        World::build(desc, None, seed)
+    }
+
+    /// [`World::from_desc`] on a description it owns: each model's type-specific description
+    /// (a ranger's sensors: 16 MB in a 10,000-robot swarm) is released as soon as the model's
+    /// state is made from it, so that the description and the world never both hold all of
+    /// them (peak memory of a large load, issue 21). The same world as [`World::from_desc`].
+    pub fn from_owned_desc(mut desc: WorldDesc, seed: u64) -> Result<World> {
+        let kinds: OwnedKinds = desc
+            .models
+            .iter_mut()
+            .map(|m| std::mem::replace(&mut m.kind, KindDesc::Model))
+            .collect();
+        World::build(&desc, Some(kinds), seed)
+    }
+
+    /// Builds a world from a description, with the models' type-specific descriptions taken
+    /// out of it (`kinds`) or left in it (`None`).
+    fn build(desc: &WorldDesc, mut kinds: Option<OwnedKinds>, seed: u64) -> Result<World> {
         if desc.config.interval_sim_us == 0 {
             return Err(Error::InvalidWorld("interval_sim must be positive".into()));
         }
@@ -56,7 +88,7 @@ impl World {
             }
             nodes.push(Node {
                 name: m.name.clone(),
-                model_type: m.kind.model_type(),
+                model_type: kind_of(desc, &kinds, i).model_type(),
                 parent: m.parent.map(|p| ModelId(p as u32)),
                 children: Vec::new(),
                 root,
@@ -76,8 +108,8 @@ impl World {
         }
         // A tree that contains a position model can move: its bodies are dynamic.
         let mut moving_root = vec![false; n];
-        for (i, m) in desc.models.iter().enumerate() {
-            if matches!(m.kind, KindDesc::Position(_)) {
+        for i in 0..n {
+            if matches!(kind_of(desc, &kinds, i), KindDesc::Position(_)) {
                 moving_root[nodes[i].root.index()] = true;
             }
         }
@@ -103,7 +135,11 @@ impl World {
         let mut grippers = Vec::new();
         for (i, m) in desc.models.iter().enumerate() {
             let mut rng = SimRng::new(seed, i as u64);
-            let kind = KindState::new(&m.kind, &globals[i], &mut rng);
+            let kind = KindState::new(kind_of(desc, &kinds, i), &globals[i], &mut rng);
+            if let Some(kinds) = &mut kinds {
+                // the state holds what it needs: the description's part is released now
+                kinds[i] = KindDesc::Model;
+            }
             match kind {
                 KindState::Position(_) => positions.push(ModelId(i as u32)),
                 KindState::Gripper(_) => grippers.push(ModelId(i as u32)),
@@ -239,5 +275,42 @@ impl World {
             ctrl,
         });
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A world built from a description it owns (each model's type-specific part released as
+    /// its state is made) is the world built from a borrowed one, step after step.
+    #[test]
+    fn an_owned_description_builds_the_same_world() {
+        let text = r#"
+define ir sensor ( range [0 2] fov 30 samples 3 )
+define bot position ( size [0.3 0.3 0.2] ranger ( ir ( pose [0 0 0 0] ) ir ( pose [0 0 0 90] ) ) ctrl "wander" )
+model ( name "wall" pose [2 0 0 0] size [0.2 4 0.5] )
+bot ( name "a" pose [0 0 0 0] )
+bot ( name "b" pose [0 1 0 45] )
+gripper ( name "g" pose [-1 0 0 0] )
+"#;
+        let opts = worldfile::LoadOptions::default();
+        let spec = worldfile::WorldSpec::parse(std::path::Path::new("t.world"), text, &opts)
+            .expect("the world parses");
+        let (desc, _) = crate::spec::desc_from_spec(&spec, 7);
+        let mut borrowed = World::from_desc(&desc, 7).unwrap();
+        let mut owned = World::from_owned_desc(desc, 7).unwrap();
+        assert_eq!(owned.model_count(), borrowed.model_count());
+        let mut owned_spec = World::from_owned_spec(spec.clone(), 7).unwrap();
+        let mut from_spec = World::from_spec(&spec, 7).unwrap();
+        for _ in 0..20 {
+            assert_eq!(owned.state_digest(), borrowed.state_digest());
+            assert_eq!(owned_spec.state_digest(), from_spec.state_digest());
+            for w in [&mut borrowed, &mut owned, &mut owned_spec, &mut from_spec] {
+                w.step();
+            }
+        }
+        assert_eq!(owned.state_digest(), borrowed.state_digest());
+        assert_eq!(owned_spec.state_digest(), from_spec.state_digest());
     }
 }

@@ -31,12 +31,12 @@ pub struct WifiSpec {
 /// Keeps every property no other table read, as written (so none is reported unused).
 pub(crate) fn read(r: &mut Reader<'_, '_>) -> Result<WifiSpec, Error> {
     let mut spec = WifiSpec::default();
-    let doc = r.doc();
-    for p in &doc.entity(r.entity()).properties {
-        if p.is_used() {
+    let (doc, entity) = (r.doc(), r.entity());
+    for (k, p) in doc.properties(entity).iter().enumerate() {
+        if doc.is_used(entity, k) {
             continue;
         }
-        p.mark_used();
+        doc.mark_used(entity, k);
         spec.properties.insert(
             doc.name(p).to_string(),
             doc.values(p).iter().map(|v| v.text.to_string()).collect(),

@@ -78,9 +78,7 @@ impl World {
     /// Builds a world from the `worldfile` crate's resolved model tree.
     pub fn from_spec(spec: &WorldSpec, seed: u64) -> Result<World> {
         let (desc, warnings) = desc_from_spec(spec, seed);
-        let mut w = World::from_desc(&desc, seed)?;
-        w.add_warnings(warnings);
-        Ok(w)
+        World::from_translated(desc, warnings, seed)
     }
 
     /// [`World::from_spec`], releasing the model tree once it is translated: a large world's
@@ -89,6 +87,13 @@ impl World {
     pub fn from_owned_spec(spec: WorldSpec, seed: u64) -> Result<World> {
         let (desc, warnings) = desc_from_spec(&spec, seed);
         drop(spec);
+        World::from_translated(desc, warnings, seed)
+    }
+
+    /// The world of a description translated from a spec, carrying the translation's
+    /// warnings. The description is the caller's own temporary, so it is built from as owned
+    /// ([`World::from_owned_desc`]: the same world, less memory at its peak).
+    fn from_translated(desc: WorldDesc, warnings: Vec<String>, seed: u64) -> Result<World> {
         let mut w = World::from_owned_desc(desc, seed)?;
         w.add_warnings(warnings);
         Ok(w)

@@ -90,25 +90,29 @@ impl WorldHandle {
     /// models' GUI properties and `window` the worldfile's `window` entity (Stage's defaults
     /// when it has none). The world starts paused when its `paused` setting says so.
     pub fn new(world: World, gui: WorldGui, window: Option<WindowSpec>, title: &str) -> Self {
-        let paused = world.config().paused;
-        Self::build(
-            Arc::new(RwLock::new(world)),
-            Mode::Owned,
-            Arc::new(AtomicBool::new(paused)),
+        let setup = WindowSetup {
             gui,
             window,
-            title,
-        )
+            title: title.to_string(),
+        };
+        WorldHandle::with_setup(world, setup)
     }
 
     /// Shares a world built from `spec` (its GUI properties and `window` come from the spec);
     /// the caller steps it through [`WorldHandle::update`].
     pub fn from_spec(world: World, spec: &WorldSpec) -> Self {
-        WorldHandle::new(
-            world,
-            WorldGui::from_spec(spec),
-            spec.window.clone(),
-            &title_of(spec),
+        WorldHandle::with_setup(world, WindowSetup::from_spec(spec))
+    }
+
+    /// [`WorldHandle::from_spec`] with what the window takes from the spec taken beforehand,
+    /// so that the spec can be released before the world is built.
+    pub fn with_setup(world: World, setup: WindowSetup) -> Self {
+        let paused = world.config().paused;
+        Self::build(
+            Arc::new(RwLock::new(world)),
+            Mode::Owned,
+            Arc::new(AtomicBool::new(paused)),
+            setup,
         )
     }
 
@@ -124,31 +128,23 @@ impl WorldHandle {
         spec: &WorldSpec,
         paused: Arc<AtomicBool>,
     ) -> Self {
-        Self::build(
-            world,
-            Mode::External,
-            paused,
-            WorldGui::from_spec(spec),
-            spec.window.clone(),
-            &title_of(spec),
-        )
+        Self::build(world, Mode::External, paused, WindowSetup::from_spec(spec))
     }
 
     fn build(
         world: Arc<RwLock<World>>,
         mode: Mode,
         paused: Arc<AtomicBool>,
-        gui: WorldGui,
-        window: Option<WindowSpec>,
-        title: &str,
+        setup: WindowSetup,
     ) -> Self {
+        let WindowSetup { gui, window, title } = setup;
         WorldHandle {
             shared: Arc::new(Shared {
                 world,
                 mode,
                 gui,
                 window: window.unwrap_or_default(),
-                title: title.to_string(),
+                title,
                 commands: Mutex::new(Vec::new()),
                 paused,
                 quit: AtomicBool::new(false),
@@ -283,12 +279,28 @@ impl WorldHandle {
     }
 }
 
-/// The window title of a world: its file name.
-fn title_of(spec: &WorldSpec) -> String {
-    std::path::Path::new(&spec.path)
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_else(|| spec.path.clone())
+/// What a world's window takes from the worldfile the world was built from: its models' GUI
+/// properties, the `window` entity and the title. Apart from the spec so that a caller can
+/// release the spec (tens of megabytes for a large world) before building the world.
+#[derive(Clone, Debug)]
+pub struct WindowSetup {
+    gui: WorldGui,
+    window: Option<WindowSpec>,
+    title: String,
+}
+
+impl WindowSetup {
+    /// The setup of a world built from `spec`; its title is the worldfile's name.
+    pub fn from_spec(spec: &WorldSpec) -> WindowSetup {
+        WindowSetup {
+            gui: WorldGui::from_spec(spec),
+            window: spec.window.clone(),
+            title: std::path::Path::new(&spec.path)
+                .file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_else(|| spec.path.clone()),
+        }
+    }
 }
 
 fn apply(w: &mut World, c: WorldCommand) {

@@ -41,7 +41,7 @@ pub mod world_scene;
 pub mod world_window;
 
 pub use error::ViewerError;
-pub use handle::{WorldCommand, WorldHandle};
+pub use handle::{WindowSetup, WorldCommand, WorldHandle};
 pub use offscreen::{Offscreen, Pixels};
 pub use render::SceneRenderer;
 pub use scene::{Layer, Rgba8, Scene};

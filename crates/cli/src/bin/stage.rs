@@ -9,8 +9,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use clap::Parser;
 use stage_sim::World;
-use viewer::handle::{Pacing, WorldHandle, spawn_simulation};
-use viewer::world_scene::WorldGui;
+use viewer::handle::{Pacing, WindowSetup, WorldHandle, spawn_simulation};
 use viewer::world_window::{self, WindowOptions};
 use worldfile::{LoadOptions, WorldSpec};
 
@@ -125,18 +124,14 @@ fn main() -> anyhow::Result<()> {
         }
         // what the window needs from the spec is taken first: the world is built from the
         // spec itself, which is released before the world is (peak memory of a large world)
-        let gui = WorldGui::from_spec(&spec);
-        let window = spec.window.clone();
-        let title = f
-            .file_name()
-            .map_or_else(|| spec.path.clone(), |n| n.to_string_lossy().into_owned());
+        let setup = WindowSetup::from_spec(&spec);
         let mut world = World::from_owned_spec(spec, args.seed)
             .map_err(|e| anyhow::anyhow!("{}: {e}", f.display()))?;
         if let Some(q) = args.quit_time {
             anyhow::ensure!(q.is_finite() && q >= 0.0, "--quit-time must be >= 0");
             world.set_quit_time_us((q * 1e6) as u64);
         }
-        worlds.push(WorldHandle::new(world, gui, window, &title));
+        worlds.push(WorldHandle::with_setup(world, setup));
     }
     println!("{banner}");
 

@@ -371,19 +371,17 @@ impl Document {
     /// The property `name` of entity `id` with its index among the entity's properties.
     #[inline]
     fn find_property(&self, id: EntityId, name: &str) -> Option<(usize, &Property)> {
-        let e = self.entities.get(id)?;
-        let owner = match e.copy_of {
-            Some(original) => &self.entities[original],
-            None => e,
-        };
+        if id >= self.entities.len() {
+            return None;
+        }
+        let properties = self.properties(id);
         // Readers look up dozens of names per entity, most of them absent: the length in the
         // span rejects most without reading any text.
         let (name, text) = (name.as_bytes(), self.text.as_bytes());
-        let index = owner
-            .properties
+        let index = properties
             .iter()
             .position(|p| p.name.len as usize == name.len() && &text[p.name.range()] == name)?;
-        Some((index, &owner.properties[index]))
+        Some((index, &properties[index]))
     }
 
     /// A location with its file name, for messages and resolved data.

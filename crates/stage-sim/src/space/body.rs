@@ -2,6 +2,7 @@
 //! queries of [`Space`](super::Space) read them.
 
 use crate::geom::Aabb;
+use smallvec::SmallVec;
 
 /// One block of a body in world space: its z interval and its vertex range in [`Body::pts`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,12 +20,18 @@ pub struct WorldBlock {
 }
 
 /// A model's body in world space (polygon outlines with z ranges); empty for bodiless models.
+///
+/// A lone block of up to four points (every robot's default body) is kept inline: a ray
+/// testing another robot then reads the body where the body table holds it, not a list of
+/// blocks and then a list of points elsewhere on the heap (two cache misses per body tested in
+/// a 10,000-robot swarm: end to end ~4-6% faster, 8 alternating runs; instructions per step
+/// within 1% on the other bench worlds).
 #[derive(Clone, Debug, Default)]
 pub struct Body {
     /// Blocks in model order (the index is the block index used in hits).
-    pub blocks: Vec<WorldBlock>,
+    pub blocks: SmallVec<[WorldBlock; 1]>,
     /// All vertices of all blocks, block after block.
-    pub pts: Vec<[f64; 2]>,
+    pub pts: SmallVec<[[f64; 2]; 4]>,
     /// Bounding box of all vertices.
     pub aabb: Aabb,
 }

@@ -119,27 +119,30 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
         let Ray { o, d, inv, z, .. } = self.ray;
         let tmax = self.best_t;
         let body = &self.space.bodies[m.index()];
+        // the lists looked up once (each look is a test of where they are kept)
+        let (blocks, pts) = (&body.blocks[..], &body.pts[..]);
         let crossing = |pts: &[[f64; 2]], limit: f64| match <&[[f64; 2]; 4]>::try_from(pts) {
             Ok(quad) => ray_quad(o, d, quad, limit),
             Err(_) => ray_polygon(o, d, pts, limit),
         };
         let mut bt = tmax;
         let mut bb = None;
-        if let [blk] = &body.blocks[..] {
+        if let [blk] = blocks {
+            debug_assert_eq!((blk.start, blk.end as usize), (0, pts.len()));
             // a lone block (a robot's default body): its box is the body's, which the ray has
-            // just been found to meet
+            // just been found to meet, and its points are all the body's
             if z_sees(z, blk.zmin, blk.zmax)
-                && let Some(t) = crossing(body.block_pts(0), bt)
+                && let Some(t) = crossing(pts, bt)
             {
                 bt = t;
                 bb = Some(0);
             }
         } else {
-            for (bi, blk) in body.blocks.iter().enumerate() {
+            for (bi, blk) in blocks.iter().enumerate() {
                 if !z_sees(z, blk.zmin, blk.zmax) || !blk.aabb.ray_meets(o, inv, bt) {
                     continue;
                 }
-                if let Some(t) = crossing(body.block_pts(bi), bt)
+                if let Some(t) = crossing(&pts[blk.start as usize..blk.end as usize], bt)
                     && (bb.is_none() || t < bt)
                 {
                     bt = t;

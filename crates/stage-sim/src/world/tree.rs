@@ -53,17 +53,20 @@ pub(super) fn local_blocks(m: &ModelDesc) -> Result<Vec<LocalBlock>> {
 
 pub(super) fn body_of(node: &Node, global: &Pose, out: &mut Body) {
     out.blocks.clear();
-    out.pts.clear();
     out.aabb = Aabb::EMPTY;
     if node.blocks.is_empty() {
+        out.pts.clear();
         return;
     }
     let frame = global.compose(&node.origin);
     let (s, c) = frame.a.sin_cos();
     // the points written into slots made at once (a pioneer's outline is dozens of points, and
-    // every robot's outline is rebuilt at every move)
+    // every robot's outline is rebuilt at every move, into a body that has as many already)
     let total = node.blocks.iter().map(|b| b.pts.len()).sum();
-    out.pts.resize(total, [0.0; 2]);
+    if out.pts.len() != total {
+        out.pts.clear();
+        out.pts.resize(total, [0.0; 2]);
+    }
     let mut next = 0;
     for b in &node.blocks {
         let start = next as u32;

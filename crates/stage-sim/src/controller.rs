@@ -349,48 +349,55 @@ pub struct Expand {
     speed: f64,
     safe_angle: f64,
     /// (sensor index, minimum range) that must all be exceeded to drive.
-    clear: Vec<(usize, f64)>,
-    /// sin/cos of each sensor heading.
+    clear: &'static [(usize, f64)],
+    /// sin/cos of each sensor heading, worked out at the first update (made with room for a
+    /// ring's worth at construction, so that in a large swarm it lies beside the controller
+    /// rather than wherever a thread's first update put it).
     dirs: Vec<(f64, f64)>,
 }
+
+/// `expand_pioneer`'s safe distance (m) and the sonars that must see beyond its fractions.
+const PIONEER_SAFE: f64 = 0.75;
+const PIONEER_CLEAR: [(usize, f64); 6] = [
+    (3, PIONEER_SAFE),
+    (4, PIONEER_SAFE),
+    (5, PIONEER_SAFE / 2.0),
+    (6, PIONEER_SAFE / 4.0),
+    (2, PIONEER_SAFE / 2.0),
+    (1, PIONEER_SAFE / 4.0),
+];
+/// `expand_swarm`'s safe distance (m) and the IR sensors that must see beyond its fractions.
+const SWARM_SAFE: f64 = 0.5;
+const SWARM_CLEAR: [(usize, f64); 7] = [
+    (0, SWARM_SAFE),
+    (1, SWARM_SAFE / 1.5),
+    (2, SWARM_SAFE / 3.0),
+    (3, SWARM_SAFE / 5.0),
+    (9, SWARM_SAFE / 5.0),
+    (10, SWARM_SAFE / 3.0),
+    (11, SWARM_SAFE / 1.5),
+];
 
 impl Expand {
     /// `expand_pioneer` (16-sonar pioneer ring): 0.2 m/s, safe distance 0.75 m.
     pub fn pioneer(ranger: ModelId) -> Expand {
-        let s = 0.75;
         Expand {
             ranger,
             speed: 0.2,
             safe_angle: 0.5,
-            clear: vec![
-                (3, s),
-                (4, s),
-                (5, s / 2.0),
-                (6, s / 4.0),
-                (2, s / 2.0),
-                (1, s / 4.0),
-            ],
-            dirs: Vec::new(),
+            clear: &PIONEER_CLEAR,
+            dirs: Vec::with_capacity(16),
         }
     }
 
     /// `expand_swarm` (12 IR sensors): 0.3 m/s, safe distance 0.5 m.
     pub fn swarm(ranger: ModelId) -> Expand {
-        let s = 0.5;
         Expand {
             ranger,
             speed: 0.3,
             safe_angle: 0.5,
-            clear: vec![
-                (0, s),
-                (1, s / 1.5),
-                (2, s / 3.0),
-                (3, s / 5.0),
-                (9, s / 5.0),
-                (10, s / 3.0),
-                (11, s / 1.5),
-            ],
-            dirs: Vec::new(),
+            clear: &SWARM_CLEAR,
+            dirs: Vec::with_capacity(12),
         }
     }
 }
@@ -402,7 +409,9 @@ impl Controller for Expand {
         };
         let first = |k: usize| data.first_range(k);
         if self.dirs.len() != data.sensors.len() {
-            self.dirs = data.sensors.iter().map(|s| s.pose.a.sin_cos()).collect();
+            self.dirs.clear();
+            self.dirs
+                .extend(data.sensors.iter().map(|s| s.pose.a.sin_cos()));
         }
         let (mut dx, mut dy) = (0.0, 0.0);
         for (&(s, c), r) in self.dirs.iter().zip(data.first_ranges()) {

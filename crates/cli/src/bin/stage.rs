@@ -150,7 +150,12 @@ fn main() -> anyhow::Result<()> {
             Err(e) => eprintln!("note: cannot open the world window ({e}): running headless"),
         }
     }
-    headless(&args, &worlds, speedup)
+    let run = headless(&args, &worlds, speedup);
+    // the process ends here and its memory goes back to the system at once; dropping the
+    // worlds would free a large world's allocations one by one first (a 10,000-robot swarm:
+    // ~8 ms, median of 10 alternating load-only runs)
+    std::mem::forget(worlds);
+    run
 }
 
 /// The world window on this thread, the simulation on its own; returns when the window closes.

@@ -23,6 +23,8 @@ pub(super) struct CellEntry {
 pub(super) struct DynGrid {
     pub(super) lat: Lattice,
     pub(super) cells: Vec<Vec<CellEntry>>,
+    /// One bit per cell, set while its list is not empty (see [`DynGrid::entries`]).
+    occupied: Vec<u64>,
     /// Models whose box leaves the grid: tested by every query.
     pub(super) overflow: Vec<ModelId>,
     /// Registered cell range per model (`None`: not registered or in `overflow`).
@@ -42,6 +44,7 @@ impl DynGrid {
         DynGrid {
             lat: Lattice::new(origin, cell, nx, ny),
             cells: vec![Vec::new(); (nx * ny) as usize],
+            occupied: vec![0; (nx * ny) as usize / 64 + 1],
             overflow: Vec::new(),
             span: vec![None; nmodels],
             in_overflow: vec![false; nmodels],
@@ -58,6 +61,9 @@ impl DynGrid {
                 let c = &mut self.cells[i];
                 if let Some(k) = c.iter().position(|e| e.model == m) {
                     c.remove(k);
+                }
+                if c.is_empty() {
+                    self.occupied[i / 64] &= !(1 << (i % 64));
                 }
             }
         }
@@ -92,6 +98,7 @@ impl DynGrid {
                 };
                 for i in self.lat.cells_in(span) {
                     self.cells[i].push(entry);
+                    self.occupied[i / 64] |= 1 << (i % 64);
                 }
                 self.span[m.index()] = new;
             }
@@ -99,6 +106,19 @@ impl DynGrid {
                 self.in_overflow[m.index()] = true;
                 self.overflow.push(m);
             }
+        }
+    }
+
+    /// Cell `i`'s entries when it has any: a ray's walk asks the bits (a few KB, which stay in
+    /// cache) and reads a cell's list only where there is one, not every list header it
+    /// passes (24 bytes a cell; hospital's grid 3.4 MB). Hospital end to end −1 to −3%, the
+    /// 10,000-robot swarm −5% (medians of 10 and 6 alternating runs).
+    #[inline(always)]
+    pub(super) fn entries(&self, i: usize) -> Option<&[CellEntry]> {
+        if self.occupied[i / 64] & (1 << (i % 64)) == 0 {
+            None
+        } else {
+            Some(&self.cells[i])
         }
     }
 
@@ -221,10 +241,16 @@ mod tests {
     fn cell_entries_follow_moves_and_roots() {
         let mut g = DynGrid::new(aabb(0.0, 0.0, 10.0, 10.0), 1.0, 3);
         let (m, other) = (ModelId(1), ModelId(2));
+        // read as rays read them, through the occupancy bits, which must say which cells
+        // hold entries
         let entries = |g: &DynGrid, m: ModelId| -> Vec<(usize, Aabb, ModelId)> {
+            for c in 0..g.cells.len() {
+                assert_eq!(g.entries(c).is_some(), !g.cells[c].is_empty(), "cell {c}");
+            }
             (0..g.cells.len())
                 .flat_map(|c| {
-                    g.cells[c]
+                    g.entries(c)
+                        .unwrap_or_default()
                         .iter()
                         .filter(|e| e.model == m)
                         .map(move |e| (c, e.aabb, e.root))

@@ -431,8 +431,7 @@ impl Space {
             [(g.lat.cell * inv[0]).abs(), 0.0],
         ];
         loop {
-            let list = &g.cells[(cy * g.lat.nx + cx) as usize];
-            if !list.is_empty() {
+            if let Some(list) = g.entries((cy * g.lat.nx + cx) as usize) {
                 limit = visit(list);
             }
             let (axis, t_cell) = next_crossing(t_next);

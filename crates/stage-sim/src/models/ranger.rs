@@ -633,8 +633,7 @@ mod tests {
                 *r = 1.5 + i as f64;
             }
             let firsts: Vec<Option<f64>> = d.first_ranges().collect();
-            let expected: Vec<Option<f64>> =
-                d.scans().map(|s| s.ranges.first().copied()).collect();
+            let expected: Vec<Option<f64>> = d.scans().map(|s| s.ranges.first().copied()).collect();
             assert_eq!(firsts, expected, "{samples:?}");
             assert_eq!(firsts.len(), samples.len());
         }

@@ -46,6 +46,12 @@ impl Default for SensorDesc {
 }
 
 impl SensorDesc {
+    /// The transducer's slots in the flat lists: its samples, and one for a transducer of
+    /// none.
+    fn slots(&self) -> usize {
+        self.samples.max(1) as usize
+    }
+
     /// Whether the transducer adds any noise to its ranges (see `with_noise`).
     fn is_noisy(&self) -> bool {
         self.noise > 0.0 || self.noise_relative > 0.0
@@ -132,7 +138,7 @@ impl RangerData {
         // (made by the update, in whichever order the threads reach the rangers, they lay
         // scattered, a cache miss apiece each step in a large swarm)
         let n = d.sensors.len();
-        let samples = d.sensors.iter().map(|s| s.samples.max(1) as usize).sum();
+        let samples = d.sensors.iter().map(SensorDesc::slots).sum();
         d.dirs.reserve_exact(n);
         d.ends.reserve_exact(n);
         d.runs.reserve_exact(n);
@@ -248,7 +254,7 @@ impl RangerData {
         self.clear();
         self.dirs.clear();
         for s in &self.sensors {
-            let n = s.samples.max(1) as usize;
+            let n = s.slots();
             let (start, incr) = fan_angles(s);
             self.bearings
                 .extend((0..n).map(|t| start + t as f64 * incr));
@@ -262,7 +268,7 @@ impl RangerData {
         self.intensities.resize(total, 0.0);
         // a one-sample transducer joins the run before it when that run is of one-sample
         // transducers at the same place in the body frame with the same reach
-        let single = |s: &SensorDesc| s.samples.max(1) == 1;
+        let single = |s: &SensorDesc| s.slots() == 1;
         let place = |s: &SensorDesc| (s.pose.x, s.pose.y, s.pose.z + s.size[2] / 2.0, s.range[1]);
         self.runs.clear();
         let mut k = 0;
@@ -389,7 +395,7 @@ fn cast_fan(
 
 /// A transducer's first bearing and the step between bearings (rad; both 0 for one sample).
 fn fan_angles(s: &SensorDesc) -> (f64, f64) {
-    let n = s.samples.max(1);
+    let n = s.slots();
     if n > 1 {
         (-s.fov / 2.0, s.fov / (n - 1) as f64)
     } else {
@@ -440,7 +446,7 @@ fn update(v: &View, m: ModelId, d: &mut RangerData, rng: &mut SimRng) {
     for r in 0..d.runs.len() {
         let run = d.runs[r];
         let sensor = &d.sensors[k];
-        let n = sensor.samples.max(1) as usize;
+        let n = sensor.slots();
         let o = origin(sensor);
         let max = sensor.range[1];
         let first_sample = d.start_of(k);

@@ -19,6 +19,14 @@ pub struct WorldBlock {
     pub aabb: Aabb,
 }
 
+impl WorldBlock {
+    /// The block's vertices among its body's points `pts`.
+    #[inline(always)]
+    pub fn points<'a>(&self, pts: &'a [[f64; 2]]) -> &'a [[f64; 2]] {
+        &pts[self.start as usize..self.end as usize]
+    }
+}
+
 /// A model's body in world space (polygon outlines with z ranges); empty for bodiless models.
 ///
 /// A lone block of up to four points (every robot's default body) is kept inline: a ray
@@ -44,8 +52,7 @@ impl Body {
 
     /// The vertices of block `b`.
     pub fn block_pts(&self, b: usize) -> &[[f64; 2]] {
-        let blk = &self.blocks[b];
-        &self.pts[blk.start as usize..blk.end as usize]
+        self.blocks[b].points(&self.pts)
     }
 
     /// Iterates the edges of block `b` (closed polygon; a 2-point block is one segment).

@@ -142,7 +142,7 @@ impl<A: Fn(ModelId) -> bool> DynamicSearch<'_, A> {
                 if !z_sees(z, blk.zmin, blk.zmax) || !blk.aabb.ray_meets(o, inv, bt) {
                     continue;
                 }
-                if let Some(t) = crossing(&pts[blk.start as usize..blk.end as usize], bt)
+                if let Some(t) = crossing(blk.points(pts), bt)
                     && (bb.is_none() || t < bt)
                 {
                     bt = t;

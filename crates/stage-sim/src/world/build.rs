@@ -137,25 +137,21 @@ impl World {
         // another they lie side by side, so that the passes of a step over every position
         // model (control update, move plan, move) read memory in order; made between the other
         // kinds' allocations, a 10,000-robot swarm's lay ~2 KiB apart, one cache miss each
-        let mut made_early = Vec::with_capacity(n / 2);
-        for (i, global) in globals.iter().enumerate() {
-            let desc_kind = kind_of(desc, &kinds, i);
-            if matches!(desc_kind, KindDesc::Position(_)) {
-                let mut rng = SimRng::new(seed, i as u64);
-                made_early.push((i, KindState::new(desc_kind, global, &mut rng), rng));
-            }
-        }
+        // (each model's random stream is its own, so the order they are made in changes nothing)
+        let start = |kind: &KindDesc, i: usize| {
+            let mut rng = SimRng::new(seed, i as u64);
+            (KindState::new(kind, &globals[i], &mut rng), rng)
+        };
+        // collected: made now, before any other kind's state
+        let made_early: Vec<_> = (0..n)
+            .filter(|&i| matches!(kind_of(desc, &kinds, i), KindDesc::Position(_)))
+            .map(|i| (i, start(kind_of(desc, &kinds, i), i)))
+            .collect();
         let mut made_early = made_early.into_iter().peekable();
         for (i, m) in desc.models.iter().enumerate() {
-            let (kind, rng) = match made_early.next_if(|(j, _, _)| *j == i) {
-                Some((_, kind, rng)) => (kind, rng),
-                None => {
-                    let mut rng = SimRng::new(seed, i as u64);
-                    (
-                        KindState::new(kind_of(desc, &kinds, i), &globals[i], &mut rng),
-                        rng,
-                    )
-                }
+            let (kind, rng) = match made_early.next_if(|(j, _)| *j == i) {
+                Some((_, made)) => made,
+                None => start(kind_of(desc, &kinds, i), i),
             };
             if let Some(kinds) = &mut kinds {
                 // the state holds what it needs: the description's part is released now

@@ -7,6 +7,7 @@ use parry2d::bounding_volume::Aabb as PAabb;
 use parry2d::math::Point;
 use parry2d::partitioning::{Bvh, BvhBuildStrategy};
 
+use super::block_bins::{BinBlock, BlockBins};
 use super::body::{Body, edges_of};
 use super::exposed::{Rect, exposed_parts};
 use super::static_grid::{GridEdge, ListedEdge, StaticGrid};
@@ -27,10 +28,12 @@ pub(super) struct StaticBlock {
 /// one flat vertex array.
 pub(super) struct StaticIndex {
     pub(super) blocks: Vec<StaticBlock>,
-    pts: Vec<[f64; 2]>,
+    pub(super) pts: Vec<[f64; 2]>,
     pub(super) bvh: Bvh,
     /// The same blocks' edges in a uniform grid, for rays.
     pub(super) grid: Option<StaticGrid>,
+    /// The same blocks whole in a coarser grid, for fans (present with `grid`).
+    pub(super) bins: Option<BlockBins>,
 }
 
 /// Margin (m) added around each box handed to the BVH, whose boxes are `f32`: rounding never
@@ -42,6 +45,7 @@ impl StaticIndex {
         let mut blocks = Vec::new();
         let mut pts = Vec::new();
         let mut leaves = Vec::new();
+        let mut boxes = Vec::new();
         for (m, body) in bodies.iter().enumerate() {
             if dynamic[m] {
                 continue;
@@ -52,6 +56,7 @@ impl StaticIndex {
                 pts.extend_from_slice(p);
                 let mut bb = Aabb::EMPTY;
                 p.iter().for_each(|q| bb.add(*q));
+                boxes.push(bb);
                 leaves.push(PAabb::new(
                     Point::new((bb.min[0] - AABB_PAD) as f32, (bb.min[1] - AABB_PAD) as f32),
                     Point::new((bb.max[0] + AABB_PAD) as f32, (bb.max[1] + AABB_PAD) as f32),
@@ -73,6 +78,8 @@ impl StaticIndex {
             .map(|sb| Rect::of(&pts[sb.start as usize..sb.end as usize]))
             .collect();
         let mut edges = Vec::new();
+        // whether each block's edges are all listed whole (see `block_bins`)
+        let mut whole = vec![true; blocks.len()];
         for (i, sb) in blocks.iter().enumerate() {
             // the rectangles of the same model and z interval that touch this one
             let near: Vec<Rect> = match &rects[i] {
@@ -92,6 +99,7 @@ impl StaticIndex {
                     Some(own) => exposed_parts(a, b, own, near.iter().copied()),
                     None => vec![[a, b]],
                 };
+                whole[i] &= parts[..] == [[a, b]];
                 let edge = GridEdge {
                     a,
                     b,
@@ -101,11 +109,25 @@ impl StaticIndex {
             }
         }
         let grid = StaticGrid::build(&edges);
+        let bins = grid.as_ref().map(|g| {
+            let listed: Vec<(BinBlock, bool)> = blocks
+                .iter()
+                .zip(&boxes)
+                .zip(&whole)
+                .map(|((sb, &aabb), &whole)| {
+                    let z = [sb.zmin, sb.zmax];
+                    let bb = BinBlock::new(aabb, z, sb.model, sb.block, [sb.start, sb.end]);
+                    (bb, whole)
+                })
+                .collect();
+            BlockBins::build(&g.lat, &listed)
+        });
         StaticIndex {
             blocks,
             pts,
             bvh,
             grid,
+            bins,
         }
     }
 

@@ -265,6 +265,18 @@ fn z_sees(z: Option<f64>, zmin: f64, zmax: f64) -> bool {
     }
 }
 
+/// Whether a crossing at `t` of a static block, whose (model, block index) `key` gives, beats
+/// the best hit so far: the answer is the least (distance, model, block), whatever order
+/// edges are met in. `key` is asked only on a tie (reading it first cost simple.world 1% more
+/// instructions per step).
+#[inline(always)]
+fn beats(t: f64, best: &Option<RayHit>, key: impl FnOnce() -> (ModelId, u32)) -> bool {
+    match best {
+        None => true,
+        Some(h) => t < h.range || (t == h.range && key() < (h.model, h.block)),
+    }
+}
+
 /// Dynamic sets up to this size are scanned directly instead of walking the grid.
 const SMALL_DYNAMIC_SET: usize = 24;
 
@@ -432,24 +444,16 @@ impl Space {
         inv: [f64; 2],
         accept: &impl Fn(ModelId) -> bool,
     ) -> Option<RayHit> {
-        let Shared {
-            o,
-            range,
-            z,
-            skip_root,
-            movers,
-            ..
-        } = *shared;
-        match movers {
+        match shared.movers {
             Movers::Few([]) => None,
-            _ => {
+            movers => {
                 let ray = Ray {
-                    o,
+                    o: shared.o,
                     d,
                     inv,
-                    range,
-                    z,
-                    skip_root,
+                    range: shared.range,
+                    z: shared.z,
+                    skip_root: shared.skip_root,
                 };
                 self.dynamic_hit(&ray, accept, movers)
             }
@@ -489,14 +493,7 @@ impl Space {
                         continue;
                     };
                     let sb = &st.blocks[e.block as usize];
-                    let better = match best {
-                        None => true,
-                        Some(h) => {
-                            t < h.range
-                                || (t == h.range && (sb.model, sb.block) < (h.model, h.block))
-                        }
-                    };
-                    if better
+                    if beats(t, &best, || (sb.model, sb.block))
                         && z_sees(z, sb.zmin, sb.zmax)
                         && self.static_live[sb.model.index()]
                         && Some(self.roots[sb.model.index()]) != skip_root
@@ -538,13 +535,7 @@ impl Space {
                 let Some(t) = ray_segment(o, d, p, q, best_t) else {
                     continue;
                 };
-                let better = match best {
-                    None => true,
-                    Some(h) => {
-                        t < h.range || (t == h.range && (b.model, b.block) < (h.model, h.block))
-                    }
-                };
-                if better {
+                if beats(t, &best, || (b.model, b.block)) {
                     best_t = t;
                     best = Some(RayHit {
                         model: b.model,

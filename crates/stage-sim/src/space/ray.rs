@@ -191,6 +191,21 @@ struct Shared<'a> {
     open: f64,
 }
 
+impl Shared<'_> {
+    /// The ray along `d` from the cast's origin.
+    #[inline(always)]
+    fn ray(&self, d: [f64; 2]) -> Ray {
+        Ray {
+            o: self.o,
+            d,
+            inv: [1.0 / d[0], 1.0 / d[1]],
+            range: self.range,
+            z: self.z,
+            skip_root: self.skip_root,
+        }
+    }
+}
+
 /// The static blocks a fan's rays can meet, gathered from the block bins when the first ray
 /// needs them (most of a packed crowd's rays stop at a neighbour first and need none).
 struct FanStatics<'a> {
@@ -404,8 +419,9 @@ impl Space {
     ) -> usize {
         let dirs = statics.dirs;
         for (i, &d) in dirs.iter().enumerate() {
-            let inv = [1.0 / d[0], 1.0 / d[1]];
-            let best = self.dynamic_first(&shared, d, inv, accept);
+            let ray = shared.ray(d);
+            let inv = ray.inv;
+            let best = self.dynamic_first(&ray, shared.movers, accept);
             let best_t = best.map_or(shared.range, |h| h.range);
             // as in the walk: a ray that ends inside the open space around its start has
             // nothing to meet
@@ -429,59 +445,46 @@ impl Space {
         d: [f64; 2],
         accept: &impl Fn(ModelId) -> bool,
     ) -> Option<RayHit> {
-        let inv = [1.0 / d[0], 1.0 / d[1]];
-        let best = self.dynamic_first(&shared, d, inv, accept);
-        self.walk_statics(&shared, d, inv, best, accept)
+        let ray = shared.ray(d);
+        let best = self.dynamic_first(&ray, shared.movers, accept);
+        self.walk_statics(&ray, (shared.start, shared.open), best, accept)
     }
 
-    /// A ray's nearest moving body: tested first, as in crowds its hits are near and bound
-    /// the static part.
+    /// A ray's nearest moving body among `movers`: tested first, as in crowds its hits are
+    /// near and bound the static part.
     #[inline(always)]
     fn dynamic_first(
         &self,
-        shared: &Shared,
-        d: [f64; 2],
-        inv: [f64; 2],
+        ray: &Ray,
+        movers: Movers,
         accept: &impl Fn(ModelId) -> bool,
     ) -> Option<RayHit> {
-        match shared.movers {
+        match movers {
             Movers::Few([]) => None,
-            movers => {
-                let ray = Ray {
-                    o: shared.o,
-                    d,
-                    inv,
-                    range: shared.range,
-                    z: shared.z,
-                    skip_root: shared.skip_root,
-                };
-                self.dynamic_hit(&ray, accept, movers)
-            }
+            movers => self.dynamic_hit(ray, accept, movers),
         }
     }
 
     /// The best of `best` (the ray's dynamic hit) and the static edges the ray meets, walking
-    /// the static grid; the answer is the least (distance, model, block). A ray that ends (at
-    /// its reach or its dynamic hit) inside the open space around its start cell has nothing
-    /// to walk to.
+    /// the static grid from `start` (its cell, if known); the answer is the least (distance,
+    /// model, block). A ray that ends (at its reach or its dynamic hit) within `open` of its
+    /// start has nothing to walk to.
     #[inline(always)]
     fn walk_statics(
         &self,
-        shared: &Shared,
-        d: [f64; 2],
-        inv: [f64; 2],
+        ray: &Ray,
+        (start, open): (Option<[i32; 2]>, f64),
         mut best: Option<RayHit>,
         accept: &impl Fn(ModelId) -> bool,
     ) -> Option<RayHit> {
-        let Shared {
+        let Ray {
             o,
+            d,
+            inv,
             range,
             z,
             skip_root,
-            start,
-            open,
-            ..
-        } = *shared;
+        } = *ray;
         let mut best_t = best.map_or(range, |h| h.range);
         let st = &self.statics;
         if let Some(grid) = &st.grid

@@ -11,6 +11,7 @@
 //! leaves it out). A cell holding any other block is marked, and a fan that reaches one walks.
 
 use super::lattice::Lattice;
+use super::static_grid::chebyshev_clearance;
 use crate::geom::Aabb;
 use crate::node::ModelId;
 
@@ -53,8 +54,10 @@ pub(super) struct BlockBins {
     /// padded box covers.
     first: Vec<u32>,
     listed: Vec<BinBlock>,
-    /// Whether every block bin `c` lists has its edges listed whole in the static grid.
-    whole: Vec<bool>,
+    /// Per bin, the Chebyshev distance (in bins, capped at 255) to the nearest bin listing a
+    /// block whose edges are not listed whole in the static grid: the square of bins within
+    /// one less of it all hold whole blocks only.
+    whole_reach: Vec<u8>,
 }
 
 impl BlockBins {
@@ -84,11 +87,12 @@ impl BlockBins {
             .collect();
         let cells = (nx * ny) as usize;
         let mut count = vec![0u32; cells];
-        let mut flag = vec![true; cells];
+        // 1 where a bin lists a block not listed whole
+        let mut broken = vec![0u32; cells];
         for (&(_, whole), &span) in blocks.iter().zip(&spans) {
             for c in lat.cells_in(span) {
                 count[c] += 1;
-                flag[c] &= whole;
+                broken[c] |= u32::from(!whole);
             }
         }
         let mut first = Vec::with_capacity(cells + 1);
@@ -110,23 +114,31 @@ impl BlockBins {
             lat,
             first,
             listed,
-            whole: flag,
+            whole_reach: chebyshev_clearance(&broken, nx as usize, ny as usize),
         }
     }
 
     /// The bins of the disc of radius `range` around `o` when a fan from `o` reaching `range`
     /// can gather there: the disc's box lies inside the bins, covers at most [`MOST_BINS`] of
-    /// them, and every block they list is listed whole. Cheap, so that a fan that must walk
-    /// finds out before it casts.
+    /// them, and all of them lie in the square around `o`'s bin that holds whole blocks only.
+    /// Cheap (no bin's list or flag read but `o`'s), so that a fan that must walk finds out
+    /// before it casts: a floorplan's fans, near walls of touching blocks, mostly walk.
     #[inline]
     pub(super) fn disc_span(&self, o: [f64; 2], range: f64) -> Option<[i32; 4]> {
+        let [cx, cy] = self.lat.cell_inside(o)?;
+        let reach = i32::from(self.whole_reach[(cy * self.lat.nx + cx) as usize]);
+        // the disc reaches at least this many bins from `o`'s: most fans that must walk stop
+        // here, before the span is worked out
+        if reach <= (range * self.lat.inv_cell) as i32 {
+            return None;
+        }
         let disc = Aabb {
             min: [o[0] - range, o[1] - range],
             max: [o[0] + range, o[1] + range],
         };
         let q @ [x0, y0, x1, y1] = self.lat.span_of(&disc)?;
-        ((x1 - x0 + 1) * (y1 - y0 + 1) <= MOST_BINS && self.lat.cells_in(q).all(|c| self.whole[c]))
-            .then_some(q)
+        let far = (cx - x0).max(x1 - cx).max(cy - y0).max(y1 - cy);
+        ((x1 - x0 + 1) * (y1 - y0 + 1) <= MOST_BINS && far < reach).then_some(q)
     }
 
     /// Puts into `out` every block listed in the bins of `span` (from [`BlockBins::disc_span`])

@@ -332,7 +332,7 @@ fn segment_meets_box(a: [f64; 2], b: [f64; 2], mn: [f64; 2], mx: [f64; 2]) -> bo
 
 /// Chebyshev distance (in cells, capped at 255) from each cell to the nearest cell holding
 /// edges; cells beyond the grid count as empty.
-fn chebyshev_clearance(count: &[u32], nx: usize, ny: usize) -> Vec<u8> {
+pub(super) fn chebyshev_clearance(count: &[u32], nx: usize, ny: usize) -> Vec<u8> {
     const FAR: u32 = 255;
     let mut d: Vec<u32> = count.iter().map(|&n| if n > 0 { 0 } else { FAR }).collect();
     // two chamfer passes with unit weights on all eight neighbours give the exact L∞ distance

@@ -10,7 +10,7 @@
 //! of the same model; a shared side is met only by rays from inside a wall, and the walk
 //! leaves it out). A cell holding any other block is marked, and a fan that reaches one walks.
 
-use super::lattice::Lattice;
+use super::lattice::{Lattice, flat_lists};
 use super::static_grid::chebyshev_clearance;
 use crate::geom::Aabb;
 use crate::node::ModelId;
@@ -86,28 +86,16 @@ impl BlockBins {
             })
             .collect();
         let cells = (nx * ny) as usize;
-        let mut count = vec![0u32; cells];
+        let (first, listed) = flat_lists(cells, |emit| {
+            for (&(bb, _), &span) in blocks.iter().zip(&spans) {
+                lat.cells_in(span).for_each(|c| emit(c, bb));
+            }
+        });
         // 1 where a bin lists a block not listed whole
         let mut broken = vec![0u32; cells];
         for (&(_, whole), &span) in blocks.iter().zip(&spans) {
-            for c in lat.cells_in(span) {
-                count[c] += 1;
-                broken[c] |= u32::from(!whole);
-            }
-        }
-        let mut first = Vec::with_capacity(cells + 1);
-        let mut acc = 0u32;
-        for n in &count {
-            first.push(acc);
-            acc += n;
-        }
-        first.push(acc);
-        let mut fill = first[..cells].to_vec();
-        let mut listed = vec![blocks.first().map_or(BinBlock::UNUSED, |b| b.0); acc as usize];
-        for (&(bb, _), &span) in blocks.iter().zip(&spans) {
-            for c in lat.cells_in(span) {
-                listed[fill[c] as usize] = bb;
-                fill[c] += 1;
+            if !whole {
+                lat.cells_in(span).for_each(|c| broken[c] = 1);
             }
         }
         BlockBins {

@@ -139,6 +139,40 @@ impl Iterator for CellsIn {
     }
 }
 
+/// Per-cell lists laid out in one flat array, for grids built once (the static edges', the
+/// block bins): `each` hands `emit` every (cell, entry) pair, in the order the lists keep, and
+/// is called twice (to count, then to fill). Answers `first`, where cell `c`'s entries are
+/// `entries[first[c]..first[c + 1]]`, and `entries`.
+pub(super) fn flat_lists<T: Copy>(
+    cells: usize,
+    mut each: impl FnMut(&mut dyn FnMut(usize, T)),
+) -> (Vec<u32>, Vec<T>) {
+    let mut count = vec![0u32; cells];
+    let mut sample = None;
+    each(&mut |c, e| {
+        count[c] += 1;
+        sample.get_or_insert(e);
+    });
+    let mut first = Vec::with_capacity(cells + 1);
+    let mut acc = 0u32;
+    for n in &count {
+        first.push(acc);
+        acc += n;
+    }
+    first.push(acc);
+    let Some(sample) = sample else {
+        return (first, Vec::new());
+    };
+    // every slot is written below; `sample` only fills them until then
+    let mut entries = vec![sample; acc as usize];
+    let mut fill = first[..cells].to_vec();
+    each(&mut |c, e| {
+        entries[fill[c] as usize] = e;
+        fill[c] += 1;
+    });
+    (first, entries)
+}
+
 /// Where a grid walk (DDA) leaves its cell, from the distances `t_next` at which the ray
 /// crosses its next x and its next y boundary: 1 when across the x boundary
 /// (`t_next[0] < t_next[1]`), 0 when across the y boundary, and that distance.

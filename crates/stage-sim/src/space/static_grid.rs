@@ -12,7 +12,7 @@
 //!   the answer is the exact lexicographic minimum of (distance, model, block) over the edges
 //!   tested, so it does not depend on the cell size or on the order of the lists.
 
-use super::lattice::Lattice;
+use super::lattice::{Lattice, flat_lists};
 use crate::geom::{Aabb, floor_i32};
 
 /// How far (m) beyond its cells an edge may lie and still be listed there: far above the
@@ -83,41 +83,23 @@ impl StaticGrid {
         }
         let nx = ((w / cell).ceil() as i32).max(1);
         let ny = ((h / cell).ceil() as i32).max(1);
+        let lat = Lattice::new(origin, cell, nx, ny);
+        let cells = (nx * ny) as usize;
         let mut g = StaticGrid {
-            lat: Lattice::new(origin, cell, nx, ny),
-            first: vec![0; (nx * ny) as usize + 1],
+            lat,
+            first: Vec::new(),
             edges: Vec::new(),
             clear: Vec::new(),
-            touched: vec![false; (nx * ny) as usize],
+            touched: vec![false; cells],
         };
-        // two passes: count per cell, then fill
-        let mut count = vec![0u32; (nx * ny) as usize];
-        let mut cells = Vec::new();
-        for l in listed {
-            g.cells_of_parts(&l.parts, &mut cells);
-            cells.iter().for_each(|&c| count[c] += 1);
-        }
-        let mut acc = 0u32;
-        for (c, n) in count.iter().enumerate() {
-            g.first[c] = acc;
-            acc += n;
-        }
-        g.first[(nx * ny) as usize] = acc;
-        let mut fill: Vec<u32> = g.first[..(nx * ny) as usize].to_vec();
-        let placeholder = GridEdge {
-            a: [0.0; 2],
-            b: [0.0; 2],
-            block: 0,
-        };
-        let mut out = vec![placeholder; acc as usize];
-        for l in listed {
-            g.cells_of_parts(&l.parts, &mut cells);
-            for &c in &cells {
-                out[fill[c] as usize] = l.edge;
-                fill[c] += 1;
+        let mut scratch = Vec::new();
+        (g.first, g.edges) = flat_lists(cells, |emit| {
+            for l in listed {
+                g.cells_of_parts(&l.parts, &mut scratch);
+                scratch.iter().for_each(|&c| emit(c, l.edge));
             }
-        }
-        g.edges = out;
+        });
+        let count: Vec<u32> = g.first.windows(2).map(|w| w[1] - w[0]).collect();
         g.clear = chebyshev_clearance(&count, nx as usize, ny as usize);
         // every edge whole, the shared sides included: a body may cross those inside a wall
         let mut touched = std::mem::take(&mut g.touched);

@@ -40,9 +40,8 @@
 //!
 //! One file per concern: `body` (outlines in world space), `static_index` (the static blocks,
 //! their BVH, and the building of their edge grid: `static_grid`, `exposed`, and of their bins:
-//! `block_bins`), `dyn_grid` (the
-//! moving bodies' grid), `ray` (ray queries), `contact` (contact tests); [`Space`] itself, which
-//! owns all of them and registers bodies, is here.
+//! `block_bins`), `dyn_grid` (the moving bodies' grid), `ray` (ray queries), `contact` (contact
+//! tests); [`Space`] itself, which owns all of them and registers bodies, is here.
 
 mod block_bins;
 mod body;

@@ -258,12 +258,8 @@ impl<'a> FanStatics<'a> {
         for d in self.dirs {
             area.add([o[0] + d[0] * range, o[1] + d[1] * range]);
         }
-        let keep = |b: &BinBlock| {
-            z_sees(z, b.zmin, b.zmax)
-                && space.static_live[b.model.index()]
-                && Some(space.roots[b.model.index()]) != skip_root
-                && accept(b.model)
-        };
+        let keep =
+            |b: &BinBlock| space.static_stops(b.model, [b.zmin, b.zmax], z, skip_root, accept);
         let count = self.bins.gather(self.span, &area, keep, &mut self.blocks);
         self.count = Some(count);
         count
@@ -420,15 +416,13 @@ impl Space {
         let dirs = statics.dirs;
         for (i, &d) in dirs.iter().enumerate() {
             let ray = shared.ray(d);
-            let inv = ray.inv;
             let best = self.dynamic_first(&ray, shared.movers, accept);
-            let best_t = best.map_or(shared.range, |h| h.range);
             // as in the walk: a ray that ends inside the open space around its start has
-            // nothing to meet
-            let hit = if self.statics.grid.is_none() || best_t < shared.open {
+            // nothing to meet (bins exist only with the static grid)
+            let hit = if best.map_or(ray.range, |h| h.range) < shared.open {
                 best
             } else if let Some(near) = statics.near(self, &shared, accept) {
-                self.near_static_hit(near, shared.o, d, inv, best, best_t)
+                self.near_static_hit(&ray, near, best)
             } else {
                 return i;
             };
@@ -497,10 +491,7 @@ impl Space {
                     };
                     let sb = &st.blocks[e.block as usize];
                     if beats(t, &best, || (sb.model, sb.block))
-                        && z_sees(z, sb.zmin, sb.zmax)
-                        && self.static_live[sb.model.index()]
-                        && Some(self.roots[sb.model.index()]) != skip_root
-                        && accept(sb.model)
+                        && self.static_stops(sb.model, [sb.zmin, sb.zmax], z, skip_root, accept)
                     {
                         best_t = t;
                         best = Some(RayHit {
@@ -516,20 +507,37 @@ impl Space {
         best
     }
 
-    /// The best of `best` (at `best_t`) and the crossings of the ray `o + t·d` with the static
+    /// Whether a block of static model `model` spanning heights `zmin..=zmax` stops a ray at
+    /// height `z` cast from the tree rooted at `skip_root`: it passes the z test, its model has
+    /// not moved since the index was built, it is not the caster's own, and `accept` takes it.
+    #[inline(always)]
+    fn static_stops(
+        &self,
+        model: ModelId,
+        [zmin, zmax]: [f64; 2],
+        z: Option<f64>,
+        skip_root: Option<ModelId>,
+        accept: &impl Fn(ModelId) -> bool,
+    ) -> bool {
+        z_sees(z, zmin, zmax)
+            && self.static_live[model.index()]
+            && Some(self.roots[model.index()]) != skip_root
+            && accept(model)
+    }
+
+    /// The best of `best` (the ray's dynamic hit) and the crossings of the ray with the static
     /// blocks `near`, gathered and vetted for its fan: every edge of each block whose box the
     /// ray meets (the walk would meet each of those edges somewhere too). The answer is the
     /// least (distance, model, block), as the walk's.
     #[inline(never)]
     fn near_static_hit(
         &self,
+        ray: &Ray,
         near: &[&BinBlock],
-        o: [f64; 2],
-        d: [f64; 2],
-        inv: [f64; 2],
         mut best: Option<RayHit>,
-        mut best_t: f64,
     ) -> Option<RayHit> {
+        let Ray { o, d, inv, .. } = *ray;
+        let mut best_t = best.map_or(ray.range, |h| h.range);
         for b in near {
             if !b.aabb.ray_meets(o, inv, best_t) {
                 continue;

@@ -59,20 +59,18 @@ impl World {
             return;
         }
         let mut plans = std::mem::take(&mut self.move_plans);
-        if plans.len() < self.positions.len() {
-            // each new plan's lists made now, one plan after another at their full size (the
-            // robot's tree), so that the ordered pass, which reads them all in turn, finds
-            // them side by side; made by whichever thread plans first they lay scattered, a
-            // cache miss each in a large swarm's serial pass
-            for k in plans.len()..self.positions.len() {
-                let mut plan = MovePlan::default();
-                tree_of(&self.nodes, self.positions[k], &mut plan.models);
-                let n = plan.models.len();
-                plan.globals.reserve_exact(n);
-                plan.refresh.reserve_exact(n);
-                plan.bodies.resize_with(n, Body::default);
-                plans.push(plan);
-            }
+        // each new plan's lists made now, one plan after another at their full size (the
+        // robot's tree), so that the ordered pass, which reads them all in turn, finds them
+        // side by side; made by whichever thread plans first they lay scattered, a cache miss
+        // each in a large swarm's serial pass
+        for k in plans.len()..self.positions.len() {
+            let mut plan = MovePlan::default();
+            tree_of(&self.nodes, self.positions[k], &mut plan.models);
+            let n = plan.models.len();
+            plan.globals.reserve_exact(n);
+            plan.refresh.reserve_exact(n);
+            plan.bodies.resize_with(n, Body::default);
+            plans.push(plan);
         }
         plans.truncate(self.positions.len());
         {

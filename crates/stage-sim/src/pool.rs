@@ -7,7 +7,7 @@
 //! work-stealing `join` that costs well under a microsecond while the other workers are busy.
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Runs `body` (typically a loop of [`crate::World::step`]) on a thread of the simulation's
 /// thread pool and returns its result; the calling thread waits. Results are the same wherever
@@ -79,6 +79,46 @@ pub(crate) fn share_out<S>(
     );
 }
 
+/// Runs `serial` (a step's ordered part, which one thread must do alone) on the calling thread
+/// while one other thread of the pool spins until it is done, instead of falling asleep a few
+/// tens of microseconds into it and being woken late for the parallel part that follows.
+/// Outside the pool, or in a pool of one, it just runs `serial`.
+pub(crate) fn keeping_a_helper_awake<R: Send>(serial: impl FnOnce() -> R + Send) -> R {
+    if rayon::current_thread_index().is_none() || rayon::current_num_threads() < 2 {
+        return serial();
+    }
+    let done = AtomicBool::new(false);
+    let (r, ()) = rayon::join(
+        || {
+            // set even if `serial` panics, so that the helper stops and the join hands the
+            // panic on
+            let _done = SetOnDrop(&done);
+            serial()
+        },
+        || {
+            let mut spins = 0u32;
+            while !done.load(Ordering::Acquire) {
+                if spins < SPINS_BEFORE_YIELDING {
+                    spins += 1;
+                    std::hint::spin_loop();
+                } else {
+                    std::thread::yield_now();
+                }
+            }
+        },
+    );
+    r
+}
+
+/// Sets its flag when dropped.
+struct SetOnDrop<'a>(&'a AtomicBool);
+
+impl Drop for SetOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Release);
+    }
+}
+
 /// Adds one to its counter when dropped (a block's work ended, returning or unwinding).
 struct CountOnDrop<'a>(&'a AtomicUsize);
 
@@ -132,6 +172,23 @@ mod tests {
             }));
             assert!(got.is_err(), "block {bad}");
         }
+    }
+
+    /// The serial part's result comes back, and a panic in it reaches the caller instead of
+    /// leaving the spinning helper (and the join waiting for it) running for ever.
+    #[test]
+    fn a_serial_part_returns_or_hands_its_panic_on() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .expect("a test pool");
+        assert_eq!(pool.install(|| keeping_a_helper_awake(|| 6 * 7)), 42);
+        let got = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            pool.install(|| keeping_a_helper_awake(|| -> u32 { panic!("serial") }))
+        }));
+        assert!(got.is_err());
+        // outside any pool it simply runs
+        assert_eq!(keeping_a_helper_awake(|| 1), 1);
     }
 
     #[test]

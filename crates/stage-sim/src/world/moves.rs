@@ -86,13 +86,20 @@ impl World {
                 plans.iter_mut().enumerate().for_each(plan);
             }
         }
-        for (k, plan) in plans.iter_mut().enumerate() {
-            let m = self.positions[k];
-            match plan.kind {
-                PlanKind::Still => {}
-                PlanKind::OneByOne => self.move_model(m, dt),
-                PlanKind::Planned => self.apply_move(m, plan),
+        let ordered = |w: &mut World, plans: &mut [MovePlan]| {
+            for (k, plan) in plans.iter_mut().enumerate() {
+                let m = w.positions[k];
+                match plan.kind {
+                    PlanKind::Still => {}
+                    PlanKind::OneByOne => w.move_model(m, dt),
+                    PlanKind::Planned => w.apply_move(m, plan),
+                }
             }
+        };
+        if plans.len() >= PARALLEL_MIN_MOVERS {
+            crate::pool::keeping_a_helper_awake(|| ordered(self, &mut plans));
+        } else {
+            ordered(self, &mut plans);
         }
         self.move_plans = plans;
     }

@@ -553,6 +553,60 @@ fn determinism_same_seed_same_state_after_1000_steps_any_thread_count() {
     assert_ne!(a.1, Pose::new(-1.2, -0.3, 0.0, 0.0), "robots moved");
 }
 
+/// A crowd large enough for every parallel path of a step (updates cut into pieces, moves
+/// planned in parallel with a helper spinning through the ordered pass, controllers in
+/// parallel) ends in the same state on one thread as on two or three.
+#[test]
+fn determinism_of_a_crowd_any_thread_count() {
+    let mut d = WorldDesc::default();
+    let side = 9;
+    let pitch = 0.8;
+    let span = side as f64 * pitch;
+    for (i, (x, y, sx, sy)) in [
+        (-0.6, span / 2.0, 0.1, span + 1.4),
+        (span + 0.2, span / 2.0, 0.1, span + 1.4),
+        (span / 2.0, -0.6, span + 1.4, 0.1),
+        (span / 2.0, span + 0.2, span + 1.4, 0.1),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        d.add(wall(&format!("w{i}"), x, y, sx, sy, 1.0), None);
+    }
+    for i in 0..side * side {
+        let (col, row) = ((i % side) as f64, (i / side) as f64);
+        let mut r = robot(
+            &format!("r{i}"),
+            col * pitch,
+            row * pitch,
+            0.7 * i as f64,
+            Drive::Diff,
+        );
+        r.size = [0.3, 0.3, 0.5];
+        r.ctrl = vec!["wander".into()];
+        let ri = d.add(r, None);
+        d.add(laser(16, PI, 3.0), Some(ri));
+    }
+    let digest = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut w = World::from_desc(&d, 7).unwrap();
+            for _ in 0..300 {
+                w.step();
+            }
+            // enough rays a step for the updates to be split (crate::world::step)
+            assert!(w.rays_cast() >= 300 * 1024, "{} rays", w.rays_cast());
+            w.state_digest()
+        })
+    };
+    let one = digest(1);
+    assert_eq!(one, digest(2));
+    assert_eq!(one, digest(3));
+}
+
 #[test]
 fn wander_avoids_walls_in_a_closed_room() {
     let d = busy_world();

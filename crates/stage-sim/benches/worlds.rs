@@ -13,6 +13,13 @@
 //! micro-benchmarks (for instruction counts under `valgrind --tool=callgrind`); `--digest`
 //! prints each world's state digest after the run (same code and seed ⇒ same digest, so a
 //! change that must not alter results can be checked with `--steps N --digest`).
+//!
+//! Instructions per step: `RAYON_NUM_THREADS=1 valgrind --tool=callgrind
+//! --toggle-collect='stage_sim::world::step::<impl stage_sim::world::World>::step' … --steps N
+//! WORLD`. On one thread a step runs its updates in order; until 2026-11-27 it split them
+//! through rayon even then, and the toggled count missed a fifth (cave, hospital) to two fifths
+//! (swarm1000) of the step (whole-program counts agreed), so earlier figures for those
+//! worlds are low.
 
 use stage_sim::generate::swarm_world;
 use stage_sim::{RayQuery, World};

@@ -70,7 +70,8 @@ impl World {
                     update_model(&view, ModelId(i as u32), &poses[i], st);
                 }
             };
-            if rays >= PARALLEL_MIN_RAYS {
+            // (on one thread, cutting the work into pieces would only cost the cuts)
+            if rays >= PARALLEL_MIN_RAYS && rayon::current_num_threads() > 1 {
                 // pieces of a few models, so that the threads finish together: left to split
                 // pieces of 16 or more, one thread would end its share 20-50 µs before the
                 // other each step (hospital: 26-31 ms of its 60 s run, cave 12 ms; with pieces

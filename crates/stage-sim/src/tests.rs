@@ -561,18 +561,7 @@ fn determinism_of_a_crowd_any_thread_count() {
     let mut d = WorldDesc::default();
     let side = 9;
     let pitch = 0.8;
-    let span = side as f64 * pitch;
-    for (i, (x, y, sx, sy)) in [
-        (-0.6, span / 2.0, 0.1, span + 1.4),
-        (span + 0.2, span / 2.0, 0.1, span + 1.4),
-        (span / 2.0, -0.6, span + 1.4, 0.1),
-        (span / 2.0, span + 0.2, span + 1.4, 0.1),
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        d.add(wall(&format!("w{i}"), x, y, sx, sy, 1.0), None);
-    }
+    room_walls(&mut d, side as f64 * pitch);
     for i in 0..side * side {
         let (col, row) = ((i % side) as f64, (i / side) as f64);
         let mut r = robot(
@@ -1028,6 +1017,22 @@ fn a_camera_digest_follows_its_pixels() {
     assert!(a != b && b != e && a != e);
 }
 
+/// The four walls (`w0` … `w3`, 0.1 m thick) of a square room around `0..span` along both
+/// axes (inner faces at −0.35 m and `span` + 0.15 m).
+fn room_walls(d: &mut WorldDesc, span: f64) {
+    for (i, (x, y, sx, sy)) in [
+        (-0.4, span / 2.0, 0.1, span + 1.0),
+        (span + 0.2, span / 2.0, 0.1, span + 1.0),
+        (span / 2.0, -0.4, span + 1.0, 0.1),
+        (span / 2.0, span + 0.2, span + 1.0, 0.1),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        d.add(wall(&format!("w{i}"), x, y, sx, sy, 1.0), None);
+    }
+}
+
 /// A crowded random world for comparing the move passes: `robots` robots of random sizes on
 /// a jittered lattice (neighbours touching, overlapping or a hair apart), some with a laser,
 /// some that are no obstacle, between static walls; with `carried`, every seventh robot rides
@@ -1038,18 +1043,8 @@ fn crowded_world(seed: u64, robots: usize, carried: bool) -> WorldDesc {
     let side = (robots as f64).sqrt().ceil() as usize;
     let pitch = 0.6;
     let span = side as f64 * pitch;
-    for (i, (x, y, sx, sy)) in [
-        (-0.4, span / 2.0, 0.1, span + 1.0),
-        (span + 0.2, span / 2.0, 0.1, span + 1.0),
-        (span / 2.0, -0.4, span + 1.0, 0.1),
-        (span / 2.0, span + 0.2, span + 1.0, 0.1),
-        (span / 2.0, span / 2.0, 0.3, 0.3),
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        d.add(wall(&format!("w{i}"), x, y, sx, sy, 1.0), None);
-    }
+    room_walls(&mut d, span);
+    d.add(wall("pillar", span / 2.0, span / 2.0, 0.3, 0.3, 1.0), None);
     let mut last = None;
     for i in 0..robots {
         let (col, row) = ((i % side) as f64, (i / side) as f64);

@@ -144,8 +144,10 @@ impl World {
         };
         // collected: made now, before any other kind's state
         let made_early: Vec<_> = (0..n)
-            .filter(|&i| matches!(kind_of(desc, &kinds, i), KindDesc::Position(_)))
-            .map(|i| (i, start(kind_of(desc, &kinds, i), i)))
+            .filter_map(|i| match kind_of(desc, &kinds, i) {
+                kind @ KindDesc::Position(_) => Some((i, start(kind, i))),
+                _ => None,
+            })
             .collect();
         let mut made_early = made_early.into_iter().peekable();
         for (i, m) in desc.models.iter().enumerate() {

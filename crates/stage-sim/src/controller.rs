@@ -9,7 +9,7 @@
 
 use crate::desc::{Color, ModelType};
 use crate::rng::SimRng;
-use crate::world::{ModelId, World};
+use crate::world::{ModelId, Sensors, World};
 
 /// A command a controller asks the world to apply.
 #[derive(Clone, Debug, PartialEq)]
@@ -64,8 +64,10 @@ impl Commands {
 
 /// A model controller (Stage's `ctrl` plugin).
 pub trait Controller: Send + Sync {
-    /// Called after each update of the trigger model, with read access to the whole world.
-    fn update(&mut self, world: &World, cmds: &mut Commands);
+    /// Called after each update of the trigger model, with read access to the sensor data
+    /// that update produced. Only that: a step runs its controllers while it installs the
+    /// moves, which change everything else a controller might read.
+    fn update(&mut self, sensors: &Sensors<'_>, cmds: &mut Commands);
 }
 
 /// A controller ready to be installed.
@@ -218,7 +220,7 @@ pub fn builtin(
 pub struct Idle;
 
 impl Controller for Idle {
-    fn update(&mut self, _world: &World, _cmds: &mut Commands) {}
+    fn update(&mut self, _sensors: &Sensors<'_>, _cmds: &mut Commands) {}
 }
 
 /// Stage's `pioneer_flocking` example: steer away from obstacles using the front eight sonars,
@@ -231,13 +233,13 @@ pub struct Flocking {
 }
 
 impl Controller for Flocking {
-    fn update(&mut self, world: &World, cmds: &mut Commands) {
+    fn update(&mut self, sensors: &Sensors<'_>, cmds: &mut Commands) {
         const VSPEED: f64 = 0.4;
         const EXPAND_WGAIN: f64 = 0.3;
         const FLOCK_WGAIN: f64 = 0.3;
         const SAFE_DIST: f64 = 1.0;
         const SAFE_ANGLE: f64 = 0.5;
-        let Ok(data) = world.ranger_scans(self.ranger) else {
+        let Ok(data) = sensors.ranger_scans(self.ranger) else {
             return;
         };
         let r = |k: usize| data.first_range(k);
@@ -264,7 +266,7 @@ impl Controller for Flocking {
             && above(1, SAFE_DIST / 2.0)
             && resultant.abs() < SAFE_ANGLE;
         let speed = if clear {
-            let closest = match world.fiducials(self.fiducial) {
+            let closest = match sensors.fiducials(self.fiducial) {
                 Ok(f) => f
                     .fiducials
                     .iter()
@@ -298,14 +300,14 @@ pub struct Wander {
 }
 
 impl Controller for Wander {
-    fn update(&mut self, world: &World, cmds: &mut Commands) {
+    fn update(&mut self, sensors: &Sensors<'_>, cmds: &mut Commands) {
         const CRUISE: f64 = 0.4;
         const AVOID_SPEED: f64 = 0.05;
         const AVOID_TURN: f64 = 0.5;
         const MIN_FRONT: f64 = 1.0;
         const STOP_DIST: f64 = 0.3;
         const AVOID_DURATION: u32 = 10;
-        let Some(scan) = world.ranger_scans(self.laser).map_or(None, |r| r.scan(0)) else {
+        let Some(scan) = sensors.ranger_scans(self.laser).map_or(None, |r| r.scan(0)) else {
             return;
         };
         let r = scan.ranges;
@@ -403,8 +405,8 @@ impl Expand {
 }
 
 impl Controller for Expand {
-    fn update(&mut self, world: &World, cmds: &mut Commands) {
-        let Ok(data) = world.ranger_scans(self.ranger) else {
+    fn update(&mut self, sensors: &Sensors<'_>, cmds: &mut Commands) {
+        let Ok(data) = sensors.ranger_scans(self.ranger) else {
             return;
         };
         let first = |k: usize| data.first_range(k);

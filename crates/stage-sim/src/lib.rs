@@ -19,6 +19,8 @@
 //!    robots in parallel first);
 //! 3. controllers attached to models that updated run and their commands are applied in
 //!    controller order; they take effect at the next step, as Stage's update callbacks do.
+//!    A controller reads only the sensor data of 1 ([`Sensors`]), which the moves leave
+//!    alone, so the controllers run on another core while the moves of 2 are installed.
 //!
 //! Randomness comes from one seed: each model owns a stream derived from `(seed, model index)`,
 //! so the same world, seed and commands give bit-identical poses and readings whatever the
@@ -127,7 +129,7 @@ pub use pose::Pose;
 pub use raster::Raster;
 pub use rng::SimRng;
 pub use space::{Body, RayHit, RayQuery};
-pub use world::{ModelId, World};
+pub use world::{ModelId, Sensors, World};
 
 #[cfg(test)]
 mod tests;

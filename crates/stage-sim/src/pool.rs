@@ -110,6 +110,19 @@ pub(crate) fn keeping_a_helper_awake<R: Send>(serial: impl FnOnce() -> R + Send)
     r
 }
 
+/// Runs `main` on this thread and `side` on another thread of the pool at the same time, and
+/// returns when both are done; a `side` that splits its work with rayon is finished by both
+/// threads once `main` is done. Outside the pool, or in a pool of one, it runs `main` and then
+/// `side`.
+pub(crate) fn side_by_side(main: impl FnOnce() + Send, side: impl FnOnce() + Send) {
+    if rayon::current_thread_index().is_none() || rayon::current_num_threads() < 2 {
+        main();
+        side();
+        return;
+    }
+    rayon::join(main, side);
+}
+
 /// Sets its flag when dropped.
 struct SetOnDrop<'a>(&'a AtomicBool);
 
@@ -172,6 +185,41 @@ mod tests {
             }));
             assert!(got.is_err(), "block {bad}");
         }
+    }
+
+    /// On a pool of two the side work runs while the main work does (the main work here waits,
+    /// boundedly, for a flag only the side work sets); outside a pool both run, main first.
+    #[test]
+    fn side_work_runs_beside_the_main_work() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .expect("a test pool");
+        let side_ran = AtomicBool::new(false);
+        let seen = pool.install(|| {
+            let mut seen = false;
+            side_by_side(
+                || {
+                    let start = std::time::Instant::now();
+                    while start.elapsed() < std::time::Duration::from_secs(10) {
+                        if side_ran.load(Ordering::Acquire) {
+                            seen = true;
+                            break;
+                        }
+                        std::hint::spin_loop();
+                    }
+                },
+                || side_ran.store(true, Ordering::Release),
+            );
+            seen
+        });
+        assert!(seen, "the side work did not run during the main work");
+        let order = std::sync::Mutex::new(Vec::new());
+        side_by_side(
+            || order.lock().unwrap().push("main"),
+            || order.lock().unwrap().push("side"),
+        );
+        assert_eq!(*order.lock().unwrap(), ["main", "side"]);
     }
 
     /// The serial part's result comes back, and a panic in it reaches the caller instead of

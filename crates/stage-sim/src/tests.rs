@@ -554,8 +554,8 @@ fn determinism_same_seed_same_state_after_1000_steps_any_thread_count() {
 }
 
 /// A crowd large enough for every parallel path of a step (updates cut into pieces, moves
-/// planned in parallel with a helper spinning through the ordered pass, controllers in
-/// parallel) ends in the same state on one thread as on two or three.
+/// planned in parallel, controllers in parallel beside the ordered move pass) ends in the same
+/// state on one thread as on two or three.
 #[test]
 fn determinism_of_a_crowd_any_thread_count() {
     let mut d = WorldDesc::default();
@@ -1067,6 +1067,48 @@ fn crowded_world(seed: u64, robots: usize, carried: bool) -> WorldDesc {
         last = Some(id);
     }
     d
+}
+
+/// Controllers run beside the ordered move pass (on the other thread, reading the sensor data
+/// the moves leave alone) and the stalls that pass finds are recorded after it: the state is
+/// bit for bit that of moving one by one and running the controllers after the moves, on a
+/// crowd of wanderers that push into each other and into the walls.
+#[test]
+fn controllers_beside_the_moves_match_controllers_after_them() {
+    let robots = 100;
+    let mut d = crowded_world(4, robots, false);
+    // the robots that carry a laser (crowded_world gives every fourth one) wander by it
+    for i in (1..robots).step_by(4) {
+        let name = format!("r{i}");
+        let r = d.models.iter_mut().find(|m| m.name == name).unwrap();
+        r.ctrl = vec!["wander".into()];
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let mut beside = World::from_desc(&d, 4).unwrap();
+        let mut after = World::from_desc(&d, 4).unwrap();
+        after.set_moves_one_by_one(true);
+        let ids: Vec<ModelId> = (0..robots)
+            .map(|i| beside.model_by_name(&format!("r{i}")).unwrap())
+            .collect();
+        let mut stalls = 0;
+        for step in 0..150 {
+            beside.step();
+            after.step();
+            let what = format!("step {step}");
+            assert_eq!(beside.state_digest(), after.state_digest(), "{what}");
+            for &id in &ids {
+                let stall = beside.position_state(id).unwrap().stall;
+                assert_eq!(stall, after.position_state(id).unwrap().stall, "{what}");
+                stalls += stall as usize;
+            }
+        }
+        assert!(stalls > 100, "only {stalls} stalls");
+        assert!(beside.planned_moves() > 1000, "the moves were planned");
+    });
 }
 
 /// The moves planned in parallel and installed in order leave every pose, stall, outline,

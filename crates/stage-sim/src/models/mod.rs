@@ -193,6 +193,13 @@ macro_rules! model_kinds {
                 }
             }
 
+            /// The type this state simulates (a Stage 3 `laser` runs as a `ranger`).
+            pub(crate) fn model_type(&self) -> ModelType {
+                match self {
+                    $( KindState::$variant(_) => ModelType::$variant, )*
+                }
+            }
+
             /// [`ModelKind::ray_cost`].
             pub(crate) fn ray_cost(&self) -> usize {
                 match self {

@@ -23,6 +23,7 @@ macro_rules! typed {
 mod build;
 mod moves;
 mod query;
+mod sensors;
 mod step;
 #[cfg(test)]
 mod tests;
@@ -42,6 +43,7 @@ pub use crate::desc::WorldConfig;
 use crate::node::Returns;
 pub use crate::node::{LocalBlock, ModelId, Node};
 pub(crate) use crate::view::View;
+pub use sensors::Sensors;
 
 /// Per-model mutable state: scheduling, RNG stream and the type's data.
 #[derive(Clone, Debug)]

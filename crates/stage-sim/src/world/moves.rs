@@ -11,7 +11,7 @@
 use rayon::prelude::*;
 
 use super::tree::{below_ground, body_of, global_of_parent, obstacle_to, tree_of};
-use super::{KindState, ModelId, World};
+use super::{KindState, ModelId, Sensors, World};
 use crate::pose::Pose;
 use crate::space::Body;
 
@@ -46,15 +46,27 @@ pub(super) struct MovePlan {
     refresh: Vec<bool>,
     /// The moved tree touches a static block or the ground: the move is refused.
     static_hit: bool,
+    /// The move was refused (statically or by a moving body): the model stalls.
+    stalled: bool,
 }
 
+/// Work run beside a step's ordered move pass: it gets the models' sensor data and which
+/// models updated this step (the step's controllers).
+pub(super) type Beside<'a> = &'a mut (dyn FnMut(&Sensors<'_>, &[bool]) + Send);
+
 impl World {
-    /// Moves every position model (phase 2 of [`World::step`]).
-    pub(super) fn move_all(&mut self, dt: f64) {
+    /// Moves every position model (phase 2 of [`World::step`]), and calls `beside` with the
+    /// models' sensor data and which models updated this step: while the moves are installed,
+    /// on another thread, when every move was planned (the ordered pass then needs no model
+    /// state: the stalls it finds are recorded after it), else after the moves.
+    pub(super) fn move_all(&mut self, dt: f64, beside: Option<Beside<'_>>) {
         #[cfg(test)]
         if self.moves_one_by_one {
             for k in 0..self.positions.len() {
                 self.move_model(self.positions[k], dt);
+            }
+            if let Some(b) = beside {
+                b(&Sensors::new(&self.states), &self.updated);
             }
             return;
         }
@@ -86,22 +98,66 @@ impl World {
                 plans.iter_mut().enumerate().for_each(plan);
             }
         }
-        let ordered = |w: &mut World, plans: &mut [MovePlan]| {
-            for (k, plan) in plans.iter_mut().enumerate() {
-                let m = w.positions[k];
-                match plan.kind {
-                    PlanKind::Still => {}
-                    PlanKind::OneByOne => w.move_model(m, dt),
-                    PlanKind::Planned => w.apply_move(m, plan),
+        let all_planned = plans.iter().all(|p| p.kind != PlanKind::OneByOne);
+        match beside {
+            Some(b) if all_planned && plans.len() >= PARALLEL_MIN_MOVERS => {
+                // the sensor data goes to `beside` and nothing of it is touched by the pass
+                let states = std::mem::take(&mut self.states);
+                let updated = std::mem::take(&mut self.updated);
+                crate::pool::side_by_side(
+                    || self.install_planned(&mut plans),
+                    || b(&Sensors::new(&states), &updated),
+                );
+                self.states = states;
+                self.updated = updated;
+                for (k, plan) in plans.iter().enumerate() {
+                    if plan.kind == PlanKind::Planned {
+                        self.set_stall(self.positions[k], plan.stalled);
+                    }
                 }
             }
-        };
-        if plans.len() >= PARALLEL_MIN_MOVERS {
-            crate::pool::keeping_a_helper_awake(|| ordered(self, &mut plans));
-        } else {
-            ordered(self, &mut plans);
+            beside => {
+                let ordered = |w: &mut World, plans: &mut [MovePlan]| {
+                    for (k, plan) in plans.iter_mut().enumerate() {
+                        let m = w.positions[k];
+                        match plan.kind {
+                            PlanKind::Still => {}
+                            PlanKind::OneByOne => w.move_model(m, dt),
+                            PlanKind::Planned => {
+                                w.apply_move(m, plan);
+                                w.set_stall(m, plan.stalled);
+                            }
+                        }
+                    }
+                };
+                if plans.len() >= PARALLEL_MIN_MOVERS {
+                    crate::pool::keeping_a_helper_awake(|| ordered(self, &mut plans));
+                } else {
+                    ordered(self, &mut plans);
+                }
+                if let Some(b) = beside {
+                    b(&Sensors::new(&self.states), &self.updated);
+                }
+            }
         }
         self.move_plans = plans;
+    }
+
+    /// The ordered pass over moves that were all planned: it reads and writes poses, outlines
+    /// and the space, and no model state (each plan records its stall).
+    fn install_planned(&mut self, plans: &mut [MovePlan]) {
+        for (k, plan) in plans.iter_mut().enumerate() {
+            if plan.kind == PlanKind::Planned {
+                self.apply_move(self.positions[k], plan);
+            }
+        }
+    }
+
+    /// Records whether position model `m`'s last move was refused.
+    fn set_stall(&mut self, m: ModelId, stalled: bool) {
+        if let KindState::Position(p) = &mut self.states[m.index()].kind {
+            p.set_stall(stalled);
+        }
     }
 
     /// Plans model `m`'s move from the state before any move of this step.
@@ -165,7 +221,7 @@ impl World {
         plan.kind = PlanKind::Planned;
     }
 
-    /// Installs a planned move unless it touches something, then records the stall.
+    /// Installs a planned move unless it touches something; the plan records whether it stalls.
     fn apply_move(&mut self, m: ModelId, plan: &mut MovePlan) {
         let i = m.index();
         #[cfg(test)]
@@ -202,9 +258,7 @@ impl World {
             }
             hit
         };
-        if let KindState::Position(p) = &mut self.states[i].kind {
-            p.set_stall(hit);
-        }
+        plan.stalled = hit;
     }
 }
 

@@ -30,8 +30,9 @@ impl World {
     ///    (in parallel when there is enough work; results do not depend on the thread count);
     /// 2. gripper grasps/releases, then position models move one at a time in creation order,
     ///    each tested for contact against the already-moved state;
-    /// 3. controllers of models that updated run (in parallel) and their commands are applied
-    ///    in controller order; they take effect at the next step, as Stage's callbacks do.
+    /// 3. controllers of models that updated run (in parallel, and beside the ordered moves of
+    ///    2: they read only sensor data) and their commands are applied in controller order;
+    ///    they take effect at the next step, as Stage's callbacks do.
     pub fn step(&mut self) -> bool {
         if self.done() {
             return false;
@@ -112,24 +113,34 @@ impl World {
                 }
             }
         }
-        self.move_all(dt);
-
-        // ---- phase 3: controllers ----
-        if any && !self.controllers.is_empty() {
-            let mut slots = std::mem::take(&mut self.controllers);
-            let world = &*self;
-            let run = |slot: &mut ControllerSlot| {
-                if world.updated[slot.trigger.index()] {
-                    slot.ctrl.update(world, &mut slot.cmds);
+        // ---- phase 2 continued: moves; phase 3: controllers ----
+        // Controllers read only the sensor data of phase 1 (`Sensors`), which the moves leave
+        // alone, so they run beside the ordered move pass, on the other core; their commands
+        // are applied after both, in controller order.
+        let mut slots = if any {
+            std::mem::take(&mut self.controllers)
+        } else {
+            Vec::new()
+        };
+        if slots.is_empty() {
+            self.move_all(dt, None);
+        } else {
+            let mut run_all = |sensors: &Sensors<'_>, updated: &[bool]| {
+                let run = |slot: &mut ControllerSlot| {
+                    if updated[slot.trigger.index()] {
+                        slot.ctrl.update(sensors, &mut slot.cmds);
+                    }
+                };
+                // on the pool's own threads (`on_sim_threads`) a split costs about a
+                // microsecond: cave's 100 controllers gain ~3% steps/s from it (5 alternating
+                // runs, 2 cores)
+                if slots.len() >= 64 {
+                    slots.par_iter_mut().with_min_len(16).for_each(run);
+                } else {
+                    slots.iter_mut().for_each(run);
                 }
             };
-            // on the pool's own threads (`on_sim_threads`) a split costs about a microsecond:
-            // cave's 100 controllers gain ~3% steps/s from it (5 alternating runs, 2 cores)
-            if slots.len() >= 64 {
-                slots.par_iter_mut().with_min_len(16).for_each(run);
-            } else {
-                slots.iter_mut().for_each(run);
-            }
+            self.move_all(dt, Some(&mut run_all));
             for slot in slots.iter_mut() {
                 for c in slot.cmds.drain() {
                     self.apply_logged(c);

@@ -12,7 +12,7 @@ use crate::pose::Pose;
 use crate::rng::SimRng;
 use crate::space::RayQuery;
 
-use super::{ModelId, World};
+use super::{ModelId, Sensors, World};
 
 /// A robot carrying a ranger, and a wall: three models of three types.
 fn small_world() -> World {
@@ -282,6 +282,50 @@ fn model_id_checks_a_number() {
 }
 
 /// The names of the `pub fn`s in `src` that take a [`ModelId`] parameter.
+/// What controllers read (`Sensors`) checks ids as the world's own queries do: a foreign id
+/// and a model of another type are errors, with the world's messages.
+#[test]
+fn sensors_check_ids_as_the_world_does() {
+    let w = small_world();
+    let s = Sensors::new(&w.states);
+    let id = |name: &str| w.model_by_name(name).expect("named");
+    let (wall, robot, ranger) = (id("wall"), id("robot"), id("ranger"));
+    assert_eq!(s.ranger_scans(ranger).unwrap().sensors.len(), 1);
+    for foreign in [ModelId(3), ModelId(u32::MAX)] {
+        for got in [
+            s.ranger_scans(foreign).map(drop),
+            s.fiducials(foreign).map(drop),
+        ] {
+            match got {
+                Err(Error::ForeignModel { id, models: 3 }) => assert_eq!(id, foreign),
+                other => panic!("foreign id {foreign}: {other:?}"),
+            }
+        }
+    }
+    for (m, found) in [(robot, ModelType::Position), (wall, ModelType::Model)] {
+        match s.ranger_scans(m) {
+            Err(Error::BadModel {
+                id,
+                found: f,
+                expected: "a ranger",
+            }) => assert_eq!((id, f), (m, found)),
+            other => panic!("ranger_scans on {m}: {other:?}"),
+        }
+    }
+    assert!(matches!(
+        s.fiducials(ranger),
+        Err(Error::BadModel {
+            found: ModelType::Ranger,
+            expected: "a fiducial finder",
+            ..
+        })
+    ));
+    assert_eq!(
+        s.ranger_scans(wall).unwrap_err().to_string(),
+        w.ranger_scans(wall).unwrap_err().to_string()
+    );
+}
+
 fn per_model_functions(src: &str) -> Vec<String> {
     let mut names = Vec::new();
     let mut rest = src;

@@ -13,6 +13,14 @@ fn wall(name: &str, x: f64, y: f64, sx: f64, sy: f64, sz: f64) -> ModelDesc {
     m
 }
 
+/// A rayon pool of `threads` threads, for running a world's parallel paths in a test.
+fn pool_of(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a test pool")
+}
+
 fn robot(name: &str, x: f64, y: f64, a: f64, drive: Drive) -> ModelDesc {
     let mut m = ModelDesc::new(
         name,
@@ -250,10 +258,7 @@ fn robots_move_in_creation_order_against_already_moved_robots() {
                 None,
             );
         }
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
+        let pool = pool_of(2);
         pool.install(|| {
             let mut w = World::from_desc(&d, 1).unwrap();
             for id in [rear_id, front_id] {
@@ -531,10 +536,7 @@ fn busy_world() -> WorldDesc {
 fn determinism_same_seed_same_state_after_1000_steps_any_thread_count() {
     let d = busy_world();
     let digest = |seed: u64, threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
+        let pool = pool_of(threads);
         pool.install(|| {
             let mut w = World::from_desc(&d, seed).unwrap();
             for _ in 0..1000 {
@@ -577,10 +579,7 @@ fn determinism_of_a_crowd_any_thread_count() {
         d.add(laser(16, PI, 3.0), Some(ri));
     }
     let digest = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
+        let pool = pool_of(threads);
         pool.install(|| {
             let mut w = World::from_desc(&d, 7).unwrap();
             for _ in 0..300 {
@@ -1083,10 +1082,7 @@ fn controllers_beside_the_moves_match_controllers_after_them() {
         let r = d.models.iter_mut().find(|m| m.name == name).unwrap();
         r.ctrl = vec!["wander".into()];
     }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap();
+    let pool = pool_of(2);
     pool.install(|| {
         let mut beside = World::from_desc(&d, 4).unwrap();
         let mut after = World::from_desc(&d, 4).unwrap();
@@ -1117,10 +1113,7 @@ fn controllers_beside_the_moves_match_controllers_after_them() {
 /// and without robots carried by robots (whose trees move one by one in either pass).
 #[test]
 fn planned_moves_match_one_by_one_moves_bit_for_bit() {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap();
+    let pool = pool_of(2);
     pool.install(|| {
         for (seed, robots, carried) in [(1, 60, false), (2, 150, false), (3, 80, true)] {
             let d = crowded_world(seed, robots, carried);

@@ -84,7 +84,7 @@ pub(crate) fn share_out<S>(
 /// tens of microseconds into it and being woken late for the parallel part that follows.
 /// Outside the pool, or in a pool of one, it just runs `serial`.
 pub(crate) fn keeping_a_helper_awake<R: Send>(serial: impl FnOnce() -> R + Send) -> R {
-    if rayon::current_thread_index().is_none() || rayon::current_num_threads() < 2 {
+    if !has_a_helper() {
         return serial();
     }
     let done = AtomicBool::new(false);
@@ -115,12 +115,26 @@ pub(crate) fn keeping_a_helper_awake<R: Send>(serial: impl FnOnce() -> R + Send)
 /// threads once `main` is done. Outside the pool, or in a pool of one, it runs `main` and then
 /// `side`.
 pub(crate) fn side_by_side(main: impl FnOnce() + Send, side: impl FnOnce() + Send) {
-    if rayon::current_thread_index().is_none() || rayon::current_num_threads() < 2 {
+    if !has_a_helper() {
         main();
         side();
         return;
     }
     rayon::join(main, side);
+}
+
+/// Whether the caller runs on a thread of a pool that has another thread to help it.
+fn has_a_helper() -> bool {
+    rayon::current_thread_index().is_some() && rayon::current_num_threads() >= 2
+}
+
+/// A rayon pool of `threads` threads, for running a world's parallel paths in a test.
+#[cfg(test)]
+pub(crate) fn pool_of(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a test pool")
 }
 
 /// Sets its flag when dropped.
@@ -164,10 +178,7 @@ mod tests {
     /// A panic in any thread's block reaches the caller instead of leaving it waiting.
     #[test]
     fn a_panicking_block_is_handed_on() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(4)
-            .build()
-            .expect("a test pool");
+        let pool = pool_of(4);
         for bad in [0, 37, 99] {
             let got = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 pool.install(|| {
@@ -191,10 +202,7 @@ mod tests {
     /// boundedly, for a flag only the side work sets); outside a pool both run, main first.
     #[test]
     fn side_work_runs_beside_the_main_work() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .expect("a test pool");
+        let pool = pool_of(2);
         let side_ran = AtomicBool::new(false);
         let seen = pool.install(|| {
             let mut seen = false;
@@ -226,10 +234,7 @@ mod tests {
     /// leaving the spinning helper (and the join waiting for it) running for ever.
     #[test]
     fn a_serial_part_returns_or_hands_its_panic_on() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .expect("a test pool");
+        let pool = pool_of(2);
         assert_eq!(pool.install(|| keeping_a_helper_awake(|| 6 * 7)), 42);
         let got = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             pool.install(|| keeping_a_helper_awake(|| -> u32 { panic!("serial") }))

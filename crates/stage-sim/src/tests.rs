@@ -2,6 +2,7 @@
 
 use crate::desc::*;
 use crate::models::gripper::{GripperCmd, PaddleState};
+use crate::pool::pool_of;
 use crate::pose::Pose;
 use crate::world::{ModelId, World};
 use std::f64::consts::PI;
@@ -11,14 +12,6 @@ fn wall(name: &str, x: f64, y: f64, sx: f64, sy: f64, sz: f64) -> ModelDesc {
     m.pose = Pose::new(x, y, 0.0, 0.0);
     m.size = [sx, sy, sz];
     m
-}
-
-/// A rayon pool of `threads` threads, for running a world's parallel paths in a test.
-fn pool_of(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a test pool")
 }
 
 fn robot(name: &str, x: f64, y: f64, a: f64, drive: Drive) -> ModelDesc {

@@ -98,43 +98,39 @@ impl World {
                 plans.iter_mut().enumerate().for_each(plan);
             }
         }
-        let all_planned = plans.iter().all(|p| p.kind != PlanKind::OneByOne);
+        // the ordered pass: planned moves touch no model state (each plan keeps its stall,
+        // recorded after the pass), so with no one-by-one move among them the sensor data can
+        // go to `beside` while they are installed
+        let ordered = |w: &mut World, plans: &mut [MovePlan]| {
+            for (k, plan) in plans.iter_mut().enumerate() {
+                let m = w.positions[k];
+                match plan.kind {
+                    PlanKind::Still => {}
+                    PlanKind::OneByOne => w.move_model(m, dt),
+                    PlanKind::Planned => w.apply_move(m, plan),
+                }
+            }
+        };
+        let parallel = plans.len() >= PARALLEL_MIN_MOVERS;
         match beside {
-            Some(b) if all_planned && plans.len() >= PARALLEL_MIN_MOVERS => {
-                // the sensor data goes to `beside` and nothing of it is touched by the pass
+            Some(b) if parallel && plans.iter().all(|p| p.kind != PlanKind::OneByOne) => {
                 let states = std::mem::take(&mut self.states);
                 let updated = std::mem::take(&mut self.updated);
                 crate::pool::side_by_side(
-                    || self.install_planned(&mut plans),
+                    || ordered(self, &mut plans),
                     || b(&Sensors::new(&states), &updated),
                 );
                 self.states = states;
                 self.updated = updated;
-                for (k, plan) in plans.iter().enumerate() {
-                    if plan.kind == PlanKind::Planned {
-                        self.set_stall(self.positions[k], plan.stalled);
-                    }
-                }
+                self.record_stalls(&plans);
             }
             beside => {
-                let ordered = |w: &mut World, plans: &mut [MovePlan]| {
-                    for (k, plan) in plans.iter_mut().enumerate() {
-                        let m = w.positions[k];
-                        match plan.kind {
-                            PlanKind::Still => {}
-                            PlanKind::OneByOne => w.move_model(m, dt),
-                            PlanKind::Planned => {
-                                w.apply_move(m, plan);
-                                w.set_stall(m, plan.stalled);
-                            }
-                        }
-                    }
-                };
-                if plans.len() >= PARALLEL_MIN_MOVERS {
+                if parallel {
                     crate::pool::keeping_a_helper_awake(|| ordered(self, &mut plans));
                 } else {
                     ordered(self, &mut plans);
                 }
+                self.record_stalls(&plans);
                 if let Some(b) = beside {
                     b(&Sensors::new(&self.states), &self.updated);
                 }
@@ -143,20 +139,14 @@ impl World {
         self.move_plans = plans;
     }
 
-    /// The ordered pass over moves that were all planned: it reads and writes poses, outlines
-    /// and the space, and no model state (each plan records its stall).
-    fn install_planned(&mut self, plans: &mut [MovePlan]) {
-        for (k, plan) in plans.iter_mut().enumerate() {
-            if plan.kind == PlanKind::Planned {
-                self.apply_move(self.positions[k], plan);
+    /// Records in each planned robot's state whether its move was refused.
+    fn record_stalls(&mut self, plans: &[MovePlan]) {
+        for (k, plan) in plans.iter().enumerate() {
+            if plan.kind == PlanKind::Planned
+                && let KindState::Position(p) = &mut self.states[self.positions[k].index()].kind
+            {
+                p.set_stall(plan.stalled);
             }
-        }
-    }
-
-    /// Records whether position model `m`'s last move was refused.
-    fn set_stall(&mut self, m: ModelId, stalled: bool) {
-        if let KindState::Position(p) = &mut self.states[m.index()].kind {
-            p.set_stall(stalled);
         }
     }
 

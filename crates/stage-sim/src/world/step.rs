@@ -117,14 +117,10 @@ impl World {
         // Controllers read only the sensor data of phase 1 (`Sensors`), which the moves leave
         // alone, so they run beside the ordered move pass, on the other core; their commands
         // are applied after both, in controller order.
-        let mut slots = if any {
-            std::mem::take(&mut self.controllers)
-        } else {
-            Vec::new()
-        };
-        if slots.is_empty() {
+        if !any || self.controllers.is_empty() {
             self.move_all(dt, None);
         } else {
+            let mut slots = std::mem::take(&mut self.controllers);
             let mut run_all = |sensors: &Sensors<'_>, updated: &[bool]| {
                 let run = |slot: &mut ControllerSlot| {
                     if updated[slot.trigger.index()] {

@@ -33,7 +33,14 @@ impl World {
     /// 3. controllers of models that updated run (in parallel, and beside the ordered moves of
     ///    2: they read only sensor data) and their commands are applied in controller order;
     ///    they take effect at the next step, as Stage's callbacks do.
+    ///
+    /// Called from outside any rayon pool, the step runs on the simulation's pool
+    /// ([`crate::pool::sim_pool`], which survives `fork`) rather than letting its splits reach
+    /// rayon's global pool; a loop of steps is cheaper inside [`crate::on_sim_threads`].
     pub fn step(&mut self) -> bool {
+        if rayon::current_thread_index().is_none() {
+            return crate::pool::on_sim_threads(|| self.step());
+        }
         if self.done() {
             return false;
         }

@@ -145,3 +145,27 @@ fn player_without_a_cfg_serves_the_builtin_bigbob_world() {
     std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
     assert!(err.contains("built-in Bigbob world"), "{err}");
 }
+
+/// Headless, Player/Stage (`usegui 0`) does not pace its simulation and we do: `--help` says
+/// so and names the flag that runs batch clients as fast as there.
+#[test]
+fn help_says_the_headless_simulation_keeps_real_time_and_points_to_fast() {
+    let out = Command::new(env!("CARGO_BIN_EXE_player"))
+        .arg("--help")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    // clap wraps lines to the terminal: compare words
+    let words = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    for said in [
+        "keeps real time (times `--speedup`) whether Stage's window is open or not",
+        "with `usegui 0` it steps the world once per pass of Player's main loop",
+        "Give `--fast` for that.",
+    ] {
+        assert!(
+            words.contains(said),
+            "`player --help` lacks {said:?}:\n{text}"
+        );
+    }
+}

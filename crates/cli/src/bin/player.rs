@@ -22,6 +22,12 @@ use viewer::world_window::{self, WindowOptions};
 use worldfile::{CfgFile, LoadOptions};
 
 /// Player 3.0.2-compatible robot server.
+///
+/// The simulation keeps real time (times `--speedup`) whether Stage's window is open or not.
+/// Player 3.0.2 with Stage 4.1.1 paces it only in its window (a step every `interval_sim` /
+/// `speedup`, the worldfile's, which this server does not read); with `usegui 0` it steps the
+/// world once per pass of Player's main loop, which waits at most 10 ms for client traffic,
+/// so batch clients finish sooner there. Give `--fast` for that.
 #[derive(Parser, Debug)]
 #[command(name = "player", version)]
 struct Args {
@@ -47,7 +53,8 @@ struct Args {
     #[arg(short = 'l', long = "logfile")]
     logfile: Option<PathBuf>,
     /// Step drivers (the simulation) as fast as they compute instead of in real time, and
-    /// replay `readlog` logs without waiting between messages.
+    /// replay `readlog` logs without waiting between messages: what a cfg with `usegui 0`
+    /// gets from Player/Stage, which does not pace its simulation headless.
     #[arg(long, conflicts_with = "speedup")]
     fast: bool,
     /// Record every device the cfg provides (that Player's log format covers) to this log

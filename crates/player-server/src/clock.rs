@@ -114,6 +114,8 @@ pub struct Schedule {
     start: Instant,
     /// Server time reached by the schedule (the time of the last step run).
     reached: Duration,
+    /// The instant of the first pass: every driver's step grid starts there.
+    origin: Option<Duration>,
     slots: Vec<Slot>,
 }
 
@@ -127,6 +129,7 @@ impl Schedule {
             pace,
             start: Instant::now(),
             reached: Duration::ZERO,
+            origin: None,
             slots: steps
                 .into_iter()
                 .map(|step| Slot {
@@ -151,13 +154,27 @@ impl Schedule {
         }
     }
 
-    /// Starts or stops stepping driver `slot`. A driver that starts is first due now (its
-    /// missed steps are not replayed).
+    /// Starts or stops stepping driver `slot`. A driver that starts is first due at the next
+    /// instant of its step's grid (multiples of its step since the first pass; missed
+    /// steps are not replayed), so that drivers with the same step run in the same pass, in
+    /// cfg order: upstream updates every driver in each turn of its loop before writing to
+    /// clients, and the blocks of one Stage world all publish right after the step that made
+    /// their data. Started at whatever instant its first subscription came, a robot's block
+    /// would publish in a pass of its own, and a PULL round could close between two robots.
     pub fn set_active(&mut self, slot: usize, active: bool) {
         let now = self.server_elapsed();
+        let first = match self.origin {
+            // Not in a pass already run: as fast as possible, `now` is that pass's instant.
+            Some(origin) => {
+                let after = now.max(self.reached + Duration::from_nanos(1));
+                origin + grid_at_or_after(after.saturating_sub(origin), self.slots[slot].step)
+            }
+            // The first pass: now (it starts the grid).
+            None => now,
+        };
         let s = &mut self.slots[slot];
         if active && !s.active {
-            s.next = s.next.max(now);
+            s.next = s.next.max(first);
         }
         s.active = active;
     }
@@ -194,6 +211,7 @@ impl Schedule {
             return Vec::new();
         };
         self.reached = self.reached.max(t);
+        self.origin.get_or_insert(t);
         let now = self.server_elapsed();
         let mut due = Vec::new();
         for (i, s) in self.slots.iter_mut().enumerate() {
@@ -203,16 +221,26 @@ impl Schedule {
                 if matches!(self.pace, Pace::RealTime { .. })
                     && s.next + s.step * MAX_LAG_STEPS < now
                 {
+                    let origin = self.origin.unwrap_or_default();
+                    let ahead = origin + grid_at_or_after(now.saturating_sub(origin), s.step);
                     tracing::warn!(
                         "driver steps take longer than real time; skipping ahead {:.3} s",
-                        (now - s.next).as_secs_f64()
+                        (ahead - s.next).as_secs_f64()
                     );
-                    s.next = now;
+                    s.next = ahead;
                 }
             }
         }
         due
     }
+}
+
+/// The first multiple of `step` at or after `t` (a driver's step grid).
+fn grid_at_or_after(t: Duration, step: Duration) -> Duration {
+    let step_ns = step.as_nanos().max(1);
+    let n = t.as_nanos().div_ceil(step_ns);
+    let ns = n.saturating_mul(step_ns);
+    Duration::from_nanos(u64::try_from(ns).unwrap_or(u64::MAX))
 }
 
 #[cfg(test)]
@@ -305,7 +333,50 @@ mod tests {
         s.set_active(0, false);
         std::thread::sleep(Duration::from_millis(30));
         s.set_active(0, true);
+        wait_due(&s);
         assert_eq!(s.take_due(), [0]);
         assert!(matches!(s.due(), Due::At(_)), "one step, not six");
+    }
+
+    /// Waits (at most a second) until something is due.
+    fn wait_due(s: &Schedule) {
+        let start = Instant::now();
+        while s.due() != Due::Now {
+            assert!(start.elapsed() < Duration::from_secs(1), "never due");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    #[test]
+    fn drivers_with_one_step_started_apart_run_in_the_same_pass() {
+        let step = Duration::from_millis(40);
+        let mut s = Schedule::new(Pace::RealTime { speedup: 1.0 }, [step, step, step]);
+        s.set_active(0, true);
+        assert_eq!(s.take_due(), [0]);
+        // Subscribed 7 ms into the step: first due with driver 0, at 40 ms.
+        std::thread::sleep(Duration::from_millis(7));
+        s.set_active(2, true);
+        s.set_active(1, true);
+        assert!(
+            matches!(s.due(), Due::At(_)),
+            "not before the step's instant"
+        );
+        wait_due(&s);
+        assert_eq!(s.take_due(), [0, 1, 2], "one pass, in slot order");
+        // As fast as possible too: a driver started between passes joins the next one.
+        let mut f = Schedule::new(Pace::AsFastAsPossible, [step, step]);
+        f.set_active(0, true);
+        assert_eq!(f.take_due(), [0]);
+        f.set_active(1, true);
+        assert_eq!(f.take_due(), [0, 1]);
+    }
+
+    #[test]
+    fn the_step_grid_rounds_up_to_a_multiple() {
+        let ms = Duration::from_millis;
+        assert_eq!(grid_at_or_after(ms(0), ms(100)), ms(0));
+        assert_eq!(grid_at_or_after(ms(1), ms(100)), ms(100));
+        assert_eq!(grid_at_or_after(ms(200), ms(100)), ms(200));
+        assert_eq!(grid_at_or_after(ms(201), ms(100)), ms(300));
     }
 }

@@ -1,0 +1,158 @@
+//! The first data round after subscribing (issue 40): a client of a cfg serving both Bigbobs
+//! on one port subscribes every robot's rangers, asks each for its geometry and reads once.
+//! On the original every subscribed ranger holds data after that read; libplayerc clients
+//! index the ranges without checking, so a ranger left empty crashes them.
+//!
+//! The same sequence runs as a real libplayerc program (`examples/c/first_round.c`) when
+//! `pkg-config` finds `playerc` (skipped with a message otherwise).
+
+mod common;
+
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{root, serve_cfg};
+use player_client::{DataMode, PlayerClient, Position2dProxy, RangerProxy};
+use player_server::Pace;
+
+/// Both Bigbobs on one port: bob1's sonars and laser are ranger:0 and ranger:1, bob2's
+/// ranger:2 and ranger:3, each robot in its own stage block (as the issue's cfg).
+fn one_port_cfg(tag: &str) -> (PathBuf, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("playerstage-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let world = root().join("worlds/bigbob.world");
+    let cfg = dir.join("bigbob_one_port.cfg");
+    std::fs::write(
+        &cfg,
+        format!(
+            "driver( name \"stage\" provides [\"6665:simulation:0\"] worldfile \"{}\" )\n\
+             driver( name \"stage\" provides [\"6665:position2d:0\" \"6665:ranger:0\" \
+             \"6665:ranger:1\"] model \"bob1\" )\n\
+             driver( name \"stage\" provides [\"6665:position2d:1\" \"6665:ranger:2\" \
+             \"6665:ranger:3\"] model \"bob2\" )\n",
+            world.display()
+        ),
+    )
+    .unwrap();
+    (cfg, dir)
+}
+
+/// Ranges per ranger in bigbob.inc: four one-sample sonars, a 180-sample laser.
+const RANGES: [usize; 4] = [4, 180, 4, 180];
+
+/// Subscribes ranger:0..3, requests each one's geometry, reads once (one PULL round, or in
+/// PUSH mode what arrives with the first ranger's data) and checks that every ranger holds
+/// ranges of the right count.
+///
+/// The client first syncs with the server's steps (bob2's position2d, one round), then waits
+/// 20 ms before subscribing, as a client on a network or printing to a terminal does: bob1's
+/// block is then subscribed well apart from bob2's, and the world does not step during the
+/// subscriptions (at the pace of real time a step is 100 ms).
+fn first_round_has_every_ranger(mode: DataMode, pace: Pace, tag: &str) {
+    let (cfg, dir) = one_port_cfg(tag);
+    let server = serve_cfg(&cfg, pace);
+    let client = PlayerClient::connect("localhost", server.port(6665)).unwrap();
+    client.set_read_timeout(Some(Duration::from_secs(10)));
+    let bob2 = Position2dProxy::new(&client, 1).unwrap();
+    client.read().unwrap();
+    assert!(bob2.state().is_some(), "bob2's odometry after a round");
+    client.set_datamode(mode).unwrap();
+    std::thread::sleep(Duration::from_millis(20));
+    let rangers: Vec<RangerProxy> = (0..4)
+        .map(|i| RangerProxy::new(&client, i).unwrap())
+        .collect();
+    for (i, r) in rangers.iter().enumerate() {
+        let g = r.request_geom().unwrap();
+        let sensors = if RANGES[i] == 4 { 4 } else { 1 };
+        assert_eq!(g.element_poses.len(), sensors, "ranger:{i} geometry");
+    }
+    match mode {
+        DataMode::Pull => client.read().unwrap(),
+        // PUSH has no rounds: a pass's messages are written together, so what arrives within
+        // 5 ms of the first ranger's data is that pass (the world steps every 100 ms).
+        DataMode::Push => {
+            while rangers.iter().all(|r| r.ranges().is_empty()) {
+                client.read().unwrap();
+            }
+            client.set_read_timeout(Some(Duration::from_millis(5)));
+            while client.read().is_ok() {}
+        }
+    }
+    drop(server);
+    let _ = std::fs::remove_dir_all(&dir);
+    for (i, r) in rangers.iter().enumerate() {
+        let ranges = r.ranges();
+        assert_eq!(
+            ranges.len(),
+            RANGES[i],
+            "ranger:{i} after the first {mode:?} round: {ranges:?} (datatime {})",
+            r.datatime()
+        );
+    }
+}
+
+#[test]
+fn the_first_pull_round_holds_every_subscribed_ranger_in_real_time() {
+    first_round_has_every_ranger(DataMode::Pull, Pace::RealTime { speedup: 1.0 }, "pull-rt");
+}
+
+#[test]
+fn the_first_push_round_holds_every_subscribed_ranger_in_real_time() {
+    first_round_has_every_ranger(DataMode::Push, Pace::RealTime { speedup: 1.0 }, "push-rt");
+}
+
+#[test]
+fn the_first_pull_round_holds_every_subscribed_ranger_as_fast_as_possible() {
+    first_round_has_every_ranger(DataMode::Pull, Pace::AsFastAsPossible, "pull-fast");
+}
+
+/// The libplayerc program `examples/c/first_round.c` does the same (in PULL mode, libplayerc's
+/// default) and exits non-zero when a ranger holds no ranges after the first read.
+#[test]
+fn libplayerc_first_round_holds_every_subscribed_ranger() {
+    if !test_support::pkg_config_finds(&["playerc"], "the libplayerc first-round test") {
+        return;
+    }
+    let out_dir =
+        std::env::temp_dir().join(format!("playerstage-first-round-c-{}", std::process::id()));
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let made = Command::new("make")
+        .arg("-s")
+        .arg("-C")
+        .arg(root().join("examples/c"))
+        .arg(format!("OUT={}", out_dir.display()))
+        .arg(out_dir.join("first_round"))
+        .status()
+        .expect("running make");
+    assert!(made.success(), "building examples/c/first_round");
+    let (cfg, dir) = one_port_cfg("first-round-c");
+    let server = serve_cfg(&cfg, Pace::RealTime { speedup: 1.0 });
+    let mut child = Command::new(out_dir.join("first_round"))
+        .arg("localhost")
+        .arg(server.port(6665).to_string())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(30) {
+            let _ = child.kill();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    drop(server);
+    let _ = std::fs::remove_dir_all(&out_dir);
+    let _ = std::fs::remove_dir_all(&dir);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "first_round failed ({:?}): {stdout}{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("first_round: ok"), "{stdout}");
+}

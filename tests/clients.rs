@@ -117,8 +117,9 @@ fn libplayerc_plus_plus_bigbob_controller_runs_against_our_server() {
 }
 
 /// libplayerc sees the odometry start in world coordinates, the actuator's goal clamped to its
-/// limit, and a laser on the SICK-like ranger with the ranger's size that takes libplayerc++'s
-/// test configuration, refuses a finer resolution than its rays and narrows its scan.
+/// limit, and a laser on the SICK-like ranger with the ranger's size that refuses libplayerc++'s
+/// test configuration (Player 2 units) but takes it in radians and metres, refuses a finer
+/// resolution than its rays and narrows its scan.
 #[test]
 fn libplayerc_stage_devices_client_checks_odometry_actuator_and_laser() {
     if !test_support::pkg_config_finds(&["playerc", "playerc++"], "the real-client tests") {

@@ -121,7 +121,8 @@ fn the_laser_on_a_sick_ranger_configures_like_an_lms200() {
     read_until(&c, "a first scan", || laser.scan().is_some());
     assert_eq!(laser.ranges().len(), 180);
 
-    // libplayerc++'s laser test: ±90°, "100" (hundredths of a degree), range_res 1, intensity.
+    // libplayerc++'s laser test: ±90°, "100" and "1" (Player 2's hundredths of a degree and
+    // millimetres): refused, as the LMS200 driver refuses it (Player 3 reads radians, metres).
     let as_cpp_test = LaserConfig {
         min_angle: (-90f32).to_radians(),
         max_angle: 90f32.to_radians(),
@@ -131,11 +132,22 @@ fn the_laser_on_a_sick_ranger_configures_like_an_lms200() {
         intensity: 1,
         scanning_frequency: 10.0,
     };
-    laser.configure(as_cpp_test).unwrap();
+    let default = laser.request_config().unwrap();
+    let err = laser.configure(as_cpp_test.clone()).unwrap_err();
+    assert!(matches!(err, ClientError::Nack { .. }), "{err:?}");
+    assert_eq!(laser.request_config().unwrap(), default);
+    // The same in Player 3's units: 1°, ranges in centimetres.
+    laser
+        .configure(LaserConfig {
+            resolution: 1f32.to_radians(),
+            range_res: 0.01,
+            ..as_cpp_test
+        })
+        .unwrap();
     let got = laser.request_config().unwrap();
     assert_eq!(f64::from(got.min_angle).to_degrees().round(), -90.0);
     assert_eq!(f64::from(got.max_angle).to_degrees().round(), 90.0);
-    assert_eq!((got.range_res, got.intensity), (1.0, 1));
+    assert_eq!((got.range_res, got.intensity), (0.01, 1));
     // 1° served by every ray of the 180: they are 180/179° apart
     let spacing = 180f64.to_radians() / 179.0;
     assert!(
@@ -143,13 +155,13 @@ fn the_laser_on_a_sick_ranger_configures_like_an_lms200() {
         "{got:?}"
     );
 
-    // Every second ray of ±45°, in 5 cm units, no intensities.
+    // Every second ray of ±45°, in 10 cm units, no intensities.
     let narrow = LaserConfig {
         min_angle: (-45f32).to_radians(),
         max_angle: 45f32.to_radians(),
         resolution: (2.0 * spacing) as f32,
         max_range: 0.0,
-        range_res: 0.05,
+        range_res: 0.1,
         intensity: 0,
         scanning_frequency: 10.0,
     };
@@ -174,7 +186,7 @@ fn the_laser_on_a_sick_ranger_configures_like_an_lms200() {
     assert!(
         scan.ranges
             .iter()
-            .all(|&r| ((r / 0.05).round() - r / 0.05).abs() < 1e-3),
+            .all(|&r| ((r / 0.1).round() - r / 0.1).abs() < 1e-3),
         "{:?}",
         scan.ranges
     );

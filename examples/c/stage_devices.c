@@ -71,20 +71,25 @@ int main(int argc, char **argv) {
          laser->pose[1], laser->pose[2], laser->size[0], laser->size[1]);
   check(fabs(laser->size[0] - 0.156) < 1e-9 && fabs(laser->size[1] - 0.155) < 1e-9,
         "the laser has the ranger's size");
-  /* libplayerc++'s laser test configures -90..90 deg, "100" (hundredths of a degree), 1, on. */
-  check(playerc_laser_set_config(laser, -M_PI / 2, M_PI / 2, 100, 1, 1, 10) == 0,
-        "the libplayerc++ test's configuration is accepted");
+  /* libplayerc++'s laser test configures -90..90 deg, "100" and "1" (Player 2's hundredths of
+   * a degree and millimetres): the LMS200 driver refuses it, Player 3 counting radians and
+   * metres. The same in Player 3's units is taken. */
+  check(playerc_laser_set_config(laser, -M_PI / 2, M_PI / 2, 100, 1, 1, 10) != 0,
+        "the libplayerc++ test's configuration (Player 2 units) is refused");
+  check(playerc_laser_set_config(laser, -M_PI / 2, M_PI / 2, M_PI / 180, 0.01, 1, 10) == 0,
+        "the same in radians and metres is accepted");
   double min, max, res, range_res, freq;
   unsigned char intensity;
   if (playerc_laser_get_config(laser, &min, &max, &res, &range_res, &intensity, &freq) != 0)
     return fail("laser get config");
   printf("stage_devices: laser config %.2f..%.2f deg by %.4f deg, range_res %.3f, intensity %d, "
          "%.1f Hz\n", deg(min), deg(max), deg(res), range_res, intensity, freq);
-  check(rint(deg(min)) == -90 && rint(deg(max)) == 90 && range_res == 1 && intensity == 1,
+  check(rint(deg(min)) == -90 && rint(deg(max)) == 90 && fabs(range_res - 0.01) < 1e-6 &&
+            intensity == 1,
         "the configuration reads back");
   check(playerc_laser_set_config(laser, -M_PI / 2, M_PI / 2, 0.25 * M_PI / 180, 0.01, 1, 10) != 0,
         "a resolution finer than the rays is refused");
-  check(playerc_laser_set_config(laser, -M_PI / 4, M_PI / 4, 2 * res, 0.05, 0, 10) == 0,
+  check(playerc_laser_set_config(laser, -M_PI / 4, M_PI / 4, 2 * res, 0.1, 0, 10) == 0,
         "every second ray of +-45 deg is accepted");
   for (int i = 0; i < 5; ++i) read_until_fresh(client, &laser->info);
   printf("stage_devices: laser scan %d rays from %.2f deg by %.4f deg, first range %.3f\n",

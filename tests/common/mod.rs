@@ -51,6 +51,15 @@ impl Drop for Running {
 /// Starts the server on `cfg` (default port 6665) at `pace`, every port the cfg names served
 /// on a free port instead (device addresses relabelled accordingly).
 pub fn serve_cfg(cfg: &Path, pace: Pace) -> Running {
+    serve_cfg_on(cfg, pace, |_| {})
+}
+
+/// As [`serve_cfg`], with every driver of `player-drivers` available beside `stage`.
+pub fn serve_cfg_with_drivers(cfg: &Path, pace: Pace) -> Running {
+    serve_cfg_on(cfg, pace, player_drivers::register_all)
+}
+
+fn serve_cfg_on(cfg: &Path, pace: Pace, more: impl FnOnce(&mut DriverRegistry)) -> Running {
     let opts = LoadOptions::from_env();
     let cfg = CfgFile::load(cfg, &opts).unwrap_or_else(|e| panic!("{e}"));
     let mut blocks = player_server::cfg::driver_blocks(&cfg, 6665).unwrap();
@@ -67,6 +76,14 @@ pub fn serve_cfg(cfg: &Path, pace: Pace) -> Running {
             p.addr.robot = u32::from(real);
         }
     }
+    // `requires` naming a port of this cfg name the port serving it.
+    for b in &mut blocks {
+        for r in &mut b.requires {
+            if let Some(&real) = ports.get(&r.addr.robot) {
+                r.addr.robot = u32::from(real);
+            }
+        }
+    }
     let mut registry = DriverRegistry::new();
     let stage = stage::register(
         &mut registry,
@@ -75,6 +92,7 @@ pub fn serve_cfg(cfg: &Path, pace: Pace) -> Running {
             usegui: Some(false),
         },
     );
+    more(&mut registry);
     let mut server = Server::new(ServerConfig {
         pace,
         ..ServerConfig::default()

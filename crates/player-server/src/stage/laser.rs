@@ -4,10 +4,12 @@
 //!
 //! The device answers SET_CONFIG and GET_CONFIG as Player's `sicklms200` driver does, within
 //! what the transducer can do: the scan can be narrowed to any part of its fan and thinned to
-//! every k-th ray, ranges can be reported in coarser units (`range_res`) and intensities
-//! switched off (then sent as zeros, as the LMS200 does). A configuration the transducer
-//! cannot serve is refused (NACK) with the reason logged. The configuration lasts for the
-//! server's life, as a driver's does.
+//! every k-th ray, ranges can be reported in the LMS200's units (`range_res` 1 mm, 1 cm or
+//! 10 cm) and intensities switched off (then sent as zeros, as the LMS200 does). Every field is
+//! in Player 3's units (radians, metres), as `sicklms200` reads it. A configuration the device
+//! cannot serve is refused (NACK) with the reason logged; Player 2's units among them (a
+//! resolution of "100"), which read as radians and metres would floor every client's ranges.
+//! The configuration lasts for the server's life, as a driver's does.
 
 use std::f64::consts::TAU;
 use std::ops::Deref;
@@ -160,23 +162,24 @@ fn intensity_byte(v: f64) -> u8 {
     v.round().clamp(0.0, 255.0) as u8
 }
 
-/// The scan resolution a request means (rad). Player 1.x's laser configuration and the
-/// `sicklms200` driver's `resolution` option count in hundredths of a degree (25, 50, 100),
-/// and old clients, libplayerc's and libplayerc++'s own laser tests among them, still send
-/// those numbers: a value beyond a full turn cannot be a step in radians and is read so.
-fn requested_resolution(resolution: f64) -> f64 {
-    if resolution > TAU {
-        (resolution / 100.0).to_radians()
-    } else {
-        resolution
-    }
+/// The range units an LMS200 reports in (m): Player's `sicklms200` takes `range_res` × 1000 as
+/// whole millimetres and accepts 1, 10 or 100 of them.
+const LMS200_RANGE_UNITS: [f64; 3] = [0.001, 0.01, 0.1];
+
+/// Whether `range_res` (m, as sent: a float) is one of the LMS200's units, read as the driver
+/// reads it (whole millimetres).
+fn lms200_range_unit(range_res: f64) -> Option<f64> {
+    let mm = range_res * 1000.0;
+    LMS200_RANGE_UNITS
+        .into_iter()
+        .find(|unit| (mm - unit * 1000.0).abs() < 1e-3 * unit * 1000.0)
 }
 
 /// What SET_CONFIG `req` asks of `sensor`, or why the transducer cannot do it. `world_res` is
 /// the simulation's resolution, the `range_res` the ranges already have.
 fn choose(sensor: &SensorDesc, world_res: f64, req: &LaserConfig) -> Result<ScanConfig, String> {
     let (min, max) = (f64::from(req.min_angle), f64::from(req.max_angle));
-    let resolution = requested_resolution(f64::from(req.resolution));
+    let resolution = f64::from(req.resolution);
     let range_res = f64::from(req.range_res);
     if !(min.is_finite() && max.is_finite() && resolution.is_finite() && range_res.is_finite()) {
         return Err("the angles, resolution and range_res must be numbers".into());
@@ -185,6 +188,24 @@ fn choose(sensor: &SensorDesc, world_res: f64, req: &LaserConfig) -> Result<Scan
         return Err(format!(
             "resolution {} and range_res {range_res} must be above 0",
             req.resolution
+        ));
+    }
+    // Player 3 counts every field in SI units (radians, metres), as `sicklms200` reads them:
+    // Player 2's hundredths of a degree and millimetres (libplayerc's own laser test still
+    // sends "100" and "1") would mean a step of 100 rad and 1 m ranges, which the LMS200
+    // refuses; so do we, rather than floor every client's ranges to whole metres.
+    if resolution > TAU {
+        return Err(format!(
+            "resolution {} rad is more than a turn: Player 3 counts radians (Player 2 counted \
+             hundredths of a degree)",
+            req.resolution
+        ));
+    }
+    let world_unit = (range_res - world_res).abs() <= world_res * 1e-6;
+    if !world_unit && lms200_range_unit(range_res).is_none() {
+        return Err(format!(
+            "range_res {range_res} m is none of the LMS200's units (0.001, 0.01 or 0.1 m) nor \
+             the simulation's resolution {world_res} m"
         ));
     }
     if min > max {
@@ -240,16 +261,21 @@ fn choose(sensor: &SensorDesc, world_res: f64, req: &LaserConfig) -> Result<Scan
                 spacing.to_degrees()
             ));
         }
-        (snap(min), snap(max), k.min(f64::from(n)) as u32)
+        if k > f64::from(n - 1) {
+            return Err(format!(
+                "resolution {:.4}° is wider than the ranger's fan {:.2}°",
+                resolution.to_degrees(),
+                (end - start).to_degrees()
+            ));
+        }
+        (snap(min), snap(max), k as u32)
     };
-    let max_range = sensor.range[1];
-    if range_res > max_range {
-        return Err(format!(
-            "range_res {range_res} m is above the maximum range {max_range} m"
-        ));
-    }
     // The simulation's own resolution (what GET_CONFIG reports by default): as simulated.
-    let range_res = ((range_res - world_res).abs() > world_res * 1e-6).then_some(range_res);
+    let range_res = if world_unit {
+        None
+    } else {
+        lms200_range_unit(range_res)
+    };
     Ok(ScanConfig {
         first,
         last,
@@ -309,12 +335,6 @@ fn set_config<W: Deref<Target = World>>(
         tracing::warn!("laser on \"{name}\": SET_CONFIG refused: the ranger has no transducer");
         return Reply::Nack;
     };
-    if f64::from(req.resolution) > TAU {
-        tracing::info!(
-            "laser on \"{name}\": SET_CONFIG resolution {} read as hundredths of a degree",
-            req.resolution
-        );
-    }
     match choose(sensor, b.world.config().resolution, req) {
         Ok(chosen) => {
             *set = Some(chosen);
@@ -384,7 +404,11 @@ mod tests {
         let (min, max, res) = c.angles(&s);
         assert!((min.to_degrees() + 45.0).abs() < 1e-9 && (max.to_degrees() - 45.0).abs() < 1e-9);
         assert!((res.to_degrees() - 1.0).abs() < 1e-9);
-        assert_eq!(c.range_res, Some(0.01f32 as f64));
+        assert_eq!(
+            c.range_res,
+            Some(0.01),
+            "the LMS200's unit, as it reads the float"
+        );
         assert!(!c.intensity);
         // the step can overshoot the last ray asked for: the scan ends on a served ray
         let odd = choose(&s, 0.02, &req(-90.0, 0.5, 1f64.to_radians(), 0.02, 1)).unwrap();
@@ -401,10 +425,27 @@ mod tests {
         let s = sick(180);
         let c = choose(&s, 0.02, &req(-90.0, 90.0, 1f64.to_radians(), 0.01, 1)).unwrap();
         assert_eq!((c.first, c.last, c.step), (0, 179, 1));
-        // hundredths of a degree (libplayerc++'s test sends 100 for 1°)
-        let legacy = choose(&s, 0.02, &req(-90.0, 90.0, 100.0, 1.0, 1)).unwrap();
-        assert_eq!((legacy.first, legacy.last, legacy.step), (0, 179, 1));
-        assert_eq!(legacy.range_res, Some(1.0));
+        // LMS200 units of range: 1 mm, 1 cm, 10 cm (sent as floats)
+        for unit in [0.001, 0.01, 0.1] {
+            let c = choose(&s, 0.02, &req(-90.0, 90.0, 1f64.to_radians(), unit, 1)).unwrap();
+            assert_eq!(c.range_res, Some(unit));
+        }
+    }
+
+    #[test]
+    fn player_2_units_are_refused_not_read_as_metres() {
+        // libplayerc's and libplayerc++'s laser tests: ±90°, "100" and "1" (Player 2's
+        // hundredths of a degree and millimetres); the LMS200 driver refuses it too
+        let s = sick(180);
+        let why = choose(&s, 0.02, &req(-90.0, 90.0, 100.0, 1.0, 1)).unwrap_err();
+        assert!(why.contains("radians"), "{why}");
+        // a step in radians but ranges in whole metres: not an LMS200 unit
+        let why = choose(&s, 0.02, &req(-90.0, 90.0, 1f64.to_radians(), 1.0, 1)).unwrap_err();
+        assert!(why.contains("LMS200's units"), "{why}");
+        // a step wider than the fan: 181 of its 179 spacings
+        let wide = 181.0 * 180f64.to_radians() / 179.0;
+        let why = choose(&s, 0.02, &req(-90.0, 90.0, wide, 0.01, 1)).unwrap_err();
+        assert!(why.contains("wider than"), "{why}");
     }
 
     #[test]
@@ -418,7 +459,7 @@ mod tests {
         assert!(refused(req(-90.0, 90.0, 1.5f64.to_radians(), 0.01, 1)).contains("whole number"));
         assert!(refused(req(-90.0, 90.0, res, 0.0, 1)).contains("above 0"));
         assert!(refused(req(-90.0, 90.0, -res, 0.01, 1)).contains("above 0"));
-        assert!(refused(req(-90.0, 90.0, res, 9.0, 1)).contains("maximum range"));
+        assert!(refused(req(-90.0, 90.0, res, 0.05, 1)).contains("LMS200's units"));
         assert!(refused(req(-90.0, 90.0, f64::NAN, 0.01, 1)).contains("numbers"));
     }
 

@@ -1,0 +1,168 @@
+//! A laser SET_CONFIG in Player 2's units (issue 40): libplayerc's own laser test
+//! (`test_laser.c`) sends `resolution 100, range_res 1`, meant as hundredths of a degree and
+//! millimetres. Player 3 reads every field in radians and metres, and the LMS200 driver refuses
+//! it; our laser on a Stage ranger had taken it and floored every client's ranges to whole
+//! metres. It must be refused, and the data other clients read must stay as simulated.
+//!
+//! The same runs as a libplayerc program (`examples/c/laser_units.c`) when `pkg-config` finds
+//! `playerc` (skipped with a message otherwise).
+
+mod common;
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{pioneer_odom_cfg, root, serve_cfg, serve_cfg_with_drivers};
+use player_client::{ClientError, LaserProxy, PlayerClient};
+use player_proto::LaserConfig;
+use player_server::Pace;
+
+/// libplayerc's `test_laser.c` request: ±90°, resolution "100", range_res "1", intensity on.
+fn test_laser_c_request() -> LaserConfig {
+    LaserConfig {
+        min_angle: (-90f32).to_radians(),
+        max_angle: 90f32.to_radians(),
+        resolution: 100.0,
+        max_range: 0.0,
+        range_res: 1.0,
+        intensity: 1,
+        scanning_frequency: 10.0,
+    }
+}
+
+/// The next scan `laser` receives (fails after 10 s).
+fn next_scan(client: &PlayerClient, laser: &LaserProxy) -> Vec<f32> {
+    laser.not_fresh();
+    let start = Instant::now();
+    while !laser.is_fresh() {
+        match client.read() {
+            Ok(()) | Err(ClientError::Overflow { .. } | ClientError::NoData) => {}
+            Err(e) => panic!("reading a scan: {e}"),
+        }
+        assert!(start.elapsed() < Duration::from_secs(10), "no scan");
+    }
+    laser.ranges()
+}
+
+/// Ranges that are not all whole metres (the wall 2.85 m east of `r0` is seen at 45°).
+fn fractional(ranges: &[f32]) -> usize {
+    ranges.iter().filter(|r| r.fract() != 0.0).count()
+}
+
+#[test]
+fn a_laser_config_in_player_2_units_is_refused_and_others_keep_their_ranges() {
+    let (cfg, dir) = pioneer_odom_cfg("laser-units");
+    let server = serve_cfg(&cfg, Pace::AsFastAsPossible);
+    let reader = PlayerClient::connect("localhost", server.port(6665)).unwrap();
+    let reading = LaserProxy::new(&reader, 0).unwrap();
+    let before = next_scan(&reader, &reading);
+    assert_eq!(before.len(), 180);
+    assert!(fractional(&before) > 100, "{before:?}");
+    let default = reading.request_config().unwrap();
+
+    let tester = PlayerClient::connect("localhost", server.port(6665)).unwrap();
+    let testing = LaserProxy::new(&tester, 0).unwrap();
+    let err = testing.configure(test_laser_c_request()).unwrap_err();
+    assert!(matches!(err, ClientError::Nack { .. }), "{err:?}");
+    // Radians, but ranges in whole metres: no LMS200 unit either.
+    let metres = LaserConfig {
+        resolution: default.resolution,
+        ..test_laser_c_request()
+    };
+    let err = testing.configure(metres).unwrap_err();
+    assert!(matches!(err, ClientError::Nack { .. }), "{err:?}");
+    assert_eq!(
+        testing.request_config().unwrap(),
+        default,
+        "nothing changed"
+    );
+
+    // The robot stands still: the other client's ranges are the same, unfloored.
+    for _ in 0..3 {
+        let after = next_scan(&reader, &reading);
+        assert_eq!(after, before);
+    }
+    drop(server);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Upstream's `rangertolaser` forwards the request unchanged as a ranger SET_CONFIG (and
+/// INTNS), which Stage's ranger refuses: the laser client gets a NACK, and the scans stay.
+#[test]
+fn rangertolaser_on_a_stage_ranger_refuses_it_too() {
+    let (_, dir) = pioneer_odom_cfg("laser-units-r2l");
+    let cfg = dir.join("rangertolaser.cfg");
+    std::fs::write(
+        &cfg,
+        "driver( name \"stage\" provides [\"simulation:0\"] worldfile \"pioneer.world\" )\n\
+         driver( name \"stage\" provides [\"ranger:0\"] model \"r0\" )\n\
+         driver( name \"rangertolaser\" requires [\"ranger:0\"] provides [\"laser:0\"] )\n",
+    )
+    .unwrap();
+    let server = serve_cfg_with_drivers(&cfg, Pace::AsFastAsPossible);
+    let reader = PlayerClient::connect("localhost", server.port(6665)).unwrap();
+    let reading = LaserProxy::new(&reader, 0).unwrap();
+    let before = next_scan(&reader, &reading);
+    assert_eq!(before.len(), 180);
+    assert!(fractional(&before) > 100, "{before:?}");
+
+    let tester = PlayerClient::connect("localhost", server.port(6665)).unwrap();
+    let testing = LaserProxy::new(&tester, 0).unwrap();
+    let err = testing.configure(test_laser_c_request()).unwrap_err();
+    assert!(matches!(err, ClientError::Nack { .. }), "{err:?}");
+    for _ in 0..3 {
+        assert_eq!(next_scan(&reader, &reading), before);
+    }
+    drop(server);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `examples/c/laser_units.c`: two libplayerc clients, one sending `test_laser.c`'s request,
+/// the other reading; exits non-zero when the request is accepted or the ranges change.
+#[test]
+fn libplayerc_laser_config_in_player_2_units_is_refused() {
+    if !test_support::pkg_config_finds(&["playerc"], "the libplayerc laser units test") {
+        return;
+    }
+    let out_dir =
+        std::env::temp_dir().join(format!("playerstage-laser-units-c-{}", std::process::id()));
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let made = Command::new("make")
+        .arg("-s")
+        .arg("-C")
+        .arg(root().join("examples/c"))
+        .arg(format!("OUT={}", out_dir.display()))
+        .arg(out_dir.join("laser_units"))
+        .status()
+        .expect("running make");
+    assert!(made.success(), "building examples/c/laser_units");
+    let (cfg, dir) = pioneer_odom_cfg("laser-units-c");
+    let server = serve_cfg(&cfg, Pace::RealTime { speedup: 5.0 });
+    let mut child = Command::new(out_dir.join("laser_units"))
+        .arg("localhost")
+        .arg(server.port(6665).to_string())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    drop(server);
+    let _ = std::fs::remove_dir_all(&out_dir);
+    let _ = std::fs::remove_dir_all(&dir);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "laser_units failed ({:?}): {stdout}{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("laser_units: ok"), "{stdout}");
+}

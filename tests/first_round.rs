@@ -107,6 +107,61 @@ fn the_first_pull_round_holds_every_subscribed_ranger_as_fast_as_possible() {
     first_round_has_every_ranger(DataMode::Pull, Pace::AsFastAsPossible, "pull-fast");
 }
 
+/// A robot whose ranger updates every 500 ms, in a world stepping every 100 ms.
+const SLOW_RANGER_WORLD: &str = r#"
+interval_sim 100
+resolution 0.02
+model ( name "wall" size [0.2 4 1] pose [2 0 0 0] )
+position
+(
+  name "robot"
+  size [0.5 0.5 0.5]
+  drive "diff"
+  ranger ( update_interval 500 sensor ( range [0 4] fov 20 samples 5 ) )
+)
+"#;
+
+/// A second client subscribing to a device that is already running gets its current data in
+/// its first round, though the model makes no new sample before the next 500 ms: upstream's
+/// plugin publishes every subscribed device's current data, not only new samples.
+#[test]
+fn a_device_already_running_is_in_a_new_subscribers_first_round() {
+    let dir = std::env::temp_dir().join(format!("playerstage-slow-ranger-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("slow.world"), SLOW_RANGER_WORLD).unwrap();
+    let cfg = dir.join("slow.cfg");
+    std::fs::write(
+        &cfg,
+        "driver( name \"stage\" provides [\"simulation:0\"] worldfile \"slow.world\" )\n\
+         driver( name \"stage\" provides [\"position2d:0\" \"ranger:0\"] model \"robot\" )\n",
+    )
+    .unwrap();
+    let server = serve_cfg(&cfg, Pace::RealTime { speedup: 1.0 });
+    let first = PlayerClient::connect("localhost", server.port(6665)).unwrap();
+    let second = PlayerClient::connect("localhost", server.port(6665)).unwrap();
+    first.set_read_timeout(Some(Duration::from_secs(10)));
+    second.set_read_timeout(Some(Duration::from_secs(10)));
+    let running = RangerProxy::new(&first, 0).unwrap();
+    // The first client's round with a sample: the model's next one is 500 ms away.
+    while running.ranges().is_empty() {
+        first.read().unwrap();
+    }
+    let base = Position2dProxy::new(&second, 0).unwrap();
+    let ranger = RangerProxy::new(&second, 0).unwrap();
+    second.read().unwrap();
+    let odometry = base.state().is_some();
+    let ranges = ranger.ranges();
+    drop(server);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(odometry, "the base's first sample");
+    assert_eq!(
+        ranges.len(),
+        5,
+        "the running ranger's current scan: {ranges:?}"
+    );
+    assert_eq!(ranger.datatime(), running.datatime(), "the same sample");
+}
+
 /// The libplayerc program `examples/c/first_round.c` does the same (in PULL mode, libplayerc's
 /// default) and exits non-zero when a ranger holds no ranges after the first read.
 #[test]

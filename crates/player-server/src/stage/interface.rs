@@ -27,9 +27,10 @@ use crate::driver::{ClientId, Context, Reply};
 /// Subscriptions are the driver's, the same for every interface: the first subscription to a
 /// device starts its bound model updating and the last unsubscription stops it.
 pub(crate) trait Interface: fmt::Debug + Send {
-    /// Publishes the bound model's sample once, when it is new: the implementation takes it
-    /// through [`Out::new_sample`] before publishing. Called every driver update while the
-    /// device is subscribed; `None` when it published nothing.
+    /// Publishes the bound model's sample once, when it is new (and again on the first update
+    /// after a subscription): the implementation takes it through [`Out::new_sample`] before
+    /// publishing. Called every driver update while the device is subscribed; `None` when it
+    /// published nothing.
     fn publish(&mut self, b: &Bound<'_, &World>, out: &mut Out<'_, '_>) -> Option<()> {
         let _ = (b, out);
         None
@@ -185,13 +186,19 @@ pub(crate) struct Out<'a, 'c> {
     pub(super) addr: DeviceAddr,
     /// Sim time (µs) of the last sample the device published.
     pub(super) published_us: &'a mut u64,
+    /// The device was subscribed since its last update: its current sample goes out even when
+    /// it is not new, so that the new subscriber has it in its first round (as upstream's
+    /// plugin publishes every device's current data), whatever the model's update interval.
+    pub(super) resend: bool,
     /// Sim time (s) of the sample being published.
     pub(super) stamp: Option<f64>,
 }
 
 impl Out<'_, '_> {
     /// `sample` when it is newer than the last one the device published (`time_us` tells its
-    /// simulated time): it becomes the one published and stamps the DATA that follows.
+    /// simulated time), or, for a device subscribed since its last update, when the model has
+    /// made one at all (time above 0): it becomes the one published and stamps the DATA that
+    /// follows.
     pub fn new_sample<S>(
         &mut self,
         sample: Option<S>,
@@ -199,10 +206,11 @@ impl Out<'_, '_> {
     ) -> Option<S> {
         let sample = sample?;
         let t = time_us(&sample);
-        if t <= *self.published_us {
+        let again = self.resend && t > 0;
+        if t <= *self.published_us && !again {
             return None;
         }
-        *self.published_us = t;
+        *self.published_us = (*self.published_us).max(t);
         self.stamp = Some(t as f64 * 1e-6);
         Some(sample)
     }

@@ -6,7 +6,10 @@
 //! `worldfile`. That block's driver steps the world once per `interval_sim` and supplies the
 //! server clock (simulated seconds); every block publishes the data of its own devices, in
 //! `provides` order, each time the bound model produced a new sample (that is, at the model's
-//! `update_interval`), stamped with the sample's simulated time.
+//! `update_interval`), stamped with the sample's simulated time, and a device's current sample
+//! on the first update after each subscription (a new subscriber has it in its first round,
+//! as upstream's plugin publishes every device's current data). The blocks step on one grid
+//! (the server's schedule), so all of them publish right after the world's step, in one pass.
 //!
 //! The interfaces the driver serves are listed once, in the `interfaces!` list below: each
 //! line names the interface's module type, its Player interface code and its binding rule;
@@ -244,6 +247,8 @@ struct Device {
     subs: u32,
     /// Sim time (µs) of the last sample published.
     published_us: u64,
+    /// Subscribed since its last update: the current sample goes out again.
+    resend: bool,
 }
 
 /// A bound model's answer to a world call, or `None` with the error logged. Binding checked
@@ -350,6 +355,7 @@ impl StageDriver {
                         model,
                         subs: 0,
                         published_us: 0,
+                        resend: false,
                     });
                     binding
                 }
@@ -493,7 +499,8 @@ impl StageDriver {
         })
     }
 
-    /// Publishes every subscribed device's new samples, in `provides` order.
+    /// Publishes every subscribed device's new samples, in `provides` order, and the current
+    /// sample of a device subscribed since the last update.
     fn publish(&mut self, ctx: &mut Context<'_>) {
         let world = self.world.read().unwrap_or_else(|e| e.into_inner());
         for d in &mut self.devices {
@@ -510,9 +517,11 @@ impl StageDriver {
                 ctx: &mut *ctx,
                 addr: d.addr,
                 published_us: &mut d.published_us,
+                resend: d.resend,
                 stamp: None,
             };
             d.served.interface_mut().publish(&bound, &mut out);
+            d.resend = false;
         }
     }
 }
@@ -569,6 +578,7 @@ impl Driver for StageDriver {
     fn subscribe(&mut self, addr: DeviceAddr) -> Result<(), DriverError> {
         let d = self.own_device(&addr)?;
         d.subs += 1;
+        d.resend = true;
         // The first subscription starts the model updating.
         if let (1, Some(m)) = (d.subs, d.model) {
             self.write()

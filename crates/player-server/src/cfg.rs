@@ -45,11 +45,7 @@ pub fn driver_block(
             .unwrap_or_else(|| origin.clone());
         let host = packed_host(&a.host).ok_or_else(|| ServerError::Config {
             origin: where_.clone(),
-            message: format!(
-                "cannot resolve the host of \"{}\"{}",
-                a.text,
-                player1_key_hint(a).unwrap_or_default()
-            ),
+            message: format!("cannot resolve the host of \"{}\"", a.text),
         })?;
         let addr = DeviceAddr::new(
             host,
@@ -87,6 +83,12 @@ pub fn driver_block(
             options.insert(key.to_string(), vec![v.clone()]);
         }
     }
+    let option_origins = cfg
+        .doc
+        .properties(spec.section)
+        .iter()
+        .map(|p| (cfg.doc.name(p).to_string(), cfg.doc.loc(p.loc).to_string()))
+        .collect();
     Ok(DriverBlock {
         name: spec.name.clone(),
         origin,
@@ -96,21 +98,8 @@ pub fn driver_block(
         alwayson: spec.alwayson,
         options,
         units: cfg.doc.units,
+        option_origins,
     })
-}
-
-/// For an address whose host does not resolve and that reads as Player 1's
-/// `key:port:interface:index` (Player 2 put the host where Player 1 had the key): what it meant
-/// there and how Player 3 writes it, e.g. `odometry::position:0` -> `odometry:::position2d:0`.
-fn player1_key_hint(a: &worldfile::DeviceAddr) -> Option<String> {
-    let (Host::Name(name), None) = (&a.host, &a.key) else {
-        return None;
-    };
-    let port = a.port.map(|p| p.to_string()).unwrap_or_default();
-    Some(format!(
-        " (if \"{name}\" is a key, as Player 1 read `key:port:interface:index`, write \"{name}::{port}:{}:{}\")",
-        a.interface, a.index
-    ))
 }
 
 /// A host as upstream packs it: the IPv4 address's bytes read as a little-endian integer, so
@@ -167,6 +156,8 @@ mod tests {
         assert_eq!(sim.option("usegui"), Some("0"));
         assert_eq!(sim.option("plugin"), Some("stageplugin"));
         assert_eq!(sim.resolve_path("w.world"), Path::new("dir/w.world"));
+        assert_eq!(sim.option_origin("worldfile"), "dir/t.cfg:1:69");
+        assert_eq!(sim.option_origin("nosuch"), sim.origin);
         let bob = &blocks[1];
         assert_eq!(bob.alwayson, Some(true));
         assert_eq!(bob.option("model"), Some("r0"));
@@ -191,26 +182,34 @@ mod tests {
     }
 
     #[test]
-    fn player1_keys_in_the_host_field_get_a_hint() {
-        let hint = |text: &str| {
-            let a = worldfile::DeviceAddr::parse(text).unwrap();
-            player1_key_hint(&a)
-        };
+    fn player1_keys_reach_the_block_as_keys() {
+        // Stage's amcl-sonar.cfg: Player 1's `key:port:interface:index`.
+        let cfg = parse(
+            "driver( name \"amcl\" provides [\"localize:0\"] requires [\"odometry::position:0\" \"sonar:0\" \"sonar::map:0\"] )\n",
+        );
+        let blocks = driver_blocks(&cfg, 6665).unwrap();
+        let requires: Vec<_> = blocks[0]
+            .requires
+            .iter()
+            .map(|r| (r.key.as_deref(), r.addr))
+            .collect();
         assert_eq!(
-            hint("odometry::position:0").as_deref(),
-            Some(
-                " (if \"odometry\" is a key, as Player 1 read `key:port:interface:index`, write \
-                 \"odometry:::position2d:0\")"
-            )
+            requires,
+            [
+                (
+                    Some("odometry"),
+                    DeviceAddr::new(LOCALHOST_ADDR, 6665, InterfaceCode::POSITION2D, 0)
+                ),
+                (
+                    None,
+                    DeviceAddr::new(LOCALHOST_ADDR, 6665, InterfaceCode::SONAR, 0)
+                ),
+                (
+                    Some("sonar"),
+                    DeviceAddr::new(LOCALHOST_ADDR, 6665, InterfaceCode::MAP, 0)
+                ),
+            ]
         );
-        assert!(
-            hint("sonar:6666:map:1")
-                .unwrap()
-                .ends_with("write \"sonar::6666:map:1\")")
-        );
-        // Already keyed, or no host name: nothing to suggest.
-        assert_eq!(hint("odometry:robot::position2d:0"), None);
-        assert_eq!(hint("position2d:0"), None);
     }
 
     #[test]

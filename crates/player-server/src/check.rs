@@ -688,7 +688,13 @@ mod tests {
             [(1, "world-does-not-load"), (2, "unsupported-interface")],
             "{r}"
         );
-        assert!(r.problems[0].message.contains("does not load"));
+        assert!(
+            r.problems[0]
+                .message
+                .contains("cannot read world file \"missing.world\" named at "),
+            "{}",
+            r.problems[0].message
+        );
         assert!(matches!(
             r.drivers[1].devices[0].binding,
             Binding::Unchecked { .. }

@@ -79,6 +79,9 @@ pub struct DriverBlock {
     pub alwayson: Option<bool>,
     /// Every other field, as its list of values (e.g. `model`, `worldfile`).
     pub options: BTreeMap<String, Vec<String>>,
+    /// Where each option is written (`file:line:col`), when the block comes from a cfg: a
+    /// message about a value (a world file that cannot be read) names the value's line.
+    pub option_origins: BTreeMap<String, String>,
     /// The cfg's `unit_length` and `unit_angle`: Player's `ReadLength` and `ReadAngle` scale
     /// the values written by them (metres and degrees unless the cfg says otherwise).
     pub units: worldfile::Units,
@@ -235,6 +238,13 @@ impl DriverBlock {
             )));
         }
         Ok(None)
+    }
+
+    /// Where option `key` is written, else where the block is.
+    pub fn option_origin(&self, key: &str) -> &str {
+        self.option_origins
+            .get(key)
+            .map_or(self.origin.as_str(), String::as_str)
     }
 
     /// A path written in the block: absolute as written, else relative to the cfg file's

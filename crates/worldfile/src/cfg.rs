@@ -1,7 +1,7 @@
 //! Player 3.0.2 `.cfg` files: `driver` blocks and device addresses (player-cfg.md §3–§6).
 
 use std::collections::BTreeMap;
-use std::net::Ipv4Addr;
+use std::net::{Ipv4Addr, ToSocketAddrs};
 use std::path::{Path, PathBuf};
 
 use player_proto::InterfaceCode;
@@ -255,6 +255,54 @@ impl DeviceAddr {
         ))
     }
 
+    /// Player 1's reading of this address, when it can be one: Player 1 wrote
+    /// `key:port:interface:index`, so its `odometry::position:0` is the key `odometry` on the
+    /// default port, where Player 2 and 3 (which put a host before the port) read a host named
+    /// `odometry`. Only a four-field address whose host field is a bare name (no dots, not
+    /// `localhost`, not a number or a dotted address) qualifies; whether to take this reading is
+    /// up to the caller (see [`CfgFile::load`]: when no host of that name resolves).
+    pub fn as_player1_key(&self) -> Option<DeviceAddr> {
+        let Host::Name(name) = &self.host else {
+            return None;
+        };
+        if self.key.is_some()
+            || self.host.ipv4().is_some()
+            || name.contains('.')
+            || self.text.matches(':').count() != 3
+        {
+            return None;
+        }
+        Some(DeviceAddr {
+            key: Some(name.clone()),
+            host: Host::Default,
+            ..self.clone()
+        })
+    }
+
+    /// The warning for an address read as Player 1's `key:port:interface:index` (this address
+    /// being the result of [`DeviceAddr::as_player1_key`]): what was read and the Player 3
+    /// address to write instead, which also takes the new name of a renamed interface.
+    pub fn player1_key_warning(&self) -> String {
+        let key = self.key.as_deref().unwrap_or_default();
+        let port = self.port.map(|p| p.to_string()).unwrap_or_default();
+        let renamed = match self.renamed_from.and_then(old_interface) {
+            Some(OldInterface::Renamed { history, .. }) => format!(
+                " and \"{}\" as \"{}\" ({history})",
+                self.renamed_from.unwrap_or_default(),
+                self.interface
+            ),
+            _ => String::new(),
+        };
+        format!(
+            "\"{text}\" is Player 1's `key:port:interface:index`: reading \"{key}\" as a key \
+             (no host of that name resolves; Player 2 and 3 read a host there){renamed}; write \
+             \"{key}::{port}:{iface}:{index}\"",
+            text = self.text,
+            iface = self.interface,
+            index = self.index
+        )
+    }
+
     /// The port, with the server default for an absent robot field.
     pub fn port_or(&self, default: u16) -> u16 {
         self.port.unwrap_or(default)
@@ -336,23 +384,32 @@ const DRIVER_FIELDS: &[&str] = &[
 ];
 
 impl CfgFile {
-    /// Loads a cfg file (and its includes).
+    /// Loads a cfg file (and its includes). An address in Player 1's `key:port:interface:index`
+    /// form whose would-be host does not resolve is read as Player 1 read it, with a warning
+    /// ([`DeviceAddr::as_player1_key`]): Stage's own `amcl-sonar.cfg` requires
+    /// `odometry::position:0`, which Player 3 refuses for want of a host `odometry`.
     pub fn load(path: &Path, opts: &LoadOptions) -> Result<CfgFile, Error> {
         let doc = loader::load_document(path, Dialect::Cfg, opts)?;
-        Self::from_document(path, doc)
+        Self::from_document(path, doc, &host_resolves)
     }
 
-    /// Parses `text` as the cfg file at `path`.
+    /// Parses `text` as the cfg file at `path` (as [`CfgFile::load`] reads it).
     pub fn parse(path: &Path, text: &str, opts: &LoadOptions) -> Result<CfgFile, Error> {
         let doc = loader::parse_document(path, text.as_bytes().to_vec(), Dialect::Cfg, opts)?;
-        Self::from_document(path, doc)
+        Self::from_document(path, doc, &host_resolves)
     }
 
-    fn from_document(path: &Path, doc: Document) -> Result<CfgFile, Error> {
+    /// `resolves` says whether a host name names a machine (Player 1 keys are the names that
+    /// do not).
+    fn from_document(
+        path: &Path,
+        doc: Document,
+        resolves: &dyn Fn(&str) -> bool,
+    ) -> Result<CfgFile, Error> {
         let mut warnings = doc.warnings.clone();
         let mut drivers = Vec::new();
         for section in doc.entities_of_type("driver") {
-            drivers.push(read_driver(&doc, section, &mut warnings)?);
+            drivers.push(read_driver(&doc, section, resolves, &mut warnings)?);
         }
         Ok(CfgFile {
             path: path.to_path_buf(),
@@ -372,6 +429,14 @@ impl CfgFile {
             self.path.parent().unwrap_or(Path::new("")).join(wf)
         })
     }
+}
+
+/// Whether `name` resolves to an IPv4 address, as the server will need it to (the server packs
+/// IPv4 hosts only).
+fn host_resolves(name: &str) -> bool {
+    (name, 0)
+        .to_socket_addrs()
+        .is_ok_and(|mut addrs| addrs.any(|a| a.is_ipv4()))
 }
 
 /// The first value of a field [`Document::use_property`] returned, as text.
@@ -405,6 +470,7 @@ fn read_bool(doc: &Document, p: &Property, warnings: &mut Vec<Warning>) -> Optio
 fn read_driver(
     doc: &Document,
     section: EntityId,
+    resolves: &dyn Fn(&str) -> bool,
     warnings: &mut Vec<Warning>,
 ) -> Result<DriverSpec, Error> {
     let entity = doc.entity(section);
@@ -430,7 +496,14 @@ fn read_driver(
             match DeviceAddr::parse(&v.text) {
                 Ok(mut a) => {
                     a.location = Some(doc.loc(v.loc));
-                    if let Some(w) = a.old_name_warning() {
+                    let player1 = a.as_player1_key().filter(|_| match &a.host {
+                        Host::Name(name) => !resolves(name),
+                        _ => false,
+                    });
+                    if let Some(p1) = player1 {
+                        renamed.push(Warning::at(doc.loc(v.loc), p1.player1_key_warning()));
+                        a = p1;
+                    } else if let Some(w) = a.old_name_warning() {
                         renamed.push(Warning::at(doc.loc(v.loc), w));
                     }
                     out.push(a);
@@ -617,7 +690,7 @@ mod tests {
         // In a cfg: read as the new name, with a warning at the address.
         let cfg = CfgFile::parse(
             Path::new("old.cfg"),
-            "driver( name \"amcl\"\n provides [\"localize:0\"]\n requires [\"odometry::position:0\" \"sonar:0\"] )\n",
+            "driver( name \"amcl\"\n provides [\"localize:0\"]\n requires [\"7000:position:0\" \"sonar:0\"] )\n",
             &LoadOptions::default(),
         )
         .unwrap();
@@ -629,9 +702,99 @@ mod tests {
         assert!(
             w.starts_with(
                 "old.cfg:3:12: warning: interface \"position\" is an older Player's name"
-            ) && w.ends_with("(write \"odometry::position2d:0\")"),
+            ) && w.ends_with("(write \"7000:position2d:0\")"),
             "{w}"
         );
+    }
+
+    #[test]
+    fn player1_keys_where_player3_puts_a_host() {
+        // The Player 1 reading exists for four fields with a bare name first, and only then.
+        let p1 = addr("odometry::position:0").as_player1_key().unwrap();
+        assert_eq!(
+            (
+                p1.key.as_deref(),
+                p1.host.clone(),
+                p1.port,
+                p1.interface,
+                p1.index
+            ),
+            (
+                Some("odometry"),
+                Host::Default,
+                None,
+                InterfaceCode::POSITION2D,
+                0
+            )
+        );
+        let p1 = addr("sonar:6666:map:1").as_player1_key().unwrap();
+        assert_eq!((p1.key.as_deref(), p1.port), (Some("sonar"), Some(6666)));
+        assert_eq!(
+            p1.player1_key_warning(),
+            "\"sonar:6666:map:1\" is Player 1's `key:port:interface:index`: reading \"sonar\" as \
+             a key (no host of that name resolves; Player 2 and 3 read a host there); write \
+             \"sonar::6666:map:1\""
+        );
+        for not_player1 in [
+            "localhost::ranger:0",
+            "127.0.0.1::ranger:0",
+            "2130706433::ranger:0",
+            "robot.lab::ranger:0",
+            "odometry:robot::position2d:0",
+            ":odometry::position2d:0",
+            "6665:ranger:0",
+            "ranger:0",
+        ] {
+            assert_eq!(addr(not_player1).as_player1_key(), None, "{not_player1}");
+        }
+
+        // In a cfg: taken when the name does not resolve, with one warning naming the Player 3
+        // address (the interface renamed too); a host that resolves stays a host.
+        let text = "driver( name \"amcl\" provides [\"localize:0\"]\n requires [\"odometry::position:0\" \"sonar:0\" \"sonar::map:0\" \"robot7::map:1\"] )\n";
+        let doc = |t: &str| {
+            loader::parse_document(
+                Path::new("p1.cfg"),
+                t.as_bytes().to_vec(),
+                Dialect::Cfg,
+                &LoadOptions::default(),
+            )
+            .unwrap()
+        };
+        let cfg = CfgFile::from_document(Path::new("p1.cfg"), doc(text), &|name: &str| {
+            name == "robot7"
+        })
+        .unwrap();
+        let r = &cfg.drivers[0].requires;
+        let read: Vec<_> = r
+            .iter()
+            .map(|a| (a.key.as_deref(), a.host.clone(), a.interface))
+            .collect();
+        assert_eq!(
+            read,
+            [
+                (Some("odometry"), Host::Default, InterfaceCode::POSITION2D),
+                (None, Host::Default, InterfaceCode::SONAR),
+                (Some("sonar"), Host::Default, InterfaceCode::MAP),
+                (None, Host::Name("robot7".into()), InterfaceCode::MAP),
+            ]
+        );
+        let warnings: Vec<String> = cfg.warnings.iter().map(|w| w.to_string()).collect();
+        assert_eq!(
+            warnings,
+            [
+                "p1.cfg:2:12: warning: \"odometry::position:0\" is Player 1's \
+                 `key:port:interface:index`: reading \"odometry\" as a key (no host of that name \
+                 resolves; Player 2 and 3 read a host there) and \"position\" as \"position2d\" \
+                 (Player 1.x's name for code 4, renamed in Player 2.0); write \
+                 \"odometry:::position2d:0\"",
+                "p1.cfg:2:45: warning: \"sonar::map:0\" is Player 1's `key:port:interface:index`: \
+                 reading \"sonar\" as a key (no host of that name resolves; Player 2 and 3 read a \
+                 host there); write \"sonar:::map:0\"",
+            ]
+        );
+        // Loaded for real, a name no resolver knows is a key.
+        let cfg = CfgFile::parse(Path::new("p1.cfg"), text, &LoadOptions::default()).unwrap();
+        assert_eq!(cfg.drivers[0].requires[0].key.as_deref(), Some("odometry"));
     }
 
     #[test]

@@ -192,7 +192,8 @@ fn every_cfg_parses() {
         }
     }
     // amcl-sonar.cfg is older than Player 2.0 in places: `position` is read as `position2d`,
-    // with a warning at each address that says so.
+    // and Player 1's `key::interface:index` as a key, with a warning at each address that says
+    // so.
     let cfg = CfgFile::load(&root.join("amcl-sonar.cfg"), &opts).unwrap();
     assert_eq!(
         cfg.drivers[1].provides[0].interface,
@@ -207,5 +208,26 @@ fn every_cfg_parses() {
         })
         .map(|w| w.location.as_ref().unwrap().line)
         .collect();
-    assert_eq!(renamed, [21, 48]);
+    assert_eq!(renamed, [21]);
+    let keyed: Vec<(u32, bool)> = cfg
+        .warnings
+        .iter()
+        .filter(|w| {
+            w.message
+                .contains("is Player 1's `key:port:interface:index`")
+        })
+        .map(|w| {
+            (
+                w.location.as_ref().unwrap().line,
+                w.message.contains("\"position\" as \"position2d\""),
+            )
+        })
+        .collect();
+    assert_eq!(keyed, [(48, true), (48, false)]);
+    let keys: Vec<Option<&str>> = cfg.drivers[4]
+        .requires
+        .iter()
+        .map(|a| a.key.as_deref())
+        .collect();
+    assert_eq!(keys, [Some("odometry"), None, Some("sonar")]);
 }

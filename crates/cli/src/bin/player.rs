@@ -15,7 +15,7 @@ use clap::Parser;
 use player_proto::constants::PLAYERTCP_DEFAULT_PORT;
 use player_server::stage::{self, StageHandle, StageOptions};
 use player_server::test_driver::{TEST_DRIVER_NAME, TestDriver};
-use player_server::{DriverRegistry, Pace, Server, ServerConfig};
+use player_server::{DriverRegistry, Pace, Server, ServerConfig, ServerError};
 use tracing_subscriber::EnvFilter;
 use viewer::handle::WorldHandle;
 use viewer::world_window::{self, WindowOptions};
@@ -237,9 +237,14 @@ fn serve(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
         }
     }
     for block in &blocks {
-        server.add_block(block, &mut registry).map_err(|e| {
-            anyhow::anyhow!("failed to parse config file {cfgname} driver blocks: {e}")
-        })?;
+        server
+            .add_block(block, &mut registry)
+            .map_err(|e| match e {
+                // The driver says what is wrong (a world file that cannot be read, a bad option),
+                // with its place in the cfg: nothing failed to parse.
+                ServerError::DriverFailed { .. } => anyhow::anyhow!("{e}"),
+                _ => anyhow::anyhow!("failed to parse config file {cfgname} driver blocks: {e}"),
+            })?;
     }
     if server.table().is_empty() {
         bail!("No devices read in configuration file {cfgname}. Is it correct?");
@@ -357,7 +362,11 @@ fn feed_estimates(window: &WorldHandle, localizers: &[player_proto::DeviceAddr])
     }
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
+    cli::exit_status(run())
+}
+
+fn run() -> anyhow::Result<()> {
     let args = Args::parse();
     let (cfgfile, _unpacked) = match &args.cfgfile {
         Some(path) => (path.clone(), None),

@@ -84,7 +84,11 @@ fn split_device_flags(args: Vec<String>) -> (Vec<String>, Vec<DeviceKey>) {
     (rest, devices)
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
+    cli::exit_status(run())
+}
+
+fn run() -> anyhow::Result<()> {
     let (rest, devices) = split_device_flags(std::env::args().collect());
     let args = Args::parse_from(rest);
     if !(args.rate.is_finite() && args.rate > 0.0) {

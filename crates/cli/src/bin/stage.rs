@@ -62,7 +62,11 @@ fn clock(us: u64) -> String {
     }
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
+    cli::exit_status(run())
+}
+
+fn run() -> anyhow::Result<()> {
     let args = Args::parse();
     // simulator warnings (unknown controllers, legacy models) come through tracing
     let level = match (args.quiet, args.debug) {

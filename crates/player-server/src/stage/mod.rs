@@ -50,7 +50,7 @@ mod sonar;
 mod speech;
 
 use std::collections::HashSet;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, RwLock, RwLockWriteGuard};
 use std::time::Duration;
@@ -538,20 +538,20 @@ fn create_world(
             "the simulation device needs a `worldfile` field naming the Stage world",
         ));
     };
-    let path = block.resolve_path(written);
+    let opts = LoadOptions::from_env();
+    let path = find_worldfile(block, written, &opts.stage_path)?;
     let usegui = match options.usegui {
         Some(v) => v,
         None => bool_option(block, "usegui")
             .map_err(|e| BindError::new(BindErrorKind::BadOption, e.to_string()))?
             .unwrap_or(true),
     };
-    let (world, spec) =
-        World::load_with(&path, &LoadOptions::from_env(), options.seed).map_err(|e| {
-            BindError::new(
-                BindErrorKind::WorldDoesNotLoad,
-                format!("the worldfile {} does not load: {e}", path.display()),
-            )
-        })?;
+    let (world, spec) = World::load_with(&path, &opts, options.seed).map_err(|e| {
+        BindError::new(
+            BindErrorKind::WorldDoesNotLoad,
+            format!("the worldfile {} does not load: {e}", path.display()),
+        )
+    })?;
     tracing::info!(
         "stage: world \"{}\" loaded from {} ({} models)",
         world.config().name,
@@ -572,6 +572,52 @@ fn create_world(
         spec,
         bound: HashSet::new(),
     })
+}
+
+/// The world file a simulation block names, found as Stage 4.1.1 finds it: the name as written
+/// when absolute, else beside the cfg file; failing that, in each `STAGEPATH` directory (by its
+/// base name, as Stage's `Worldfile::FileOpen`, and by the name as written, as our includes).
+/// Not found anywhere: an error naming the file and where the cfg names it.
+fn find_worldfile(
+    block: &DriverBlock,
+    written: &str,
+    stage_path: &[PathBuf],
+) -> Result<PathBuf, BindError> {
+    let first = block.resolve_path(written);
+    let mut tried = vec![first.clone()];
+    let base = Path::new(written).file_name();
+    for dir in stage_path {
+        if !Path::new(written).is_absolute() {
+            tried.push(dir.join(written));
+        }
+        if let Some(base) = base {
+            tried.push(dir.join(base));
+        }
+    }
+    tried.dedup();
+    if let Some(found) = tried.iter().find(|p| p.is_file()) {
+        return Ok(found.clone());
+    }
+    let reason = match std::fs::metadata(&first) {
+        Ok(m) if m.is_dir() => "it is a directory".to_string(),
+        Ok(_) => "not a regular file".to_string(),
+        Err(e) => e.to_string(),
+    };
+    let searched = if stage_path.is_empty() {
+        "STAGEPATH is not set".to_string()
+    } else {
+        let dirs: Vec<String> = stage_path.iter().map(|d| d.display().to_string()).collect();
+        format!("nor on STAGEPATH {}", dirs.join(":"))
+    };
+    Err(BindError::new(
+        BindErrorKind::WorldDoesNotLoad,
+        format!(
+            "cannot read world file \"{written}\" named at {}: {reason} (looked for {}; \
+             {searched})",
+            block.option_origin("worldfile"),
+            first.display(),
+        ),
+    ))
 }
 
 impl Driver for StageDriver {

@@ -800,3 +800,51 @@ fn every_listed_interface_has_its_own_code() {
     assert!(Served::new(InterfaceCode::WIFI).is_none());
     assert_eq!(stage_binding(InterfaceCode::WIFI), None);
 }
+
+#[test]
+fn the_worldfile_is_looked_for_beside_the_cfg_then_on_stagepath() {
+    let root = std::env::temp_dir().join(format!("stage-driver-path-{}", std::process::id()));
+    let (cfgdir, worlds, other) = (root.join("cfgs"), root.join("worlds"), root.join("other"));
+    for d in [&cfgdir, &worlds, &other] {
+        std::fs::create_dir_all(d).unwrap();
+    }
+    std::fs::write(worlds.join("w.world"), WORLD).unwrap();
+    std::fs::write(cfgdir.join("here.world"), WORLD).unwrap();
+    let mut sim = block(&[(InterfaceCode::SIMULATION, 0)], &[]);
+    sim.cfg_path = Some(cfgdir.join("x.cfg"));
+    sim.option_origins
+        .insert("worldfile".into(), "x.cfg:5:3".into());
+    let stage_path = [other.clone(), worlds.clone()];
+    // Beside the cfg first; then each STAGEPATH folder, by base name as Stage does.
+    assert_eq!(
+        find_worldfile(&sim, "here.world", &stage_path).unwrap(),
+        cfgdir.join("here.world")
+    );
+    assert_eq!(
+        find_worldfile(&sim, "w.world", &stage_path).unwrap(),
+        worlds.join("w.world")
+    );
+    assert_eq!(
+        find_worldfile(&sim, "sub/w.world", &stage_path).unwrap(),
+        worlds.join("w.world")
+    );
+    // Nowhere: the message names the file, where the cfg names it and where we looked.
+    let e = find_worldfile(&sim, "w.world", std::slice::from_ref(&other)).unwrap_err();
+    assert_eq!(e.kind, BindErrorKind::WorldDoesNotLoad);
+    assert_eq!(
+        e.message,
+        format!(
+            "cannot read world file \"w.world\" named at x.cfg:5:3: No such file or directory \
+             (os error 2) (looked for {}; nor on STAGEPATH {})",
+            cfgdir.join("w.world").display(),
+            other.display()
+        )
+    );
+    let e = find_worldfile(&sim, "w.world", &[]).unwrap_err();
+    assert!(
+        e.message.ends_with("; STAGEPATH is not set)"),
+        "{}",
+        e.message
+    );
+    let _ = std::fs::remove_dir_all(root);
+}

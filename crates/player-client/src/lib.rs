@@ -28,7 +28,8 @@ mod proxy;
 pub use client::{DEFAULT_PORT, DEFAULT_REQUEST_TIMEOUT, DataMode, DeviceInfo, PlayerClient};
 pub use error::ClientError;
 pub use proxy::{
-    ActArrayProxy, BlobfinderProxy, CameraProxy, ClientProxy, FiducialProxy, Graphics2dProxy,
-    GripperProxy, LaserProxy, LocalizeProxy, LogProxy, LogState, MapProxy, OccupancyMap,
-    PlannerProxy, Position2dProxy, RangerProxy, SimulationProxy, SonarProxy, SpeechProxy,
+    ActArrayProxy, BlackboardProxy, BlobfinderProxy, CameraProxy, ClientProxy, FiducialProxy,
+    Graphics2dProxy, GripperProxy, LaserProxy, LocalizeProxy, LogProxy, LogState, MapProxy,
+    OccupancyMap, PlannerProxy, Position2dProxy, RangerProxy, SimulationProxy, SonarProxy,
+    SpeechProxy,
 };

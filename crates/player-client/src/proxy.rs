@@ -1120,3 +1120,72 @@ impl LogProxy {
         Ok(())
     }
 }
+
+proxy!(
+    /// A blackboard (`blackboard`, served by `localbb`): entries shared between clients, as
+    /// libplayerc's `playerc_blackboard`. Updates of the keys and groups listened to arrive as
+    /// DATA; [`BlackboardProxy::update`] is the latest.
+    BlackboardProxy,
+    BLACKBOARD
+);
+
+impl BlackboardProxy {
+    /// A request naming `key` in `group` (libplayerc sends the names NUL counted).
+    fn named(key: &str, group: &str) -> BlackboardEntry {
+        BlackboardEntry {
+            key: Text::new(key),
+            group: Text::new(group),
+            ..BlackboardEntry::default()
+        }
+    }
+
+    /// Listens to `key` in `group`: every later set of it arrives as an update. Returns the
+    /// entry stored now (empty data if none was set).
+    pub fn subscribe_to_key(&self, key: &str, group: &str) -> Result<BlackboardEntry, ClientError> {
+        request_ack!(self, BlackboardReq::SubscribeToKey(Some(Self::named(key, group))),
+            Body::Blackboard(BlackboardMsg::Ack(BlackboardReq::SubscribeToKey(Some(e)))) => e,
+            "blackboard SUBSCRIBE_TO_KEY")
+    }
+
+    /// Stops listening to `key` in `group` (one subscription of it).
+    pub fn unsubscribe_from_key(&self, key: &str, group: &str) -> Result<(), ClientError> {
+        self.request(BlackboardReq::UnsubscribeFromKey(Some(Self::named(
+            key, group,
+        ))))
+        .map(drop)
+    }
+
+    /// Listens to every key of `group`; its current entries arrive as updates.
+    pub fn subscribe_to_group(&self, group: &str) -> Result<(), ClientError> {
+        self.request(BlackboardReq::SubscribeToGroup(Some(Self::named(
+            "", group,
+        ))))
+        .map(drop)
+    }
+
+    /// Stops listening to `group` (one subscription of it).
+    pub fn unsubscribe_from_group(&self, group: &str) -> Result<(), ClientError> {
+        self.request(BlackboardReq::UnsubscribeFromGroup(Some(Self::named(
+            "", group,
+        ))))
+        .map(drop)
+    }
+
+    /// Stores `entry` (its key and group say where); the listeners get it as an update.
+    pub fn set_entry(&self, entry: BlackboardEntry) -> Result<(), ClientError> {
+        self.request(BlackboardReq::SetEntry(Some(entry))).map(drop)
+    }
+
+    /// The entry stored at `key` in `group`, without listening to it.
+    pub fn get_entry(&self, key: &str, group: &str) -> Result<BlackboardEntry, ClientError> {
+        request_ack!(self, BlackboardReq::GetEntry(Some(Self::named(key, group))),
+            Body::Blackboard(BlackboardMsg::Ack(BlackboardReq::GetEntry(Some(e)))) => e,
+            "blackboard GET_ENTRY")
+    }
+
+    /// The latest update received.
+    pub fn update(&self) -> Option<BlackboardEntry> {
+        latest_data!(self, BlackboardData::UPDATE,
+            Body::Blackboard(BlackboardMsg::Data(BlackboardData::Update(e))) => e)
+    }
+}

@@ -17,7 +17,8 @@
 //!   `relay` (clients' opaque messages echoed to every subscriber), and `writelog` /
 //!   `readlog` (runs recorded to and replayed from Player's text log format);
 //! * [`localization`] — `amcl`: adaptive Monte-Carlo localisation against a map, from
-//!   odometry and laser or sonar ranges.
+//!   odometry and laser or sonar ranges;
+//! * [`blackboard`] — `localbb`: entries shared between clients, kept in the server's memory.
 //!
 //! These drivers use other devices through the server's bus ([`player_server::Context`]):
 //! they subscribe in `setup`, convert the DATA they receive, and answer a client's request by
@@ -25,6 +26,7 @@
 
 #![warn(missing_docs)]
 
+pub mod blackboard;
 mod error;
 mod forward;
 pub mod laser;
@@ -52,6 +54,7 @@ use player_server::DriverRegistry;
 /// Registers every driver of this crate under its Player 3.0.2 name (each module's `NAME`),
 /// built by its type's `from_block`.
 pub fn register_all(registry: &mut DriverRegistry) {
+    use blackboard::localbb;
     use laser::laserposeinterpolator;
     use localization::amcl;
     use map::mapfile;
@@ -88,4 +91,5 @@ pub fn register_all(registry: &mut DriverRegistry) {
     registry.register_driver(snd::NAME, snd::Snd::from_block);
     registry.register_driver(amcl::NAME, amcl::Amcl::from_block);
     registry.register_driver(wavefront::NAME, wavefront::Wavefront::from_block);
+    registry.register_driver(localbb::NAME, localbb::LocalBb::from_block);
 }

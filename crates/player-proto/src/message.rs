@@ -301,6 +301,23 @@ message_table! {
         }
     }
 
+    /// Messages of the `blackboard` interface (64): every message carries one entry (a
+    /// request names its key and group; ACKs of unsubscribe, group subscribe and set are
+    /// empty).
+    interface Blackboard (BlackboardMsg) = BLACKBOARD {
+        data BlackboardData {
+            1 UPDATE Update(BlackboardEntry),
+        }
+        req BlackboardReq {
+            1 SUBSCRIBE_TO_KEY SubscribeToKey(BlackboardEntry),
+            2 UNSUBSCRIBE_FROM_KEY UnsubscribeFromKey(BlackboardEntry),
+            3 SET_ENTRY SetEntry(BlackboardEntry),
+            4 SUBSCRIBE_TO_GROUP SubscribeToGroup(BlackboardEntry),
+            5 UNSUBSCRIBE_FROM_GROUP UnsubscribeFromGroup(BlackboardEntry),
+            6 GET_ENTRY GetEntry(BlackboardEntry),
+        }
+    }
+
     /// Messages of the `planner` interface (44): goal in, execution state out, and the plan's
     /// waypoints on request.
     interface Planner (PlannerMsg) = PLANNER {
@@ -630,7 +647,7 @@ mod tests {
     #[test]
     fn table_is_consistent() {
         let rows = message_rows();
-        // 9 universal rows + every row of the 23 interfaces.
+        // 9 universal rows + every row of the 25 interfaces.
         assert_eq!(rows.iter().filter(|r| r.interface.0 == 0).count(), 9);
         for (i, a) in rows.iter().enumerate() {
             assert!(a.interface.0 == 0 || a.interface.name().is_some());
@@ -652,7 +669,7 @@ mod tests {
         }
         let interfaces: std::collections::BTreeSet<u16> =
             rows.iter().map(|r| r.interface.0).collect();
-        assert_eq!(interfaces.len(), 25, "{interfaces:?}");
+        assert_eq!(interfaces.len(), 26, "{interfaces:?}");
     }
 
     #[test]

@@ -242,8 +242,9 @@ fn table_matches_the_readme() {
     // it: libplayerinterface/interfaces/051_opaque.def (DATA STATE, CMD DATA and REQ DATA, all
     // carrying player_opaque_data_t) and 044_planner.def (DATA STATE player_planner_data_t, CMD
     // GOAL player_planner_cmd_t, REQ GET_WAYPOINTS player_planner_waypoints_req_t, REQ ENABLE
-    // player_planner_enable_req_t), and 045_log.def (REQ SET_WRITE_STATE, SET_READ_STATE,
-    // GET_STATE, SET_READ_REWIND without a body, SET_FILENAME).
+    // player_planner_enable_req_t), 045_log.def (REQ SET_WRITE_STATE, SET_READ_STATE,
+    // GET_STATE, SET_READ_REWIND without a body, SET_FILENAME) and 064_blackboard.def (DATA
+    // UPDATE and six REQs, all carrying player_blackboard_entry_t).
     let beyond_the_readme = [
         (
             51,
@@ -323,8 +324,57 @@ fn table_matches_the_readme() {
             "PLAYER_LOG_REQ_SET_FILENAME",
             Some("player_log_set_filename_t"),
         ),
+        (
+            64,
+            MsgType::Data,
+            1,
+            "PLAYER_BLACKBOARD_DATA_UPDATE",
+            Some("player_blackboard_entry_t"),
+        ),
+        (
+            64,
+            MsgType::Req,
+            1,
+            "PLAYER_BLACKBOARD_REQ_SUBSCRIBE_TO_KEY",
+            Some("player_blackboard_entry_t"),
+        ),
+        (
+            64,
+            MsgType::Req,
+            2,
+            "PLAYER_BLACKBOARD_REQ_UNSUBSCRIBE_FROM_KEY",
+            Some("player_blackboard_entry_t"),
+        ),
+        (
+            64,
+            MsgType::Req,
+            3,
+            "PLAYER_BLACKBOARD_REQ_SET_ENTRY",
+            Some("player_blackboard_entry_t"),
+        ),
+        (
+            64,
+            MsgType::Req,
+            4,
+            "PLAYER_BLACKBOARD_REQ_SUBSCRIBE_TO_GROUP",
+            Some("player_blackboard_entry_t"),
+        ),
+        (
+            64,
+            MsgType::Req,
+            5,
+            "PLAYER_BLACKBOARD_REQ_UNSUBSCRIBE_FROM_GROUP",
+            Some("player_blackboard_entry_t"),
+        ),
+        (
+            64,
+            MsgType::Req,
+            6,
+            "PLAYER_BLACKBOARD_REQ_GET_ENTRY",
+            Some("player_blackboard_entry_t"),
+        ),
     ];
-    for code in [51, 44, 45] {
+    for code in [51, 44, 45, 64] {
         assert!(
             !listed.iter().any(|r| r.0 == code),
             "the README now lists interface {code}: drop it from beyond_the_readme"

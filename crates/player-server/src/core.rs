@@ -569,6 +569,18 @@ impl Bus {
                 );
                 continue;
             }
+            if let Some(id) = p.to {
+                let msg = Message::new(dev.addr, p.timestamp.unwrap_or(now), p.body);
+                match Outgoing::from_message(&msg) {
+                    Ok(out) => self.to_clients.push((id, out)),
+                    Err(e) => tracing::error!(
+                        "driver \"{}\" published an unencodable {}: {e}",
+                        self.drivers[driver.0].name,
+                        msg.body.constant()
+                    ),
+                }
+                continue;
+            }
             if self.subscribers[device.0].is_empty() {
                 continue;
             }

@@ -301,6 +301,10 @@ pub struct Publication {
     pub body: Body,
     /// Header timestamp; `None` = the server clock now.
     pub timestamp: Option<f64>,
+    /// The one client it goes to, whether or not it subscribed (Player's `Publish` to one
+    /// queue: the blackboard's updates go to the clients that asked for that key); `None`
+    /// sends it to every subscriber of the device.
+    pub to: Option<ClientId>,
 }
 
 /// Names one request a driver sent to a device; its reply comes back to
@@ -464,6 +468,19 @@ impl<'a> Context<'a> {
             addr,
             body: body.into(),
             timestamp: None,
+            to: None,
+        });
+    }
+
+    /// Publishes DATA from `addr` to `client` alone, stamped with the server clock: what a
+    /// driver keeping per-client interest sends (the blackboard's updates of a key go to the
+    /// clients that subscribed to that key, not to every subscriber of the device).
+    pub fn publish_to(&mut self, addr: DeviceAddr, client: ClientId, body: impl Into<Body>) {
+        self.published.push(Publication {
+            addr,
+            body: body.into(),
+            timestamp: None,
+            to: Some(client),
         });
     }
 
@@ -473,6 +490,7 @@ impl<'a> Context<'a> {
             addr,
             body: body.into(),
             timestamp: Some(timestamp),
+            to: None,
         });
     }
 

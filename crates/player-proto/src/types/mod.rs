@@ -6,6 +6,7 @@
 //! struct's documentation gives its C name.
 
 mod actarray;
+mod blackboard;
 mod blinkenlight;
 mod blobfinder;
 mod bumper;
@@ -31,6 +32,7 @@ mod sonar;
 mod speech;
 
 pub use actarray::*;
+pub use blackboard::*;
 pub use blinkenlight::*;
 pub use blobfinder::*;
 pub use bumper::*;

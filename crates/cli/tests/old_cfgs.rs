@@ -244,7 +244,7 @@ fn player1_addresses_in_stages_amcl_sonar_cfg() {
     assert!(
         err.contains(
             "amcl-sonar.cfg:48:13: warning: \"odometry::position:0\" is Player 1's \
-             `key:port:interface:index`: reading \"odometry\" as a key"
+             `key::interface:index`: reading \"odometry\" as a key"
         ) && err.contains("write \"sonar:::map:0\""),
         "{err}"
     );

@@ -258,14 +258,17 @@ impl DeviceAddr {
     /// Player 1's reading of this address, when it can be one: Player 1 wrote
     /// `key:port:interface:index`, so its `odometry::position:0` is the key `odometry` on the
     /// default port, where Player 2 and 3 (which put a host before the port) read a host named
-    /// `odometry`. Only a four-field address whose host field is a bare name (no dots, not
-    /// `localhost`, not a number or a dotted address) qualifies; whether to take this reading is
-    /// up to the caller (see [`CfgFile::load`]: when no host of that name resolves).
+    /// `odometry`. Only the form `name::interface:index` qualifies (four fields, the port empty,
+    /// the first a bare name: no dots, not `localhost`, not a number or a dotted address); with
+    /// a port written (`otherhost:6665:laser:0`) it is Player 3's remote device. Whether to
+    /// take this reading is up to the caller ([`CfgFile::load`]: when no host of that name
+    /// resolves).
     pub fn as_player1_key(&self) -> Option<DeviceAddr> {
         let Host::Name(name) = &self.host else {
             return None;
         };
         if self.key.is_some()
+            || self.port.is_some()
             || self.host.ipv4().is_some()
             || name.contains('.')
             || self.text.matches(':').count() != 3
@@ -279,12 +282,11 @@ impl DeviceAddr {
         })
     }
 
-    /// The warning for an address read as Player 1's `key:port:interface:index` (this address
+    /// The warning for an address read as Player 1's `key::interface:index` (this address
     /// being the result of [`DeviceAddr::as_player1_key`]): what was read and the Player 3
     /// address to write instead, which also takes the new name of a renamed interface.
     pub fn player1_key_warning(&self) -> String {
         let key = self.key.as_deref().unwrap_or_default();
-        let port = self.port.map(|p| p.to_string()).unwrap_or_default();
         let renamed = match self.renamed_from.and_then(old_interface) {
             Some(OldInterface::Renamed { history, .. }) => format!(
                 " and \"{}\" as \"{}\" ({history})",
@@ -294,9 +296,9 @@ impl DeviceAddr {
             _ => String::new(),
         };
         format!(
-            "\"{text}\" is Player 1's `key:port:interface:index`: reading \"{key}\" as a key \
-             (no host of that name resolves; Player 2 and 3 read a host there){renamed}; write \
-             \"{key}::{port}:{iface}:{index}\"",
+            "\"{text}\" is Player 1's `key::interface:index`: reading \"{key}\" as a key (no \
+             host of that name resolves; Player 2 and 3 read a host there){renamed}; write \
+             \"{key}:::{iface}:{index}\"",
             text = self.text,
             iface = self.interface,
             index = self.index
@@ -384,7 +386,7 @@ const DRIVER_FIELDS: &[&str] = &[
 ];
 
 impl CfgFile {
-    /// Loads a cfg file (and its includes). An address in Player 1's `key:port:interface:index`
+    /// Loads a cfg file (and its includes). An address in Player 1's `key::interface:index`
     /// form whose would-be host does not resolve is read as Player 1 read it, with a warning
     /// ([`DeviceAddr::as_player1_key`]): Stage's own `amcl-sonar.cfg` requires
     /// `odometry::position:0`, which Player 3 refuses for want of a host `odometry`.
@@ -727,15 +729,19 @@ mod tests {
                 0
             )
         );
-        let p1 = addr("sonar:6666:map:1").as_player1_key().unwrap();
-        assert_eq!((p1.key.as_deref(), p1.port), (Some("sonar"), Some(6666)));
+        let p1 = addr("laser::map:2").as_player1_key().unwrap();
+        assert_eq!(
+            (p1.key.as_deref(), p1.port, p1.index),
+            (Some("laser"), None, 2)
+        );
         assert_eq!(
             p1.player1_key_warning(),
-            "\"sonar:6666:map:1\" is Player 1's `key:port:interface:index`: reading \"sonar\" as \
-             a key (no host of that name resolves; Player 2 and 3 read a host there); write \
-             \"sonar::6666:map:1\""
+            "\"laser::map:2\" is Player 1's `key::interface:index`: reading \"laser\" as a key \
+             (no host of that name resolves; Player 2 and 3 read a host there); write \
+             \"laser:::map:2\""
         );
         for not_player1 in [
+            "otherhost:6665:laser:0",
             "localhost::ranger:0",
             "127.0.0.1::ranger:0",
             "2130706433::ranger:0",
@@ -783,11 +789,11 @@ mod tests {
             warnings,
             [
                 "p1.cfg:2:12: warning: \"odometry::position:0\" is Player 1's \
-                 `key:port:interface:index`: reading \"odometry\" as a key (no host of that name \
+                 `key::interface:index`: reading \"odometry\" as a key (no host of that name \
                  resolves; Player 2 and 3 read a host there) and \"position\" as \"position2d\" \
                  (Player 1.x's name for code 4, renamed in Player 2.0); write \
                  \"odometry:::position2d:0\"",
-                "p1.cfg:2:45: warning: \"sonar::map:0\" is Player 1's `key:port:interface:index`: \
+                "p1.cfg:2:45: warning: \"sonar::map:0\" is Player 1's `key::interface:index`: \
                  reading \"sonar\" as a key (no host of that name resolves; Player 2 and 3 read a \
                  host there); write \"sonar:::map:0\"",
             ]

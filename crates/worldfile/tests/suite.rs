@@ -212,10 +212,7 @@ fn every_cfg_parses() {
     let keyed: Vec<(u32, bool)> = cfg
         .warnings
         .iter()
-        .filter(|w| {
-            w.message
-                .contains("is Player 1's `key:port:interface:index`")
-        })
+        .filter(|w| w.message.contains("is Player 1's `key::interface:index`"))
         .map(|w| {
             (
                 w.location.as_ref().unwrap().line,

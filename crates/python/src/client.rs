@@ -14,6 +14,7 @@ use player_client::{
     SonarProxy, SpeechProxy,
 };
 use player_proto::*;
+use pyo3::IntoPyObjectExt;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 
@@ -755,4 +756,164 @@ impl Connection {
         d.set_item("particles", parts)?;
         Ok(d)
     }
+
+    /// `playerc_laser_get_id`: the laser's serial number.
+    fn laser_get_id(&self, py: Python<'_>, index: u16) -> PyResult<u32> {
+        match self.request(py, InterfaceCode::LASER, index, LaserReq::GetId(None))? {
+            Some(Body::Laser(LaserMsg::Ack(LaserReq::GetId(Some(id))))) => Ok(id.serial_number),
+            _ => Err(bad_reply("laser GET_ID")),
+        }
+    }
+
+    // --- graphics3d ------------------------------------------------------------------
+
+    /// `playerc_graphics3d_draw`: `mode` a `PLAYER_DRAW_*` value, points `(x, y, z)`,
+    /// `rgba` `(alpha, red, green, blue)`.
+    fn graphics3d_draw(
+        &self,
+        index: u16,
+        mode: u32,
+        pts: Vec<(f64, f64, f64)>,
+        rgba: (u8, u8, u8, u8),
+    ) -> PyResult<()> {
+        let cmd = Graphics3dCmd::Draw(Graphics3dCmdDraw {
+            draw_mode: mode,
+            points: pts
+                .into_iter()
+                .map(|(px, py, pz)| Point3d { px, py, pz })
+                .collect(),
+            color: color(rgba),
+        });
+        self.command(InterfaceCode::GRAPHICS3D, index, cmd)
+    }
+
+    /// `playerc_graphics3d_clear`.
+    fn graphics3d_clear(&self, index: u16) -> PyResult<()> {
+        self.command(InterfaceCode::GRAPHICS3D, index, Graphics3dCmd::Clear)
+    }
+
+    /// `playerc_graphics3d_translate`: moves the drawing frame.
+    fn graphics3d_translate(&self, index: u16, x: f64, y: f64, z: f64) -> PyResult<()> {
+        let cmd = Graphics3dCmd::Translate(Graphics3dCmdTranslate { x, y, z });
+        self.command(InterfaceCode::GRAPHICS3D, index, cmd)
+    }
+
+    /// `playerc_graphics3d_rotate`: turns the drawing frame by `a` radians about (x, y, z).
+    fn graphics3d_rotate(&self, index: u16, a: f64, x: f64, y: f64, z: f64) -> PyResult<()> {
+        let cmd = Graphics3dCmd::Rotate(Graphics3dCmdRotate { a, x, y, z });
+        self.command(InterfaceCode::GRAPHICS3D, index, cmd)
+    }
+
+    // --- any device: capabilities and properties --------------------------------------
+
+    /// `playerc_device_hascapability`: whether device (`interf`, `index`) handles messages of
+    /// (`msg_type`, `subtype`). A type or subtype no Player message has is never handled (not
+    /// asked: the wire has no room for it).
+    fn device_has_capability(
+        &self,
+        py: Python<'_>,
+        interf: u16,
+        index: u16,
+        msg_type: u32,
+        subtype: u32,
+    ) -> PyResult<bool> {
+        let t = u8::try_from(msg_type).ok().and_then(MsgType::from_u8);
+        let (Some(t), Ok(s)) = (t, u8::try_from(subtype)) else {
+            return Ok(false);
+        };
+        self.call(py, move |c| {
+            player_client::ClientProxy::attach(c, InterfaceCode(interf), index).has_capability(t, s)
+        })
+    }
+
+    /// `playerc_device_get_{bool,int,dbl,str}prop` (`kind` "bool", "int", "dbl" or "str"):
+    /// property `key` of device (`interf`, `index`). A device without it NACKs:
+    /// `RequestRefused`.
+    fn device_get_prop<'py>(
+        &self,
+        py: Python<'py>,
+        interf: u16,
+        index: u16,
+        kind: &str,
+        key: &str,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let kind = PropKind::parse(kind)?;
+        let key = key.to_owned();
+        let value = self.call(py, move |c| {
+            let dev = player_client::ClientProxy::attach(c, InterfaceCode(interf), index);
+            Ok(match kind {
+                PropKind::Bool => PropValue::Bool(dev.get_bool_prop(&key)?),
+                PropKind::Int => PropValue::Int(dev.get_int_prop(&key)?),
+                PropKind::Dbl => PropValue::Dbl(dev.get_dbl_prop(&key)?),
+                PropKind::Str => PropValue::Str(dev.get_str_prop(&key)?),
+            })
+        })?;
+        match value {
+            PropValue::Bool(v) => v.into_bound_py_any(py),
+            PropValue::Int(v) => v.into_bound_py_any(py),
+            PropValue::Dbl(v) => v.into_bound_py_any(py),
+            PropValue::Str(v) => v.into_bound_py_any(py),
+        }
+    }
+
+    /// `playerc_device_set_{bool,int,dbl,str}prop`: sets property `key` of device (`interf`,
+    /// `index`) to `value` (a bool, an int that fits 32 bits, a float or a str, by `kind`).
+    fn device_set_prop(
+        &self,
+        py: Python<'_>,
+        interf: u16,
+        index: u16,
+        kind: &str,
+        key: &str,
+        value: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        let value = match PropKind::parse(kind)? {
+            PropKind::Bool => PropValue::Bool(value.extract()?),
+            PropKind::Int => PropValue::Int(value.extract()?),
+            PropKind::Dbl => PropValue::Dbl(value.extract()?),
+            PropKind::Str => PropValue::Str(value.extract()?),
+        };
+        let key = key.to_owned();
+        self.call(py, move |c| {
+            let dev = player_client::ClientProxy::attach(c, InterfaceCode(interf), index);
+            match value {
+                PropValue::Bool(v) => dev.set_bool_prop(&key, v),
+                PropValue::Int(v) => dev.set_int_prop(&key, v),
+                PropValue::Dbl(v) => dev.set_dbl_prop(&key, v),
+                PropValue::Str(v) => dev.set_str_prop(&key, &v),
+            }
+        })
+    }
+}
+
+/// The four kinds of Player device property (`player_{bool,int,dbl,str}prop_req_t`).
+#[derive(Clone, Copy)]
+enum PropKind {
+    Bool,
+    Int,
+    Dbl,
+    Str,
+}
+
+impl PropKind {
+    /// The kind named as in libplayerc's function names (`get_dblprop`: "dbl").
+    fn parse(kind: &str) -> PyResult<PropKind> {
+        match kind {
+            "bool" => Ok(PropKind::Bool),
+            "int" => Ok(PropKind::Int),
+            "dbl" => Ok(PropKind::Dbl),
+            "str" => Ok(PropKind::Str),
+            other => Err(PlayerError::new_err(format!(
+                "unknown property kind `{other}` (bool, int, dbl or str)"
+            ))),
+        }
+    }
+}
+
+/// A property's value, of one of the four kinds.
+enum PropValue {
+    Bool(bool),
+    Int(i32),
+    Dbl(f64),
+    Str(String),
 }

@@ -23,6 +23,7 @@ pub const INTERFACES: &[(&str, InterfaceCode)] = &[
     ("PLAYER_SIMULATION_CODE", InterfaceCode::SIMULATION),
     ("PLAYER_SPEECH_CODE", InterfaceCode::SPEECH),
     ("PLAYER_GRAPHICS2D_CODE", InterfaceCode::GRAPHICS2D),
+    ("PLAYER_GRAPHICS3D_CODE", InterfaceCode::GRAPHICS3D),
     ("PLAYER_CAMERA_CODE", InterfaceCode::CAMERA),
     ("PLAYER_MAP_CODE", InterfaceCode::MAP),
     ("PLAYER_PLANNER_CODE", InterfaceCode::PLANNER),

@@ -27,6 +27,8 @@ Everything here is pure Python over ``playerstage._native.Connection``: the code
 session rules are the workspace's Rust ``player-client``.
 """
 
+from typing import Optional as _Optional
+
 from playerstage import _native
 
 __all__ = []  # filled at the end: every public name, for `from playerc import *`
@@ -42,6 +44,9 @@ PLAYERC_ERROR_MODE = PLAYER_ERROR_MODE
 
 PLAYER_DATAMODE_PUSH = 1
 PLAYER_DATAMODE_PULL = 2
+
+PLAYERC_TRANSPORT_TCP = 1
+PLAYERC_TRANSPORT_UDP = 2
 
 PLAYER_MSGTYPE_DATA = 1
 PLAYER_MSGTYPE_CMD = 2
@@ -82,6 +87,17 @@ PLAYER_CAMERA_DATA_STATE = 1
 PLAYER_PLANNER_DATA_STATE = 1
 PLAYER_LOCALIZE_DATA_HYPOTHS = 1
 
+PLAYER_DRAW_POINTS = 0
+PLAYER_DRAW_LINES = 1
+PLAYER_DRAW_LINE_STRIP = 2
+PLAYER_DRAW_LINE_LOOP = 3
+PLAYER_DRAW_TRIANGLES = 4
+PLAYER_DRAW_TRIANGLE_STRIP = 5
+PLAYER_DRAW_TRIANGLE_FAN = 6
+PLAYER_DRAW_QUADS = 7
+PLAYER_DRAW_QUAD_STRIP = 8
+PLAYER_DRAW_POLYGON = 9
+
 PLAYER_CAMERA_FORMAT_MONO8 = 1
 PLAYER_CAMERA_FORMAT_MONO16 = 2
 PLAYER_CAMERA_FORMAT_RGB565 = 4
@@ -101,6 +117,7 @@ PLAYER_GRIPPER_CODE = _native.PLAYER_GRIPPER_CODE
 PLAYER_SIMULATION_CODE = _native.PLAYER_SIMULATION_CODE
 PLAYER_SPEECH_CODE = _native.PLAYER_SPEECH_CODE
 PLAYER_GRAPHICS2D_CODE = _native.PLAYER_GRAPHICS2D_CODE
+PLAYER_GRAPHICS3D_CODE = _native.PLAYER_GRAPHICS3D_CODE
 PLAYER_CAMERA_CODE = _native.PLAYER_CAMERA_CODE
 PLAYER_MAP_CODE = _native.PLAYER_MAP_CODE
 PLAYER_PLANNER_CODE = _native.PLAYER_PLANNER_CODE
@@ -153,6 +170,49 @@ def playerc_error_str():
     return _last_error
 
 
+def _refused() -> bool:
+    """Whether the last failed call was refused by the server (a NACK), not lost or timed out:
+    libplayerc++ ignores some NACKs, never a dead connection."""
+    return isinstance(_last_exception, _native.RequestRefused)
+
+
+# --- destroyed proxies and clients ---------------------------------------------------------------
+
+
+class _DestroyedError(_native.PlayerError, ReferenceError):
+    """A proxy or client was used after ``destroy()``. libplayerc's ``playerc_X_destroy`` frees
+    the struct, so the SWIG bindings then read freed memory; here the use raises this instead,
+    naming what was destroyed. It is a ``ReferenceError`` (a use of something gone) and a
+    ``PlayerError``, so a proxy whose client was destroyed returns -1 from its calls."""
+
+
+class _Destroyed:
+    """What a proxy or client becomes in ``destroy()``: every attribute it had (fields and
+    methods alike) raises :class:`_DestroyedError`. Swapping the class, rather than checking a
+    flag in every method, keeps the living objects' attribute reads as fast as before."""
+
+    def __getattribute__(self, name: str):
+        if name in ("__class__", "__dict__"):
+            return object.__getattribute__(self, name)
+        what = object.__getattribute__(self, "__dict__").get("_destroyed_what", "object")
+        raise _DestroyedError(
+            f"{what} was destroyed: destroy() frees it, as libplayerc's does; create a new one"
+        )
+
+    def __setattr__(self, name: str, value) -> None:
+        self.__getattribute__(name)  # raises
+
+    def __repr__(self) -> str:
+        what = object.__getattribute__(self, "__dict__").get("_destroyed_what", "object")
+        return f"<{what} (destroyed)>"
+
+
+def _destroy(obj, what: str) -> None:
+    """Turns ``obj`` into a :class:`_Destroyed` that names itself ``what``."""
+    obj.__dict__["_destroyed_what"] = what
+    obj.__class__ = _Destroyed
+
+
 # --- plain structs ------------------------------------------------------------------------------
 
 
@@ -182,6 +242,13 @@ class player_pose3d_t(_Struct):
 
     def __init__(self, px=0.0, py=0.0, pz=0.0, proll=0.0, ppitch=0.0, pyaw=0.0):
         super().__init__(px=px, py=py, pz=pz, proll=proll, ppitch=ppitch, pyaw=pyaw)
+
+
+class player_point_3d_t(_Struct):
+    """``player_point_3d_t``: px, py, pz."""
+
+    def __init__(self, px=0.0, py=0.0, pz=0.0):
+        super().__init__(px=px, py=py, pz=pz)
 
 
 class player_bbox3d_t(_Struct):
@@ -217,6 +284,34 @@ class player_localize_hypoth_t(_Struct):
     """One pose hypothesis: mean (``player_pose2d_t``), cov (3 doubles), alpha."""
 
 
+def _value_bytes(value) -> bytes:
+    """The bytes of a C value passed from Python: a buffer (``bytes``, ``bytearray``, ctypes
+    objects, ``array.array``: their memory as it is) or a sequence of byte values (as SWIG's
+    ``uint8_t data[]`` typemap takes them)."""
+    try:
+        return memoryview(value).cast("B").tobytes()
+    except TypeError:
+        pass
+    if isinstance(value, (list, tuple)):
+        try:
+            return bytes(value)
+        except (TypeError, ValueError) as e:
+            raise TypeError(f"a value given as a list holds byte values 0..255: {e}") from None
+    raise TypeError(f"a value is a buffer or a list of byte values, not {type(value).__name__}")
+
+
+def _writable_bytes(value) -> _Optional[memoryview]:
+    """A writable byte view of ``value``'s memory, or ``None`` when it has none (immutable
+    objects such as ``bytes``, numbers or ``None``)."""
+    try:
+        view = memoryview(value)
+    except TypeError:
+        return None
+    if view.readonly or not view.c_contiguous:
+        return None
+    return view.cast("B")
+
+
 def _pose3d(v):
     return player_pose3d_t(*v)
 
@@ -248,6 +343,83 @@ class playerc_device_info:
         self.subscribed = 0
         self.drivername = ""
         self.addr = _Struct(host=0, robot=0, interf=code, index=index)
+        self._proxy = proxy
+
+    # libplayerc's playerc_device_* functions, which the SWIG bindings made methods of `info`.
+
+    def subscribe(self, access: int) -> int:
+        """``playerc_device_subscribe``: the proxy's ``subscribe``. 0 / -1."""
+        return self._proxy.subscribe(access)
+
+    def unsubscribe(self) -> int:
+        """``playerc_device_unsubscribe``: the proxy's ``unsubscribe``. 0 / -1."""
+        return self._proxy.unsubscribe()
+
+    def term(self) -> None:
+        """``playerc_device_term``: takes the proxy off its client's device list (reads stop
+        updating it), as ``destroy()`` does before freeing it; the subscription stays."""
+        self._proxy.client._remove(self._proxy)
+
+    def hascapability(self, type: int, subtype: int) -> int:
+        """``playerc_device_hascapability``: 1 when the device handles messages of (``type``,
+        ``subtype``), e.g. ``(PLAYER_MSGTYPE_REQ, PLAYER_LASER_REQ_GET_GEOM)``; 0 when it does
+        not or the question could not be asked (as libplayerc)."""
+        try:
+            conn = self._proxy._conn()
+            return int(conn.device_has_capability(self.addr.interf, self.addr.index, type, subtype))
+        except _native.PlayerError as e:
+            _fail(e)
+            return 0
+
+    def _get_prop(self, kind: str, property: str, default):
+        try:
+            conn = self._proxy._conn()
+            value = conn.device_get_prop(self.addr.interf, self.addr.index, kind, property)
+        except _native.PlayerError as e:
+            return [_fail(e), default]
+        return [0, value]
+
+    def _set_prop(self, kind: str, property: str, value) -> int:
+        try:
+            conn = self._proxy._conn()
+            conn.device_set_prop(self.addr.interf, self.addr.index, kind, property, value)
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def get_boolprop(self, property: str) -> list:
+        """``playerc_device_get_boolprop``: ``[result, value]`` (the C output argument is
+        returned, as SWIG's OUTPUT typemap does); ``[-1, 0]`` when the device has no such
+        property (the server NACKs) or the request failed."""
+        return self._get_prop("bool", property, 0)
+
+    def set_boolprop(self, property: str, value: int) -> int:
+        """``playerc_device_set_boolprop``. 0 / -1."""
+        return self._set_prop("bool", property, bool(value))
+
+    def get_intprop(self, property: str) -> list:
+        """``playerc_device_get_intprop``: ``[result, value]``, as ``get_boolprop``."""
+        return self._get_prop("int", property, 0)
+
+    def set_intprop(self, property: str, value: int) -> int:
+        """``playerc_device_set_intprop``. 0 / -1."""
+        return self._set_prop("int", property, int(value))
+
+    def get_dblprop(self, property: str) -> list:
+        """``playerc_device_get_dblprop``: ``[result, value]``, as ``get_boolprop``."""
+        return self._get_prop("dbl", property, 0.0)
+
+    def set_dblprop(self, property: str, value: float) -> int:
+        """``playerc_device_set_dblprop``. 0 / -1."""
+        return self._set_prop("dbl", property, float(value))
+
+    def get_strprop(self, property: str) -> list:
+        """``playerc_device_get_strprop``: ``[result, value]``, as ``get_boolprop``."""
+        return self._get_prop("str", property, "")
+
+    def set_strprop(self, property: str, value: str) -> int:
+        """``playerc_device_set_strprop``. 0 / -1."""
+        return self._set_prop("str", property, str(value))
 
 
 class playerc_device_t(_Struct):
@@ -268,8 +440,25 @@ class playerc_client:
         self.devinfos = []
         self.devinfo_count = 0
         self.request_timeout = 5.0
+        self.retry_limit = 0
+        self.retry_time = 2.0
+        self.transport = PLAYERC_TRANSPORT_TCP
         self._conn = None
         self._proxies = {}  # (code, index) -> [proxy, ...] subscribed through this client
+
+    def destroy(self) -> None:
+        """``playerc_client_destroy``: frees the client. Its connection is closed (libplayerc
+        leaves the socket open but unreachable); afterwards any use of the client raises a
+        ``ReferenceError`` and its proxies' calls return -1 saying the client was destroyed."""
+        if self._conn is not None:
+            self._conn.disconnect()
+            self._conn = None
+        _destroy(self, f"playerc_client {self.host}:{self.port}")
+
+    def set_transport(self, transport: int) -> None:
+        """``playerc_client_set_transport``: ``PLAYERC_TRANSPORT_TCP`` (the default and the
+        only one served: ``connect()`` with ``PLAYERC_TRANSPORT_UDP`` fails)."""
+        self.transport = int(transport)
 
     def _connection(self):
         if self._conn is None:
@@ -278,6 +467,10 @@ class playerc_client:
 
     def connect(self):
         """Connects (PULL mode, as libplayerc). 0 on success, -1 on failure."""
+        if self.transport != PLAYERC_TRANSPORT_TCP:
+            return _fail(
+                f"transport {self.transport} is not supported: Player servers here speak TCP"
+            )
         try:
             self._conn = _native.Connection(self.host, self.port)
             self._conn.set_request_timeout(self.request_timeout)
@@ -296,6 +489,81 @@ class playerc_client:
             for p in proxies:
                 p.info.subscribed = 0
         self._proxies.clear()
+        return 0
+
+    def set_retry_limit(self, limit: int) -> None:
+        """``playerc_client_set_retry_limit``: how many times ``disconnect_retry()`` tries to
+        reconnect (-1: until it succeeds; libplayerc's default 0)."""
+        self.retry_limit = int(limit)
+
+    def set_retry_time(self, time: float) -> None:
+        """``playerc_client_set_retry_time``: seconds between reconnection attempts (2)."""
+        self.retry_time = float(time)
+
+    def disconnect_retry(self) -> int:
+        """``playerc_client_disconnect_retry``: drops the connection and reconnects, up to
+        ``retry_limit`` attempts ``retry_time`` seconds apart, subscribing again every proxy
+        that was subscribed (in OPEN mode, as libplayerc). 0 once reconnected, -1 when the
+        attempts ran out (libplayerc's default limit, 0, means none are made)."""
+        import time
+
+        subscribed = [p for ps in self._proxies.values() for p in ps if p.info.subscribed]
+        if self._conn is not None:
+            self.disconnect()
+        attempt = 0
+        while self.retry_limit < 0 or attempt < self.retry_limit:
+            attempt += 1
+            if self.connect() == 0:
+                if all(p.subscribe(PLAYERC_OPEN_MODE) == 0 for p in subscribed):
+                    return 0
+                self.disconnect()
+            time.sleep(self.retry_time)
+        return _fail(f"could not reconnect to {self.host}:{self.port} "
+                     f"({attempt} attempts, retry_limit {self.retry_limit})")
+
+    def subscribe(self, code: int, index: int, access: int, drivername=None, size: int = 0) -> int:
+        """``playerc_client_subscribe``: subscribes to a device without a proxy (its data is
+        then read and dropped). ``drivername``, when a ``bytearray``, receives the driver's
+        name, NUL-terminated and cut to ``size`` bytes (the C buffer's length; the whole
+        bytearray when 0). 0 / -1."""
+        if access != PLAYERC_OPEN_MODE:
+            return _fail(f"unsupported access mode {access}")
+        try:
+            name = self._connection().subscribe(code, index)
+        except _native.PlayerError as e:
+            return _fail(e)
+        if isinstance(drivername, bytearray):
+            room = min(size or len(drivername), len(drivername))
+            if room > 0:
+                raw = name.encode()[: room - 1] + b"\0"
+                drivername[: len(raw)] = raw
+        return 0
+
+    def unsubscribe(self, code: int, index: int) -> int:
+        """``playerc_client_unsubscribe``. 0 / -1."""
+        try:
+            self._connection().unsubscribe(code, index)
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def adddevice(self, device) -> int:
+        """``playerc_client_adddevice``: puts a proxy (given by its ``info``) back on the list
+        of devices reads update. 0 / -1."""
+        proxy = getattr(device, "_proxy", None)
+        if proxy is None or proxy.client is not self:
+            return _fail("adddevice: not the info of one of this client's proxies")
+        if proxy not in self._proxies.get((proxy._code, proxy.index), []):
+            self._add(proxy)
+        return 0
+
+    def deldevice(self, device) -> int:
+        """``playerc_client_deldevice``: takes a proxy (given by its ``info``) off the list of
+        devices reads update. 0, or -1 for a device not on the list ("unknown device")."""
+        proxy = getattr(device, "_proxy", None)
+        if proxy is None or proxy not in self._proxies.get((proxy._code, proxy.index), []):
+            return _fail("unknown device")
+        self._remove(proxy)
         return 0
 
     def datamode(self, mode):
@@ -420,6 +688,20 @@ class _device:
             return 0
         except _native.PlayerError as e:
             return _fail(e)
+
+    def destroy(self) -> None:
+        """``playerc_<interface>_destroy``: frees the proxy, as libplayerc's does. It leaves
+        its client's device list, so reads no longer update it; it is not unsubscribed (call
+        ``unsubscribe()`` first for that, as in C: the server keeps sending its data, which
+        reads then drop). Any later use of the proxy or its ``info`` raises a
+        ``ReferenceError`` naming it, where the SWIG bindings read freed memory."""
+        try:
+            self.client._remove(self)
+        except _DestroyedError:
+            pass  # the client went first: nothing to leave
+        what = f"{type(self).__name__} {playerc_lookup_name(self._code)}:{self.index}"
+        _destroy(self.info, f"the info of {what}")
+        _destroy(self, what)
 
     def _call(self, fn, *args):
         """Runs a request; 0, or -1 with the error recorded."""
@@ -667,6 +949,27 @@ class playerc_laser(_device):
         config = (min_angle, max_angle, resolution, range_res, int(intensity), scanning_frequency)
         return -1 if self._config("laser_set_config", *config) is None else 0
 
+    def get_id(self) -> int:
+        """``playerc_laser_get_id``: fetches the device's serial number into ``laser_id``.
+        0 / -1."""
+        serial = self._answer("laser_get_id")
+        if serial is None:
+            return -1
+        self.laser_id = serial
+        return 0
+
+    def printout(self, prefix: _Optional[str] = None) -> None:
+        """``playerc_laser_printout``: the timestamp, scan id and count, then the ranges, on
+        stdout in libplayerc's format."""
+        if prefix:
+            print(f"{prefix}: ", end="")
+        print(
+            f"[{self.info.datatime:14.3f}] scan_id: {self.scan_id}  "
+            f"scan_count: {self.scan_count}"
+        )
+        print("# ranges")
+        print("".join(f"{r:.3f} " for r in self.ranges[: self.scan_count]))
+
 
 class playerc_sonar(_device):
     """``playerc_sonar_t``: scan_count/scan (ranges), pose_count/poses (geometry)."""
@@ -799,16 +1102,58 @@ class playerc_simulation(_device):
         p, t = answer
         return [0, *p, t]
 
-    def set_property(self, name, property, value):
-        """``value``: bytes of the property's C value."""
-        return self._call(
-            self._conn().simulation_set_property, self.index, name, property, bytes(value)
-        )
+    def set_property(
+        self, name: str, property: str, value, value_len: _Optional[int] = None
+    ) -> int:
+        """``playerc_simulation_set_property(name, property, value, value_len)``: ``value`` is
+        the property's C value as bytes, or any buffer holding it (``bytearray``, a ctypes
+        object such as ``(ctypes.c_float * 4)(r, g, b, a)`` for "color", ``array.array``) or a
+        list of byte values; ``value_len`` (optional) sends only its first bytes, as the C
+        size argument. 0 / -1 (a property or model the simulator does not know: -1)."""
+        try:
+            data = _value_bytes(value)
+        except TypeError as e:
+            return _fail(e)
+        if value_len is not None:
+            if not 0 <= value_len <= len(data):
+                return _fail(
+                    f"set_property: value_len {value_len} but the value has {len(data)} bytes"
+                )
+            data = data[:value_len]
+        return self._call(self._conn().simulation_set_property, self.index, name, property, data)
 
-    def get_property(self, name, property, value_len=16):
-        """``[result, bytes]``."""
-        v = self._answer("simulation_get_property", name, property, value_len)
-        return [-1, b""] if v is None else [0, v]
+    def get_property(self, name: str, property: str, value=None, value_len: _Optional[int] = None):
+        """``playerc_simulation_get_property``, called either way:
+
+        * as in C, ``get_property(name, property, value, value_len)`` with ``value`` a writable
+          buffer (``bytearray``, a ctypes object such as ``(ctypes.c_float * 4)()``,
+          ``array.array``) of at least ``value_len`` bytes (default: all of it): the value's
+          bytes are written into it and the C result (0 / -1) is returned;
+        * with the value as an output, ``get_property(name, property[, value_len])`` or with
+          ``value`` ``None``: ``[result, bytes]``, as SWIG's OUTPUT typemap returns output
+          arguments (``value_len`` defaults to 16, a "color"'s four floats).
+
+        Stage answers "color" (16 bytes: red, green, blue, alpha floats) and "time" (8 bytes:
+        simulated microseconds); other properties, wrong sizes or unknown models give -1."""
+        if value_len is None and isinstance(value, int) and not isinstance(value, bool):
+            value, value_len = None, value  # get_property(name, property, value_len)
+        if value is None:
+            v = self._answer("simulation_get_property", name, property, value_len or 16)
+            return [-1, b""] if v is None else [0, v]
+        view = _writable_bytes(value)
+        if view is None:
+            return _fail(
+                f"get_property: value must be a writable buffer (bytearray, ctypes object, "
+                f"array.array) or None, not {type(value).__name__}"
+            )
+        size = view.nbytes if value_len is None else value_len
+        if not 0 <= size <= view.nbytes:
+            return _fail(f"get_property: value_len {size} but the buffer has {view.nbytes} bytes")
+        v = self._answer("simulation_get_property", name, property, size)
+        if v is None:
+            return -1
+        view[: len(v)] = v
+        return 0
 
     pause = _command("simulation_cmd", "pause")
     reset = _command("simulation_cmd", "reset")
@@ -883,6 +1228,62 @@ class playerc_graphics2d(_device):
 
     def clear(self):
         return self._call(self._conn().graphics2d_clear, self.index)
+
+
+def _points3d(pts: list, count: _Optional[int] = None) -> list:
+    """``[(x, y, z), ...]`` from a list of 3-tuples or ``player_point_3d_t`` (the SWIG
+    typemap's list of tuples), cut to ``count``."""
+    if not isinstance(pts, list):
+        raise TypeError("not a list")
+    out = []
+    for p in pts[: count if count is not None else len(pts)]:
+        if isinstance(p, player_point_3d_t):
+            out.append((p.px, p.py, p.pz))
+        elif isinstance(p, tuple) and len(p) == 3:
+            out.append((float(p[0]), float(p[1]), float(p[2])))
+        else:
+            raise TypeError("list must contain (x, y, z) tuples")
+    return out
+
+
+class playerc_graphics3d(_device):
+    """``playerc_graphics3d_t``: ``setcolor``, ``draw(mode, points, count)`` (``mode`` a
+    ``PLAYER_DRAW_*`` value, points a list of ``(x, y, z)`` tuples), ``clear``,
+    ``translate``, ``rotate``: 3-D figures the simulator shows in its window."""
+
+    _code = PLAYER_GRAPHICS3D_CODE
+
+    def _defaults(self) -> None:
+        self.color = (0, 0, 0, 0)
+
+    def setcolor(self, col) -> int:
+        """The colour of the next figures, ``(alpha, red, green, blue)``. 0 / -1."""
+        try:
+            self.color = _color_tuple(col)
+            return 0
+        except TypeError as e:
+            return _fail(e)
+
+    def draw(self, mode: int, pts: list, count: _Optional[int] = None) -> int:
+        """Draws ``pts`` as ``mode`` (``PLAYER_DRAW_POINTS`` ... ``PLAYER_DRAW_POLYGON``).
+        0 / -1."""
+        try:
+            points = _points3d(pts, count)
+        except TypeError as e:
+            return _fail(e)
+        return self._call(self._conn().graphics3d_draw, self.index, int(mode), points, self.color)
+
+    def clear(self) -> int:
+        """Removes this client's figures. 0 / -1."""
+        return self._call(self._conn().graphics3d_clear, self.index)
+
+    def translate(self, x: float, y: float, z: float) -> int:
+        """Moves the drawing frame of the next figures. 0 / -1."""
+        return self._call(self._conn().graphics3d_translate, self.index, x, y, z)
+
+    def rotate(self, a: float, x: float, y: float, z: float) -> int:
+        """Turns the drawing frame by ``a`` radians about the axis (x, y, z). 0 / -1."""
+        return self._call(self._conn().graphics3d_rotate, self.index, a, x, y, z)
 
 
 class playerc_camera(_device):

@@ -36,6 +36,7 @@ from playerc import (  # noqa: F401 - re-exported constants, as the SWIG module 
     PLAYER_CLOSE_MODE,
     player_color_t,
     player_point_2d_t,
+    player_point_3d_t,
     player_pose2d_t,
 )
 
@@ -169,6 +170,22 @@ class PlayerClient:
     def SetRequestTimeout(self, aTimeout):
         self._pc.set_request_timeout(aTimeout)
 
+    def SetRetryLimit(self, limit: int) -> None:
+        """How many times a reconnection is tried (``playerc_client_set_retry_limit``)."""
+        self._pc.set_retry_limit(limit)
+
+    def SetRetryTime(self, time: float) -> None:
+        """Seconds between reconnection attempts (``playerc_client_set_retry_time``)."""
+        self._pc.set_retry_time(time)
+
+    def LookupCode(self, aName: str) -> int:
+        """The interface code of a name (``"position2d"``: 4); -1 when unknown."""
+        return _pc.playerc_lookup_code(aName)
+
+    def LookupName(self, aCode: int) -> str:
+        """The interface name of a code (4: ``"position2d"``)."""
+        return _pc.playerc_lookup_name(aCode)
+
     def Connected(self):
         return self._pc._conn is not None
 
@@ -249,6 +266,43 @@ class ClientProxy:
         if self._dev.info.subscribed:
             self._ok("Unsubscribe", self._dev.unsubscribe())
 
+    def HasCapability(self, aType: int, aSubtype: int) -> int:
+        """1 when the device handles messages of (``aType``, ``aSubtype``), else 0."""
+        return self._dev.info.hascapability(aType, aSubtype)
+
+    # The property calls return libplayerc++'s int result and do not throw, as in C++; the
+    # value the C++ writes through its pointer argument is returned beside it:
+    # ``GetIntProp("key")`` is ``[0, value]``, or ``[-1, 0]`` when the device has no "key".
+
+    def GetBoolProp(self, aProperty: str) -> list:
+        """``[result, value]`` of a boolean property."""
+        result, value = self._dev.info.get_boolprop(aProperty)
+        return [result, bool(value)]
+
+    def SetBoolProp(self, aProperty: str, aValue: bool) -> int:
+        return self._dev.info.set_boolprop(aProperty, aValue)
+
+    def GetIntProp(self, aProperty: str) -> list:
+        """``[result, value]`` of an integer property."""
+        return self._dev.info.get_intprop(aProperty)
+
+    def SetIntProp(self, aProperty: str, aValue: int) -> int:
+        return self._dev.info.set_intprop(aProperty, aValue)
+
+    def GetDblProp(self, aProperty: str) -> list:
+        """``[result, value]`` of a double property."""
+        return self._dev.info.get_dblprop(aProperty)
+
+    def SetDblProp(self, aProperty: str, aValue: float) -> int:
+        return self._dev.info.set_dblprop(aProperty, aValue)
+
+    def GetStrProp(self, aProperty: str) -> list:
+        """``[result, value]`` of a string property."""
+        return self._dev.info.get_strprop(aProperty)
+
+    def SetStrProp(self, aProperty: str, aValue: str) -> int:
+        return self._dev.info.set_strprop(aProperty, aValue)
+
 
 class Position2dProxy(ClientProxy):
     """``PlayerCc::Position2dProxy``."""
@@ -286,6 +340,11 @@ class Position2dProxy(ClientProxy):
 
     def GetPose(self):
         return _pc.player_pose3d_t(self._dev.pose[0], self._dev.pose[1], 0, 0, 0, self._dev.pose[2])
+
+    def GetOffset(self) -> "_pc.player_pose3d_t":
+        """The base's offset from the robot's centre (x, y, yaw; fill it with
+        ``RequestGeom()``), as libplayerc++'s ``GetOffset``."""
+        return self.GetPose()
 
     SetMotorEnable = _forward("enable")
 
@@ -372,13 +431,51 @@ class LaserProxy(ClientProxy):
                                  aScanningFrequency),
         )
 
-    def GetMinLeft(self):
+    def GetMinLeft(self) -> float:
+        """The shortest range of the left half (indices above ``count / 2``), ``max_range``
+        when there is none shorter: libplayerc's ``min_left``."""
         n = self._dev.scan_count
-        return min((r for r, _ in self._dev.scan[n // 2:]), default=self._dev.max_range)
+        return min([self._dev.max_range] + [r for r, _ in self._dev.scan[n // 2 + 1: n]])
 
-    def GetMinRight(self):
+    def GetMinRight(self) -> float:
+        """The shortest range of the right half (indices up to ``count / 2``), as
+        ``GetMinLeft``: libplayerc's ``min_right``."""
         n = self._dev.scan_count
-        return min((r for r, _ in self._dev.scan[: n // 2]), default=self._dev.max_range)
+        return min([self._dev.max_range] + [r for r, _ in self._dev.scan[: n // 2 + 1]])
+
+    MinLeft = GetMinLeft
+    MinRight = GetMinRight
+
+    def RequestID(self) -> None:
+        """Fetches the laser's serial number (``GetID()``)."""
+        self._ok("RequestID", self._dev.get_id())
+
+    def GetConfMinAngle(self) -> float:
+        """The start angle of the configuration ``RequestConfigure()`` fetched."""
+        return self._dev.min_angle
+
+    def GetConfMaxAngle(self) -> float:
+        """The end angle of the configuration ``RequestConfigure()`` fetched."""
+        return self._dev.max_angle
+
+    def IntensityOn(self) -> bool:
+        """Whether intensities are on, per the last configuration fetched or set."""
+        return bool(self._dev.intensity_on)
+
+    def GetPose(self) -> "_pc.player_pose3d_t":
+        """The laser's pose on the robot (x, y, yaw; fill it with ``RequestGeom()``)."""
+        x, y, a = self._dev.pose
+        return _pc.player_pose3d_t(x, y, 0.0, 0.0, 0.0, a)
+
+    def GetRobotPose(self) -> "_pc.player_pose3d_t":
+        """The robot's pose as the last scan with a pose carried it (x, y, yaw)."""
+        x, y, a = self._dev.robot_pose
+        return _pc.player_pose3d_t(x, y, 0.0, 0.0, 0.0, a)
+
+    def GetSize(self) -> "_pc.player_bbox3d_t":
+        """The laser's size (fill it with ``RequestGeom()``): ``sl`` and ``sw``, as
+        libplayerc++ reads them from libplayerc's ``size``."""
+        return _pc.player_bbox3d_t(sw=self._dev.size[1], sl=self._dev.size[0])
 
 
 class SonarProxy(ClientProxy):
@@ -424,6 +521,11 @@ class FiducialProxy(ClientProxy):
     def GetSensorSize(self):
         return self._dev.fiducial_geom.size
 
+    def GetFiducialSize(self) -> list:
+        """The size of the fiducials the sensor detects, ``[width, length]`` (fill it with
+        ``RequestGeometry()``)."""
+        return self._dev.fiducial_geom.fiducial_size
+
     RequestGeometry = _forward("get_geom")
 
 
@@ -443,25 +545,65 @@ class GripperProxy(ClientProxy):
 
 
 class SimulationProxy(ClientProxy):
-    """``PlayerCc::SimulationProxy``."""
+    """``PlayerCc::SimulationProxy``.
+
+    libplayerc++ ignores the result of every simulation call, so a name the simulator does not
+    know (its NACK) passes quietly through the setters here too, as it does in C++; a lost
+    connection still raises. The getters return the values C++ writes through its reference
+    arguments and raise ``PlayerError`` on a NACK, as there is then nothing to return, except
+    ``GetProperty`` into a caller's buffer, which is left as it was, as in C++."""
 
     _playerc = _pc.playerc_simulation
 
-    SetPose2d = _forward("set_pose2d")
+    def _quiet(self, what: str, ret: int) -> None:
+        """libplayerc++'s ignored result: a NACK passes, other failures raise."""
+        if ret != 0 and not _pc._refused():
+            self._ok(what, ret)
 
-    def GetPose2d(self, identifier, *ignored_refs):
+    def SetPose2d(self, identifier: str, x: float, y: float, a: float) -> None:
+        """Moves model ``identifier``; a name the simulator does not know is ignored."""
+        self._quiet("SetPose2d", self._dev.set_pose2d(identifier, x, y, a))
+
+    def GetPose2d(self, identifier: str, *ignored_refs) -> tuple:
         """``(x, y, a)``: Python has no output references."""
         res = self._dev.get_pose2d(identifier)
         self._ok("GetPose2d", res[0])
         return tuple(res[1:])
 
-    def GetProperty(self, identifier, name, value_len=16):
-        res = self._dev.get_property(identifier, name, value_len)
-        self._ok("GetProperty", res[0])
-        return res[1]
+    def SetPose3d(self, identifier: str, x: float, y: float, z: float, roll: float,
+                  pitch: float, yaw: float) -> None:
+        """Moves model ``identifier`` in 3-D; an unknown name is ignored, as ``SetPose2d``."""
+        self._quiet("SetPose3d", self._dev.set_pose3d(identifier, x, y, z, roll, pitch, yaw))
 
-    def SetProperty(self, identifier, name, value, value_len=None):
-        self._ok("SetProperty", self._dev.set_property(identifier, name, value))
+    def GetPose3d(self, identifier: str, *ignored_refs) -> tuple:
+        """``(x, y, z, roll, pitch, yaw, time)``, ``time`` the simulated time as the
+        simulator reports it."""
+        res = self._dev.get_pose3d(identifier)
+        self._ok("GetPose3d", res[0])
+        return tuple(res[1:])
+
+    def GetProperty(self, identifier: str, name: str, value=None, value_len=None):
+        """``GetProperty(identifier, name, value, value_len)`` as in C++: the property's bytes
+        are written into ``value``, a writable buffer (``bytearray``, a ctypes object such as
+        ``(ctypes.c_float * 4)()``), and returned; a NACK leaves the buffer as it was and
+        returns ``None``. Without a buffer (``GetProperty(identifier, name[, value_len])``)
+        the bytes are returned (``value_len`` default 16) and a NACK raises."""
+        if value is None or isinstance(value, int):
+            size = value if value_len is None else value_len
+            res = self._dev.get_property(identifier, name, size if size is not None else 16)
+            self._ok("GetProperty", res[0])
+            return res[1]
+        ret = self._dev.get_property(identifier, name, value, value_len)
+        self._quiet("GetProperty", ret)
+        if ret != 0:
+            return None
+        view = _pc._writable_bytes(value)
+        return view[: view.nbytes if value_len is None else value_len].tobytes()
+
+    def SetProperty(self, identifier: str, name: str, value, value_len=None) -> None:
+        """Sets a property from the bytes of ``value`` (the first ``value_len`` of them when
+        given); an unknown model or property is ignored, as in C++."""
+        self._quiet("SetProperty", self._dev.set_property(identifier, name, value, value_len))
 
 
 class SpeechProxy(ClientProxy):
@@ -496,6 +638,27 @@ class Graphics2dProxy(ClientProxy):
     def DrawPolygon(self, pts, count=None, filled=False, fill_color=None):
         fill = fill_color if fill_color is not None else (0, 0, 0, 0)
         self._ok("DrawPolygon", self._dev.draw_polygon(_pts(pts), count, filled, fill))
+
+
+class Graphics3dProxy(ClientProxy):
+    """``PlayerCc::Graphics3dProxy``: ``Color``, ``Clear``, ``Draw(mode, points, count)``."""
+
+    _playerc = _pc.playerc_graphics3d
+
+    def Color(self, *args) -> None:
+        """``Color(player_color_t)`` or ``Color(red, green, blue, alpha)``."""
+        if len(args) == 1:
+            self._ok("Color", self._dev.setcolor(args[0]))
+        else:
+            r, g, b, a = args
+            self._ok("Color", self._dev.setcolor((a, r, g, b)))
+
+    Clear = _forward("clear")
+
+    def Draw(self, mode: int, pts: list, count: int = None) -> None:
+        """Draws ``pts`` (``player_point_3d_t`` or ``(x, y, z)`` tuples) as ``mode``."""
+        points = [(p.px, p.py, p.pz) if hasattr(p, "px") else tuple(p) for p in pts]
+        self._ok("Draw", self._dev.draw(mode, points, count))
 
 
 def _pts(pts):
@@ -564,6 +727,24 @@ class PlannerProxy(ClientProxy):
 
     GetCurrentWaypointId = _field("curr_waypoint")
 
+    def GetPose(self) -> player_pose2d_t:
+        """The robot's current pose (``px``, ``py``, ``pa``)."""
+        return player_pose2d_t(self._dev.px, self._dev.py, self._dev.pa)
+
+    def GetGoal(self) -> player_pose2d_t:
+        """The goal (``gx``, ``gy``, ``ga``)."""
+        return player_pose2d_t(self._dev.gx, self._dev.gy, self._dev.ga)
+
+    def GetCurrentWaypoint(self) -> player_pose2d_t:
+        """The waypoint being driven to (``wx``, ``wy``, ``wa``)."""
+        return player_pose2d_t(self._dev.wx, self._dev.wy, self._dev.wa)
+
+    def GetWaypoint(self, aIndex: int) -> player_pose2d_t:
+        """Waypoint ``aIndex`` of the list ``RequestWaypoints()`` fetched."""
+        if not 0 <= aIndex < self._dev.waypoint_count:
+            raise IndexError(f"waypoint {aIndex} of {self._dev.waypoint_count}")
+        return player_pose2d_t(*self._dev.waypoints[aIndex])
+
 
 class LocalizeProxy(ClientProxy):
     """``PlayerCc::LocalizeProxy``."""
@@ -572,6 +753,7 @@ class LocalizeProxy(ClientProxy):
     _fields = ("pending_count", "pending_time", "hypoth_count", "num_particles")
 
     GetHypoth = _element("hypoths")
+    GetNumHypoths = _field("hypoth_count")
 
     def GetParticles(self):
         self._ok("GetParticles", self._dev.get_particles())

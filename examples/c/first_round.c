@@ -21,7 +21,7 @@ int main(int argc, char **argv) {
   if (playerc_client_read(client) == NULL) return fail("the syncing read");
   /* As a client on a network or printing to a terminal: the robots' blocks are subscribed
    * well apart, still inside one step of the world. */
-  struct timespec pause = {0, 20 * 1000 * 1000};
+  struct timespec pause = {0, 40 * 1000 * 1000};
   nanosleep(&pause, NULL);
 
   playerc_ranger_t *rangers[4];

@@ -804,6 +804,112 @@ impl Connection {
         self.command(InterfaceCode::GRAPHICS3D, index, cmd)
     }
 
+    // --- actarray --------------------------------------------------------------------
+
+    /// `playerc_actarray_get_geom`: `{actuators_geom: [{type, length, orientation, axis,
+    /// min, centre, max, home, config_speed, hasbrakes}], base_pos, base_orientation}`.
+    fn actarray_get_geom<'py>(&self, py: Python<'py>, index: u16) -> PyResult<Bound<'py, PyDict>> {
+        let g = self.call(py, move |c| {
+            player_client::ActArrayProxy::attach(c, index).request_geometry()
+        })?;
+        let point = |p: &Point3d| [p.px, p.py, p.pz];
+        let turn = |o: &Orientation3d| [o.proll, o.ppitch, o.pyaw];
+        let items = PyList::empty(py);
+        for a in &g.actuators {
+            let e = PyDict::new(py);
+            e.set_item("type", a.kind)?;
+            e.set_item("length", a.length)?;
+            e.set_item("orientation", turn(&a.orientation))?;
+            e.set_item("axis", point(&a.axis))?;
+            e.set_item("min", a.min)?;
+            e.set_item("centre", a.centre)?;
+            e.set_item("max", a.max)?;
+            e.set_item("home", a.home)?;
+            e.set_item("config_speed", a.config_speed)?;
+            e.set_item("hasbrakes", a.hasbrakes)?;
+            items.append(e)?;
+        }
+        let d = PyDict::new(py);
+        d.set_item("actuators_geom", items)?;
+        d.set_item("base_pos", point(&g.base_pos))?;
+        d.set_item("base_orientation", turn(&g.base_orientation))?;
+        Ok(d)
+    }
+
+    /// An actarray command for one joint (-1: all, for `home`): `what` is `position`
+    /// (`value` the goal), `speed`, `current` or `home` (`value` unused).
+    fn actarray_cmd(&self, index: u16, what: &str, joint: i32, value: f32) -> PyResult<()> {
+        let cmd = match what {
+            "position" => ActarrayCmd::Pos(ActarrayPositionCmd {
+                joint,
+                position: value,
+            }),
+            "speed" => ActarrayCmd::Speed(ActarraySpeedCmd {
+                joint,
+                speed: value,
+            }),
+            "current" => ActarrayCmd::Current(ActarrayCurrentCmd {
+                joint,
+                current: value,
+            }),
+            "home" => ActarrayCmd::Home(ActarrayHomeCmd { joint }),
+            other => {
+                return Err(PlayerError::new_err(format!(
+                    "unknown actarray command `{other}`"
+                )));
+            }
+        };
+        self.command(InterfaceCode::ACTARRAY, index, cmd)
+    }
+
+    /// An actarray command for every joint at once: `what` is `position`, `speed` or
+    /// `current`, `values` one per joint.
+    fn actarray_multi_cmd(&self, index: u16, what: &str, values: Vec<f32>) -> PyResult<()> {
+        let cmd = match what {
+            "position" => ActarrayCmd::MultiPos(ActarrayMultiPositionCmd { positions: values }),
+            "speed" => ActarrayCmd::MultiSpeed(ActarrayMultiSpeedCmd { speeds: values }),
+            "current" => ActarrayCmd::MultiCurrent(ActarrayMultiCurrentCmd { currents: values }),
+            other => {
+                return Err(PlayerError::new_err(format!(
+                    "unknown actarray command `{other}`"
+                )));
+            }
+        };
+        self.command(InterfaceCode::ACTARRAY, index, cmd)
+    }
+
+    /// An actarray configuration request: `what` is `power` or `brakes` (`value` 0 / 1,
+    /// `joint` unused), `speed` or `accel` (for `joint`, -1: all).
+    fn actarray_config(
+        &self,
+        py: Python<'_>,
+        index: u16,
+        what: &str,
+        joint: i32,
+        value: f32,
+    ) -> PyResult<()> {
+        let on = u8::from(value != 0.0);
+        let req = match what {
+            "power" => ActarrayReq::Power(Some(ActarrayPowerConfig { value: on })),
+            "brakes" => ActarrayReq::Brakes(Some(ActarrayBrakesConfig { value: on })),
+            "speed" => ActarrayReq::Speed(Some(ActarraySpeedConfig {
+                joint,
+                speed: value,
+            })),
+            "accel" => ActarrayReq::Accel(Some(ActarrayAccelConfig {
+                joint,
+                accel: value,
+            })),
+            other => {
+                return Err(PlayerError::new_err(format!(
+                    "unknown actarray request `{other}`"
+                )));
+            }
+        };
+        self.request(py, InterfaceCode::ACTARRAY, index, req)
+            .map(|_| ())
+    }
+
     // --- any device: capabilities and properties --------------------------------------
 
     /// `playerc_device_hascapability`: whether device (`interf`, `index`) handles messages of

@@ -24,6 +24,7 @@ pub const INTERFACES: &[(&str, InterfaceCode)] = &[
     ("PLAYER_SPEECH_CODE", InterfaceCode::SPEECH),
     ("PLAYER_GRAPHICS2D_CODE", InterfaceCode::GRAPHICS2D),
     ("PLAYER_GRAPHICS3D_CODE", InterfaceCode::GRAPHICS3D),
+    ("PLAYER_ACTARRAY_CODE", InterfaceCode::ACTARRAY),
     ("PLAYER_CAMERA_CODE", InterfaceCode::CAMERA),
     ("PLAYER_MAP_CODE", InterfaceCode::MAP),
     ("PLAYER_PLANNER_CODE", InterfaceCode::PLANNER),
@@ -286,6 +287,21 @@ pub fn data<'py>(py: Python<'py>, body: &Body) -> PyResult<Option<Bound<'py, PyD
             d.set_item("hypoths", items)?;
         }
         Body::Map(MapMsg::Data(MapData::Info(i))) => map_info(&d, i)?,
+        Body::Actarray(ActarrayMsg::Data(ActarrayData::State(s))) => {
+            let items = PyList::empty(py);
+            for a in &s.actuators {
+                let e = PyDict::new(py);
+                e.set_item("position", a.position)?;
+                e.set_item("speed", a.speed)?;
+                e.set_item("acceleration", a.acceleration)?;
+                e.set_item("current", a.current)?;
+                e.set_item("state", a.state)?;
+                items.append(e)?;
+            }
+            d.set_item("actuators_count", s.actuators.len())?;
+            d.set_item("actuators_data", items)?;
+            d.set_item("motor_state", s.motor_state)?;
+        }
         _ => return Ok(None),
     }
     Ok(Some(d))

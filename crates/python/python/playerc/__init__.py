@@ -98,6 +98,19 @@ PLAYER_DRAW_QUADS = 7
 PLAYER_DRAW_QUAD_STRIP = 8
 PLAYER_DRAW_POLYGON = 9
 
+PLAYER_ACTARRAY_ACTSTATE_IDLE = 1
+PLAYER_ACTARRAY_ACTSTATE_MOVING = 2
+PLAYER_ACTARRAY_ACTSTATE_BRAKED = 4
+PLAYER_ACTARRAY_ACTSTATE_STALLED = 8
+PLAYER_ACTARRAY_TYPE_LINEAR = 1
+PLAYER_ACTARRAY_TYPE_ROTARY = 2
+PLAYERC_ACTARRAY_ACTSTATE_IDLE = PLAYER_ACTARRAY_ACTSTATE_IDLE
+PLAYERC_ACTARRAY_ACTSTATE_MOVING = PLAYER_ACTARRAY_ACTSTATE_MOVING
+PLAYERC_ACTARRAY_ACTSTATE_BRAKED = PLAYER_ACTARRAY_ACTSTATE_BRAKED
+PLAYERC_ACTARRAY_ACTSTATE_STALLED = PLAYER_ACTARRAY_ACTSTATE_STALLED
+PLAYERC_ACTARRAY_TYPE_LINEAR = PLAYER_ACTARRAY_TYPE_LINEAR
+PLAYERC_ACTARRAY_TYPE_ROTARY = PLAYER_ACTARRAY_TYPE_ROTARY
+
 PLAYER_CAMERA_FORMAT_MONO8 = 1
 PLAYER_CAMERA_FORMAT_MONO16 = 2
 PLAYER_CAMERA_FORMAT_RGB565 = 4
@@ -118,6 +131,7 @@ PLAYER_SIMULATION_CODE = _native.PLAYER_SIMULATION_CODE
 PLAYER_SPEECH_CODE = _native.PLAYER_SPEECH_CODE
 PLAYER_GRAPHICS2D_CODE = _native.PLAYER_GRAPHICS2D_CODE
 PLAYER_GRAPHICS3D_CODE = _native.PLAYER_GRAPHICS3D_CODE
+PLAYER_ACTARRAY_CODE = _native.PLAYER_ACTARRAY_CODE
 PLAYER_CAMERA_CODE = _native.PLAYER_CAMERA_CODE
 PLAYER_MAP_CODE = _native.PLAYER_MAP_CODE
 PLAYER_PLANNER_CODE = _native.PLAYER_PLANNER_CODE
@@ -249,6 +263,22 @@ class player_point_3d_t(_Struct):
 
     def __init__(self, px=0.0, py=0.0, pz=0.0):
         super().__init__(px=px, py=py, pz=pz)
+
+
+class player_orientation_3d_t(_Struct):
+    """``player_orientation_3d_t``: proll, ppitch, pyaw."""
+
+    def __init__(self, proll=0.0, ppitch=0.0, pyaw=0.0):
+        super().__init__(proll=proll, ppitch=ppitch, pyaw=pyaw)
+
+
+class player_actarray_actuator_t(_Struct):
+    """One actuator's state: position, speed, acceleration, current, state."""
+
+
+class player_actarray_actuatorgeom_t(_Struct):
+    """One actuator's geometry: type, length, orientation (``player_orientation_3d_t``), axis
+    (``player_point_3d_t``), min, centre, max, home, config_speed, hasbrakes."""
 
 
 class player_bbox3d_t(_Struct):
@@ -1284,6 +1314,121 @@ class playerc_graphics3d(_device):
     def rotate(self, a: float, x: float, y: float, z: float) -> int:
         """Turns the drawing frame by ``a`` radians about the axis (x, y, z). 0 / -1."""
         return self._call(self._conn().graphics3d_rotate, self.index, a, x, y, z)
+
+
+def _actuator_geom(g: dict) -> player_actarray_actuatorgeom_t:
+    fields = dict(g)
+    fields["orientation"] = player_orientation_3d_t(*g["orientation"])
+    fields["axis"] = player_point_3d_t(*g["axis"])
+    return player_actarray_actuatorgeom_t(**fields)
+
+
+class playerc_actarray(_device):
+    """``playerc_actarray_t``: actuators_count, actuators_data[i] (position, speed,
+    acceleration, current, state), motor_state; after ``get_geom()`` actuators_geom_count,
+    actuators_geom[i], base_pos, base_orientation. Joint commands take the joint's index."""
+
+    _code = PLAYER_ACTARRAY_CODE
+
+    def _defaults(self) -> None:
+        self.actuators_count = 0
+        self.actuators_data = []
+        self.motor_state = 0
+        self.actuators_geom_count = 0
+        self.actuators_geom = []
+        self.base_pos = player_point_3d_t()
+        self.base_orientation = player_orientation_3d_t()
+
+    def _apply(self, fields: dict) -> None:
+        self._take(fields, "motor_state")
+        self._take_array(
+            fields, "actuators_data", "actuators_count", lambda a: player_actarray_actuator_t(**a)
+        )
+
+    def get_actuator_data(self, index: int) -> player_actarray_actuator_t:
+        """``playerc_actarray_get_actuator_data``: actuator ``index``'s state (libplayerc
+        asserts the index; here a bad one raises ``IndexError``)."""
+        if not 0 <= index < self.actuators_count:
+            raise IndexError(f"actuator {index} of {self.actuators_count}")
+        return self.actuators_data[index]
+
+    def get_actuator_geom(self, index: int) -> player_actarray_actuatorgeom_t:
+        """``playerc_actarray_get_actuator_geom``: actuator ``index``'s geometry (after
+        ``get_geom()``; a bad index raises ``IndexError``)."""
+        if not 0 <= index < self.actuators_geom_count:
+            raise IndexError(f"actuator geometry {index} of {self.actuators_geom_count}")
+        return self.actuators_geom[index]
+
+    def get_geom(self) -> int:
+        """``playerc_actarray_get_geom``: fills actuators_geom, base_pos, base_orientation.
+        0 / -1."""
+        g = self._answer("actarray_get_geom")
+        if g is None:
+            return -1
+        self.actuators_geom = [_actuator_geom(a) for a in g["actuators_geom"]]
+        self.actuators_geom_count = len(self.actuators_geom)
+        self.base_pos = player_point_3d_t(*g["base_pos"])
+        self.base_orientation = player_orientation_3d_t(*g["base_orientation"])
+        return 0
+
+    def _cmd(self, what: str, joint: int, value: float = 0.0) -> int:
+        return self._call(self._conn().actarray_cmd, self.index, what, int(joint), float(value))
+
+    def _multi(self, what: str, values: list, count: _Optional[int]) -> int:
+        try:
+            values = [float(v) for v in list(values)[: count if count is not None else None]]
+        except (TypeError, ValueError) as e:
+            return _fail(f"a list of numbers, one per joint: {e}")
+        return self._call(self._conn().actarray_multi_cmd, self.index, what, values)
+
+    def _setting(self, what: str, joint: int, value: float) -> int:
+        return self._call(
+            self._conn().actarray_config, self.index, what, int(joint), float(value)
+        )
+
+    def position_cmd(self, joint: int, position: float) -> int:
+        """Moves ``joint`` to ``position``. 0 / -1."""
+        return self._cmd("position", joint, position)
+
+    def multi_position_cmd(self, positions: list, positions_count: _Optional[int] = None) -> int:
+        """Moves every joint, ``positions`` one per joint. 0 / -1."""
+        return self._multi("position", positions, positions_count)
+
+    def speed_cmd(self, joint: int, speed: float) -> int:
+        """Moves ``joint`` at ``speed``. 0 / -1."""
+        return self._cmd("speed", joint, speed)
+
+    def multi_speed_cmd(self, speeds: list, speeds_count: _Optional[int] = None) -> int:
+        """Moves every joint at its speed. 0 / -1."""
+        return self._multi("speed", speeds, speeds_count)
+
+    def home_cmd(self, joint: int) -> int:
+        """Sends ``joint`` (-1: all) to its home position. 0 / -1."""
+        return self._cmd("home", joint)
+
+    def current_cmd(self, joint: int, current: float) -> int:
+        """Drives ``joint`` with ``current``. 0 / -1."""
+        return self._cmd("current", joint, current)
+
+    def multi_current_cmd(self, currents: list, currents_count: _Optional[int] = None) -> int:
+        """Drives every joint with its current. 0 / -1."""
+        return self._multi("current", currents, currents_count)
+
+    def power(self, enable: int) -> int:
+        """Turns the array's power on or off (a request: -1 when the driver refuses)."""
+        return self._setting("power", -1, 1.0 if enable else 0.0)
+
+    def brakes(self, enable: int) -> int:
+        """Sets the brakes of the joints that have them (-1 when the driver refuses)."""
+        return self._setting("brakes", -1, 1.0 if enable else 0.0)
+
+    def speed_config(self, joint: int, speed: float) -> int:
+        """The speed of later moves of ``joint`` (-1: all); -1 when the driver refuses."""
+        return self._setting("speed", joint, speed)
+
+    def accel_config(self, joint: int, accel: float) -> int:
+        """The acceleration of later moves of ``joint`` (-1: all); -1 when refused."""
+        return self._setting("accel", joint, accel)
 
 
 class playerc_camera(_device):

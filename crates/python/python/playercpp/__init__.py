@@ -640,6 +640,58 @@ class Graphics2dProxy(ClientProxy):
         self._ok("DrawPolygon", self._dev.draw_polygon(_pts(pts), count, filled, fill))
 
 
+class ActArrayProxy(ClientProxy):
+    """``PlayerCc::ActArrayProxy``; ``ap[i]`` is ``GetActuatorData(i)`` as C++'s
+    ``operator[]``."""
+
+    _playerc = _pc.playerc_actarray
+
+    RequestGeometry = _forward("get_geom")
+    MoveTo = _forward("position_cmd")
+    MoveToMulti = _forward("multi_position_cmd")
+    MoveAtSpeed = _forward("speed_cmd")
+    MoveAtSpeedMulti = _forward("multi_speed_cmd")
+    SetActuatorCurrent = _forward("current_cmd")
+    SetActuatorCurrentMulti = _forward("multi_current_cmd")
+    SetSpeedConfig = _forward("speed_config")
+    GetCount = _field("actuators_count")
+    GetBasePos = _field("base_pos")
+    GetBaseOrientation = _field("base_orientation")
+
+    def MoveHome(self, aJoint: int) -> None:
+        """Sends ``aJoint`` (-1: all) home."""
+        self._ok("MoveHome", self._dev.home_cmd(aJoint))
+
+    def SetPowerConfig(self, aVal: bool) -> None:
+        """Turns the power on or off; raises when the driver refuses, as in C++."""
+        self._ok("SetPowerConfig", self._dev.power(1 if aVal else 0))
+
+    def SetBrakesConfig(self, aVal: bool) -> None:
+        """Sets the brakes; raises when the driver refuses."""
+        self._ok("SetBrakesConfig", self._dev.brakes(1 if aVal else 0))
+
+    def GetActuatorData(self, aJoint: int) -> "_pc.player_actarray_actuator_t":
+        """Joint ``aJoint``'s state; all zero for a joint the array does not have, as in C++."""
+        if 0 <= aJoint < self._dev.actuators_count:
+            return self._dev.actuators_data[aJoint]
+        return _pc.player_actarray_actuator_t(
+            position=0.0, speed=0.0, acceleration=0.0, current=0.0, state=0
+        )
+
+    __getitem__ = GetActuatorData
+
+    def GetActuatorGeom(self, aJoint: int) -> "_pc.player_actarray_actuatorgeom_t":
+        """Joint ``aJoint``'s geometry (after ``RequestGeometry()``); all zero before it or
+        for a joint the array does not have, as in C++."""
+        if 0 <= aJoint < self._dev.actuators_geom_count:
+            return self._dev.actuators_geom[aJoint]
+        return _pc.player_actarray_actuatorgeom_t(
+            type=0, length=0.0, orientation=_pc.player_orientation_3d_t(),
+            axis=_pc.player_point_3d_t(), min=0.0, centre=0.0, max=0.0, home=0.0,
+            config_speed=0.0, hasbrakes=0,
+        )
+
+
 class Graphics3dProxy(ClientProxy):
     """``PlayerCc::Graphics3dProxy``: ``Color``, ``Clear``, ``Draw(mode, points, count)``."""
 

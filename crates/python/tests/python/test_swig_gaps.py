@@ -399,3 +399,84 @@ def test_graphics3d_draws_with_playerc_and_playercpp(graphics3d_server):
     with pytest.raises(playercpp.PlayerError):
         g3.Draw(PLAYER_DRAW_POINTS, [(0.0, 0.0)])
     robot.Disconnect()
+
+
+# --- actarray, which the stage driver serves on a Stage actuator ---------------------------------
+
+ARM_ROBOT = """
+position
+(
+  name "arm1"
+  pose [ 0 6 0 0 ]
+  size [ 0.5 0.5 0.5 ]
+  actuator ( type "linear" axis [1 0 0] min_position 0 max_position 0.5 max_speed 1 )
+)
+"""
+
+ACTARRAY_CFG = """
+driver( name "stage" provides ["simulation:0"] plugin "stageplugin" worldfile "arm.world" )
+driver( name "stage" model "arm1" provides ["actarray:0"] )
+"""
+
+
+@pytest.fixture(scope="module")
+def actarray_server(player_bin, world_dir):
+    (world_dir / "arm.world").write_text((world_dir / "test.world").read_text() + ARM_ROBOT)
+    s = start_player(player_bin, world_dir, "actarray.cfg", ACTARRAY_CFG)
+    yield s
+    s.stop()
+
+
+def test_actarray_with_playerc(actarray_server):
+    c = connect(actarray_server.port)
+    arm = sub(playerc_actarray(c, 0))
+    assert arm.get_geom() == 0
+    assert arm.actuators_geom_count == 1
+    geom = arm.get_actuator_geom(0)
+    assert geom.type == PLAYER_ACTARRAY_TYPE_LINEAR
+    assert (geom.min, geom.max) == (0.0, 0.5)
+    assert isinstance(geom.axis, player_point_3d_t)
+    assert isinstance(arm.base_orientation, player_orientation_3d_t)
+    wait_until(lambda: arm.actuators_count == 1, step=c.read)
+    assert arm.get_actuator_data(0).state == PLAYER_ACTARRAY_ACTSTATE_IDLE
+    # Stage reports a position goal, clamped to the joint's range, as the speed, moving.
+    assert arm.position_cmd(0, 0.9) == 0
+    wait_until(lambda: arm.get_actuator_data(0).state == PLAYER_ACTARRAY_ACTSTATE_MOVING,
+               step=c.read)
+    assert arm.get_actuator_data(0).speed == pytest.approx(0.5)
+    assert arm.speed_cmd(0, 0.25) == 0
+    wait_until(lambda: arm.get_actuator_data(0).speed == pytest.approx(0.25), step=c.read)
+    assert arm.speed_cmd(0, 0.0) == 0
+    wait_until(lambda: arm.get_actuator_data(0).state == PLAYER_ACTARRAY_ACTSTATE_IDLE,
+               step=c.read)
+    # Commands Stage ignores are still sent; the configuration requests are refused.
+    assert arm.home_cmd(-1) == 0
+    assert arm.multi_position_cmd([0.1], 1) == 0
+    assert arm.multi_speed_cmd([0.1]) == 0
+    assert arm.current_cmd(0, 1.0) == 0 and arm.multi_current_cmd([1.0]) == 0
+    assert arm.multi_position_cmd(["far"]) == -1
+    assert arm.power(1) == -1 and arm.brakes(0) == -1
+    assert arm.speed_config(0, 0.5) == -1 and arm.accel_config(-1, 0.5) == -1
+    with pytest.raises(IndexError):
+        arm.get_actuator_data(1)
+    assert arm.info.get_dblprop("speed")[0] == -1
+    c.disconnect()
+
+
+def test_actarray_with_playercpp(actarray_server):
+    robot = playercpp.PlayerClient("localhost", actarray_server.port)
+    arm = playercpp.ActArrayProxy(robot, 0)
+    arm.RequestGeometry()
+    assert arm.GetActuatorGeom(0).max == 0.5
+    assert arm.GetActuatorGeom(3).max == 0.0  # a joint the arm lacks: zeros, as in C++
+    wait_until(lambda: arm.GetCount() == 1, step=robot.Read)
+    arm.MoveTo(0, 0.2)
+    wait_until(lambda: arm[0].speed == pytest.approx(0.2), step=robot.Read)
+    assert arm.GetActuatorData(0) == arm[0]
+    assert arm.GetActuatorData(5).position == 0.0
+    arm.MoveAtSpeed(0, 0.0)
+    arm.MoveHome(-1)
+    with pytest.raises(playercpp.PlayerError):
+        arm.SetPowerConfig(True)
+    assert isinstance(arm.GetBasePos(), player_point_3d_t)
+    robot.Disconnect()

@@ -910,6 +910,54 @@ impl Connection {
             .map(|_| ())
     }
 
+    // --- log -------------------------------------------------------------------------
+
+    /// `playerc_log_get_state`: `(type, state)`, `type` 1 (`PLAYER_LOG_TYPE_READ`) or 2
+    /// (`PLAYER_LOG_TYPE_WRITE`), `state` 1 while replaying or recording.
+    fn log_get_state(&self, py: Python<'_>, index: u16) -> PyResult<(u8, u8)> {
+        let s = self.call(py, move |c| {
+            player_client::LogProxy::attach(c, index).get_state()
+        })?;
+        Ok((s.log_type, u8::from(s.state)))
+    }
+
+    /// `playerc_log_set_write_state` / `set_read_state` (`what` "write" or "read") and
+    /// `set_read_rewind` ("rewind", `state` unused).
+    fn log_set_state(&self, py: Python<'_>, index: u16, what: &str, state: bool) -> PyResult<()> {
+        #[derive(Clone, Copy)]
+        enum Op {
+            Write,
+            Read,
+            Rewind,
+        }
+        let op = match what {
+            "write" => Op::Write,
+            "read" => Op::Read,
+            "rewind" => Op::Rewind,
+            other => {
+                return Err(PlayerError::new_err(format!(
+                    "unknown log request `{other}` (write, read or rewind)"
+                )));
+            }
+        };
+        self.call(py, move |c| {
+            let log = player_client::LogProxy::attach(c, index);
+            match op {
+                Op::Write => log.set_write_state(state),
+                Op::Read => log.set_read_state(state),
+                Op::Rewind => log.rewind(),
+            }
+        })
+    }
+
+    /// `playerc_log_set_filename`: where a writelog records from now on.
+    fn log_set_filename(&self, py: Python<'_>, index: u16, filename: &str) -> PyResult<()> {
+        let filename = filename.to_owned();
+        self.call(py, move |c| {
+            player_client::LogProxy::attach(c, index).set_filename(&filename)
+        })
+    }
+
     // --- any device: capabilities and properties --------------------------------------
 
     /// `playerc_device_hascapability`: whether device (`interf`, `index`) handles messages of

@@ -25,6 +25,7 @@ pub const INTERFACES: &[(&str, InterfaceCode)] = &[
     ("PLAYER_GRAPHICS2D_CODE", InterfaceCode::GRAPHICS2D),
     ("PLAYER_GRAPHICS3D_CODE", InterfaceCode::GRAPHICS3D),
     ("PLAYER_ACTARRAY_CODE", InterfaceCode::ACTARRAY),
+    ("PLAYER_LOG_CODE", InterfaceCode::LOG),
     ("PLAYER_CAMERA_CODE", InterfaceCode::CAMERA),
     ("PLAYER_MAP_CODE", InterfaceCode::MAP),
     ("PLAYER_PLANNER_CODE", InterfaceCode::PLANNER),

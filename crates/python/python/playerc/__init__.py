@@ -111,6 +111,9 @@ PLAYERC_ACTARRAY_ACTSTATE_STALLED = PLAYER_ACTARRAY_ACTSTATE_STALLED
 PLAYERC_ACTARRAY_TYPE_LINEAR = PLAYER_ACTARRAY_TYPE_LINEAR
 PLAYERC_ACTARRAY_TYPE_ROTARY = PLAYER_ACTARRAY_TYPE_ROTARY
 
+PLAYER_LOG_TYPE_READ = 1
+PLAYER_LOG_TYPE_WRITE = 2
+
 PLAYER_CAMERA_FORMAT_MONO8 = 1
 PLAYER_CAMERA_FORMAT_MONO16 = 2
 PLAYER_CAMERA_FORMAT_RGB565 = 4
@@ -132,6 +135,7 @@ PLAYER_SPEECH_CODE = _native.PLAYER_SPEECH_CODE
 PLAYER_GRAPHICS2D_CODE = _native.PLAYER_GRAPHICS2D_CODE
 PLAYER_GRAPHICS3D_CODE = _native.PLAYER_GRAPHICS3D_CODE
 PLAYER_ACTARRAY_CODE = _native.PLAYER_ACTARRAY_CODE
+PLAYER_LOG_CODE = _native.PLAYER_LOG_CODE
 PLAYER_CAMERA_CODE = _native.PLAYER_CAMERA_CODE
 PLAYER_MAP_CODE = _native.PLAYER_MAP_CODE
 PLAYER_PLANNER_CODE = _native.PLAYER_PLANNER_CODE
@@ -1429,6 +1433,46 @@ class playerc_actarray(_device):
     def accel_config(self, joint: int, accel: float) -> int:
         """The acceleration of later moves of ``joint`` (-1: all); -1 when refused."""
         return self._setting("accel", joint, accel)
+
+
+class playerc_log(_device):
+    """``playerc_log_t``: ``type`` (``PLAYER_LOG_TYPE_READ`` for a readlog,
+    ``PLAYER_LOG_TYPE_WRITE`` for a writelog) and ``state`` (1 while replaying / recording),
+    both filled by ``get_state()``."""
+
+    _code = PLAYER_LOG_CODE
+
+    def _defaults(self) -> None:
+        self.type = 0
+        self.state = 0
+
+    def _set(self, what: str, state: int = 0) -> int:
+        return self._call(self._conn().log_set_state, self.index, what, bool(state))
+
+    def set_write_state(self, state: int) -> int:
+        """Starts (1) or stops (0) a writelog's recording. 0 / -1."""
+        return self._set("write", state)
+
+    def set_read_state(self, state: int) -> int:
+        """Starts (1) or pauses (0) a readlog's replay. 0 / -1."""
+        return self._set("read", state)
+
+    def set_read_rewind(self) -> int:
+        """Rewinds a readlog's replay to the start of its file. 0 / -1."""
+        return self._set("rewind")
+
+    def get_state(self) -> int:
+        """Fetches ``type`` and ``state``. 0 / -1."""
+        answer = self._answer("log_get_state")
+        if answer is None:
+            return -1
+        self.type, self.state = answer
+        return 0
+
+    def set_filename(self, fname: str) -> int:
+        """Makes a writelog record to ``fname`` from now on (refused while recording).
+        0 / -1."""
+        return self._call(self._conn().log_set_filename, self.index, str(fname))
 
 
 class playerc_camera(_device):

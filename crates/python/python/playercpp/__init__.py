@@ -692,6 +692,30 @@ class ActArrayProxy(ClientProxy):
         )
 
 
+class LogProxy(ClientProxy):
+    """``PlayerCc::LogProxy``: recording (writelog) and replay (readlog) control."""
+
+    _playerc = _pc.playerc_log
+
+    GetType = _field("type")
+    GetState = _field("state")
+    QueryState = _forward("get_state")
+    SetWriteState = _forward("set_write_state")
+    SetReadState = _forward("set_read_state")
+    Rewind = _forward("set_read_rewind")
+    SetFilename = _forward("set_filename")
+
+    def SetState(self, aState: int) -> None:
+        """Recording or replay on or off, whichever the device does (its type is queried
+        first if not known yet, as libplayerc++ does)."""
+        if self._dev.type == 0:
+            self.QueryState()
+        if self._dev.type == _pc.PLAYER_LOG_TYPE_READ:
+            self._ok("SetState", self._dev.set_read_state(aState))
+        elif self._dev.type == _pc.PLAYER_LOG_TYPE_WRITE:
+            self._ok("SetState", self._dev.set_write_state(aState))
+
+
 class Graphics3dProxy(ClientProxy):
     """``PlayerCc::Graphics3dProxy``: ``Color``, ``Clear``, ``Draw(mode, points, count)``."""
 

@@ -480,3 +480,45 @@ def test_actarray_with_playercpp(actarray_server):
         arm.SetPowerConfig(True)
     assert isinstance(arm.GetBasePos(), player_point_3d_t)
     robot.Disconnect()
+
+
+# --- log: a writelog recording the stage robot ---------------------------------------------------
+
+WRITELOG_CFG = """
+driver( name "stage" provides ["simulation:0"] plugin "stageplugin" worldfile "test.world" )
+driver( name "stage" model "bob1" provides ["position2d:0"] )
+driver( name "writelog" requires ["position2d:0"] provides ["log:0"] alwayson 1 autorecord 0
+        filename "first.log" )
+"""
+
+
+def test_log_controls_a_writelog(player_bin, world_dir, tmp_path):
+    s = start_player(player_bin, world_dir, "writelog.cfg", WRITELOG_CFG)
+    try:
+        c = connect(s.port)
+        log = sub(playerc_log(c, 0))
+        assert log.get_state() == 0
+        assert (log.type, log.state) == (PLAYER_LOG_TYPE_WRITE, 0)
+        target = tmp_path / "robot.log"
+        assert log.set_filename(str(target)) == 0
+        assert log.set_write_state(1) == 0
+        assert log.get_state() == 0 and log.state == 1
+        assert log.set_filename(str(tmp_path / "other.log")) == -1  # refused while recording
+        assert log.set_read_state(1) == -1  # a writelog does not replay
+        wait_until(lambda: target.is_file() and "position2d" in target.read_text())
+        assert log.set_write_state(0) == 0
+        assert log.get_state() == 0 and log.state == 0
+        c.disconnect()
+
+        robot = playercpp.PlayerClient("localhost", s.port)
+        lp = playercpp.LogProxy(robot, 0)
+        lp.SetState(1)  # queries the type first, then records
+        assert lp.GetType() == PLAYER_LOG_TYPE_WRITE
+        lp.QueryState()
+        assert lp.GetState() == 1
+        lp.SetWriteState(0)
+        with pytest.raises(playercpp.PlayerError):
+            lp.Rewind()
+        robot.Disconnect()
+    finally:
+        s.stop()

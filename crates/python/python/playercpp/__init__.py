@@ -245,6 +245,18 @@ class ClientProxy:
     def GetDataTime(self):
         return self._dev.info.datatime
 
+    def GetElapsedTime(self) -> float:
+        """Seconds between the last two data timestamps (``datatime - lasttime``)."""
+        return self._dev.info.datatime - self._dev.info.lasttime
+
+    def GetPlayerClient(self) -> "PlayerClient":
+        """The client the proxy was made with."""
+        return self._client
+
+    def GetInterfaceStr(self) -> str:
+        """The interface's name (``"laser"``)."""
+        return _pc.playerc_lookup_name(self._dev._code)
+
     def IsValid(self):
         return self._dev.info.datatime > 0
 

@@ -313,6 +313,8 @@ def test_playercpp_client_proxy_and_laser_extras(server):
     assert pp.GetOffset().px == pp.GetPose().px
 
     lp = playercpp.LaserProxy(robot, 0)
+    assert lp.GetInterfaceStr() == "laser" and lp.GetPlayerClient() is robot
+    wait_until(lambda: lp.GetElapsedTime() > 0, step=robot.Read)
     lp.RequestID()
     assert lp.GetID() >= 0
     lp.RequestGeom()

@@ -23,9 +23,18 @@ use crate::errors::{ConnectionLost, PlayerError, client_err};
 
 /// A connection to a Player server (`host`, `port`), in PULL mode after connecting as
 /// libplayerc's. `disconnect()` closes it; any call after that raises `ConnectionLost`.
+///
+/// A connection belongs to the process that opened it: a child forked from that process (a
+/// `multiprocessing` or `AsyncVectorEnv` worker started with `fork`) that uses an inherited one
+/// gets `ConnectionLost` saying so, because parent and child would share one socket and read
+/// each other's replies, and a lock the parent held at the fork would never be released.
 #[pyclass(module = "playerstage._native")]
 pub struct Connection {
     client: Option<PlayerClient>,
+    /// The process that opened the connection.
+    opened_in: u32,
+    /// `host:port`, for the messages.
+    peer: String,
 }
 
 /// The bodies `read()` hands back: (interface code, index, timestamp, fields or None).
@@ -69,6 +78,15 @@ fn bad_reply(what: &str) -> PyErr {
 
 impl Connection {
     fn client(&self) -> PyResult<PlayerClient> {
+        let here = std::process::id();
+        if here != self.opened_in {
+            return Err(ConnectionLost::new_err(format!(
+                "the connection to {} was opened in process {}, and this is process {here}, a \
+                 forked child: a child cannot share its parent's connection; open a new one in \
+                 the child, or start workers with the 'spawn' or 'forkserver' method",
+                self.peer, self.opened_in
+            )));
+        }
         self.client
             .clone()
             .ok_or_else(|| ConnectionLost::new_err("not connected (disconnect() was called)"))
@@ -118,11 +136,14 @@ impl Connection {
     /// Connects to `host:port` (reads the banner, switches to PULL mode).
     #[new]
     fn new(py: Python<'_>, host: String, port: u16) -> PyResult<Self> {
+        let peer = format!("{host}:{port}");
         let client = py
             .allow_threads(move || PlayerClient::connect(&host, port))
             .map_err(client_err)?;
         Ok(Connection {
             client: Some(client),
+            opened_in: std::process::id(),
+            peer,
         })
     }
 

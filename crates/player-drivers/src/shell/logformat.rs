@@ -647,10 +647,12 @@ impl<'a> Fields<'a> {
 
     /// Fails unless `n` more fields are present.
     fn need(&self, n: usize) -> Result<(), LineError> {
-        if self.tokens.len() < self.at + n {
+        // a count read from the line can be anything: saturate rather than wrap or panic
+        let needed = self.at.saturating_add(n);
+        if self.tokens.len() < needed {
             return Err(LineError::Incomplete {
                 what: self.what.clone(),
-                needed: self.at + n,
+                needed,
                 found: self.tokens.len(),
             });
         }
@@ -838,10 +840,10 @@ fn decode_hex(f: &Fields<'_>, index: usize, text: &str) -> Result<Vec<u8>, LineE
     let bad = || LineError::BadField {
         what: f.what.clone(),
         index,
-        text: if text.len() > 16 {
-            format!("{}...", &text[..16])
-        } else {
-            text.to_string()
+        // the first 16 characters (not bytes: the field may hold any UTF-8)
+        text: match text.char_indices().nth(16) {
+            Some((cut, _)) => format!("{}...", &text[..cut]),
+            None => text.to_string(),
         },
         kind: "hex image",
     };
@@ -1052,7 +1054,7 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             if image.len() != count {
                 return Err(LineError::CountMismatch {
                     what: f.what.clone(),
-                    expected: count * 2,
+                    expected: count.saturating_mul(2),
                     found: hex.len(),
                 });
             }
@@ -1140,6 +1142,31 @@ mod tests {
             encode_line(h.time, &h.addr, h.msg_type, &body, WriteOptions::default());
         result.unwrap();
         text.trim_end_matches('\n').to_string()
+    }
+
+    /// Found by fuzzing the reader: a count near `usize::MAX` overflowed the read position
+    /// (ranger) and the expected hex length (camera); a bad hex field cut inside a UTF-8
+    /// character for its message. Each is now an error naming the field, not a panic.
+    #[test]
+    fn huge_counts_and_non_ascii_hex_are_errors_not_panics() {
+        let max = usize::MAX;
+        let lines = [
+            format!("0000000016.500 16777343 7001 ranger 00 001 001 {max} 1.0"),
+            format!("0000000016.500 16777343 7001 ranger 00 001 001 {} 1.0", max / 2 + 1),
+            format!("0000000001.000 16777343 7001 camera 00 001 001 1 1 8 1 0 {max} 00"),
+            "0000000001.000 16777343 7001 camera 00 001 001 1 1 8 1 0 1 aaaaaaaaaaaaaaa\u{e9}"
+                .to_string(),
+            "0000000001.000 16777343 7001 camera 00 001 001 1 1 8 1 0 9 \u{e9}\u{e9}\u{e9}\u{e9}\u{e9}\u{e9}\u{e9}\u{e9}\u{e9}"
+                .to_string(),
+        ];
+        for line in &lines {
+            let got = std::panic::catch_unwind(|| parse_line(line));
+            let Ok(result) = got else {
+                panic!("panicked on {line:?}")
+            };
+            let err = result.err().unwrap_or_else(|| panic!("accepted {line:?}"));
+            assert!(!err.to_string().is_empty(), "{line:?}");
+        }
     }
 
     #[test]

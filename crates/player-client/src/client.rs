@@ -368,6 +368,30 @@ impl PlayerClient {
         self.lock().read()
     }
 
+    /// `playerc_client_requestdata`: in PULL mode, asks the server for a round of data unless
+    /// one is already asked for (nothing in PUSH mode). [`PlayerClient::read`] and
+    /// [`PlayerClient::peek`] do it themselves; libplayerc scripts also call it before
+    /// polling with [`PlayerClient::read_nonblock`].
+    pub fn request_data(&self) -> Result<(), ClientError> {
+        self.lock().request_data()
+    }
+
+    /// `playerc_client_peek`: whether a message is waiting to be read, waiting at most
+    /// `timeout` for one (zero: only looks; `None`: as long as it takes). In PULL mode a
+    /// round of data is asked for first ([`PlayerClient::request_data`]); with `request`
+    /// false it is not (`playerc_client_internal_peek`). Nothing is consumed: the next read
+    /// handles the message.
+    pub fn peek(&self, timeout: Option<Duration>, request: bool) -> Result<bool, ClientError> {
+        self.lock().peek(timeout, request)
+    }
+
+    /// `playerc_client_read_nonblock`: handles the messages that have arrived, without
+    /// waiting for more. `true` when they completed a read (a PUSH DATA message, or the
+    /// SYNCH ending a PULL round), `false` when nothing that completes one is waiting.
+    pub fn read_nonblock(&self) -> Result<bool, ClientError> {
+        self.lock().read_nonblock()
+    }
+
     /// The subscribed devices that received DATA since the previous call, in the order of
     /// their first message, with their latest timestamps. Bindings that keep their proxies'
     /// state themselves (the Python `playerc` module) learn from it which proxies a
@@ -535,12 +559,83 @@ impl Inner {
         }
     }
 
-    fn read(&mut self) -> Result<(), ClientError> {
-        let deadline = self.read_timeout.map(|t| Instant::now() + t);
-        if self.mode == DataMode::Pull && self.fifo.is_empty() && !self.data_requested {
+    fn request_data(&mut self) -> Result<(), ClientError> {
+        if self.mode == DataMode::Pull && !self.data_requested {
             self.request(player_addr(), PlayerReq::Data.into())?;
             self.data_requested = true;
             self.data_received = false;
+        }
+        Ok(())
+    }
+
+    fn peek(&mut self, timeout: Option<Duration>, request: bool) -> Result<bool, ClientError> {
+        if !self.fifo.is_empty() {
+            return Ok(true);
+        }
+        if request {
+            self.request_data()?;
+            // The request's wait may have kept what arrived meanwhile.
+            if !self.fifo.is_empty() {
+                return Ok(true);
+            }
+        }
+        let deadline = timeout.map(|t| Instant::now() + t);
+        match self.receive(deadline)? {
+            Some(m) => {
+                self.keep(m);
+                Ok(true)
+            }
+            None => Ok(false),
+        }
+    }
+
+    fn read_nonblock(&mut self) -> Result<bool, ClientError> {
+        loop {
+            let m = match self.fifo.pop_front() {
+                Some(m) => m,
+                None => match self.receive(Some(Instant::now()))? {
+                    Some(m) => m,
+                    None => return Ok(false),
+                },
+            };
+            match (m.kind(), self.mode) {
+                (Some(MsgType::Data), DataMode::Push) => {
+                    self.dispatch(m);
+                    return Ok(true);
+                }
+                (Some(MsgType::Data), DataMode::Pull) => {
+                    self.dispatch(m);
+                    self.data_received = true;
+                }
+                (Some(MsgType::Synch), DataMode::Pull) => return self.end_round(m).map(|()| true),
+                (Some(MsgType::Synch), DataMode::Push) => {}
+                (Some(MsgType::RespAck), _) => tracing::warn!("discarding unclaimed ACK"),
+                (kind, _) => return Err(unexpected(kind, &m)),
+            }
+        }
+    }
+
+    /// The SYNCH that ends a PULL round: the round is over; an error when it brought no data
+    /// or the server dropped messages for this client (its overflow count).
+    fn end_round(&mut self, m: Received) -> Result<(), ClientError> {
+        self.data_requested = false;
+        if let Some(Body::Player(PlayerMsg::Synch(PlayerSynch::Overflow(n)))) = m.body {
+            self.overflow = self.overflow.saturating_add(n.value);
+        }
+        if !self.data_received {
+            return Err(ClientError::NoData);
+        }
+        if self.overflow > 0 {
+            let dropped = std::mem::take(&mut self.overflow);
+            return Err(ClientError::Overflow { dropped });
+        }
+        Ok(())
+    }
+
+    fn read(&mut self) -> Result<(), ClientError> {
+        let deadline = self.read_timeout.map(|t| Instant::now() + t);
+        if self.fifo.is_empty() {
+            self.request_data()?;
         }
         loop {
             let m = match self.fifo.pop_front() {
@@ -576,27 +671,17 @@ impl Inner {
                     tracing::warn!("discarding unclaimed ACK");
                 }
                 (Some(MsgType::Synch), DataMode::Push) => {}
-                (Some(MsgType::Synch), DataMode::Pull) => {
-                    self.data_requested = false;
-                    if let Some(Body::Player(PlayerMsg::Synch(PlayerSynch::Overflow(n)))) = m.body {
-                        self.overflow = self.overflow.saturating_add(n.value);
-                    }
-                    if !self.data_received {
-                        return Err(ClientError::NoData);
-                    }
-                    if self.overflow > 0 {
-                        let dropped = std::mem::take(&mut self.overflow);
-                        return Err(ClientError::Overflow { dropped });
-                    }
-                    return Ok(());
-                }
-                (kind, _) => {
-                    return Err(ClientError::Unexpected(format!(
-                        "{:?} from {}:{} subtype {}",
-                        kind, m.header.addr.interf, m.header.addr.index, m.header.subtype
-                    )));
-                }
+                (Some(MsgType::Synch), DataMode::Pull) => return self.end_round(m),
+                (kind, _) => return Err(unexpected(kind, &m)),
             }
         }
     }
+}
+
+/// The error for a message a read cannot place (a NACK nobody waits for, a request).
+fn unexpected(kind: Option<MsgType>, m: &Received) -> ClientError {
+    ClientError::Unexpected(format!(
+        "{:?} from {}:{} subtype {}",
+        kind, m.header.addr.interf, m.header.addr.index, m.header.subtype
+    ))
 }

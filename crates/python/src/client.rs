@@ -72,6 +72,36 @@ fn points(pts: Vec<(f64, f64)>) -> Vec<Point2d> {
     pts.into_iter().map(|(px, py)| Point2d { px, py }).collect()
 }
 
+/// The devices the last read updated, with the latest DATA of each of their subtypes.
+fn updated(client: &PlayerClient) -> Updates {
+    client
+        .take_updated()
+        .into_iter()
+        .map(|(interf, index, t)| {
+            let bodies = (0u8..=8)
+                .filter_map(|s| client.latest(interf, index, s))
+                .collect();
+            (interf.0, index, t, bodies)
+        })
+        .collect()
+}
+
+/// `read()`'s answer: `(interface code, index, timestamp, fields)` per updated device, the
+/// fields of all its bodies merged into one dict of libplayerc names.
+fn updates_to_py(py: Python<'_>, updates: Updates) -> PyResult<Bound<'_, PyList>> {
+    let out = PyList::empty(py);
+    for (interf, index, t, bodies) in updates {
+        let fields = PyDict::new(py);
+        for b in &bodies {
+            if let Some(d) = convert::data(py, b)? {
+                fields.update(d.as_mapping())?;
+            }
+        }
+        out.append((interf, index, t, fields))?;
+    }
+    Ok(out)
+}
+
 fn bad_reply(what: &str) -> PyErr {
     PlayerError::new_err(format!("unexpected reply to {what}"))
 }
@@ -261,29 +291,43 @@ impl Connection {
                     Ok(()) | Err(ClientError::Overflow { .. }) => {}
                     Err(e) => return Err(e),
                 }
-                Ok(client
-                    .take_updated()
-                    .into_iter()
-                    .map(|(interf, index, t)| {
-                        let bodies = (0u8..=8)
-                            .filter_map(|s| client.latest(interf, index, s))
-                            .collect();
-                        (interf.0, index, t, bodies)
-                    })
-                    .collect())
+                Ok(updated(&client))
             })
             .map_err(client_err)?;
-        let out = PyList::empty(py);
-        for (interf, index, t, bodies) in updates {
-            let fields = PyDict::new(py);
-            for b in &bodies {
-                if let Some(d) = convert::data(py, b)? {
-                    fields.update(d.as_mapping())?;
+        updates_to_py(py, updates)
+    }
+
+    /// `playerc_client_requestdata`: in PULL mode, asks for a round of data unless one is
+    /// asked for already.
+    fn request_data(&self, py: Python<'_>) -> PyResult<()> {
+        self.call(py, |c| c.request_data())
+    }
+
+    /// `playerc_client_peek` (`request` true) / `internal_peek` (false): whether a message
+    /// is waiting, waiting at most `seconds` (`None`: as long as it takes).
+    #[pyo3(signature = (seconds, request=true))]
+    fn peek(&self, py: Python<'_>, seconds: Option<f64>, request: bool) -> PyResult<bool> {
+        let timeout = seconds
+            .map(|s| Duration::try_from_secs_f64(s.max(0.0)))
+            .transpose()
+            .map_err(|e| PlayerError::new_err(format!("peek timeout {seconds:?}: {e}")))?;
+        self.call(py, move |c| c.peek(timeout, request))
+    }
+
+    /// `playerc_client_read_nonblock`: handles what has arrived without waiting. `None` when
+    /// that completed no read, else the updates as `read()` returns them.
+    fn read_nonblock<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyList>>> {
+        let client = self.client()?;
+        let updates = py
+            .allow_threads(move || -> Result<Option<Updates>, ClientError> {
+                match client.read_nonblock() {
+                    Ok(true) | Err(ClientError::Overflow { .. }) => Ok(Some(updated(&client))),
+                    Ok(false) => Ok(None),
+                    Err(e) => Err(e),
                 }
-            }
-            out.append((interf, index, t, fields))?;
-        }
-        Ok(out)
+            })
+            .map_err(client_err)?;
+        updates.map(|u| updates_to_py(py, u)).transpose()
     }
 
     // --- position2d -------------------------------------------------------------------

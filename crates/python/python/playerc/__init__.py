@@ -651,15 +651,60 @@ class playerc_client:
         except _native.PlayerError as e:
             _fail(e)
             return None
+        last = self._dispatch(updates)
+        if self.mode == PLAYER_DATAMODE_PULL or last is None:
+            return self.id
+        return last.info.id
+
+    def _dispatch(self, updates: list):
+        """Hands a read's updates to the proxies of their devices; the last proxy updated."""
         last = None
         for code, index, t, fields in updates:
             self.lasttime, self.datatime = self.datatime, t
             for p in self._proxies.get((code, index), ()):
                 p._update(t, fields)
                 last = p
-        if self.mode == PLAYER_DATAMODE_PULL or last is None:
-            return self.id
-        return last.info.id
+        return last
+
+    def requestdata(self) -> int:
+        """``playerc_client_requestdata``: in PULL mode asks the server for a round of data,
+        unless one is asked for already (``read()`` and ``peek()`` do it themselves). 0 / -1."""
+        try:
+            self._connection().request_data()
+            return 0
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def _peek(self, timeout: int, request: bool) -> int:
+        seconds = None if timeout < 0 else timeout / 1000.0
+        try:
+            return int(self._connection().peek(seconds, request))
+        except _native.PlayerError as e:
+            return _fail(e)
+
+    def peek(self, timeout: int) -> int:
+        """``playerc_client_peek``: 1 when data is waiting to be read, 0 when none came within
+        ``timeout`` milliseconds (negative: wait as long as it takes), -1 on error. In PULL
+        mode a round of data is asked for first, as libplayerc does; nothing is consumed."""
+        return self._peek(timeout, True)
+
+    def internal_peek(self, timeout: int) -> int:
+        """``playerc_client_internal_peek``: ``peek`` without asking for data."""
+        return self._peek(timeout, False)
+
+    def read_nonblock(self) -> int:
+        """``playerc_client_read_nonblock``: handles the data that has arrived without
+        waiting: 1 when it completed a read (a PUSH message, or a PULL round after
+        ``requestdata()``), 0 when nothing that completes one is waiting, -1 on error. The
+        proxies are updated as by ``read()``."""
+        try:
+            updates = self._connection().read_nonblock()
+        except _native.PlayerError as e:
+            return _fail(e)
+        if updates is None:
+            return 0
+        self._dispatch(updates)
+        return 1
 
     def _add(self, proxy):
         self._proxies.setdefault((proxy._code, proxy.index), []).append(proxy)

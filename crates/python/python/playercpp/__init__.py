@@ -151,12 +151,18 @@ class PlayerClient:
         if self._pc.read() is None:
             raise PlayerError("PlayerClient::Read", _pc.playerc_error_str())
 
-    def ReadIfWaiting(self):
-        self.Read()
+    def ReadIfWaiting(self) -> None:
+        """Reads when data is waiting (a PULL round is asked for first), else returns."""
+        if self.Peek(0):
+            self.Read()
 
-    def Peek(self, timeout=0):
-        """True: libplayerc++ clients call ``Read`` next, which waits for data."""
-        return True
+    def Peek(self, timeout: int = 0) -> bool:
+        """Whether data is waiting, waiting at most ``timeout`` milliseconds for it (in PULL
+        mode a round is asked for first, as libplayerc++ does)."""
+        ret = self._pc.peek(timeout)
+        if ret < 0:
+            raise PlayerError("PlayerClient::Peek", _pc.playerc_error_str())
+        return ret > 0
 
     def SetDataMode(self, aMode):
         _check("PlayerClient::SetDataMode", self._pc.datamode(aMode))

@@ -277,6 +277,52 @@ def test_only_the_tcp_transport_connects(server):
     c.disconnect()
 
 
+
+def test_peek_requestdata_and_read_nonblock_in_pull_mode(server):
+    c = connect(server.port)
+    p = sub(playerc_position2d(c, 0))
+    assert c.read() == c.id
+    # A finished round: nothing more comes until asked for.
+    assert c.internal_peek(100) == 0
+    assert c.read_nonblock() == 0
+    before = p.info.datatime
+    assert c.peek(2000) == 1  # asks for a round, then finds its data waiting
+    assert c.read() == c.id and p.info.datatime > before
+    # Polling: ask once, then read_nonblock until the round is complete.
+    before = p.info.datatime
+    assert c.requestdata() == 0
+    wait_until(lambda: c.read_nonblock() == 1)
+    assert p.info.datatime > before
+    assert c.read_nonblock() == 0
+    c.disconnect()
+    assert c.peek(0) == -1 and c.read_nonblock() == -1 and c.requestdata() == -1
+
+
+def test_read_nonblock_in_push_mode(server):
+    c = connect(server.port)
+    p = sub(playerc_position2d(c, 0))
+    assert c.datamode(PLAYER_DATAMODE_PUSH) == 0
+    assert c.peek(2000) == 1
+    before = p.info.datatime
+    wait_until(lambda: c.read_nonblock() == 1 and p.info.datatime > before)
+    assert c.unsubscribe(PLAYER_POSITION2D_CODE, 0) == 0
+    # Once what was already on its way is handled, nothing more comes.
+    wait_until(lambda: c.read_nonblock() == 0 and c.internal_peek(200) == 0)
+    c.disconnect()
+
+
+def test_playercpp_peek_and_read_if_waiting(server):
+    robot = playercpp.PlayerClient("localhost", server.port)
+    pp = playercpp.Position2dProxy(robot, 0)
+    robot.Read()
+    before = pp.GetDataTime()
+    assert robot.Peek(2000)
+    robot.ReadIfWaiting()
+    assert pp.GetDataTime() > before
+    robot.Disconnect()
+    with pytest.raises(playercpp.PlayerError):
+        robot.Peek(0)
+
 # --- the laser's id and printout -----------------------------------------------------------------
 
 

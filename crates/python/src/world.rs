@@ -10,7 +10,8 @@ use std::path::PathBuf;
 
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
-use stage_sim::{GripperCmd, ModelId, Pose, on_sim_threads};
+use stage_sim::{Body, GripperCmd, ModelId, Pose, on_sim_threads};
+use worldfile::models::Drive;
 
 use crate::convert;
 use crate::errors::WorldError;
@@ -58,6 +59,48 @@ impl World {
             e => sim_err(e),
         })
     }
+}
+
+/// Whether the point `p` lies inside the closed polygon `pts` (crossing number; a point on an
+/// edge may go either way, which the edge test of [`blocks_overlap`] covers).
+fn point_in_polygon(p: [f64; 2], pts: &[[f64; 2]]) -> bool {
+    let mut inside = false;
+    let mut j = pts.len().wrapping_sub(1);
+    for (i, &a) in pts.iter().enumerate() {
+        let b = pts[j];
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
+        {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}
+
+/// Whether block `i` of body `a` and block `j` of body `b` share a point: their z intervals
+/// overlap and their outlines cross, or one lies inside the other.
+fn blocks_overlap(a: &Body, i: usize, b: &Body, j: usize) -> bool {
+    let (ba, bb) = (&a.blocks[i], &b.blocks[j]);
+    if ba.zmax <= bb.zmin || bb.zmax <= ba.zmin {
+        return false;
+    }
+    let (x, y) = (ba.aabb, bb.aabb);
+    if x.max[0] < y.min[0] || y.max[0] < x.min[0] || x.max[1] < y.min[1] || y.max[1] < x.min[1] {
+        return false;
+    }
+    let crossing = a.edges(i).any(|(p1, p2)| {
+        b.edges(j)
+            .any(|(q1, q2)| stage_sim::geom::segments_intersect(p1, p2, q1, q2))
+    });
+    let (pa, pb) = (a.block_pts(i), b.block_pts(j));
+    crossing
+        || pa
+            .first()
+            .is_some_and(|&p| pb.len() > 2 && point_in_polygon(p, pb))
+        || pb
+            .first()
+            .is_some_and(|&p| pa.len() > 2 && point_in_polygon(p, pa))
 }
 
 #[pymethods]
@@ -218,6 +261,97 @@ impl World {
         convert::odometry(&d, [pos.x, pos.y, pos.a], [vel.x, vel.y, vel.a], s.stall)?;
         d.set_item("time", s.time_us as f64 / 1e6)?;
         Ok(Some(d))
+    }
+
+    /// A position model's drive (`"diff"`, `"omni"` or `"car"`) and its `velocity_bounds`
+    /// `[xmin, xmax, ymin, ymax, zmin, zmax, amin, amax]` (m/s, rad/s) as resolved from the
+    /// worldfile: what a controller may command (Stage clamps commands to them), e.g. the
+    /// bounds of a learning agent's action space.
+    fn position_config(&self, name: &str) -> PyResult<(&'static str, [f64; 8])> {
+        let p = self.sensor(name, "position model", |w, m| w.position_model(m))?;
+        let drive = match p.cfg.drive {
+            Drive::Diff => "diff",
+            Drive::Omni => "omni",
+            Drive::Car => "car",
+        };
+        Ok((drive, p.cfg.velocity_bounds))
+    }
+
+    /// The rangers in the model's tree (the model and its descendants, parents first) as
+    /// `[(name, samples, range_max)]`: `samples` is the length of `ranger(name)["ranges"]`
+    /// (one transducer: its samples; several: one reading each) and `range_max` the largest
+    /// reach of its transducers (m), so a caller can size its buffers before the first step.
+    fn rangers(&self, name: &str) -> PyResult<Vec<(String, usize, f64)>> {
+        let m = self.model(name)?;
+        let mut out = Vec::new();
+        for s in self.world.subtree(m).map_err(sim_err)? {
+            if self.world.model_type(s).map_err(sim_err)? != stage_sim::ModelType::Ranger {
+                continue;
+            }
+            let sensors = &self.world.ranger_scans(s).map_err(sim_err)?.sensors;
+            let samples = match sensors.as_slice() {
+                [one] => one.samples as usize,
+                all => all.len(),
+            };
+            let range_max = sensors.iter().map(|d| d.range[1]).fold(0.0, f64::max);
+            out.push((
+                self.world.name(s).map_err(sim_err)?.to_string(),
+                samples,
+                range_max,
+            ));
+        }
+        Ok(out)
+    }
+
+    /// Whether the model's tree, at its current pose, overlaps a block of any model outside
+    /// its tree (outlines crossing or one inside the other, z intervals overlapping,
+    /// whatever their `obstacle_return`). False means the pose is in free space: used to draw
+    /// start and goal poses that need no step to test.
+    fn overlaps(&self, name: &str) -> PyResult<bool> {
+        let m = self.model(name)?;
+        let mine = self.world.subtree(m).map_err(sim_err)?;
+        let mut bodies = Vec::with_capacity(mine.len());
+        for &s in &mine {
+            bodies.push(self.world.body(s).map_err(sim_err)?);
+        }
+        for other in self.world.models() {
+            if self.world.related(m, other).map_err(sim_err)? {
+                continue;
+            }
+            let ob = self.world.body(other).map_err(sim_err)?;
+            for body in &bodies {
+                for i in 0..body.blocks.len() {
+                    if (0..ob.blocks.len()).any(|j| blocks_overlap(body, i, ob, j)) {
+                        return Ok(true);
+                    }
+                }
+            }
+        }
+        Ok(false)
+    }
+
+    /// The world-axis-aligned box around every model's blocks as they are now, `[xmin, ymin,
+    /// xmax, ymax]` (m), where random start and goal poses are drawn; None for a world
+    /// without blocks.
+    fn extent(&self) -> PyResult<Option<[f64; 4]>> {
+        let mut out: Option<[f64; 4]> = None;
+        for m in self.world.models() {
+            let body = self.world.body(m).map_err(sim_err)?;
+            if body.is_empty() {
+                continue;
+            }
+            let (lo, hi) = (body.aabb.min, body.aabb.max);
+            out = Some(match out {
+                None => [lo[0], lo[1], hi[0], hi[1]],
+                Some(e) => [
+                    e[0].min(lo[0]),
+                    e[1].min(lo[1]),
+                    e[2].max(hi[0]),
+                    e[3].max(hi[1]),
+                ],
+            });
+        }
+        Ok(out)
     }
 
     /// A ranger's data as Player publishes it: `{ranges, intensities, bearings, time}`

@@ -1,9 +1,9 @@
 //! Runs the Python package's test suite (`crates/python/tests/python/`, pytest) from
 //! `cargo test`, so the README's one test command covers it.
 //!
-//! In the target directory it creates a virtualenv (`python-venv/`) with maturin, pytest and
-//! numpy from PyPI (once; `pip` is not run again while the venv's marker file says they are
-//! there), builds and installs the package into it with `maturin develop` (dev profile, same
+//! In the target directory it creates a virtualenv (`python-venv/`) with [`TEST_DEPS`] from
+//! PyPI (once; `pip` is not run again while the venv's marker file lists exactly them, so adding
+//! a dependency reinstalls into an existing venv), builds and installs the package into it with `maturin develop` (dev profile, same
 //! target directory: the workspace's crates are not built twice), makes sure the `player`
 //! binary exists, and runs pytest, which starts `player` servers on free ports. The test fails
 //! when pytest fails; without a `python3` it fails too, unless `PLAYERSTAGE_SKIP_PYTHON=1`
@@ -37,6 +37,10 @@ fn run(cmd: &mut Command, what: &str) {
         .unwrap_or_else(|e| panic!("{what}: cannot run {cmd:?}: {e}"));
     assert!(status.success(), "{what} failed ({status})");
 }
+
+/// What the test virtualenv gets from PyPI; `.ci/run` installs the same list and writes the
+/// same marker (one line: the list joined by spaces).
+const TEST_DEPS: &[&str] = &["maturin>=1.5,<2", "pytest", "numpy", "gymnasium"];
 
 fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
@@ -73,21 +77,21 @@ fn python_package_test_suite() {
         );
     }
     let marker = venv.join("playerstage-test-deps");
-    if !marker.is_file() {
+    let want = format!("{}\n", TEST_DEPS.join(" "));
+    if std::fs::read_to_string(&marker).ok().as_deref() != Some(want.as_str()) {
         run(
-            Command::new(&vpython).args([
-                "-m",
-                "pip",
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-                "maturin>=1.5,<2",
-                "pytest",
-                "numpy",
-            ]),
-            "installing maturin, pytest and numpy from PyPI",
+            Command::new(&vpython)
+                .args([
+                    "-m",
+                    "pip",
+                    "install",
+                    "--quiet",
+                    "--disable-pip-version-check",
+                ])
+                .args(TEST_DEPS),
+            "installing the test dependencies from PyPI",
         );
-        std::fs::write(&marker, "maturin pytest numpy\n").expect("writing the venv marker");
+        std::fs::write(&marker, &want).expect("writing the venv marker");
     }
 
     // The server the tests start: this workspace's `player`.

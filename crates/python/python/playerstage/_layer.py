@@ -661,6 +661,29 @@ class World:
     def set_velocity(self, name: str, vx: float, vy: float = 0.0, vyaw: float = 0.0) -> None:
         self._w.set_velocity(name, vx, vy, vyaw)
 
+    def position_config(self, name: str) -> tuple:
+        """A position model's drive (``"diff"``, ``"omni"`` or ``"car"``) and its
+        ``velocity_bounds`` ``[xmin, xmax, ymin, ymax, zmin, zmax, amin, amax]`` (m/s, rad/s):
+        the commands Stage accepts, e.g. an agent's action bounds."""
+        return self._w.position_config(name)
+
+    def rangers(self, name: str) -> List[tuple]:
+        """The rangers in the model's tree (itself and its descendants, parents first) as
+        ``[(name, samples, range_max)]``: ``samples`` is the length of ``ranger(name).ranges``,
+        ``range_max`` the largest reach of its transducers (m); known before the first step."""
+        return self._w.rangers(name)
+
+    def extent(self) -> Optional[List[float]]:
+        """The axis-aligned box around every model's blocks as they are now, ``[xmin, ymin,
+        xmax, ymax]`` (m); None when no model has blocks."""
+        return self._w.extent()
+
+    def overlaps(self, name: str) -> bool:
+        """Whether the model's tree, at its current pose, overlaps a block of any model outside
+        its tree (outlines crossing or one inside the other, z ranges overlapping, whatever
+        their ``obstacle_return``): False means the pose is in free space."""
+        return self._w.overlaps(name)
+
     def goto(self, name: str, x: float, y: float, yaw: float) -> None:
         self._w.set_goal(name, x, y, yaw)
 

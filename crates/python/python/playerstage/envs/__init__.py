@@ -1,0 +1,31 @@
+"""Learning loops on Stage worlds: Gymnasium environments built on :class:`playerstage.World`.
+
+``import playerstage.envs`` registers ``playerstage/Stage-v0`` with Gymnasium (it needs the
+``gymnasium`` package; ``import playerstage`` alone does not)::
+
+    import gymnasium
+    import playerstage.envs
+
+    env = gymnasium.make("playerstage/Stage-v0", world="worlds/bigbob.world", robot="bob1")
+    obs, info = env.reset(seed=1)
+    obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+
+See :class:`StageEnv` for the spaces and the task contract.
+"""
+
+from gymnasium.envs.registration import register, registry
+
+from ._stage_env import StageEnv, Task
+
+__all__ = ["StageEnv", "Task", "ENV_ID"]
+
+#: The id :class:`StageEnv` is registered under.
+ENV_ID = "playerstage/Stage-v0"
+
+# Registration is the one piece of global state; importing twice (or reloading) must not warn.
+if ENV_ID not in registry:
+    register(
+        id=ENV_ID,
+        entry_point="playerstage.envs._stage_env:StageEnv",
+        max_episode_steps=1000,
+    )

@@ -299,3 +299,16 @@ def test_bad_arguments(small_world):
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action of shape"):
         env.step(np.zeros(3))
+
+
+def test_no_free_pose_is_an_error(tmp_path):
+    # a robot wider than the walled-in floor fits nowhere
+    path = tmp_path / "cramped.world"
+    text = SMALL_WORLD.format(drive="diff").replace("size [0.4 0.4 0.3]", "size [9 9 0.3]")
+    path.write_text(text)
+    env = StageEnv(path, "r0", goal=(0.0, 0.0), max_draws=50)
+    env.reset(seed=0)  # the file's pose is not drawn, so not tested
+    with pytest.raises(RuntimeError, match="no free pose for `r0` in 50 draws"):
+        env.reset(seed=0, options={"random_start": True})
+    with pytest.raises(ValueError, match="max_draws"):
+        StageEnv(path, "r0", max_draws=0)

@@ -70,7 +70,8 @@ class StageEnv(gymnasium.Env):
     ``np_random`` (seeded by ``reset(seed=...)``), uniformly over the box around every model's
     blocks (``World.extent()``); a pose is free when the robot's tree there overlaps no block
     of another model (``World.overlaps``, any ``obstacle_return``), and a drawn goal is more
-    than ``2 * goal_tolerance`` from the start. The same seed and options therefore give the
+    than ``2 * goal_tolerance`` from the start; after ``max_draws`` draws without one, reset
+    raises ``RuntimeError``. The same seed and options therefore give the
     same episode, bit for bit. The robot must be a top-level model (poses are set in its
     parent's frame).
     """
@@ -104,6 +105,8 @@ class StageEnv(gymnasium.Env):
             int(max_episode_steps) != max_episode_steps or max_episode_steps < 1
         ):
             raise ValueError(f"max_episode_steps {max_episode_steps!r}: not a whole number >= 1")
+        if int(max_draws) != max_draws or max_draws < 1:
+            raise ValueError(f"max_draws {max_draws!r}: not a whole number >= 1")
         if isinstance(task, str):
             if task != "goal":
                 raise ValueError(f"task {task!r}: the built-in tasks are 'goal' (or None)")

@@ -7,9 +7,12 @@
 
 use player_server::stage::convert as player_view;
 use std::path::PathBuf;
+use std::sync::Mutex;
 
+use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
+use rayon::prelude::*;
 use stage_sim::{Body, GripperCmd, ModelId, Pose, on_sim_threads};
 use worldfile::models::Drive;
 
@@ -21,10 +24,32 @@ use crate::errors::WorldError;
 pub struct World {
     world: stage_sim::World,
     path: PathBuf,
+    /// The worldfile's `window` (default size, what to draw) for `render`.
+    window: worldfile::WindowSpec,
+    /// Model colours and outlines as the viewer draws them, for `render`.
+    gui: viewer::world_scene::WorldGui,
+    /// The last rendered scene: its static layer is reused while the walls stay put.
+    scene: viewer::Scene,
 }
+
+/// The one offscreen renderer of the process, opened by the first `render`: opening a device
+/// takes far longer than a frame, and every episode's reset makes a new `World`.
+static OFFSCREEN: Mutex<Option<viewer::Offscreen>> = Mutex::new(None);
 
 fn sim_err(e: stage_sim::Error) -> PyErr {
     WorldError::new_err(e.to_string())
+}
+
+/// `n` steps of `world`, stopping at its `quit_time`: false once reached.
+fn step_n(world: &mut stage_sim::World, n: u64) -> bool {
+    let mut running = true;
+    for _ in 0..n {
+        running = world.step();
+        if !running {
+            break;
+        }
+    }
+    running
 }
 
 fn pose_list(p: &Pose) -> [f64; 3] {
@@ -112,7 +137,7 @@ impl World {
     #[pyo3(signature = (path, seed=0))]
     fn new(py: Python<'_>, path: PathBuf, seed: u64) -> PyResult<Self> {
         let load_path = path.clone();
-        let (mut world, _spec) = py
+        let (mut world, spec) = py
             .allow_threads(move || stage_sim::World::load(&load_path, seed))
             .map_err(sim_err)?;
         let models: Vec<ModelId> = world.models().collect();
@@ -128,7 +153,65 @@ impl World {
                 _ => {}
             }
         }
-        Ok(World { world, path })
+        Ok(World {
+            window: spec.window.clone().unwrap_or_default(),
+            gui: viewer::world_scene::WorldGui::from_spec(&spec),
+            scene: viewer::Scene::default(),
+            world,
+            path,
+        })
+    }
+
+    /// The whole world drawn top-down by the viewer's offscreen renderer (what the world
+    /// window shows, fitted to every model's blocks, with the `window` entity's View
+    /// settings): `(width, height, rgb bytes)`, rows from the top. `width`/`height` default
+    /// to the `window` entity's `size`. The renderer (any wgpu adapter, Mesa's software
+    /// Vulkan included) is opened once per process; without one this raises RuntimeError
+    /// starting "no graphics adapter".
+    #[pyo3(signature = (width=None, height=None))]
+    fn render<'py>(
+        &mut self,
+        py: Python<'py>,
+        width: Option<u32>,
+        height: Option<u32>,
+    ) -> PyResult<(u32, u32, Bound<'py, PyBytes>)> {
+        let mut view = viewer::View::from_window(&self.window);
+        let size = [
+            width.unwrap_or(view.size[0] as u32),
+            height.unwrap_or(view.size[1] as u32),
+        ];
+        if !(1..=8192).contains(&size[0]) || !(1..=8192).contains(&size[1]) {
+            return Err(WorldError::new_err(format!(
+                "render size {}x{}: width and height must be 1..=8192 pixels",
+                size[0], size[1]
+            )));
+        }
+        view.size = [size[0] as f64, size[1] as f64];
+        let (min, max) = viewer::world_scene::world_extent(&self.world);
+        view.fit(min, max);
+        let vis = viewer::world_scene::VisOptions::from_window(&self.window);
+        viewer::world_scene::build(&self.world, &self.gui, &vis, &view, &[], &mut self.scene);
+        let scene = &self.scene;
+        let pixels = py.allow_threads(|| {
+            let mut slot = OFFSCREEN.lock().unwrap_or_else(|e| e.into_inner());
+            if slot.is_none() {
+                *slot = Some(viewer::Offscreen::new()?);
+            }
+            slot.as_mut().expect("opened above").render(scene, &view)
+        });
+        let pixels = pixels.map_err(|e| match e {
+            viewer::ViewerError::NoAdapter => PyRuntimeError::new_err(
+                "no graphics adapter for offscreen rendering (wgpu found no Vulkan or GL \
+                 adapter); install Mesa's Vulkan driver (lavapipe, e.g. mesa-vulkan-drivers)",
+            ),
+            e => PyRuntimeError::new_err(format!("offscreen rendering failed: {e}")),
+        })?;
+        let rgb: Vec<u8> = pixels
+            .rgba
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect();
+        Ok((pixels.width, pixels.height, PyBytes::new(py, &rgb)))
     }
 
     /// Advances `n` steps of `interval_sim` each (GIL released); returns False once the
@@ -136,18 +219,7 @@ impl World {
     #[pyo3(signature = (n=1))]
     fn step(&mut self, py: Python<'_>, n: u64) -> bool {
         let world = &mut self.world;
-        py.allow_threads(|| {
-            on_sim_threads(|| {
-                let mut running = true;
-                for _ in 0..n {
-                    running = world.step();
-                    if !running {
-                        break;
-                    }
-                }
-                running
-            })
-        })
+        py.allow_threads(|| on_sim_threads(|| step_n(world, n)))
     }
 
     /// Simulated time in seconds.
@@ -459,4 +531,24 @@ impl World {
         let m = self.model(name)?;
         self.world.say(m, text).map_err(sim_err)
     }
+}
+
+/// Steps every world of `worlds` `n` times, side by side on the simulation's thread pool with
+/// the GIL released (each world's own steps stay sequential, so each ends exactly as if
+/// stepped alone); returns, per world, False once its `quit_time` was reached (its steps stop
+/// there, as `World.step` does). `VectorStageEnv` steps its copies with it. A world listed
+/// twice raises (it cannot be stepped twice at once).
+#[pyfunction]
+#[pyo3(signature = (worlds, n=1))]
+pub fn step_worlds(py: Python<'_>, worlds: Vec<Bound<'_, World>>, n: u64) -> PyResult<Vec<bool>> {
+    let mut held = Vec::with_capacity(worlds.len());
+    for w in &worlds {
+        held.push(w.try_borrow_mut().map_err(|_| {
+            WorldError::new_err("step_worlds: a world is listed twice or is in use elsewhere")
+        })?);
+    }
+    let mut sims: Vec<&mut stage_sim::World> = held.iter_mut().map(|w| &mut w.world).collect();
+    Ok(py.allow_threads(|| {
+        on_sim_threads(|| sims.par_iter_mut().map(|world| step_n(world, n)).collect())
+    }))
 }

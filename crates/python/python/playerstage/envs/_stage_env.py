@@ -76,7 +76,9 @@ class StageEnv(gymnasium.Env):
     parent's frame).
     """
 
-    metadata: Dict[str, Any] = {"render_modes": []}
+    #: ``"rgb_array"``: :meth:`render` draws the world offscreen. Each env's ``render_fps`` is
+    #: the simulated rate of its actions, ``1 / (interval_sim * frame_skip)``.
+    metadata: Dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": None}
 
     def __init__(
         self,
@@ -97,8 +99,11 @@ class StageEnv(gymnasium.Env):
         max_draws: int = 10000,
         render_mode: Optional[str] = None,
     ) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r}: StageEnv does not render yet")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode {render_mode!r}: StageEnv renders {self.metadata['render_modes']}"
+                " ('human', in the world window, is not supported yet)"
+            )
         if int(frame_skip) != frame_skip or frame_skip < 1:
             raise ValueError(f"frame_skip {frame_skip!r}: not a whole number >= 1")
         if max_episode_steps is not None and (
@@ -131,6 +136,10 @@ class StageEnv(gymnasium.Env):
         self._max_draws = int(max_draws)
 
         self._load()
+        self.metadata = {
+            **self.metadata,
+            "render_fps": 1.0 / (self._world.interval * int(frame_skip)),
+        }
         drive, bounds = self._world.position_config(robot)
         self._drive: str = drive
         self._rangers: List[Tuple[str, int, float]] = self._world.rangers(robot)
@@ -248,6 +257,18 @@ class StageEnv(gymnasium.Env):
             self._max_episode_steps is not None and self._steps >= self._max_episode_steps
         )
         return self._observe(), reward, terminated, bool(truncated), info
+
+    def render(self) -> Optional[np.ndarray]:
+        """With ``render_mode="rgb_array"``: the whole world drawn top-down as the world window
+        draws it (the worldfile's ``window`` settings; its ``size``, 400x300 by default, is the
+        image's), fitted to every model's blocks: an ``(H, W, 3)`` uint8 array. Drawn by the
+        viewer's offscreen renderer on any wgpu adapter, Mesa's software Vulkan (lavapipe)
+        included, so it works headless; without any adapter it raises ``RuntimeError`` ("no
+        graphics adapter ..."). None when the env was made without a ``render_mode``."""
+        if self.render_mode is None:
+            return None
+        width, height, rgb = self._native.render()
+        return np.frombuffer(rgb, dtype=np.uint8).reshape(height, width, 3).copy()
 
     # -- internals ----------------------------------------------------------------------
 

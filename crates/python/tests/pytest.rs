@@ -40,7 +40,13 @@ fn run(cmd: &mut Command, what: &str) {
 
 /// What the test virtualenv gets from PyPI; `.ci/run` installs the same list and writes the
 /// same marker (one line: the list joined by spaces).
-const TEST_DEPS: &[&str] = &["maturin>=1.5,<2", "pytest", "numpy", "gymnasium"];
+const TEST_DEPS: &[&str] = &[
+    "maturin>=1.5,<2",
+    "pytest",
+    "numpy",
+    "gymnasium",
+    "pettingzoo",
+];
 
 fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))

@@ -292,7 +292,7 @@ def test_bad_arguments(small_world):
     with pytest.raises(ValueError, match="frame_skip"):
         StageEnv(small_world, "r0", frame_skip=0)
     with pytest.raises(ValueError, match="built-in tasks"):
-        StageEnv(small_world, "r0", task="explore")
+        StageEnv(small_world, "r0", task="wander")
     env = StageEnv(small_world, "r0")
     with pytest.raises(ValueError, match="unknown reset option"):
         env.reset(options={"random_goal": True})

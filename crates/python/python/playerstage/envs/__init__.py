@@ -11,13 +11,27 @@
     obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
 
 See :class:`StageEnv` for the spaces and the task contract.
+
+``parallel_env(world=PATH, agents=None, ...)`` makes the world's robots the agents of a
+PettingZoo ``ParallelEnv`` (:class:`StageParallelEnv`; it needs the ``pettingzoo`` package,
+imported on first use, so Gymnasium users need not install it).
 """
 
 from gymnasium.envs.registration import register, registry
 
 from ._stage_env import StageEnv, Task
 
-__all__ = ["StageEnv", "Task", "ENV_ID"]
+__all__ = ["StageEnv", "Task", "ENV_ID", "parallel_env", "StageParallelEnv"]
+
+
+def __getattr__(name):
+    # PettingZoo is imported when the parallel env is first asked for, not with this package.
+    if name in ("parallel_env", "StageParallelEnv"):
+        from . import _parallel_env
+
+        return getattr(_parallel_env, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 #: The id :class:`StageEnv` is registered under.
 ENV_ID = "playerstage/Stage-v0"

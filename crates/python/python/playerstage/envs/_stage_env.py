@@ -18,6 +18,9 @@ Task = Callable[[World, str], Tuple[float, bool, Dict[str, Any]]]
 
 _RESET_OPTIONS = frozenset({"random_start", "start", "goal"})
 
+#: The tasks named by a string.
+_BUILTIN_TASKS = ("goal", "explore")
+
 
 class StageEnv(gymnasium.Env):
     """One position model (``robot``) of the worldfile ``world``, simulated in-process.
@@ -52,6 +55,18 @@ class StageEnv(gymnasium.Env):
       terminates the episode; a stall terminates it too when ``terminate_on_stall``. ``info``
       has ``distance``, ``stall`` and ``reached``. The goal is ``options["goal"]``, else the
       constructor's ``goal``, else drawn in free space from the episode's seed.
+    - ``"explore"``: see new free space. Each step's reward is the free area (m^2) the
+      robot's rangers show for the first time this episode, in a world-frame grid of
+      ``explore_cell``-metre cells (default 0.1 m), minus ``stall_penalty`` on a stall (which
+      terminates the episode when ``terminate_on_stall``). A reading marks the cells along its
+      ray, sampled every half cell from the ranger up to the range read (the whole reach when
+      nothing was nearer), as seen; the ray leaves the ranger model's pose at the reading's
+      bearing (a transducer's own offset inside its ranger, as in a sonar ring, is not
+      applied). ``explore_rangers`` names the rangers used (default: all of the robot's).
+      What the start pose shows is mapped at reset without reward. ``info`` has ``new_area``,
+      ``explored`` (total area seen, m^2; also in reset's info) and ``stall``. The grid
+      covers the world's extent at load plus the rangers' reach; deterministic like the
+      world.
     - ``None``: reward 0, never terminated (sensing and motion only).
     - a callable ``task(world, robot) -> (reward, terminated, info)`` (see :data:`Task`),
       called after every step with the :class:`playerstage.World` and the robot's name.
@@ -97,6 +112,8 @@ class StageEnv(gymnasium.Env):
         flatten: bool = False,
         max_episode_steps: Optional[int] = None,
         max_draws: int = 10000,
+        explore_cell: float = 0.1,
+        explore_rangers: Optional[Sequence[str]] = None,
         render_mode: Optional[str] = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -104,21 +121,9 @@ class StageEnv(gymnasium.Env):
                 f"render_mode {render_mode!r}: StageEnv renders {self.metadata['render_modes']}"
                 " ('human', in the world window, is not supported yet)"
             )
-        if int(frame_skip) != frame_skip or frame_skip < 1:
-            raise ValueError(f"frame_skip {frame_skip!r}: not a whole number >= 1")
-        if max_episode_steps is not None and (
-            int(max_episode_steps) != max_episode_steps or max_episode_steps < 1
-        ):
-            raise ValueError(f"max_episode_steps {max_episode_steps!r}: not a whole number >= 1")
-        if int(max_draws) != max_draws or max_draws < 1:
-            raise ValueError(f"max_draws {max_draws!r}: not a whole number >= 1")
-        if isinstance(task, str):
-            if task != "goal":
-                raise ValueError(f"task {task!r}: the built-in tasks are 'goal' (or None)")
-        elif task is not None and not callable(task):
-            raise TypeError(f"task {task!r}: not 'goal', None or a callable")
-        if not (goal_tolerance > 0 and math.isfinite(goal_tolerance)):
-            raise ValueError(f"goal_tolerance {goal_tolerance!r}: not a positive length")
+        _check_common(
+            frame_skip, max_episode_steps, max_draws, task, goal_tolerance, explore_cell
+        )
         self.render_mode = render_mode
         self._path = os.fspath(world)
         self._robot = robot
@@ -140,38 +145,24 @@ class StageEnv(gymnasium.Env):
             **self.metadata,
             "render_fps": 1.0 / (self._world.interval * int(frame_skip)),
         }
-        drive, bounds = self._world.position_config(robot)
-        self._drive: str = drive
-        self._rangers: List[Tuple[str, int, float]] = self._world.rangers(robot)
+        self._agent = _Robot(
+            self._world,
+            robot,
+            task=task,
+            flatten=self._flatten,
+            goal_tolerance=self._goal_tolerance,
+            goal_reward=self._goal_reward,
+            stall_penalty=self._stall_penalty,
+            terminate_on_stall=self._terminate_on_stall,
+            explore_cell=float(explore_cell),
+            explore_rangers=explore_rangers,
+        )
+        self._drive: str = self._agent.drive
+        self._rangers: List[Tuple[str, int, float]] = self._agent.rangers
         self._extent: Optional[List[float]] = self._world.extent()
-
-        if drive == "omni":
-            low, high = [bounds[0], bounds[2], bounds[6]], [bounds[1], bounds[3], bounds[7]]
-        else:
-            low, high = [bounds[0], bounds[6]], [bounds[1], bounds[7]]
-        self.action_space = spaces.Box(
-            np.array(low, dtype=np.float64), np.array(high, dtype=np.float64), dtype=np.float64
-        )
-
-        inf = np.float32(np.inf)
-        ranger_spaces = {
-            name: spaces.Box(np.float32(0.0), np.float32(rmax), shape=(n,), dtype=np.float32)
-            for name, n, rmax in self._rangers
-        }
-        parts: Dict[str, spaces.Space] = {
-            "rangers": spaces.Dict(ranger_spaces),
-            "odometry": spaces.Box(-inf, inf, shape=(6,), dtype=np.float32),
-            "stall": spaces.Discrete(2),
-        }
-        if task == "goal":
-            parts["goal"] = spaces.Box(-inf, inf, shape=(2,), dtype=np.float32)
-        self._dict_space = spaces.Dict(parts)
-        self.observation_space = (
-            spaces.flatten_space(self._dict_space) if self._flatten else self._dict_space
-        )
-
-        self._goal: Optional[Tuple[float, float]] = None
-        self._distance = 0.0
+        self.action_space = self._agent.action_space
+        self._dict_space = self._agent.dict_space
+        self.observation_space = self._agent.observation_space
         self._steps = 0
 
     # -- public state -------------------------------------------------------------------
@@ -194,7 +185,7 @@ class StageEnv(gymnasium.Env):
     @property
     def goal(self) -> Optional[Tuple[float, float]]:
         """The goal position ``(x, y)`` (world frame) of the ``"goal"`` task, else None."""
-        return self._goal
+        return self._agent.goal
 
     # -- Gymnasium API ------------------------------------------------------------------
 
@@ -216,47 +207,37 @@ class StageEnv(gymnasium.Env):
             x, y, a = _pose3(start, "start")
             w.set_pose(robot, x, y, a)
         elif options.get("random_start", self._random_start):
-            self._place_free()
+            _place_free(w, robot, self.np_random, self._extent, self._max_draws, self._path)
         start_pose = w.global_pose(robot)
 
-        self._goal = None
+        goal: Optional[Tuple[float, float]] = None
         if self._task == "goal":
-            goal = options.get("goal")
-            if goal is not None:
-                self._goal = _pose2(goal, "goal")
+            if options.get("goal") is not None:
+                goal = _pose2(options["goal"], "goal")
             elif self._goal_default is not None:
-                self._goal = self._goal_default
+                goal = self._goal_default
             else:
-                self._goal = self._draw_goal(start_pose)
+                goal = _draw_goal(
+                    w, robot, self.np_random, self._extent, self._max_draws, self._path,
+                    start_pose, self._goal_tolerance,
+                )
 
         w.step(1)
         self._steps = 0
         info: Dict[str, Any] = {"start": tuple(start_pose)}
-        if self._goal is not None:
-            self._distance = self._goal_distance()
-            info.update(goal=self._goal, distance=self._distance)
-        return self._observe(), info
+        info.update(self._agent.begin(self._world, goal))
+        return self._agent.observe(w), info
 
     def step(self, action: Any) -> Tuple[Any, float, bool, bool, Dict[str, Any]]:
-        act = np.asarray(action, dtype=np.float64)
-        if act.shape != self.action_space.shape:
-            raise ValueError(
-                f"action of shape {act.shape}: the action space is {self.action_space}"
-            )
-        act = np.clip(act, self.action_space.low, self.action_space.high)
-        w, robot = self._native, self._robot
-        if self._drive == "omni":
-            w.set_velocity(robot, float(act[0]), float(act[1]), float(act[2]))
-        else:
-            w.set_velocity(robot, float(act[0]), 0.0, float(act[1]))
-        running = w.step(self._frame_skip)
+        self._agent.act(self._native, action)
+        running = self._native.step(self._frame_skip)
         self._steps += 1
 
-        reward, terminated, info = self._evaluate()
+        reward, terminated, info = self._agent.evaluate(self._world)
         truncated = not running or (
             self._max_episode_steps is not None and self._steps >= self._max_episode_steps
         )
-        return self._observe(), reward, terminated, bool(truncated), info
+        return self._agent.observe(self._native), reward, terminated, bool(truncated), info
 
     def render(self) -> Optional[np.ndarray]:
         """With ``render_mode="rgb_array"``: the whole world drawn top-down as the world window
@@ -278,44 +259,166 @@ class StageEnv(gymnasium.Env):
         # the native world under it: its dicts and lists are what observations are built from
         self._native = self._world._w
 
-    def _evaluate(self) -> Tuple[float, bool, Dict[str, Any]]:
+
+class _Robot:
+    """One position model's side of an environment: its action and observation spaces, how an
+    action becomes its command, its observation, and its task's state and rewards.
+
+    :class:`StageEnv` has one; :func:`playerstage.envs.parallel_env` one per agent, all on the
+    same world. ``world`` is the :class:`playerstage.World` the spaces are read from (any load
+    of the file: the spaces do not change between episodes).
+    """
+
+    def __init__(
+        self,
+        world: World,
+        robot: str,
+        *,
+        task: Union[str, Task, None],
+        flatten: bool,
+        goal_tolerance: float,
+        goal_reward: float,
+        stall_penalty: float,
+        terminate_on_stall: bool,
+        explore_cell: float,
+        explore_rangers: Optional[Sequence[str]],
+    ) -> None:
+        native = world._w
+        drive, bounds = native.position_config(robot)
+        self.robot = robot
+        self.drive: str = drive
+        self.task = task
+        self.flatten = flatten
+        self.goal_tolerance = goal_tolerance
+        self.goal_reward = goal_reward
+        self.stall_penalty = stall_penalty
+        self.terminate_on_stall = terminate_on_stall
+        self.rangers: List[Tuple[str, int, float]] = native.rangers(robot)
+
+        if drive == "omni":
+            low, high = [bounds[0], bounds[2], bounds[6]], [bounds[1], bounds[3], bounds[7]]
+        else:
+            low, high = [bounds[0], bounds[6]], [bounds[1], bounds[7]]
+        self.action_space = spaces.Box(
+            np.array(low, dtype=np.float64), np.array(high, dtype=np.float64), dtype=np.float64
+        )
+
+        inf = np.float32(np.inf)
+        ranger_spaces = {
+            name: spaces.Box(np.float32(0.0), np.float32(rmax), shape=(n,), dtype=np.float32)
+            for name, n, rmax in self.rangers
+        }
+        parts: Dict[str, spaces.Space] = {
+            "rangers": spaces.Dict(ranger_spaces),
+            "odometry": spaces.Box(-inf, inf, shape=(6,), dtype=np.float32),
+            "stall": spaces.Discrete(2),
+        }
+        if task == "goal":
+            parts["goal"] = spaces.Box(-inf, inf, shape=(2,), dtype=np.float32)
+        self.dict_space = spaces.Dict(parts)
+        self.observation_space = (
+            spaces.flatten_space(self.dict_space) if flatten else self.dict_space
+        )
+
+        self.goal: Optional[Tuple[float, float]] = None
+        self.distance = 0.0
+        self.explored: Optional[_ExploreMap] = None
+        self._explore_rangers: List[Tuple[str, float]] = []
+        self._explore_cell = explore_cell
+        self._extent = world.extent()
+        if task == "explore":
+            reach = {name: rmax for name, _, rmax in self.rangers}
+            names = list(reach) if explore_rangers is None else list(explore_rangers)
+            unknown = [n for n in names if n not in reach]
+            if unknown:
+                raise ValueError(
+                    f"explore_rangers {unknown}: not rangers of `{robot}` (those are "
+                    f"{sorted(reach)})"
+                )
+            if not names:
+                raise ValueError(f"task 'explore': `{robot}` has no ranger to see with")
+            if self._extent is None:
+                raise ValueError("task 'explore': the world has no blocks, so no area to map")
+            self._explore_rangers = [(n, reach[n]) for n in names]
+
+    def act(self, native: Any, action: Any) -> None:
+        """Commands the robot's speeds from `action` (checked against the space, clipped)."""
+        act = np.asarray(action, dtype=np.float64)
+        if act.shape != self.action_space.shape:
+            raise ValueError(
+                f"action of shape {act.shape} for `{self.robot}`: the action space is "
+                f"{self.action_space}"
+            )
+        act = np.clip(act, self.action_space.low, self.action_space.high)
+        if self.drive == "omni":
+            native.set_velocity(self.robot, float(act[0]), float(act[1]), float(act[2]))
+        else:
+            native.set_velocity(self.robot, float(act[0]), 0.0, float(act[1]))
+
+    def begin(self, world: World, goal: Optional[Tuple[float, float]]) -> Dict[str, Any]:
+        """Starts an episode's task once the robot is placed and the world took its first
+        step; returns what the task adds to reset's info."""
+        native = world._w
+        self.goal = goal if self.task == "goal" else None
+        info: Dict[str, Any] = {}
+        if self.goal is not None:
+            self.distance = self.goal_distance(native)
+            info.update(goal=self.goal, distance=self.distance)
+        if self.task == "explore":
+            assert self._extent is not None
+            reach = max(r for _, r in self._explore_rangers)
+            self.explored = _ExploreMap(self._extent, reach, self._explore_cell)
+            self.explored.see(native, self._explore_rangers)  # the start's view: no reward
+            info["explored"] = self.explored.area
+        return info
+
+    def evaluate(self, world: World) -> Tuple[float, bool, Dict[str, Any]]:
         """The task's reward, termination and info after a step."""
-        if self._task is None:
+        if self.task is None:
             return 0.0, False, {}
-        if callable(self._task):
-            out = self._task(self._world, self._robot)
+        if callable(self.task):
+            out = self.task(world, self.robot)
             if not (isinstance(out, tuple) and len(out) == 3 and isinstance(out[2], dict)):
                 raise TypeError(
-                    f"task {self._task!r} returned {out!r}: expected (reward, terminated, info)"
+                    f"task {self.task!r} returned {out!r}: expected (reward, terminated, info)"
                 )
             reward, terminated, info = out
             return float(reward), bool(terminated), info
-        stall = bool(self._native.position(self._robot)["stall"])
-        distance = self._goal_distance()
-        reward = self._distance - distance
-        self._distance = distance
+        native = world._w
+        p = native.position(self.robot)
+        stall = bool(p["stall"]) if p is not None else False
+        if self.task == "explore":
+            assert self.explored is not None
+            new = self.explored.see(native, self._explore_rangers)
+            reward = new - (self.stall_penalty if stall else 0.0)
+            terminated = stall and self.terminate_on_stall
+            info = {"new_area": new, "explored": self.explored.area, "stall": stall}
+            return float(reward), terminated, info
+        distance = self.goal_distance(native)
+        reward = self.distance - distance
+        self.distance = distance
         if stall:
-            reward -= self._stall_penalty
-        reached = distance <= self._goal_tolerance
+            reward -= self.stall_penalty
+        reached = distance <= self.goal_tolerance
         if reached:
-            reward += self._goal_reward
-        terminated = reached or (stall and self._terminate_on_stall)
+            reward += self.goal_reward
+        terminated = reached or (stall and self.terminate_on_stall)
         return float(reward), terminated, {"distance": distance, "stall": stall, "reached": reached}
 
-    def _goal_distance(self) -> float:
-        assert self._goal is not None
-        x, y, _ = self._native.global_pose(self._robot)
-        return math.hypot(self._goal[0] - x, self._goal[1] - y)
+    def goal_distance(self, native: Any) -> float:
+        assert self.goal is not None
+        x, y, _ = native.global_pose(self.robot)
+        return math.hypot(self.goal[0] - x, self.goal[1] - y)
 
-    def _observe(self) -> Any:
-        w = self._native
+    def observe(self, native: Any) -> Any:
+        """The robot's observation now, in :attr:`observation_space`."""
         rangers = {}
-        for name, n, rmax in self._rangers:
-            ranges = np.asarray(w.ranger(name)["ranges"], dtype=np.float32)
+        for name, n, rmax in self.rangers:
+            ranges = np.asarray(native.ranger(name)["ranges"], dtype=np.float32)
             if ranges.shape != (n,):
                 ranges = np.full(n, rmax, dtype=np.float32)
             rangers[name] = np.clip(ranges, np.float32(0.0), np.float32(rmax))
-        p = w.position(self._robot)
+        p = native.position(self.robot)
         if p is None:
             odometry, stall = np.zeros(6, dtype=np.float32), 0
         else:
@@ -323,50 +426,155 @@ class StageEnv(gymnasium.Env):
             odometry = np.array([p[k] for k in keys], dtype=np.float32)
             stall = int(p["stall"])
         obs: Dict[str, Any] = {"rangers": rangers, "odometry": odometry, "stall": stall}
-        if self._goal is not None:
-            x, y, a = w.global_pose(self._robot)
-            dx, dy = self._goal[0] - x, self._goal[1] - y
+        if self.goal is not None:
+            x, y, a = native.global_pose(self.robot)
+            dx, dy = self.goal[0] - x, self.goal[1] - y
             c, s = math.cos(a), math.sin(a)
             obs["goal"] = np.array([c * dx + s * dy, -s * dx + c * dy], dtype=np.float32)
-        if self._flatten:
-            return spaces.flatten(self._dict_space, obs)
+        if self.flatten:
+            return spaces.flatten(self.dict_space, obs)
         return obs
 
-    def _draw_pose(self) -> Tuple[float, float, float]:
-        """A pose drawn uniformly over the world's extent with any heading."""
-        if self._extent is None:
-            raise RuntimeError(f"{self._path}: no blocks, so no extent to draw poses in")
-        x0, y0, x1, y1 = self._extent
-        rng = self.np_random
-        return (
-            float(rng.uniform(x0, x1)),
-            float(rng.uniform(y0, y1)),
-            float(rng.uniform(-math.pi, math.pi)),
-        )
 
-    def _place_free(self, accept: Callable[[float, float], bool] = lambda x, y: True) -> None:
-        """Moves the robot to the first drawn pose where it overlaps nothing and `accept`."""
-        w, robot = self._native, self._robot
-        for _ in range(self._max_draws):
-            x, y, a = self._draw_pose()
-            if not accept(x, y):
-                continue
-            w.set_pose(robot, x, y, a)
-            if not w.overlaps(robot):
-                return
-        raise RuntimeError(
-            f"{self._path}: no free pose for `{robot}` in {self._max_draws} draws"
-        )
+class _ExploreMap:
+    """The ``"explore"`` task's map: a world-frame grid of square cells, each seen free or not.
 
-    def _draw_goal(self, start: Sequence[float]) -> Tuple[float, float]:
-        """A goal position where the robot would fit, away from `start`; the robot stays put."""
-        w, robot = self._native, self._robot
-        here = w.pose(robot)
-        far = 2.0 * self._goal_tolerance
-        self._place_free(lambda x, y: math.hypot(x - start[0], y - start[1]) > far)
-        gx, gy, _ = w.global_pose(robot)
-        w.set_pose(robot, *here)
-        return (gx, gy)
+    A ranger reading marks as seen the cells of the points sampled every half cell along its
+    ray, from the ranger's pose up to (not including) the range read, or up to the ranger's
+    reach when it read nothing nearer. The ray leaves the ranger model's global pose at the
+    reading's bearing (a transducer's own offset within its ranger is not known here, so a
+    sonar ring's rays all start at the ring's origin). The grid covers the world's extent at
+    load plus the rangers' reach; what lies outside is not counted. Pure arithmetic on the
+    readings: as deterministic as the world.
+    """
+
+    def __init__(self, extent: Sequence[float], reach: float, cell: float) -> None:
+        x0, y0, x1, y1 = extent
+        pad = reach + cell
+        self.cell = cell
+        self.x0, self.y0 = x0 - pad, y0 - pad
+        self.nx = int(math.ceil((x1 - x0 + 2 * pad) / cell))
+        self.ny = int(math.ceil((y1 - y0 + 2 * pad) / cell))
+        self.seen = np.zeros(self.nx * self.ny, dtype=bool)
+        self.count = 0
+
+    @property
+    def area(self) -> float:
+        """The area seen free so far (m^2)."""
+        return self.count * self.cell * self.cell
+
+    def see(self, native: Any, rangers: Sequence[Tuple[str, float]]) -> float:
+        """Marks what the rangers' current readings show free; returns the new area (m^2)."""
+        new = 0
+        for name, rmax in rangers:
+            d = native.ranger(name)
+            r = np.asarray(d["ranges"], dtype=np.float64)
+            b = np.asarray(d["bearings"], dtype=np.float64)
+            if r.size == 0 or b.shape != r.shape:
+                continue  # no reading yet
+            x, y, a = native.global_pose(name)
+            t = np.arange(0.0, rmax, self.cell / 2)
+            ends = np.clip(r, 0.0, rmax)
+            ang = a + b
+            px = x + np.cos(ang)[:, None] * t[None, :]
+            py = y + np.sin(ang)[:, None] * t[None, :]
+            ix = np.floor((px - self.x0) / self.cell).astype(np.int64)
+            iy = np.floor((py - self.y0) / self.cell).astype(np.int64)
+            keep = (
+                (t[None, :] < ends[:, None])
+                & (ix >= 0) & (ix < self.nx) & (iy >= 0) & (iy < self.ny)
+            )
+            cells = np.unique((ix * self.ny + iy)[keep])
+            fresh = cells[~self.seen[cells]]
+            self.seen[fresh] = True
+            new += int(fresh.size)
+        self.count += new
+        return new * self.cell * self.cell
+
+
+def _draw_pose(rng: np.random.Generator, extent: Optional[Sequence[float]], path: str):
+    """A pose drawn uniformly over the world's extent with any heading."""
+    if extent is None:
+        raise RuntimeError(f"{path}: no blocks, so no extent to draw poses in")
+    x0, y0, x1, y1 = extent
+    return (
+        float(rng.uniform(x0, x1)),
+        float(rng.uniform(y0, y1)),
+        float(rng.uniform(-math.pi, math.pi)),
+    )
+
+
+def _place_free(
+    native: Any,
+    robot: str,
+    rng: np.random.Generator,
+    extent: Optional[Sequence[float]],
+    max_draws: int,
+    path: str,
+    accept: Callable[[float, float], bool] = lambda x, y: True,
+) -> None:
+    """Moves the robot to the first drawn pose where it overlaps nothing and `accept`."""
+    for _ in range(max_draws):
+        x, y, a = _draw_pose(rng, extent, path)
+        if not accept(x, y):
+            continue
+        native.set_pose(robot, x, y, a)
+        if not native.overlaps(robot):
+            return
+    raise RuntimeError(f"{path}: no free pose for `{robot}` in {max_draws} draws")
+
+
+def _draw_goal(
+    native: Any,
+    robot: str,
+    rng: np.random.Generator,
+    extent: Optional[Sequence[float]],
+    max_draws: int,
+    path: str,
+    start: Sequence[float],
+    tolerance: float,
+) -> Tuple[float, float]:
+    """A goal position where the robot would fit, more than ``2 * tolerance`` from `start`;
+    the robot stays put."""
+    here = native.pose(robot)
+    far = 2.0 * tolerance
+    _place_free(
+        native, robot, rng, extent, max_draws, path,
+        lambda x, y: math.hypot(x - start[0], y - start[1]) > far,
+    )
+    gx, gy, _ = native.global_pose(robot)
+    native.set_pose(robot, *here)
+    return (gx, gy)
+
+
+def _check_common(
+    frame_skip: Any,
+    max_episode_steps: Any,
+    max_draws: Any,
+    task: Any,
+    goal_tolerance: Any,
+    explore_cell: Any,
+) -> None:
+    """The argument checks StageEnv and parallel_env share: clear errors, before any load."""
+    if int(frame_skip) != frame_skip or frame_skip < 1:
+        raise ValueError(f"frame_skip {frame_skip!r}: not a whole number >= 1")
+    if max_episode_steps is not None and (
+        int(max_episode_steps) != max_episode_steps or max_episode_steps < 1
+    ):
+        raise ValueError(f"max_episode_steps {max_episode_steps!r}: not a whole number >= 1")
+    if int(max_draws) != max_draws or max_draws < 1:
+        raise ValueError(f"max_draws {max_draws!r}: not a whole number >= 1")
+    if isinstance(task, str):
+        if task not in _BUILTIN_TASKS:
+            raise ValueError(
+                f"task {task!r}: the built-in tasks are 'goal' and 'explore' (or None)"
+            )
+    elif task is not None and not callable(task):
+        raise TypeError(f"task {task!r}: not 'goal', 'explore', None or a callable")
+    if not (goal_tolerance > 0 and math.isfinite(goal_tolerance)):
+        raise ValueError(f"goal_tolerance {goal_tolerance!r}: not a positive length")
+    if not (explore_cell > 0 and math.isfinite(explore_cell)):
+        raise ValueError(f"explore_cell {explore_cell!r}: not a positive length")
 
 
 def _pose2(value: Sequence[float], what: str) -> Tuple[float, float]:

@@ -1,0 +1,111 @@
+"""StageEnv's built-in "explore" task: the reward is the free area seen for the first time, in a
+world-frame grid, and the info's total matches the room the robot looks around."""
+
+import math
+
+import numpy as np
+import pytest
+
+from playerstage.envs import StageEnv
+
+# A 4 x 4 m room (inner faces of the walls at +-2 m) with a robot in the middle whose laser
+# sees half of it (180 degrees, 10 m); turning around shows the rest.
+ROOM = """
+resolution 0.02
+interval_sim 100
+define wall model ( color "gray" )
+position
+(
+  name "r0"
+  pose [0 0 0 0]
+  size [0.3 0.3 0.3]
+  drive "diff"
+  velocity_bounds [-0.5 0.5 0 0 0 0 -90 90]
+  ranger ( sensor ( range [0 10] fov 180 samples 361 ) size [0.05 0.05 0.05] )
+  ranger ( sensor ( range [0 0.5] fov 10 samples 1 ) size [0.05 0.05 0.05] )
+)
+wall ( name "north" pose [0 2.05 0 0] size [4.2 0.1 0.5] )
+wall ( name "south" pose [0 -2.05 0 0] size [4.2 0.1 0.5] )
+wall ( name "east" pose [2.05 0 0 0] size [0.1 4.2 0.5] )
+wall ( name "west" pose [-2.05 0 0 0] size [0.1 4.2 0.5] )
+"""
+
+
+@pytest.fixture
+def room(tmp_path):
+    path = tmp_path / "room.world"
+    path.write_text(ROOM)
+    return path
+
+
+def turn(env, steps, speed=math.pi / 4):
+    """Turns in place at `speed` rad/s for `steps` steps; the rewards and the last info."""
+    rewards, info = [], None
+    for _ in range(steps):
+        _, reward, terminated, truncated, info = env.step(np.array([0.0, speed]))
+        assert not terminated and not truncated
+        rewards.append(reward)
+    return rewards, info
+
+
+def test_explored_area_is_the_room(room):
+    env = StageEnv(room, "r0", task="explore")
+    assert "goal" not in env.observation_space.spaces
+    obs, info = env.reset(seed=0)
+    first = info["explored"]
+    # half the room (8 m^2) at the start, within the cells the walls' edges cut
+    assert 7.0 < first < 9.0, first
+    # standing still shows nothing new
+    _, reward, _, _, info = env.step(np.zeros(2))
+    assert reward == 0.0 and info["new_area"] == 0.0 and info["explored"] == first
+    # half a turn (pi at pi/4 rad/s: 40 steps of 0.1 s) shows the other half
+    rewards, info = turn(env, 40)
+    assert all(r >= 0.0 for r in rewards) and sum(rewards) > 6.0
+    # the room's 16 m^2, plus some of the cells the walls' faces lie in (Stage's ranges end a
+    # little past the face: its rays step over a 0.02 m raster)
+    assert 15.0 < info["explored"] < 17.2, info["explored"]
+    assert math.isclose(first + sum(rewards), info["explored"], abs_tol=1e-9)
+    # going on round: the room was seen, little is new
+    more, info = turn(env, 40)
+    assert sum(more) < 0.5
+    assert info["explored"] < 17.2
+    # the count is whole cells
+    cells = info["explored"] / 0.01
+    assert math.isclose(cells, round(cells), abs_tol=1e-6)
+
+
+def test_explore_is_deterministic_and_reset(room):
+    def episode(env, seed):
+        _, info = env.reset(seed=seed)
+        rewards, last = turn(env, 25, speed=0.7)
+        return info["explored"], rewards, last["explored"]
+
+    a = StageEnv(room, "r0", task="explore", explore_cell=0.05, random_start=True)
+    b = StageEnv(room, "r0", task="explore", explore_cell=0.05, random_start=True)
+    ea = episode(a, 3)
+    assert ea == episode(b, 3)
+    assert ea == episode(a, 3)  # the reset starts a new map
+    assert ea != episode(a, 4)
+
+
+def test_explore_rangers_and_cell(room):
+    # only the short single-ray ranger: a strip 0.5 m long
+    env = StageEnv(room, "r0", task="explore", explore_rangers=["r0.ranger:1"], explore_cell=0.1)
+    _, info = env.reset(seed=0)
+    assert 0.0 < info["explored"] <= 0.07
+    with pytest.raises(ValueError, match="not rangers of `r0`"):
+        StageEnv(room, "r0", task="explore", explore_rangers=["r0.ranger:7"])
+    with pytest.raises(ValueError, match="explore_cell"):
+        StageEnv(room, "r0", task="explore", explore_cell=0.0)
+
+
+def test_explore_stall(tmp_path):
+    path = tmp_path / "room.world"
+    path.write_text(ROOM)
+    env = StageEnv(path, "r0", task="explore", terminate_on_stall=True, stall_penalty=2.0)
+    env.reset(seed=0, options={"start": (1.6, 0.0, 0.0)})
+    for _ in range(20):
+        _, reward, terminated, _, info = env.step(np.array([0.5, 0.0]))
+        if info["stall"]:
+            break
+    assert info["stall"] and terminated and reward <= -2.0 + 0.1

@@ -20,8 +20,9 @@ imported on first use, so Gymnasium users need not install it).
 from gymnasium.envs.registration import register, registry
 
 from ._stage_env import StageEnv, Task
+from ._vector_env import VectorStageEnv
 
-__all__ = ["StageEnv", "Task", "ENV_ID", "parallel_env", "StageParallelEnv"]
+__all__ = ["StageEnv", "Task", "VectorStageEnv", "ENV_ID", "parallel_env", "StageParallelEnv"]
 
 
 def __getattr__(name):

@@ -1,0 +1,220 @@
+#!/usr/bin/env python3
+"""Environment steps per second of `playerstage.envs`, side by side, printed one line each:
+
+- one diff-drive robot with a 180-ray laser among three boxes in a walled 8 m square (the
+  world below), the built-in goal task, random actions, episodes of 500 steps;
+- a single `StageEnv`; `VectorStageEnv` with 1, 8 and 64 copies; Gymnasium's `SyncVectorEnv`
+  of 8 and 64 `StageEnv`s; and IR-SIM (`ir-sim` on PyPI) on the same task: one diff-drive
+  robot, a 180-beam 2D lidar of the same range, the same boxes and walls, no display.
+
+IR-SIM is not a dependency of the package or its tests: give the Python that has it with
+`--irsim-python` (e.g. a separate venv: `python3 -m venv /tmp/irsim && /tmp/irsim/bin/pip
+install ir-sim`); this script runs its IR-SIM part there, in a subprocess. Vector figures count
+every copy's steps (a vector step of 64 copies is 64 environment steps); the scaling figure is
+VectorStageEnv's rate over `cores x` its 1-copy rate.
+
+    target/python-venv/bin/python crates/python/bench/envs.py \
+        --irsim-python /tmp/irsim/bin/python [--seconds 3]
+"""
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+# One diff-drive robot, a 180-sample laser over 180 degrees reaching 4 m, three boxes, walls.
+WORLD = """
+resolution 0.02
+interval_sim 100
+define box model ( size [0.5 0.5 0.5] )
+define wall model ( color "gray" )
+position
+(
+  name "r0"
+  pose [0 0 0 0]
+  size [0.4 0.4 0.3]
+  drive "diff"
+  velocity_bounds [-0.5 0.8 -0.3 0.3 0 0 -60 60]
+  ranger ( sensor ( range [0 4] fov 180 samples 180 ) size [0.1 0.1 0.1] pose [0.1 0 0 0] )
+)
+box ( name "b1" pose [2 0 0 0] )
+box ( name "b2" pose [-1.5 1.5 0 0] )
+box ( name "b3" pose [0 -2 0 0] )
+wall ( name "north" pose [0 4 0 0] size [8 0.1 0.5] )
+wall ( name "south" pose [0 -4 0 0] size [8 0.1 0.5] )
+wall ( name "east" pose [4 0 0 0] size [0.1 8 0.5] )
+wall ( name "west" pose [-4 0 0 0] size [0.1 8 0.5] )
+"""
+
+# The same scene for IR-SIM (world 8 m square from -4 to 4 shifted to 0..8; 0.1 s steps).
+IRSIM_YAML = """
+world:
+  height: 8
+  width: 8
+  step_time: 0.1
+  sample_time: 0.1
+  offset: [0, 0]
+  collision_mode: 'stop'
+
+robot:
+  - kinematics: {name: 'diff'}
+    shape: {name: 'circle', radius: 0.2}
+    state: [4, 4, 0]
+    goal: [7, 7, 0]
+    vel_max: [0.8, 1.0]
+    sensors:
+      - type: 'lidar2d'
+        range_min: 0
+        range_max: 4
+        angle_range: 3.14159
+        number: 180
+
+obstacle:
+  - shape: {name: 'rectangle', length: 0.5, width: 0.5}
+    state: [6, 4, 0]
+  - shape: {name: 'rectangle', length: 0.5, width: 0.5}
+    state: [2.5, 5.5, 0]
+  - shape: {name: 'rectangle', length: 0.5, width: 0.5}
+    state: [4, 2, 0]
+  - shape: {name: 'linestring', vertices: [[0, 0], [8, 0], [8, 8], [0, 8], [0, 0]]}
+    kinematics: {name: 'static'}
+"""
+
+EPISODE = 500
+
+
+def rate(step, seconds):
+    """Calls of `step()` per second over about `seconds` (after a short warm-up)."""
+    for _ in range(20):
+        step()
+    n, t0 = 0, time.perf_counter()
+    while True:
+        for _ in range(50):
+            step()
+        n += 50
+        dt = time.perf_counter() - t0
+        if dt >= seconds:
+            return n / dt
+
+
+def bench_single(world, seconds):
+    import numpy as np
+    from playerstage.envs import StageEnv
+
+    env = StageEnv(world, "r0", max_episode_steps=EPISODE)
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    lo, hi = env.action_space.low, env.action_space.high
+
+    def step():
+        _, _, term, trunc, _ = env.step(rng.uniform(lo, hi))
+        if term or trunc:
+            env.reset()
+
+    return rate(step, seconds)
+
+
+def bench_vector(make, n, seconds):
+    import numpy as np
+
+    vec = make(n)
+    vec.reset(seed=0)
+    rng = np.random.default_rng(0)
+    lo, hi = vec.action_space.low, vec.action_space.high
+
+    def step():
+        vec.step(rng.uniform(lo, hi))
+
+    r = rate(step, seconds) * n
+    vec.close()
+    return r
+
+
+def bench_irsim(seconds):
+    """Run inside the Python that has ir-sim: steps/s of one robot with its lidar, no display."""
+    import irsim
+    import numpy as np
+
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "bench.yaml"
+        path.write_text(IRSIM_YAML)
+        env = irsim.make(str(path), headless=True, log_level="ERROR")
+    rng = np.random.default_rng(0)
+    steps = [0]
+
+    def step():
+        action = np.array([[rng.uniform(-0.5, 0.8)], [rng.uniform(-1.0, 1.0)]])
+        env.step(action)
+        env.get_lidar_scan()
+        steps[0] += 1
+        if env.done() or steps[0] % EPISODE == 0:
+            env.reset()
+
+    r = rate(step, seconds)
+    scan = env.get_lidar_scan()
+    assert len(scan["ranges"]) == 180, scan
+    return r
+
+
+def main():
+    ap = argparse.ArgumentParser(description="playerstage.envs steps per second")
+    ap.add_argument("--seconds", type=float, default=3.0)
+    ap.add_argument("--irsim-python", help="a Python with ir-sim installed (else IR-SIM is skipped)")
+    ap.add_argument("--irsim-worker", action="store_true", help=argparse.SUPPRESS)
+    o = ap.parse_args()
+    if o.irsim_worker:
+        print(bench_irsim(o.seconds))
+        return
+
+    import gymnasium
+    from playerstage.envs import StageEnv, VectorStageEnv
+
+    cores = len(os.sched_getaffinity(0))
+    out = {}
+    with tempfile.TemporaryDirectory() as d:
+        world = Path(d) / "bench.world"
+        world.write_text(WORLD)
+        kw = dict(max_episode_steps=EPISODE)
+        out["StageEnv"] = bench_single(world, o.seconds)
+        for n in (1, 8, 64):
+            out[f"VectorStageEnv({n})"] = bench_vector(
+                lambda n: VectorStageEnv(n, world, "r0", **kw), n, o.seconds
+            )
+        for n in (8, 64):
+            out[f"SyncVectorEnv({n})"] = bench_vector(
+                lambda n: gymnasium.vector.SyncVectorEnv(
+                    [lambda: StageEnv(world, "r0", **kw)] * n
+                ),
+                n,
+                o.seconds,
+            )
+    if o.irsim_python:
+        run = subprocess.run(
+            [o.irsim_python, __file__, "--irsim-worker", "--seconds", str(o.seconds)],
+            capture_output=True,
+            text=True,
+        )
+        if run.returncode != 0:
+            sys.exit(f"IR-SIM run failed:\n{run.stderr}")
+        out["IR-SIM"] = float(run.stdout.strip().splitlines()[-1])
+
+    print(f"environment steps/s, 1 robot with a 180-ray laser ({cores} cores):")
+    for name, r in out.items():
+        line = f"  {name:<20} {r:>12,.0f}"
+        if "IR-SIM" in out and name != "IR-SIM":
+            line += f"   {r / out['IR-SIM']:6.1f}x IR-SIM"
+        print(line)
+    one = out["VectorStageEnv(1)"]
+    for n in (8, 64):
+        speedup = out[f"VectorStageEnv({n})"] / one
+        print(
+            f"  VectorStageEnv({n}) / VectorStageEnv(1): {speedup:.2f}x "
+            f"({100 * speedup / min(cores, n):.0f}% of linear on {min(cores, n)} cores)"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,224 @@
+"""`playerstage.envs.VectorStageEnv`: the vector API contract (gymnasium 1.x has no checker for
+vector envs), and copies that match lone StageEnvs and SyncVectorEnv exactly, across
+autoresets; the native `step_worlds` it runs on."""
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gymnasium
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from gymnasium.vector.utils import batch_space
+
+from playerstage import World, WorldError, _native
+from playerstage.envs import StageEnv, VectorStageEnv
+
+REPO = Path(__file__).resolve().parents[4]
+BIGBOB = REPO / "worlds" / "bigbob.world"
+
+# A diff-drive robot with a 180-sample laser among three boxes, walled in.
+SMALL_WORLD = """
+resolution 0.02
+interval_sim 100
+define box model ( size [0.5 0.5 0.5] )
+define wall model ( color "gray" )
+position
+(
+  name "r0"
+  pose [0 0 0 0]
+  size [0.4 0.4 0.3]
+  drive "diff"
+  velocity_bounds [-0.5 0.8 -0.3 0.3 0 0 -60 60]
+  ranger ( sensor ( range [0 4] fov 180 samples 180 ) size [0.1 0.1 0.1] pose [0.1 0 0 0] )
+)
+box ( name "b1" pose [2 0 0 0] )
+box ( name "b2" pose [-1.5 1.5 0 0] )
+box ( name "b3" pose [0 -2 0 0] )
+wall ( name "north" pose [0 4 0 0] size [8 0.1 0.5] )
+wall ( name "south" pose [0 -4 0 0] size [8 0.1 0.5] )
+wall ( name "east" pose [4 0 0 0] size [0.1 8 0.5] )
+wall ( name "west" pose [-4 0 0 0] size [0.1 8 0.5] )
+"""
+
+
+@pytest.fixture
+def small_world(tmp_path):
+    path = tmp_path / "small.world"
+    path.write_text(SMALL_WORLD)
+    return path
+
+
+def leaves(obs):
+    """An observation's arrays in a fixed order (nested dicts flattened by key)."""
+    if isinstance(obs, dict):
+        return [x for k in sorted(obs) for x in leaves(obs[k])]
+    return [np.asarray(obs)]
+
+
+def assert_same(a, b, what):
+    la, lb = leaves(a), leaves(b)
+    assert len(la) == len(lb), what
+    for x, y in zip(la, lb):
+        assert x.dtype == y.dtype and x.shape == y.shape, what
+        assert np.array_equal(x, y), what
+
+
+# Short episodes, random starts and goals: copies reset at different times and the autoreset
+# path (a fresh load, poses drawn from the copy's generator) is taken several times.
+KWARGS = dict(random_start=True, max_episode_steps=4, frame_skip=2, terminate_on_stall=True)
+
+
+def test_copies_match_lone_stage_envs_and_sync_vector_env(small_world):
+    n = 3
+    vec = VectorStageEnv(n, small_world, "r0", **KWARGS)
+    lone = [StageEnv(small_world, "r0", **KWARGS) for _ in range(n)]
+    sync = SyncVectorEnv([lambda: StageEnv(small_world, "r0", **KWARGS) for _ in range(n)])
+    assert vec.single_action_space == sync.single_action_space
+    assert vec.observation_space == sync.observation_space
+    assert vec.action_space == sync.action_space
+
+    obs_v, _ = vec.reset(seed=7)
+    obs_s, _ = sync.reset(seed=7)
+    assert_same(obs_v, obs_s, "reset vs SyncVectorEnv")
+    lone_obs = [env.reset(seed=7 + i)[0] for i, env in enumerate(lone)]
+    done = [False] * n
+
+    rng = np.random.default_rng(3)
+    resets = 0
+    for t in range(14):
+        actions = rng.uniform(vec.action_space.low, vec.action_space.high)
+        obs_v, rew_v, term_v, trunc_v, _ = vec.step(actions)
+        obs_s, rew_s, term_s, trunc_s, _ = sync.step(actions)
+        assert_same(obs_v, obs_s, f"step {t} vs SyncVectorEnv")
+        assert np.array_equal(rew_v, rew_s) and rew_v.dtype == np.float64
+        assert np.array_equal(term_v, term_s) and np.array_equal(trunc_v, trunc_s)
+        for i, env in enumerate(lone):
+            # a lone StageEnv driven as NEXT_STEP autoreset asks
+            if done[i]:
+                o, r, te, tr = env.reset()[0], 0.0, False, False
+                resets += 1
+            else:
+                o, r, te, tr, _ = env.step(actions[i])
+            done[i] = te or tr
+            assert_same(
+                {k: v[i] for k, v in _per_env(obs_v).items()}, _per_env(o), f"step {t} env {i}"
+            )
+            assert (rew_v[i], term_v[i], trunc_v[i]) == (r, te, tr), f"step {t} env {i}"
+            assert vec.envs[i].world.digest() == env.world.digest() == sync.envs[i].world.digest()
+    assert resets >= n, "every copy went through an autoreset"
+
+
+def _per_env(obs):
+    """A Dict observation as a flat {path: array} mapping (batched or not)."""
+    out = {}
+
+    def walk(o, prefix):
+        if isinstance(o, dict):
+            for k in sorted(o):
+                walk(o[k], prefix + (k,))
+        else:
+            out[prefix] = np.asarray(o)
+
+    walk(obs, ())
+    return out
+
+
+def test_vector_api_contract(small_world):
+    """Gymnasium 1.x has no vector env checker: spaces, shapes, dtypes, seeds, masks and the
+    NEXT_STEP autoreset checked directly."""
+    vec = VectorStageEnv(4, small_world, "r0", max_episode_steps=2, flatten=True)
+    assert vec.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    single = StageEnv(small_world, "r0", flatten=True)
+    assert vec.single_observation_space == single.observation_space
+    assert vec.observation_space == batch_space(single.observation_space, 4)
+    assert vec.action_space == batch_space(single.action_space, 4)
+
+    obs, info = vec.reset(seed=1)
+    assert obs.shape == (4,) + single.observation_space.shape
+    assert obs.dtype == vec.observation_space.dtype
+    assert obs in vec.observation_space
+    assert isinstance(info, dict) and info["_start"].all()
+    again, _ = vec.reset(seed=1)
+    assert np.array_equal(obs, again), "same seed, same first observations"
+
+    vec.action_space.seed(0)
+    for t in range(5):
+        obs, rew, term, trunc, info = vec.step(vec.action_space.sample())
+        assert obs.shape == (4,) + single.observation_space.shape and obs in vec.observation_space
+        assert rew.shape == (4,) and rew.dtype == np.float64
+        assert term.dtype == np.bool_ and trunc.dtype == np.bool_
+        if t in (1, 4):  # max_episode_steps=2: steps 2 and 5 of each episode truncate...
+            assert trunc.all()
+        if t == 2:  # ...and the step after is the autoreset: reward 0, nothing ended
+            assert not trunc.any() and not term.any() and (rew == 0).all()
+            assert info["_start"].all()
+    # the returned arrays are fresh, not views of a reused buffer
+    a, *_ = vec.step(vec.action_space.sample())
+    b, *_ = vec.step(vec.action_space.sample())
+    assert not np.shares_memory(a, b)
+
+    # only the masked copies reset
+    obs, _ = vec.reset(seed=2)
+    vec.step(np.zeros(vec.action_space.shape))
+    before = [e.world.digest() for e in vec.envs]
+    obs2, info = vec.reset(options={"reset_mask": np.array([True, False, False, True])})
+    after = [e.world.digest() for e in vec.envs]
+    assert after[1:3] == before[1:3] and after[0] != before[0]
+    assert list(info["_start"]) == [True, False, False, True]
+
+    with pytest.raises(ValueError, match="seeds"):
+        vec.reset(seed=[1, 2])
+    with pytest.raises(ValueError, match="reset_mask"):
+        vec.reset(options={"reset_mask": np.zeros(4, dtype=bool)})
+    with pytest.raises(ValueError, match="num_envs"):
+        VectorStageEnv(0, small_world, "r0")
+    vec.close()
+
+
+def test_make_vec_style_use_with_bigbob():
+    vec = VectorStageEnv(2, BIGBOB, "bob1")
+    obs, _ = vec.reset(seed=0)
+    assert obs in vec.observation_space
+    obs, *_ = vec.step(np.zeros(vec.action_space.shape))
+    assert obs in vec.observation_space
+    assert isinstance(vec, gymnasium.vector.VectorEnv)
+
+
+def test_step_worlds_equals_stepping_each_world_alone():
+    alone = [World(BIGBOB, seed) for seed in (0, 1, 2)]
+    batch = [World(BIGBOB, seed) for seed in (0, 1, 2)]
+    for w in alone + batch:
+        w._w.set_velocity("bob1", 0.3, 0.0, 0.4)
+    for w in alone:
+        w.step(25)
+    assert _native.step_worlds([w._w for w in batch], 25) == [True] * 3
+    assert [w.digest() for w in batch] == [w.digest() for w in alone]
+    assert len({w.digest() for w in batch}) > 1, "different seeds, different runs"
+
+
+def test_step_worlds_stops_at_quit_time_and_refuses_a_world_twice():
+    a, b = World(BIGBOB), World(BIGBOB)
+    a.quit_time = a.interval * 3
+    assert _native.step_worlds([a._w, b._w], 5) == [False, True]
+    assert a.steps == 3 and b.steps == 5
+    with pytest.raises(WorldError, match="twice"):
+        _native.step_worlds([a._w, a._w], 1)
+    assert _native.step_worlds([], 3) == []
+
+
+def test_vector_env_renders_each_copy(tmp_path):
+    world = tmp_path / "render.world"
+    world.write_text(SMALL_WORLD)  # no window entity: 400 x 300 images
+    vec = VectorStageEnv(2, world, "r0", task=None, render_mode="rgb_array", random_start=True)
+    vec.reset(seed=3)
+    try:
+        frames = vec.render()
+    except RuntimeError as e:
+        if "no graphics adapter" in str(e) and os.environ.get("PLAYERSTAGE_REQUIRE_GPU") != "1":
+            pytest.skip(f"no wgpu adapter: {e}")
+        raise
+    assert len(frames) == 2 and all(f.shape == (300, 400, 3) for f in frames)
+    assert not np.array_equal(frames[0], frames[1]), "different random starts"
+

@@ -6,54 +6,17 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use common::{pioneer_odom_cfg, root, serve_cfg};
+use common::{build_example, pioneer_odom_cfg, root, run_bounded, serve_cfg};
 use player_server::Pace;
-
-/// Builds `examples/<dir>` with its Makefile into a fresh temporary folder.
-fn build(dir: &str, program: &str) -> PathBuf {
-    let out =
-        std::env::temp_dir().join(format!("playerstage-clients-{}-{dir}", std::process::id()));
-    std::fs::create_dir_all(&out).unwrap();
-    let status = Command::new("make")
-        .arg("-s")
-        .arg("-C")
-        .arg(root().join("examples").join(dir))
-        .arg(format!("OUT={}", out.display()))
-        .status()
-        .expect("running make");
-    assert!(status.success(), "building examples/{dir}");
-    out.join(program)
-}
-
-/// Runs `program` with `args`, killing it after `limit`.
-fn run_bounded(program: &Path, args: &[String], limit: Duration) -> Output {
-    let mut child = Command::new(program)
-        .args(args)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
-}
 
 #[test]
 fn libplayerc_basic_client_runs_against_our_server() {
     if !test_support::pkg_config_finds(&["playerc", "playerc++"], "the real-client tests") {
         return;
     }
-    let program = build("c", "basic");
+    let program = build_example("c", "basic");
     let server = serve_cfg(
         &root().join("worlds/bigbob.cfg"),
         Pace::RealTime { speedup: 5.0 },
@@ -88,7 +51,7 @@ fn libplayerc_plus_plus_bigbob_controller_runs_against_our_server() {
     if !test_support::pkg_config_finds(&["playerc", "playerc++"], "the real-client tests") {
         return;
     }
-    let program = build("bigbob", "bigbob");
+    let program = build_example("bigbob", "bigbob");
     let server = serve_cfg(
         &root().join("worlds/bigbob.cfg"),
         Pace::RealTime { speedup: 5.0 },
@@ -125,7 +88,7 @@ fn libplayerc_stage_devices_client_checks_odometry_actuator_and_laser() {
     if !test_support::pkg_config_finds(&["playerc", "playerc++"], "the real-client tests") {
         return;
     }
-    let program = build("c", "stage_devices");
+    let program = build_example("c", "stage_devices");
     let (cfg, dir) = pioneer_odom_cfg("clients-stage-devices");
     let server = serve_cfg(&cfg, Pace::RealTime { speedup: 5.0 });
     let port = server.port(6665).to_string();

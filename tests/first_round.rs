@@ -9,10 +9,9 @@
 mod common;
 
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use common::{root, serve_cfg};
+use common::{build_example, root, run_bounded, serve_cfg};
 use player_client::{DataMode, PlayerClient, Position2dProxy, RangerProxy};
 use player_server::Pace;
 
@@ -170,38 +169,13 @@ fn libplayerc_first_round_holds_every_subscribed_ranger() {
     if !test_support::pkg_config_finds(&["playerc"], "the libplayerc first-round test") {
         return;
     }
-    let out_dir =
-        std::env::temp_dir().join(format!("playerstage-first-round-c-{}", std::process::id()));
-    std::fs::create_dir_all(&out_dir).unwrap();
-    let made = Command::new("make")
-        .arg("-s")
-        .arg("-C")
-        .arg(root().join("examples/c"))
-        .arg(format!("OUT={}", out_dir.display()))
-        .arg(out_dir.join("first_round"))
-        .status()
-        .expect("running make");
-    assert!(made.success(), "building examples/c/first_round");
+    let program = build_example("c", "first_round");
     let (cfg, dir) = one_port_cfg("first-round-c");
     let server = serve_cfg(&cfg, Pace::RealTime { speedup: 1.0 });
-    let mut child = Command::new(out_dir.join("first_round"))
-        .arg("localhost")
-        .arg(server.port(6665).to_string())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > Duration::from_secs(30) {
-            let _ = child.kill();
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let out = child.wait_with_output().unwrap();
+    let args = ["localhost".to_string(), server.port(6665).to_string()];
+    let out = run_bounded(&program, &args, Duration::from_secs(30));
     drop(server);
-    let _ = std::fs::remove_dir_all(&out_dir);
+    let _ = std::fs::remove_dir_all(program.parent().unwrap());
     let _ = std::fs::remove_dir_all(&dir);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(

@@ -9,10 +9,9 @@
 
 mod common;
 
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{pioneer_odom_cfg, root, serve_cfg, serve_cfg_with_drivers};
+use common::{build_example, pioneer_odom_cfg, run_bounded, serve_cfg, serve_cfg_with_drivers};
 use player_client::{ClientError, LaserProxy, PlayerClient};
 use player_proto::LaserConfig;
 use player_server::Pace;
@@ -124,38 +123,13 @@ fn libplayerc_laser_config_in_player_2_units_is_refused() {
     if !test_support::pkg_config_finds(&["playerc"], "the libplayerc laser units test") {
         return;
     }
-    let out_dir =
-        std::env::temp_dir().join(format!("playerstage-laser-units-c-{}", std::process::id()));
-    std::fs::create_dir_all(&out_dir).unwrap();
-    let made = Command::new("make")
-        .arg("-s")
-        .arg("-C")
-        .arg(root().join("examples/c"))
-        .arg(format!("OUT={}", out_dir.display()))
-        .arg(out_dir.join("laser_units"))
-        .status()
-        .expect("running make");
-    assert!(made.success(), "building examples/c/laser_units");
+    let program = build_example("c", "laser_units");
     let (cfg, dir) = pioneer_odom_cfg("laser-units-c");
     let server = serve_cfg(&cfg, Pace::RealTime { speedup: 5.0 });
-    let mut child = Command::new(out_dir.join("laser_units"))
-        .arg("localhost")
-        .arg(server.port(6665).to_string())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > Duration::from_secs(60) {
-            let _ = child.kill();
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let out = child.wait_with_output().unwrap();
+    let args = ["localhost".to_string(), server.port(6665).to_string()];
+    let out = run_bounded(&program, &args, Duration::from_secs(60));
     drop(server);
-    let _ = std::fs::remove_dir_all(&out_dir);
+    let _ = std::fs::remove_dir_all(program.parent().unwrap());
     let _ = std::fs::remove_dir_all(&dir);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(

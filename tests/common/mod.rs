@@ -6,6 +6,8 @@
 use std::collections::BTreeMap;
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 use player_server::stage::{self, StageHandle, StageOptions};
 use player_server::{DriverRegistry, Pace, Server, ServerConfig, ServerHandle};
@@ -183,4 +185,41 @@ pub fn pioneer_odom_cfg(tag: &str) -> (PathBuf, PathBuf) {
     )
     .unwrap();
     (cfg, dir)
+}
+
+/// Builds `examples/<dir>` with its Makefile into a fresh temporary folder (for the tests that
+/// run libplayerc/libplayerc++ programs; they check `test_support::pkg_config_finds` first) and
+/// returns the path of `program` there.
+pub fn build_example(dir: &str, program: &str) -> PathBuf {
+    let out =
+        std::env::temp_dir().join(format!("playerstage-clients-{}-{dir}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let status = Command::new("make")
+        .arg("-s")
+        .arg("-C")
+        .arg(root().join("examples").join(dir))
+        .arg(format!("OUT={}", out.display()))
+        .status()
+        .expect("running make");
+    assert!(status.success(), "building examples/{dir}");
+    out.join(program)
+}
+
+/// Runs `program` with `args`, killing it after `limit`.
+pub fn run_bounded(program: &Path, args: &[String], limit: Duration) -> Output {
+    let mut child = Command::new(program)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
 }

@@ -2,11 +2,14 @@
 world-frame grid, and the info's total matches the room the robot looks around."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from playerstage.envs import StageEnv
+
+REPO_BIGBOB = Path(__file__).resolve().parents[4] / "worlds" / "bigbob.world"
 
 # A 4 x 4 m room (inner faces of the walls at +-2 m) with a robot in the middle whose laser
 # sees half of it (180 degrees, 10 m); turning around shows the rest.
@@ -109,3 +112,30 @@ def test_explore_stall(tmp_path):
         if info["stall"]:
             break
     assert info["stall"] and terminated and reward <= -2.0 + 0.1
+
+
+def test_check_env_explore(room):
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # advice on box bounds, as in test_envs
+        check_env(StageEnv(room, "r0", task="explore", random_start=True))
+        check_env(StageEnv(REPO_BIGBOB, "bob1", task="explore", flatten=True))
+
+
+def test_the_rays_go_where_the_laser_looks(tmp_path):
+    # a wall across the room 0.5 m east of the robot: facing east it sees a 0.5 x 4 m strip
+    # (less the robot's half), facing west the 2 x 4 m half behind it, facing north a 2.5 x 2 m
+    # quarter cut by the wall
+    path = tmp_path / "split.world"
+    path.write_text(ROOM + 'wall ( name "split" pose [0.55 0 0 0] size [0.1 4 0.5] )\n')
+    env = StageEnv(path, "r0", task="explore")
+    seen = {}
+    for name, a in (("east", 0.0), ("west", math.pi), ("north", math.pi / 2)):
+        _, info = env.reset(seed=0, options={"start": (0.0, 0.0, a)})
+        seen[name] = info["explored"]
+    assert 1.6 < seen["east"] < 2.6, seen
+    assert 7.0 < seen["west"] < 9.0, seen
+    assert 4.5 < seen["north"] < 6.0, seen

@@ -476,18 +476,19 @@ class _ExploreMap:
             t = np.arange(0.0, rmax, self.cell / 2)
             ends = np.clip(r, 0.0, rmax)
             ang = a + b
-            px = x + np.cos(ang)[:, None] * t[None, :]
-            py = y + np.sin(ang)[:, None] * t[None, :]
-            ix = np.floor((px - self.x0) / self.cell).astype(np.int64)
-            iy = np.floor((py - self.y0) / self.cell).astype(np.int64)
-            keep = (
-                (t[None, :] < ends[:, None])
-                & (ix >= 0) & (ix < self.nx) & (iy >= 0) & (iy < self.ny)
-            )
-            cells = np.unique((ix * self.ny + iy)[keep])
-            fresh = cells[~self.seen[cells]]
-            self.seen[fresh] = True
-            new += int(fresh.size)
+            # the samples short of each reading, in cell units from the grid's corner
+            rows, cols = np.nonzero(t[None, :] < ends[:, None])
+            steps = t[cols] / self.cell
+            fx = (x - self.x0) / self.cell + np.cos(ang)[rows] * steps
+            fy = (y - self.y0) / self.cell + np.sin(ang)[rows] * steps
+            ix, iy = fx.astype(np.int64), fy.astype(np.int64)  # floor where fx, fy >= 0
+            inside = (fx >= 0) & (ix < self.nx) & (fy >= 0) & (iy < self.ny)
+            cells = (ix * self.ny + iy)[inside]
+            cells = cells[~self.seen[cells]]  # most were seen before: sort only the rest
+            if cells.size:
+                fresh = np.unique(cells)
+                self.seen[fresh] = True
+                new += int(fresh.size)
         self.count += new
         return new * self.cell * self.cell
 

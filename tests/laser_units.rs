@@ -11,23 +11,13 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use common::{build_example, pioneer_odom_cfg, run_bounded, serve_cfg, serve_cfg_with_drivers};
+use common::{
+    build_example, pioneer_odom_cfg, player_2_units_laser_request, run_bounded, serve_cfg,
+    serve_cfg_with_drivers,
+};
 use player_client::{ClientError, LaserProxy, PlayerClient};
 use player_proto::LaserConfig;
 use player_server::Pace;
-
-/// libplayerc's `test_laser.c` request: ±90°, resolution "100", range_res "1", intensity on.
-fn test_laser_c_request() -> LaserConfig {
-    LaserConfig {
-        min_angle: (-90f32).to_radians(),
-        max_angle: 90f32.to_radians(),
-        resolution: 100.0,
-        max_range: 0.0,
-        range_res: 1.0,
-        intensity: 1,
-        scanning_frequency: 10.0,
-    }
-}
 
 /// The next scan `laser` receives (fails after 10 s).
 fn next_scan(client: &PlayerClient, laser: &LaserProxy) -> Vec<f32> {
@@ -61,12 +51,14 @@ fn a_laser_config_in_player_2_units_is_refused_and_others_keep_their_ranges() {
 
     let tester = PlayerClient::connect("localhost", server.port(6665)).unwrap();
     let testing = LaserProxy::new(&tester, 0).unwrap();
-    let err = testing.configure(test_laser_c_request()).unwrap_err();
+    let err = testing
+        .configure(player_2_units_laser_request())
+        .unwrap_err();
     assert!(matches!(err, ClientError::Nack { .. }), "{err:?}");
     // Radians, but ranges in whole metres: no LMS200 unit either.
     let metres = LaserConfig {
         resolution: default.resolution,
-        ..test_laser_c_request()
+        ..player_2_units_laser_request()
     };
     let err = testing.configure(metres).unwrap_err();
     assert!(matches!(err, ClientError::Nack { .. }), "{err:?}");
@@ -107,7 +99,9 @@ fn rangertolaser_on_a_stage_ranger_refuses_it_too() {
 
     let tester = PlayerClient::connect("localhost", server.port(6665)).unwrap();
     let testing = LaserProxy::new(&tester, 0).unwrap();
-    let err = testing.configure(test_laser_c_request()).unwrap_err();
+    let err = testing
+        .configure(player_2_units_laser_request())
+        .unwrap_err();
     assert!(matches!(err, ClientError::Nack { .. }), "{err:?}");
     for _ in 0..3 {
         assert_eq!(next_scan(&reader, &reading), before);

@@ -123,15 +123,7 @@ fn the_laser_on_a_sick_ranger_configures_like_an_lms200() {
 
     // libplayerc++'s laser test: ±90°, "100" and "1" (Player 2's hundredths of a degree and
     // millimetres): refused, as the LMS200 driver refuses it (Player 3 reads radians, metres).
-    let as_cpp_test = LaserConfig {
-        min_angle: (-90f32).to_radians(),
-        max_angle: 90f32.to_radians(),
-        resolution: 100.0,
-        max_range: 0.0,
-        range_res: 1.0,
-        intensity: 1,
-        scanning_frequency: 10.0,
-    };
+    let as_cpp_test = common::player_2_units_laser_request();
     let default = laser.request_config().unwrap();
     let err = laser.configure(as_cpp_test.clone()).unwrap_err();
     assert!(matches!(err, ClientError::Nack { .. }), "{err:?}");

@@ -223,3 +223,18 @@ pub fn run_bounded(program: &Path, args: &[String], limit: Duration) -> Output {
     }
     child.wait_with_output().unwrap()
 }
+
+/// The laser configuration libplayerc's `test_laser.c` and libplayerc++'s laser test send:
+/// ±90°, resolution "100", range_res "1" (Player 2's hundredths of a degree and millimetres,
+/// where Player 3 reads radians and metres), intensity on.
+pub fn player_2_units_laser_request() -> player_proto::LaserConfig {
+    player_proto::LaserConfig {
+        min_angle: (-90f32).to_radians(),
+        max_angle: 90f32.to_radians(),
+        resolution: 100.0,
+        max_range: 0.0,
+        range_res: 1.0,
+        intensity: 1,
+        scanning_frequency: 10.0,
+    }
+}

@@ -10,8 +10,11 @@
 IR-SIM is not a dependency of the package or its tests: give the Python that has it with
 `--irsim-python` (e.g. a separate venv: `python3 -m venv /tmp/irsim && /tmp/irsim/bin/pip
 install ir-sim`); this script runs its IR-SIM part there, in a subprocess. Vector figures count
-every copy's steps (a vector step of 64 copies is 64 environment steps); the scaling figure is
-VectorStageEnv's rate over `cores x` its 1-copy rate.
+every copy's steps (a vector step of 64 copies is 64 environment steps). Scaling: 64 copies
+run in subprocesses whose simulation pool has 1 thread and then one per core
+(`RAYON_NUM_THREADS`), for VectorStageEnv(64) and for the bare simulation (`step_worlds` of
+64 worlds, what the copies' steps cost without Python); the figure is the speed-up over the
+core count.
 
     target/python-venv/bin/python crates/python/bench/envs.py \
         --irsim-python /tmp/irsim/bin/python [--seconds 3]
@@ -159,14 +162,36 @@ def bench_irsim(seconds):
     return r
 
 
+def bench_threads(world, n, seconds):
+    """VectorStageEnv(n) env steps/s and bare step_worlds world steps/s, on this process's
+    pool (its size set by RAYON_NUM_THREADS before the first step)."""
+    from playerstage import World, _native
+    from playerstage.envs import VectorStageEnv
+
+    env_rate = bench_vector(
+        lambda n: VectorStageEnv(n, world, "r0", max_episode_steps=EPISODE), n, seconds
+    )
+    worlds = [World(world, seed)._w for seed in range(n)]
+    for w in worlds:
+        w.set_velocity("r0", 0.2, 0.0, 0.3)
+    sim_rate = rate(lambda: _native.step_worlds(worlds, 1), seconds) * n
+    return env_rate, sim_rate
+
+
 def main():
     ap = argparse.ArgumentParser(description="playerstage.envs steps per second")
     ap.add_argument("--seconds", type=float, default=3.0)
-    ap.add_argument("--irsim-python", help="a Python with ir-sim installed (else IR-SIM is skipped)")
+    ap.add_argument(
+        "--irsim-python", help="a Python with ir-sim installed (else IR-SIM is skipped)"
+    )
     ap.add_argument("--irsim-worker", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--threads-worker", help=argparse.SUPPRESS)
     o = ap.parse_args()
     if o.irsim_worker:
         print(bench_irsim(o.seconds))
+        return
+    if o.threads_worker:
+        print(*bench_threads(o.threads_worker, 64, o.seconds))
         return
 
     import gymnasium
@@ -191,6 +216,18 @@ def main():
                 n,
                 o.seconds,
             )
+        threads = {}
+        for t in (1, cores):
+            run = subprocess.run(
+                [sys.executable, __file__, "--threads-worker", str(world)]
+                + ["--seconds", str(o.seconds)],
+                capture_output=True,
+                text=True,
+                env={**os.environ, "RAYON_NUM_THREADS": str(t)},
+            )
+            if run.returncode != 0:
+                sys.exit(f"thread scaling run failed:\n{run.stderr}")
+            threads[t] = [float(x) for x in run.stdout.split()]
     if o.irsim_python:
         run = subprocess.run(
             [o.irsim_python, __file__, "--irsim-worker", "--seconds", str(o.seconds)],
@@ -207,12 +244,12 @@ def main():
         if "IR-SIM" in out and name != "IR-SIM":
             line += f"   {r / out['IR-SIM']:6.1f}x IR-SIM"
         print(line)
-    one = out["VectorStageEnv(1)"]
-    for n in (8, 64):
-        speedup = out[f"VectorStageEnv({n})"] / one
+    whats = ("VectorStageEnv(64) env steps/s", "bare step_worlds(64) world steps/s")
+    for k, what in enumerate(whats):
+        one, all_ = threads[1][k], threads[cores][k]
         print(
-            f"  VectorStageEnv({n}) / VectorStageEnv(1): {speedup:.2f}x "
-            f"({100 * speedup / min(cores, n):.0f}% of linear on {min(cores, n)} cores)"
+            f"  {what}: {one:,.0f} on 1 thread, {all_:,.0f} on {cores}: "
+            f"{all_ / one:.2f}x ({100 * all_ / one / cores:.0f}% of linear)"
         )
 
 

@@ -552,3 +552,86 @@ pub fn step_worlds(py: Python<'_>, worlds: Vec<Bound<'_, World>>, n: u64) -> PyR
         on_sim_threads(|| sims.par_iter_mut().map(|world| step_n(world, n)).collect())
     }))
 }
+
+/// What [`step_observe`] gives back: per world whether it still runs, each ranger's readings
+/// of every world (`len(worlds) * samples` f64, native endian, a world's readings replaced by
+/// `range_max` when their count is not `samples`), and per world `px py pa vx vy va stall x y
+/// a` (odometry, stall as 0/1, global pose; f64).
+type Observed<'py> = (Vec<bool>, Vec<Bound<'py, PyBytes>>, Bound<'py, PyBytes>);
+
+/// One vector step of `VectorStageEnv` in one call: commands `velocities[i]` (`[vx, vy, va]`)
+/// to the position model `robot` of `worlds[i]`, steps every world `n` times as
+/// [`step_worlds`] does, then reads what the observations and the goal task need, in bulk, so
+/// Python handles a few arrays instead of dozens of dicts per copy. `rangers` are
+/// `(name, samples, range_max)` as `World.rangers` lists them. Readings are exactly those
+/// `World.ranger` and `World.position` give.
+#[pyfunction]
+pub fn step_observe<'py>(
+    py: Python<'py>,
+    worlds: Vec<Bound<'py, World>>,
+    robot: &str,
+    velocities: Vec<[f64; 3]>,
+    n: u64,
+    rangers: Vec<(String, usize, f64)>,
+) -> PyResult<Observed<'py>> {
+    if velocities.len() != worlds.len() {
+        return Err(WorldError::new_err(format!(
+            "step_observe: {} velocities for {} worlds",
+            velocities.len(),
+            worlds.len()
+        )));
+    }
+    let mut held = Vec::with_capacity(worlds.len());
+    for w in &worlds {
+        held.push(w.try_borrow_mut().map_err(|_| {
+            WorldError::new_err("step_observe: a world is listed twice or is in use elsewhere")
+        })?);
+    }
+    // every name and type checked before any world changes: a refused call changes nothing
+    let mut ids = Vec::with_capacity(held.len());
+    for w in &held {
+        let m = w.model(robot)?;
+        w.sensor(robot, "position model", |sim, _| sim.position_state(m))?;
+        let mut rs = Vec::with_capacity(rangers.len());
+        for (name, _, _) in &rangers {
+            let r = w.model(name)?;
+            w.sensor(name, "ranger", |sim, _| sim.ranger_scans(r))?;
+            rs.push(r);
+        }
+        ids.push((m, rs));
+    }
+    for ((w, v), (m, _)) in held.iter_mut().zip(&velocities).zip(&ids) {
+        w.world
+            .position_cmd_vel(*m, v[0], v[1], v[2])
+            .map_err(sim_err)?;
+    }
+    let mut sims: Vec<&mut stage_sim::World> = held.iter_mut().map(|w| &mut w.world).collect();
+    let running: Vec<bool> = py.allow_threads(|| {
+        on_sim_threads(|| sims.par_iter_mut().map(|world| step_n(world, n)).collect())
+    });
+    let mut scans = Vec::with_capacity(rangers.len());
+    for (k, (name, samples, range_max)) in rangers.iter().enumerate() {
+        let mut out: Vec<u8> = Vec::with_capacity(held.len() * samples * 8);
+        for (w, (_, rs)) in held.iter().zip(&ids) {
+            let r = w.sensor(name, "ranger", |sim, _| sim.ranger_scans(rs[k]))?;
+            let ranges = player_view::ranger_ranges(r);
+            if ranges.len() == *samples {
+                out.extend(ranges.iter().flat_map(|v| v.to_ne_bytes()));
+            } else {
+                out.extend((0..*samples).flat_map(|_| range_max.to_ne_bytes()));
+            }
+        }
+        scans.push(PyBytes::new(py, &out));
+    }
+    let mut state: Vec<u8> = Vec::with_capacity(held.len() * 80);
+    for (w, (m, _)) in held.iter().zip(&ids) {
+        let s = w.sensor(robot, "position model", |sim, _| sim.position_state(*m))?;
+        let g = w.world.global_pose(*m).map_err(sim_err)?;
+        let (p, v) = (&s.pose, &s.velocity);
+        let stall = if s.stall { 1.0 } else { 0.0 };
+        for x in [p.x, p.y, p.a, v.x, v.y, v.a, stall, g.x, g.y, g.a] {
+            state.extend(x.to_ne_bytes());
+        }
+    }
+    Ok((running, scans, PyBytes::new(py, &state)))
+}

@@ -29,7 +29,7 @@ position
   name "r0"
   pose [0 0 0 0]
   size [0.4 0.4 0.3]
-  drive "diff"
+  drive "{drive}"
   velocity_bounds [-0.5 0.8 -0.3 0.3 0 0 -60 60]
   ranger ( sensor ( range [0 4] fov 180 samples 180 ) size [0.1 0.1 0.1] pose [0.1 0 0 0] )
 )
@@ -46,7 +46,7 @@ wall ( name "west" pose [-4 0 0 0] size [0.1 8 0.5] )
 @pytest.fixture
 def small_world(tmp_path):
     path = tmp_path / "small.world"
-    path.write_text(SMALL_WORLD)
+    path.write_text(SMALL_WORLD.format(drive="diff"))
     return path
 
 
@@ -70,11 +70,25 @@ def assert_same(a, b, what):
 KWARGS = dict(random_start=True, max_episode_steps=4, frame_skip=2, terminate_on_stall=True)
 
 
-def test_copies_match_lone_stage_envs_and_sync_vector_env(small_world):
+@pytest.mark.parametrize(
+    "drive, extra",
+    [
+        ("diff", {}),  # the goal task on Dict observations: the bulk step_observe path
+        ("omni", {}),
+        ("diff", {"task": None}),
+        ("diff", {"flatten": True}),  # the per-copy path after step_worlds
+        ("diff", {"task": "explore"}),
+        ("diff", {"task": lambda world, robot: (world.time, world.time > 0.9, {})}),
+    ],
+)
+def test_copies_match_lone_stage_envs_and_sync_vector_env(tmp_path, drive, extra):
+    small_world = tmp_path / "small.world"
+    small_world.write_text(SMALL_WORLD.format(drive=drive))
+    kw = {**KWARGS, **extra}
     n = 3
-    vec = VectorStageEnv(n, small_world, "r0", **KWARGS)
-    lone = [StageEnv(small_world, "r0", **KWARGS) for _ in range(n)]
-    sync = SyncVectorEnv([lambda: StageEnv(small_world, "r0", **KWARGS) for _ in range(n)])
+    vec = VectorStageEnv(n, small_world, "r0", **kw)
+    lone = [StageEnv(small_world, "r0", **kw) for _ in range(n)]
+    sync = SyncVectorEnv([lambda: StageEnv(small_world, "r0", **kw) for _ in range(n)])
     assert vec.single_action_space == sync.single_action_space
     assert vec.observation_space == sync.observation_space
     assert vec.action_space == sync.action_space
@@ -210,7 +224,7 @@ def test_step_worlds_stops_at_quit_time_and_refuses_a_world_twice():
 
 def test_vector_env_renders_each_copy(tmp_path):
     world = tmp_path / "render.world"
-    world.write_text(SMALL_WORLD)  # no window entity: 400 x 300 images
+    world.write_text(SMALL_WORLD.format(drive="diff"))  # no window entity: 400 x 300 images
     vec = VectorStageEnv(2, world, "r0", task=None, render_mode="rgb_array", random_start=True)
     vec.reset(seed=3)
     try:
@@ -222,3 +236,19 @@ def test_vector_env_renders_each_copy(tmp_path):
     assert len(frames) == 2 and all(f.shape == (300, 400, 3) for f in frames)
     assert not np.array_equal(frames[0], frames[1]), "different random starts"
 
+
+
+def test_step_observe_refuses_bad_input():
+    a, b = World(BIGBOB), World(BIGBOB)
+    rangers = a._w.rangers("bob1")
+    with pytest.raises(WorldError, match="2 velocities for 1 worlds"):
+        _native.step_observe([a._w], "bob1", [[0, 0, 0], [0, 0, 0]], 1, rangers)
+    with pytest.raises(WorldError, match="twice"):
+        _native.step_observe([a._w, a._w], "bob1", [[0, 0, 0]] * 2, 1, rangers)
+    with pytest.raises(WorldError, match="no model named `nobody`"):
+        _native.step_observe([a._w, b._w], "nobody", [[0, 0, 0]] * 2, 1, rangers)
+    with pytest.raises(WorldError, match="not a ranger"):
+        _native.step_observe([a._w], "bob1", [[0, 0, 0]], 1, [("bob1", 1, 1.0)])
+    # a refused call changes nothing: not a step, not a command
+    assert a.steps == 0 and b.steps == 0
+    assert a.digest() == b.digest() == World(BIGBOB).digest()

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from copy import deepcopy
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import math
 
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space, concatenate, create_empty_array, iterate
+from gymnasium.vector.utils import batch_space, create_empty_array, iterate
 
 from .. import _native
 from ._stage_env import StageEnv
@@ -20,8 +23,12 @@ class VectorStageEnv(VectorEnv):
     copy ``i`` gives exactly what a lone ``StageEnv`` fed the same actions and seeds gives, and
     exactly what :class:`gymnasium.vector.SyncVectorEnv` of those envs gives. What differs is
     the simulation: one call steps every copy's world ``frame_skip`` times on the simulator's
-    thread pool with the GIL released (:func:`playerstage._native.step_worlds`), so copies use
-    all cores while Python only sets commands and reads observations.
+    thread pool with the GIL released, so copies use all cores. For the built-in ``"goal"``
+    task (or ``task=None``) on ``Dict`` observations, that call
+    (:func:`playerstage._native.step_observe`) also sets every copy's command and returns all
+    the readings as a few arrays, from which the batched observation and the rewards are
+    computed as StageEnv computes them; other tasks and ``flatten=True`` run each copy's own
+    StageEnv code around :func:`playerstage._native.step_worlds`.
 
     **Spaces** — ``single_observation_space`` / ``single_action_space`` are the StageEnv's;
     ``observation_space`` / ``action_space`` are what :func:`gymnasium.vector.utils.batch_space`
@@ -66,7 +73,13 @@ class VectorStageEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._frame_skip = first._frame_skip
-        self._obs: List[Any] = [None] * self.num_envs
+        agent = first._agent
+        # The built-in goal task (or none) on Dict observations runs on step_observe: one native
+        # call commands, steps and reads every copy; other tasks and flat observations go
+        # through each copy's own StageEnv code after step_worlds.
+        self._bulk = (agent.task is None or agent.task == "goal") and not agent.flatten
+        # the last batched observation: a partial reset (reset_mask) keeps the other rows
+        self._last: Any = self._empty()
         self._rewards = np.zeros(self.num_envs, dtype=np.float64)
         self._terminations = np.zeros(self.num_envs, dtype=np.bool_)
         self._truncations = np.zeros(self.num_envs, dtype=np.bool_)
@@ -100,25 +113,27 @@ class VectorStageEnv(VectorEnv):
                     f"({self.num_envs},) with at least one True"
                 )
         infos: Dict[str, Any] = {}
+        out = deepcopy(self._last)
         for i in np.flatnonzero(mask):
-            self._obs[i], info = self.envs[i].reset(seed=seeds[i], options=options or None)
+            obs, info = self.envs[i].reset(seed=seeds[i], options=options or None)
+            _put(out, int(i), obs)
             infos = self._add_info(infos, info, int(i))
         self._terminations[mask] = False
         self._truncations[mask] = False
         self._autoreset[mask] = False
-        return self._batch(), infos
+        self._last = out
+        return out, infos
 
     def step(self, actions: Any) -> Tuple[Any, np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
+        if self._bulk:
+            return self._step_bulk(actions)
         infos: Dict[str, Any] = {}
+        out = self._empty()
         stepped: List[int] = []
         for i, action in enumerate(iterate(self.action_space, actions)):
             env = self.envs[i]
             if self._autoreset[i]:
-                self._obs[i], info = env.reset()
-                self._rewards[i] = 0.0
-                self._terminations[i] = False
-                self._truncations[i] = False
-                infos = self._add_info(infos, info, i)
+                infos = self._reset_one(i, out, infos)
             else:
                 env._agent.act(env._native, action)
                 stepped.append(i)
@@ -129,15 +144,102 @@ class VectorStageEnv(VectorEnv):
             # what StageEnv.step does after its world's steps
             env._steps += 1
             reward, terminated, info = env._agent.evaluate(env._world)
-            limit = env._max_episode_steps
-            self._rewards[i] = reward
-            self._terminations[i] = terminated
-            self._truncations[i] = (not still) or (limit is not None and env._steps >= limit)
-            self._obs[i] = env._agent.observe(env._native)
+            self._ended(i, still, reward, terminated)
+            _put(out, i, env._agent.observe(env._native))
             infos = self._add_info(infos, info, i)
         self._autoreset = self._terminations | self._truncations
+        return self._result(out, infos)
+
+    def _step_bulk(
+        self, actions: Any
+    ) -> Tuple[Any, np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
+        """`step` for the goal task (or none) on Dict observations: StageEnv's commands,
+        observations and rewards computed from the arrays one `step_observe` call returns."""
+        first = self.envs[0]._agent
+        acts = np.asarray(actions, dtype=np.float64)
+        if acts.shape != self.action_space.shape:
+            raise ValueError(
+                f"actions of shape {acts.shape}: the action space is {self.action_space}"
+            )
+        acts = np.clip(acts, self.single_action_space.low, self.single_action_space.high)
+        if first.drive == "omni":
+            velocities = acts
+        else:
+            velocities = np.zeros((self.num_envs, 3))
+            velocities[:, 0], velocities[:, 2] = acts[:, 0], acts[:, 1]
+        infos: Dict[str, Any] = {}
+        out = self._empty()
+        stepped: List[int] = []
+        for i in range(self.num_envs):
+            if self._autoreset[i]:
+                infos = self._reset_one(i, out, infos)
+            else:
+                stepped.append(i)
+        running, scans, state = _native.step_observe(
+            [self.envs[i]._native for i in stepped],
+            first.robot,
+            velocities[stepped].tolist(),
+            self._frame_skip,
+            first.rangers,
+        )
+        rows = np.asarray(stepped, dtype=np.intp)
+        for (name, n, rmax), raw in zip(first.rangers, scans):
+            ranges = np.frombuffer(raw, dtype=np.float64).reshape(len(stepped), n)
+            out["rangers"][name][rows] = np.clip(
+                ranges.astype(np.float32), np.float32(0.0), np.float32(rmax)
+            )
+        state = np.frombuffer(state, dtype=np.float64).reshape(len(stepped), 10)
+        out["odometry"][rows] = state[:, :6].astype(np.float32)
+        out["stall"][rows] = state[:, 6].astype(np.int64)
+        for j, i in enumerate(stepped):
+            env = self.envs[i]
+            agent = env._agent
+            env._steps += 1
+            stall = bool(state[j, 6])
+            x, y, a = float(state[j, 7]), float(state[j, 8]), float(state[j, 9])
+            # _Robot.evaluate and _Robot.observe, from the arrays
+            if agent.task is None:
+                reward, terminated, info = 0.0, False, {}
+            else:
+                gx, gy = agent.goal
+                distance = math.hypot(gx - x, gy - y)
+                reward = agent.distance - distance
+                agent.distance = distance
+                if stall:
+                    reward -= agent.stall_penalty
+                reached = distance <= agent.goal_tolerance
+                if reached:
+                    reward += agent.goal_reward
+                terminated = reached or (stall and agent.terminate_on_stall)
+                info = {"distance": distance, "stall": stall, "reached": reached}
+                dx, dy = gx - x, gy - y
+                c, s = math.cos(a), math.sin(a)
+                out["goal"][i] = np.array([c * dx + s * dy, -s * dx + c * dy], dtype=np.float32)
+            self._ended(i, running[j], float(reward), terminated)
+            infos = self._add_info(infos, info, i)
+        self._autoreset = self._terminations | self._truncations
+        return self._result(out, infos)
+
+    def _reset_one(self, i: int, out: Any, infos: Dict[str, Any]) -> Dict[str, Any]:
+        """NEXT_STEP autoreset of copy `i`: its new episode's first observation, reward 0."""
+        obs, info = self.envs[i].reset()
+        _put(out, i, obs)
+        self._rewards[i] = 0.0
+        self._terminations[i] = False
+        self._truncations[i] = False
+        return self._add_info(infos, info, i)
+
+    def _ended(self, i: int, running: bool, reward: float, terminated: bool) -> None:
+        env = self.envs[i]
+        limit = env._max_episode_steps
+        self._rewards[i] = reward
+        self._terminations[i] = terminated
+        self._truncations[i] = (not running) or (limit is not None and env._steps >= limit)
+
+    def _result(self, obs: Any, infos: Dict[str, Any]):
+        self._last = obs
         return (
-            self._batch(),
+            obs,
             self._rewards.copy(),
             self._terminations.copy(),
             self._truncations.copy(),
@@ -154,7 +256,15 @@ class VectorStageEnv(VectorEnv):
         for env in self.envs:
             env.close()
 
-    def _batch(self) -> Any:
-        """The copies' latest observations in a fresh batched array (never reused)."""
-        out = create_empty_array(self.single_observation_space, n=self.num_envs, fn=np.zeros)
-        return concatenate(self.single_observation_space, self._obs, out)
+    def _empty(self) -> Any:
+        """A fresh batched observation of zeros (arrays handed out are never reused)."""
+        return create_empty_array(self.single_observation_space, n=self.num_envs, fn=np.zeros)
+
+
+def _put(batch: Any, i: int, obs: Any) -> None:
+    """Writes one copy's observation into row `i` of a batched Dict observation."""
+    if isinstance(batch, dict):
+        for k, v in obs.items():
+            _put(batch[k], i, v)
+    else:
+        batch[i] = obs

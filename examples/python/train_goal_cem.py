@@ -18,8 +18,9 @@ seed), so a run is the same every time.
 It prints each iteration's mean return over the population (the "mean return" that rises),
 and the rise from the first iteration to the last. With the defaults (8 iterations of 24
 candidates x 4 episodes of at most 60 actions, 768 episodes) it rises by more than 1.5, from
--1.38 to 1.94 (a random linear policy mostly drives into a wall), in about 2 s; CI runs 6 iterations of 16 candidates (-1.31 to 0.45, about 1 s)
-and asserts the same margin. Needs numpy and gymnasium only:
+-1.38 to 1.94 (a random linear policy mostly drives into a wall), in about 2 s; CI runs 6
+iterations of 16 candidates (-1.31 to 0.45, about 1 s) and asserts the same margin. Needs
+numpy and gymnasium only:
 
     python3 examples/python/train_goal_cem.py
 """

@@ -33,9 +33,10 @@ def parallel_env(
 ) -> "StageParallelEnv":
     """The position models of the worldfile ``world`` as a PettingZoo ``ParallelEnv``.
 
-    ``agents`` names the robots that act (default: every top-level position model, in the
-    file's order); the other models, robots included, are part of the world. Keyword arguments
-    are :class:`StageParallelEnv`'s.
+    ``agents`` names the robots that act (default: every position model no other position
+    model carries, in the file's order); the other models, robots included, are part of the
+    world. Agents should be top-level models: their poses are set in their parent's frame.
+    Keyword arguments are :class:`StageParallelEnv`'s.
     """
     return StageParallelEnv(world, agents, **kwargs)
 

@@ -15,9 +15,11 @@ pub mod convert;
 pub mod errors;
 pub mod world;
 
-/// The module's contents: the two classes, the exception hierarchy, the interface codes the
-/// Python side addresses devices with, and Player's default port (`DEFAULT_PORT`, so the
-/// Python modules' defaults come from the one Rust constant).
+/// The module's contents: the two classes, the functions that step many worlds at once for
+/// `playerstage.envs.VectorStageEnv` ([`world::step_worlds`], [`world::step_observe`]), the
+/// exception hierarchy, the interface codes the Python side addresses devices with, and
+/// Player's default port (`DEFAULT_PORT`, so the Python modules' defaults come from the one
+/// Rust constant).
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<client::Connection>()?;

@@ -103,8 +103,13 @@ def test_copies_match_lone_stage_envs_and_sync_vector_env(tmp_path, drive, extra
     resets = 0
     for t in range(14):
         actions = rng.uniform(vec.action_space.low, vec.action_space.high)
-        obs_v, rew_v, term_v, trunc_v, _ = vec.step(actions)
-        obs_s, rew_s, term_s, trunc_s, _ = sync.step(actions)
+        obs_v, rew_v, term_v, trunc_v, info_v = vec.step(actions)
+        obs_s, rew_s, term_s, trunc_s, info_s = sync.step(actions)
+        assert sorted(info_v) == sorted(info_s), f"step {t} info keys"
+        for k in info_s:
+            a, b = np.asarray(info_v[k]), np.asarray(info_s[k])
+            assert a.dtype == b.dtype and a.shape == b.shape, f"step {t} info {k}"
+            assert all(np.array_equal(x, y) for x, y in zip(a, b)), f"step {t} info {k}"
         assert_same(obs_v, obs_s, f"step {t} vs SyncVectorEnv")
         assert np.array_equal(rew_v, rew_s) and rew_v.dtype == np.float64
         assert np.array_equal(term_v, term_s) and np.array_equal(trunc_v, trunc_s)

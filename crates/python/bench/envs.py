@@ -28,29 +28,9 @@ import tempfile
 import time
 from pathlib import Path
 
-# One diff-drive robot, a 180-sample laser over 180 degrees reaching 4 m, three boxes, walls.
-WORLD = """
-resolution 0.02
-interval_sim 100
-define box model ( size [0.5 0.5 0.5] )
-define wall model ( color "gray" )
-position
-(
-  name "r0"
-  pose [0 0 0 0]
-  size [0.4 0.4 0.3]
-  drive "diff"
-  velocity_bounds [-0.5 0.8 -0.3 0.3 0 0 -60 60]
-  ranger ( sensor ( range [0 4] fov 180 samples 180 ) size [0.1 0.1 0.1] pose [0.1 0 0 0] )
-)
-box ( name "b1" pose [2 0 0 0] )
-box ( name "b2" pose [-1.5 1.5 0 0] )
-box ( name "b3" pose [0 -2 0 0] )
-wall ( name "north" pose [0 4 0 0] size [8 0.1 0.5] )
-wall ( name "south" pose [0 -4 0 0] size [8 0.1 0.5] )
-wall ( name "east" pose [4 0 0 0] size [0.1 8 0.5] )
-wall ( name "west" pose [-4 0 0 0] size [0.1 8 0.5] )
-"""
+# One diff-drive robot, a 180-sample laser over 180 degrees reaching 4 m, three boxes, walls:
+# the tests' world (worlds/boxes.world).
+WORLD = Path(__file__).resolve().parents[3] / "worlds" / "boxes.world"
 
 # The same scene for IR-SIM (world 8 m square from -4 to 4 shifted to 0..8; 0.1 s steps).
 IRSIM_YAML = """
@@ -201,7 +181,7 @@ def main():
     out = {}
     with tempfile.TemporaryDirectory() as d:
         world = Path(d) / "bench.world"
-        world.write_text(WORLD)
+        world.write_text(WORLD.read_text())
         kw = dict(max_episode_steps=EPISODE)
         out["StageEnv"] = bench_single(world, o.seconds)
         for n in (1, 8, 64):

@@ -24,6 +24,26 @@ collect_ignore = ["swig_scripts"]
 
 REPO = Path(__file__).resolve().parents[4]
 WORLDS = REPO / "worlds"
+# Stage's own worlds, from the shared reference material (tests using them skip without it).
+STAGE_WORLDS = Path(os.environ.get("PLAYERSTAGE_SHARED", REPO.parent / "shared")) / "stage-worlds"
+# The learning loops' world: a diff robot with a 180-sample laser among three boxes.
+BOXES = WORLDS / "boxes.world"
+
+
+def boxes_world(directory: Path, drive: str = "diff") -> Path:
+    """A copy of ``worlds/boxes.world`` in ``directory`` with the robot's ``drive``."""
+    path = directory / f"boxes-{drive}.world"
+    path.write_text(BOXES.read_text().replace('drive "diff"', f'drive "{drive}"'))
+    return path
+
+
+def leaves(obs) -> list:
+    """An observation's arrays in a fixed order (nested dicts flattened by key)."""
+    import numpy as np
+
+    if isinstance(obs, dict):
+        return [x for k in sorted(obs) for x in leaves(obs[k])]
+    return [np.asarray(obs)]
 BITMAPS = REPO / "bitmaps"
 EXAMPLES = REPO / "examples" / "python"
 
@@ -188,3 +208,9 @@ def wait_until(pred, timeout=20.0, step=None):
         if pred():
             return
     raise AssertionError("condition not met in time")
+
+
+@pytest.fixture
+def small_world(tmp_path):
+    """``worlds/boxes.world`` (a diff robot ``r0`` with a 180-sample laser among boxes)."""
+    return boxes_world(tmp_path)

@@ -5,7 +5,6 @@ import math
 import subprocess
 import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,47 +16,9 @@ import playerstage.envs  # noqa: F401 (registers playerstage/Stage-v0)
 from playerstage import World, WorldError
 from playerstage.envs import StageEnv
 
-REPO = Path(__file__).resolve().parents[4]
+from conftest import BOXES, REPO, STAGE_WORLDS, boxes_world, leaves
+
 BIGBOB = REPO / "worlds" / "bigbob.world"
-STAGE_WORLDS = Path("/work/shared/stage-worlds")
-
-# A diff-drive robot with a 180-sample laser among three boxes, walled in.
-SMALL_WORLD = """
-resolution 0.02
-interval_sim 100
-define box model ( size [0.5 0.5 0.5] )
-define wall model ( color "gray" )
-position
-(
-  name "r0"
-  pose [0 0 0 0]
-  size [0.4 0.4 0.3]
-  drive "{drive}"
-  velocity_bounds [-0.5 0.8 -0.3 0.3 0 0 -60 60]
-  ranger ( sensor ( range [0 4] fov 180 samples 180 ) size [0.1 0.1 0.1] pose [0.1 0 0 0] )
-)
-box ( name "b1" pose [2 0 0 0] )
-box ( name "b2" pose [-1.5 1.5 0 0] )
-box ( name "b3" pose [0 -2 0 0] )
-wall ( name "north" pose [0 4 0 0] size [8 0.1 0.5] )
-wall ( name "south" pose [0 -4 0 0] size [8 0.1 0.5] )
-wall ( name "east" pose [4 0 0 0] size [0.1 8 0.5] )
-wall ( name "west" pose [-4 0 0 0] size [0.1 8 0.5] )
-"""
-
-
-@pytest.fixture
-def small_world(tmp_path):
-    path = tmp_path / "small.world"
-    path.write_text(SMALL_WORLD.format(drive="diff"))
-    return path
-
-
-def leaves(obs):
-    """An observation's arrays in a fixed order (nested dicts flattened by key)."""
-    if isinstance(obs, dict):
-        return [x for k in sorted(obs) for x in leaves(obs[k])]
-    return [np.asarray(obs)]
 
 
 def same_obs(a, b):
@@ -119,8 +80,7 @@ def test_spaces_from_the_worldfile(small_world, tmp_path):
     assert laser.shape == (180,) and laser.high.max() == np.float32(4.0)
     assert env.observation_space["stall"].n == 2
 
-    omni = tmp_path / "omni.world"
-    omni.write_text(SMALL_WORLD.format(drive="omni"))
+    omni = boxes_world(tmp_path, "omni")
     env = StageEnv(omni, "r0")
     _, bounds = env.world.position_config("r0")
     assert env.action_space.shape == (3,)
@@ -304,7 +264,7 @@ def test_bad_arguments(small_world):
 def test_no_free_pose_is_an_error(tmp_path):
     # a robot wider than the walled-in floor fits nowhere
     path = tmp_path / "cramped.world"
-    text = SMALL_WORLD.format(drive="diff").replace("size [0.4 0.4 0.3]", "size [9 9 0.3]")
+    text = BOXES.read_text().replace("size [0.4 0.4 0.3]", "size [9 9 0.3]")
     path.write_text(text)
     env = StageEnv(path, "r0", goal=(0.0, 0.0), max_draws=50)
     env.reset(seed=0)  # the file's pose is not drawn, so not tested

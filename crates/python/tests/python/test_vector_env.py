@@ -3,7 +3,6 @@ vector envs), and copies that match lone StageEnvs and SyncVectorEnv exactly, ac
 autoresets; the native `step_worlds` it runs on."""
 
 import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,46 +14,9 @@ from gymnasium.vector.utils import batch_space
 from playerstage import World, WorldError, _native
 from playerstage.envs import StageEnv, VectorStageEnv
 
-REPO = Path(__file__).resolve().parents[4]
+from conftest import REPO, boxes_world, leaves
+
 BIGBOB = REPO / "worlds" / "bigbob.world"
-
-# A diff-drive robot with a 180-sample laser among three boxes, walled in.
-SMALL_WORLD = """
-resolution 0.02
-interval_sim 100
-define box model ( size [0.5 0.5 0.5] )
-define wall model ( color "gray" )
-position
-(
-  name "r0"
-  pose [0 0 0 0]
-  size [0.4 0.4 0.3]
-  drive "{drive}"
-  velocity_bounds [-0.5 0.8 -0.3 0.3 0 0 -60 60]
-  ranger ( sensor ( range [0 4] fov 180 samples 180 ) size [0.1 0.1 0.1] pose [0.1 0 0 0] )
-)
-box ( name "b1" pose [2 0 0 0] )
-box ( name "b2" pose [-1.5 1.5 0 0] )
-box ( name "b3" pose [0 -2 0 0] )
-wall ( name "north" pose [0 4 0 0] size [8 0.1 0.5] )
-wall ( name "south" pose [0 -4 0 0] size [8 0.1 0.5] )
-wall ( name "east" pose [4 0 0 0] size [0.1 8 0.5] )
-wall ( name "west" pose [-4 0 0 0] size [0.1 8 0.5] )
-"""
-
-
-@pytest.fixture
-def small_world(tmp_path):
-    path = tmp_path / "small.world"
-    path.write_text(SMALL_WORLD.format(drive="diff"))
-    return path
-
-
-def leaves(obs):
-    """An observation's arrays in a fixed order (nested dicts flattened by key)."""
-    if isinstance(obs, dict):
-        return [x for k in sorted(obs) for x in leaves(obs[k])]
-    return [np.asarray(obs)]
 
 
 def assert_same(a, b, what):
@@ -82,8 +44,7 @@ KWARGS = dict(random_start=True, max_episode_steps=4, frame_skip=2, terminate_on
     ],
 )
 def test_copies_match_lone_stage_envs_and_sync_vector_env(tmp_path, drive, extra):
-    small_world = tmp_path / "small.world"
-    small_world.write_text(SMALL_WORLD.format(drive=drive))
+    small_world = boxes_world(tmp_path, drive)
     kw = {**KWARGS, **extra}
     n = 3
     vec = VectorStageEnv(n, small_world, "r0", **kw)
@@ -96,7 +57,8 @@ def test_copies_match_lone_stage_envs_and_sync_vector_env(tmp_path, drive, extra
     obs_v, _ = vec.reset(seed=7)
     obs_s, _ = sync.reset(seed=7)
     assert_same(obs_v, obs_s, "reset vs SyncVectorEnv")
-    lone_obs = [env.reset(seed=7 + i)[0] for i, env in enumerate(lone)]
+    for i, env in enumerate(lone):
+        env.reset(seed=7 + i)
     done = [False] * n
 
     rng = np.random.default_rng(3)
@@ -228,8 +190,7 @@ def test_step_worlds_stops_at_quit_time_and_refuses_a_world_twice():
 
 
 def test_vector_env_renders_each_copy(tmp_path):
-    world = tmp_path / "render.world"
-    world.write_text(SMALL_WORLD.format(drive="diff"))  # no window entity: 400 x 300 images
+    world = boxes_world(tmp_path)  # no window entity: 400 x 300 images
     vec = VectorStageEnv(2, world, "r0", task=None, render_mode="rgb_array", random_start=True)
     vec.reset(seed=3)
     try:

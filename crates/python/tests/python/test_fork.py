@@ -14,8 +14,10 @@ import struct
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from conftest import boxes_world, leaves
 from playerstage import World
 
 REPO = Path(__file__).resolve().parents[4]
@@ -176,3 +178,63 @@ def test_connection_inherited_by_a_forked_child_says_so(server) -> None:
         assert run_in_forked_child(child) == [0]
         client.read()
         assert base.odometry is not None
+
+
+def _digest_task(world, robot) -> tuple:
+    """A task that reports the world's digest (as text: it is a 64-bit unsigned number)."""
+    return 0.0, False, {"digest": format(world.digest(), "016x")}
+
+
+def _vector_trace(vec, steps: int = 12) -> list:
+    """Resets ``vec`` with a seed and steps it with fixed actions (each wait bounded); every
+    step's observations, rewards and world digests."""
+    bounded = hasattr(vec, "step_wait")  # AsyncVectorEnv: waits with a timeout
+    if bounded:
+        vec.reset_async(seed=5)
+        vec.reset_wait(timeout=CHILD_TIMEOUT)
+    else:
+        vec.reset(seed=5)
+    rng = np.random.default_rng(11)
+    low, high = vec.single_action_space.low, vec.single_action_space.high
+    trace = []
+    for _ in range(steps):
+        actions = rng.uniform(low, high, size=(vec.num_envs, len(low)))
+        if bounded:
+            vec.step_async(actions)
+            obs, reward, _, _, info = vec.step_wait(timeout=CHILD_TIMEOUT)
+        else:
+            obs, reward, _, _, info = vec.step(actions)
+        trace.append((leaves(obs), list(reward), list(info["digest"])))
+    return trace
+
+
+def test_async_vector_env_with_fork_after_the_parent_stepped(tmp_path: Path) -> None:
+    """Gymnasium's ``AsyncVectorEnv`` with ``context="fork"`` over ``StageEnv``, started after
+    the parent stepped a world: its workers step, and every step's observations, rewards and
+    digests equal a ``SyncVectorEnv``'s in this process."""
+    pytest.importorskip("gymnasium")
+    from gymnasium.vector import AsyncVectorEnv, SyncVectorEnv
+
+    from playerstage.envs import StageEnv
+
+    world = boxes_world(tmp_path)
+    stepped(world, 0, 5)
+
+    def make():
+        return StageEnv(world, "r0", random_start=True, task=_digest_task)
+
+    sync = SyncVectorEnv([make] * 3)
+    expected = _vector_trace(sync)
+    sync.close()
+    forked = AsyncVectorEnv([make] * 3, context="fork")
+    try:
+        got = _vector_trace(forked)
+    except multiprocessing.TimeoutError:
+        pytest.fail(f"the forked workers hung for {CHILD_TIMEOUT} s")
+    finally:
+        forked.close(terminate=True)
+    assert len(got) == len(expected)
+    for (obs_a, rew_a, dig_a), (obs_b, rew_b, dig_b) in zip(got, expected):
+        assert dig_a == dig_b and rew_a == rew_b
+        assert all(np.array_equal(a, b) for a, b in zip(obs_a, obs_b))
+    assert len({d for _, _, digests in expected for d in digests}) > 3, "the worlds move"

@@ -11,7 +11,7 @@ mod common;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use common::{build_example, root, run_bounded, serve_cfg};
+use common::{assert_example_ok, build_example, root, run_bounded, serve_cfg};
 use player_client::{DataMode, PlayerClient, Position2dProxy, RangerProxy};
 use player_server::Pace;
 
@@ -177,12 +177,5 @@ fn libplayerc_first_round_holds_every_subscribed_ranger() {
     drop(server);
     let _ = std::fs::remove_dir_all(program.parent().unwrap());
     let _ = std::fs::remove_dir_all(&dir);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "first_round failed ({:?}): {stdout}{}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(stdout.contains("first_round: ok"), "{stdout}");
+    assert_example_ok("first_round", &out);
 }

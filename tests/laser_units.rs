@@ -12,8 +12,8 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{
-    build_example, pioneer_odom_cfg, player_2_units_laser_request, run_bounded, serve_cfg,
-    serve_cfg_with_drivers,
+    assert_example_ok, build_example, pioneer_odom_cfg, player_2_units_laser_request, run_bounded,
+    serve_cfg, serve_cfg_with_drivers,
 };
 use player_client::{ClientError, LaserProxy, PlayerClient};
 use player_proto::LaserConfig;
@@ -125,12 +125,5 @@ fn libplayerc_laser_config_in_player_2_units_is_refused() {
     drop(server);
     let _ = std::fs::remove_dir_all(program.parent().unwrap());
     let _ = std::fs::remove_dir_all(&dir);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "laser_units failed ({:?}): {stdout}{}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(stdout.contains("laser_units: ok"), "{stdout}");
+    assert_example_ok("laser_units", &out);
 }

@@ -238,3 +238,16 @@ pub fn player_2_units_laser_request() -> player_proto::LaserConfig {
         scanning_frequency: 10.0,
     }
 }
+
+/// Fails unless an example program run by [`run_bounded`] exited successfully and printed
+/// `NAME: ok` (how the C examples report that every check passed).
+pub fn assert_example_ok(name: &str, out: &Output) {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{name} failed ({:?}): {stdout}{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains(&format!("{name}: ok")), "{stdout}");
+}

@@ -605,33 +605,68 @@ pub fn step_observe<'py>(
             .position_cmd_vel(*m, v[0], v[1], v[2])
             .map_err(sim_err)?;
     }
-    let mut sims: Vec<&mut stage_sim::World> = held.iter_mut().map(|w| &mut w.world).collect();
-    let running: Vec<bool> = py.allow_threads(|| {
-        on_sim_threads(|| sims.par_iter_mut().map(|world| step_n(world, n)).collect())
+    // each world is read on its own thread right after its steps: only the copying into the
+    // returned buffers is left serial, so a vector step scales with the pool like step_worlds
+    let jobs: Vec<(&mut stage_sim::World, &(ModelId, Vec<ModelId>))> =
+        held.iter_mut().map(|w| &mut w.world).zip(&ids).collect();
+    let read: Vec<stage_sim::Result<(bool, Vec<u8>)>> = py.allow_threads(|| {
+        on_sim_threads(|| {
+            jobs.into_par_iter()
+                .map(|(world, (m, rs))| {
+                    let running = step_n(world, n);
+                    observe_one(world, *m, rs, &rangers).map(|obs| (running, obs))
+                })
+                .collect()
+        })
     });
+    let mut running = Vec::with_capacity(read.len());
+    let mut all = Vec::with_capacity(read.len());
+    for r in read {
+        let (still, obs) = r.map_err(sim_err)?;
+        running.push(still);
+        all.push(obs);
+    }
     let mut scans = Vec::with_capacity(rangers.len());
-    for (k, (name, samples, range_max)) in rangers.iter().enumerate() {
-        let mut out: Vec<u8> = Vec::with_capacity(held.len() * samples * 8);
-        for (w, (_, rs)) in held.iter().zip(&ids) {
-            let r = w.sensor(name, "ranger", |sim, _| sim.ranger_scans(rs[k]))?;
-            let ranges = player_view::ranger_ranges(r);
-            if ranges.len() == *samples {
-                out.extend(ranges.iter().flat_map(|v| v.to_ne_bytes()));
-            } else {
-                out.extend((0..*samples).flat_map(|_| range_max.to_ne_bytes()));
-            }
+    let mut offset = 0;
+    for (_, samples, _) in &rangers {
+        let mut out: Vec<u8> = Vec::with_capacity(all.len() * samples * 8);
+        for obs in &all {
+            out.extend_from_slice(&obs[offset..offset + samples * 8]);
         }
         scans.push(PyBytes::new(py, &out));
+        offset += samples * 8;
     }
-    let mut state: Vec<u8> = Vec::with_capacity(held.len() * 80);
-    for (w, (m, _)) in held.iter().zip(&ids) {
-        let s = w.sensor(robot, "position model", |sim, _| sim.position_state(*m))?;
-        let g = w.world.global_pose(*m).map_err(sim_err)?;
-        let (p, v) = (&s.pose, &s.velocity);
-        let stall = if s.stall { 1.0 } else { 0.0 };
-        for x in [p.x, p.y, p.a, v.x, v.y, v.a, stall, g.x, g.y, g.a] {
-            state.extend(x.to_ne_bytes());
-        }
+    let mut state: Vec<u8> = Vec::with_capacity(all.len() * 80);
+    for obs in &all {
+        state.extend_from_slice(&obs[offset..]);
     }
     Ok((running, scans, PyBytes::new(py, &state)))
+}
+
+/// One world's part of [`step_observe`]'s answer, as native-endian f64 bytes: each ranger's
+/// `samples` readings (all `range_max` when the count differs), then `px py pa vx vy va stall
+/// x y a`.
+fn observe_one(
+    world: &stage_sim::World,
+    robot: ModelId,
+    ids: &[ModelId],
+    rangers: &[(String, usize, f64)],
+) -> stage_sim::Result<Vec<u8>> {
+    let mut out = Vec::with_capacity((rangers.iter().map(|r| r.1).sum::<usize>() + 10) * 8);
+    for (&r, (_, samples, range_max)) in ids.iter().zip(rangers) {
+        let ranges = player_view::ranger_ranges(world.ranger_scans(r)?);
+        if ranges.len() == *samples {
+            out.extend(ranges.iter().flat_map(|v| v.to_ne_bytes()));
+        } else {
+            out.extend((0..*samples).flat_map(|_| range_max.to_ne_bytes()));
+        }
+    }
+    let s = world.position_state(robot)?;
+    let g = world.global_pose(robot)?;
+    let (p, v) = (&s.pose, &s.velocity);
+    let stall = if s.stall { 1.0 } else { 0.0 };
+    for x in [p.x, p.y, p.a, v.x, v.y, v.a, stall, g.x, g.y, g.a] {
+        out.extend(x.to_ne_bytes());
+    }
+    Ok(out)
 }

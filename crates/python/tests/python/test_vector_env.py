@@ -218,3 +218,45 @@ def test_step_observe_refuses_bad_input():
     # a refused call changes nothing: not a step, not a command
     assert a.steps == 0 and b.steps == 0
     assert a.digest() == b.digest() == World(BIGBOB).digest()
+
+
+@pytest.mark.parametrize("tolerance", [2.0, 100.0])
+def test_bulk_step_rewards_goal_and_stall_like_sync_vector_env(tmp_path, tolerance):
+    # The bulk path's batched rewards: a goal at the centre reached by some copies (2 m) or by
+    # all at once (100 m: every copy terminates together, so the next step steps none and
+    # resets all),
+    # stall penalties and terminations, non-default weights; infos and all against SyncVectorEnv.
+    small_world = boxes_world(tmp_path, "diff")
+    kw = dict(
+        random_start=True, goal=(0.0, 0.0), frame_skip=3, goal_tolerance=tolerance,
+        goal_reward=2.5,
+        stall_penalty=0.25, max_episode_steps=6,
+    )
+    n = 4
+    vec = VectorStageEnv(n, small_world, "r0", **kw)
+    sync = SyncVectorEnv([lambda: StageEnv(small_world, "r0", **kw) for _ in range(n)])
+    with pytest.raises(RuntimeError, match="reset"):
+        vec.step(vec.action_space.sample())
+    assert_same(vec.reset(seed=11)[0], sync.reset(seed=11)[0], "reset")
+    rng = np.random.default_rng(5)
+    reached = stalled = 0
+    for t in range(16):
+        actions = rng.uniform(vec.action_space.low, vec.action_space.high)
+        actions[:, 0] = vec.action_space.high[:, 0]  # full speed ahead: walls get hit
+        obs_v, rew_v, term_v, trunc_v, info_v = vec.step(actions)
+        obs_s, rew_s, term_s, trunc_s, info_s = sync.step(actions)
+        assert_same(obs_v, obs_s, f"step {t}")
+        assert np.array_equal(rew_v, rew_s), f"step {t}"
+        assert np.array_equal(term_v, term_s) and np.array_equal(trunc_v, trunc_s)
+        assert sorted(info_v) == sorted(info_s), f"step {t} info keys"
+        for k in info_s:
+            a, b = np.asarray(info_v[k]), np.asarray(info_s[k])
+            assert a.dtype == b.dtype and a.shape == b.shape, f"step {t} info {k}"
+            assert all(np.array_equal(x, y) for x, y in zip(a, b)), f"step {t} info {k}"
+        if "reached" in info_s:
+            reached += int(np.sum(info_s["reached"] & info_s["_reached"]))
+            stalled += int(np.sum(info_s["stall"] & info_s["_stall"]))
+    assert reached >= 1, "some copy reached its goal"
+    assert stalled >= 1, "some copy stalled"
+    if tolerance > 10:
+        assert reached >= 2 * n, "all copies reached at once, twice"

@@ -84,6 +84,13 @@ class VectorStageEnv(VectorEnv):
         self._terminations = np.zeros(self.num_envs, dtype=np.bool_)
         self._truncations = np.zeros(self.num_envs, dtype=np.bool_)
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
+        # the bulk step's per-copy episode state (see _began)
+        self._all = np.arange(self.num_envs, dtype=np.intp)
+        self._natives: List[Any] = [env._native for env in self.envs]
+        self._steps = np.zeros(self.num_envs, dtype=np.int64)
+        self._goals = np.zeros((self.num_envs, 2), dtype=np.float64)
+        self._distance = np.zeros(self.num_envs, dtype=np.float64)
+        self._begun = np.zeros(self.num_envs, dtype=np.bool_)
 
     def reset(
         self,
@@ -116,6 +123,7 @@ class VectorStageEnv(VectorEnv):
         out = deepcopy(self._last)
         for i in np.flatnonzero(mask):
             obs, info = self.envs[i].reset(seed=seeds[i], options=options or None)
+            self._began(int(i))
             _put(out, int(i), obs)
             infos = self._add_info(infos, info, int(i))
         self._terminations[mask] = False
@@ -154,7 +162,9 @@ class VectorStageEnv(VectorEnv):
         self, actions: Any
     ) -> Tuple[Any, np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
         """`step` for the goal task (or none) on Dict observations: StageEnv's commands,
-        observations and rewards computed from the arrays one `step_observe` call returns."""
+        observations and rewards computed for all copies at once from the arrays one
+        `step_observe` call returns (no per-copy Python objects, so the Python share of a
+        vector step stays small next to the simulation, which runs on every core)."""
         first = self.envs[0]._agent
         acts = np.asarray(actions, dtype=np.float64)
         if acts.shape != self.action_space.shape:
@@ -168,61 +178,111 @@ class VectorStageEnv(VectorEnv):
             velocities = np.zeros((self.num_envs, 3))
             velocities[:, 0], velocities[:, 2] = acts[:, 0], acts[:, 1]
         infos: Dict[str, Any] = {}
-        out = self._empty()
-        stepped: List[int] = []
-        for i in range(self.num_envs):
-            if self._autoreset[i]:
-                infos = self._reset_one(i, out, infos)
-            else:
-                stepped.append(i)
+        out: Any = None  # built from the rows' arrays when every copy steps
+        if self._autoreset.any():
+            out = self._empty()
+            for i in np.flatnonzero(self._autoreset):
+                infos = self._reset_one(int(i), out, infos)
+            rows = np.flatnonzero(~self._autoreset)
+            natives = [self._natives[i] for i in rows]
+            velocities = velocities[rows]
+        else:
+            rows = self._all
+            natives = self._natives
+        goal = first.task == "goal"
+        if goal and not self._begun[rows].all():
+            raise RuntimeError("VectorStageEnv: call reset() before step()")
         running, scans, state = _native.step_observe(
-            [self.envs[i]._native for i in stepped],
-            first.robot,
-            velocities[stepped].tolist(),
-            self._frame_skip,
-            first.rangers,
+            natives, first.robot, velocities.tolist(), self._frame_skip, first.rangers
         )
-        rows = np.asarray(stepped, dtype=np.intp)
+        m = len(rows)
+        rangers = {}
         for (name, n, rmax), raw in zip(first.rangers, scans):
-            ranges = np.frombuffer(raw, dtype=np.float64).reshape(len(stepped), n)
-            out["rangers"][name][rows] = np.clip(
+            ranges = np.frombuffer(raw, dtype=np.float64).reshape(m, n)
+            rangers[name] = np.clip(
                 ranges.astype(np.float32), np.float32(0.0), np.float32(rmax)
             )
-        state = np.frombuffer(state, dtype=np.float64).reshape(len(stepped), 10)
-        out["odometry"][rows] = state[:, :6].astype(np.float32)
-        out["stall"][rows] = state[:, 6].astype(np.int64)
-        for j, i in enumerate(stepped):
-            env = self.envs[i]
-            agent = env._agent
-            env._steps += 1
-            stall = bool(state[j, 6])
-            x, y, a = float(state[j, 7]), float(state[j, 8]), float(state[j, 9])
-            # _Robot.evaluate and _Robot.observe, from the arrays
-            if agent.task is None:
-                reward, terminated, info = 0.0, False, {}
-            else:
-                gx, gy = agent.goal
-                distance = math.hypot(gx - x, gy - y)
-                reward = agent.distance - distance
-                agent.distance = distance
-                if stall:
-                    reward -= agent.stall_penalty
-                reached = distance <= agent.goal_tolerance
-                if reached:
-                    reward += agent.goal_reward
-                terminated = reached or (stall and agent.terminate_on_stall)
-                info = {"distance": distance, "stall": stall, "reached": reached}
-                dx, dy = gx - x, gy - y
-                c, s = math.cos(a), math.sin(a)
-                out["goal"][i] = np.array([c * dx + s * dy, -s * dx + c * dy], dtype=np.float32)
-            self._ended(i, running[j], float(reward), terminated)
-            infos = self._add_info(infos, info, i)
+        state = np.frombuffer(state, dtype=np.float64).reshape(m, 10)
+        parts: Dict[str, Any] = {
+            "rangers": rangers,
+            "odometry": state[:, :6].astype(np.float32),
+            "stall": state[:, 6].astype(np.int64),
+        }
+        self._steps[rows] += 1
+        limit = self.envs[0]._max_episode_steps
+        truncated = ~np.asarray(running, dtype=np.bool_)
+        if limit is not None:
+            truncated |= self._steps[rows] >= limit
+        if goal:
+            # _Robot.evaluate and _Robot.observe over all rows: the same float64 operations in
+            # the same order (hypot, cos and sin from `math`, as there)
+            stall = state[:, 6] != 0.0
+            x, y, a = state[:, 7], state[:, 8], state[:, 9]
+            dx, dy = self._goals[rows, 0] - x, self._goals[rows, 1] - y
+            dxs, dys = dx.tolist(), dy.tolist()
+            distance = np.fromiter(map(math.hypot, dxs, dys), dtype=np.float64, count=m)
+            reward = self._distance[rows] - distance
+            self._distance[rows] = distance
+            reward = np.where(stall, reward - first.stall_penalty, reward)
+            reached = distance <= first.goal_tolerance
+            reward = np.where(reached, reward + first.goal_reward, reward)
+            terminated = reached | (stall & bool(first.terminate_on_stall))
+            angles = a.tolist()
+            c = np.fromiter(map(math.cos, angles), dtype=np.float64, count=m)
+            s = np.fromiter(map(math.sin, angles), dtype=np.float64, count=m)
+            rel = np.empty((m, 2), dtype=np.float32)  # assigning casts as astype does
+            rel[:, 0] = c * dx + s * dy
+            rel[:, 1] = -s * dx + c * dy
+            parts["goal"] = rel
+            self._rewards[rows] = reward
+            self._terminations[rows] = terminated
+            if m:
+                # what _add_info makes of each copy's {"distance", "stall", "reached"}
+                for key, values, dtype in (
+                    ("distance", distance, float),
+                    ("stall", stall, bool),
+                    ("reached", reached, bool),
+                ):
+                    _add_rows(infos, key, values, rows, dtype, self.num_envs)
+        else:
+            self._rewards[rows] = 0.0
+            self._terminations[rows] = False
+        self._truncations[rows] = truncated
         self._autoreset = self._terminations | self._truncations
+        spaces = self.single_observation_space.spaces
+        if out is None:
+            # every row is this step's: the batched observation is the arrays themselves, in
+            # the space's key order as create_empty_array lays it out
+            out = {
+                k: {r: rangers[r] for r in spaces[k].spaces} if k == "rangers" else parts[k]
+                for k in spaces
+            }
+        else:
+            for k in spaces:
+                if k == "rangers":
+                    for r in spaces[k].spaces:
+                        out[k][r][rows] = rangers[r]
+                else:
+                    out[k][rows] = parts[k]
         return self._result(out, infos)
+
+    def _began(self, i: int) -> None:
+        """Takes copy `i`'s episode state after its reset: the bulk step keeps every copy's
+        world, goal, distance and step count in arrays (the copies' own StageEnv objects are
+        not updated by bulk steps; their next reset starts afresh anyway)."""
+        env = self.envs[i]
+        agent = env._agent
+        self._natives[i] = env._native
+        self._steps[i] = env._steps
+        if agent.goal is not None:
+            self._goals[i] = agent.goal
+            self._distance[i] = agent.distance
+            self._begun[i] = True
 
     def _reset_one(self, i: int, out: Any, infos: Dict[str, Any]) -> Dict[str, Any]:
         """NEXT_STEP autoreset of copy `i`: its new episode's first observation, reward 0."""
         obs, info = self.envs[i].reset()
+        self._began(i)
         _put(out, i, obs)
         self._rewards[i] = 0.0
         self._terminations[i] = False
@@ -268,3 +328,22 @@ def _put(batch: Any, i: int, obs: Any) -> None:
             _put(batch[k], i, v)
     else:
         batch[i] = obs
+
+
+def _add_rows(
+    infos: Dict[str, Any], key: str, values: np.ndarray, rows: np.ndarray, kind: type, n: int
+) -> None:
+    """`VectorEnv._add_info` of the same `key` for every copy in `rows` at once: `values[j]`
+    is copy `rows[j]`'s, of Python type `kind` (the array's dtype when the key is new)."""
+    array, mask = infos.get(key), infos.get(f"_{key}")
+    if array is None and len(rows) == n:  # all copies: no other row to leave zero
+        array = np.asarray(values, dtype=kind)
+        mask = np.ones(n, dtype=np.bool_)
+    else:
+        if array is None:
+            array = np.zeros(n, dtype=kind)
+        array[rows] = values
+        if mask is None:
+            mask = np.zeros(n, dtype=np.bool_)
+        mask[rows] = True
+    infos[key], infos[f"_{key}"] = array, mask

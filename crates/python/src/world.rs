@@ -13,6 +13,7 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use rayon::prelude::*;
+use stage_sim::fork::PerProcess;
 use stage_sim::{Body, GripperCmd, ModelId, Pose, on_sim_threads};
 use worldfile::models::Drive;
 
@@ -33,8 +34,10 @@ pub struct World {
 }
 
 /// The one offscreen renderer of the process, opened by the first `render`: opening a device
-/// takes far longer than a frame, and every episode's reset makes a new `World`.
-static OFFSCREEN: Mutex<Option<viewer::Offscreen>> = Mutex::new(None);
+/// takes far longer than a frame, and every episode's reset makes a new `World`. Per process:
+/// a child forked after its parent rendered (an `AsyncVectorEnv` worker) would hang in the
+/// parent's device, whose driver threads it does not have, so it opens its own.
+static OFFSCREEN: PerProcess<Mutex<Option<viewer::Offscreen>>> = PerProcess::new();
 
 fn sim_err(e: stage_sim::Error) -> PyErr {
     WorldError::new_err(e.to_string())
@@ -193,7 +196,10 @@ impl World {
         viewer::world_scene::build(&self.world, &self.gui, &vis, &view, &[], &mut self.scene);
         let scene = &self.scene;
         let pixels = py.allow_threads(|| {
-            let mut slot = OFFSCREEN.lock().unwrap_or_else(|e| e.into_inner());
+            let mut slot = OFFSCREEN
+                .get_or_make(|| Mutex::new(None))
+                .lock()
+                .unwrap_or_else(|e| e.into_inner());
             if slot.is_none() {
                 *slot = Some(viewer::Offscreen::new()?);
             }

@@ -98,6 +98,7 @@ pub mod controller;
 pub mod desc;
 mod digest;
 pub mod error;
+pub mod fork;
 pub mod generate;
 pub mod geom;
 pub mod models;

@@ -7,7 +7,9 @@
 //! work-stealing `join` that costs well under a microsecond while the other workers are busy.
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use crate::fork::PerProcess;
 
 /// Runs `body` (typically a loop of [`crate::World::step`]) on a thread of the simulation's
 /// thread pool ([`sim_pool`]) and returns its result; the calling thread waits. Results are the
@@ -21,18 +23,8 @@ pub fn on_sim_threads<R: Send>(body: impl FnOnce() -> R + Send) -> R {
     sim_pool().install(body)
 }
 
-/// The simulation's thread pool of this process, with its threads.
-struct ProcessPool {
-    /// The process that made it.
-    pid: u32,
-    pool: rayon::ThreadPool,
-}
-
-/// The newest [`ProcessPool`]. Each is leaked on purpose: a forked child inherits its parent's
-/// pool as memory only (fork copies the calling thread alone), and must neither use it (work
-/// handed to it would wait forever for threads that do not exist) nor drop it (that would
-/// signal those absent threads through locks another parent thread may have held at the fork).
-static CURRENT_POOL: AtomicPtr<ProcessPool> = AtomicPtr::new(std::ptr::null_mut());
+/// The simulation's thread pool of each process ([`sim_pool`]).
+static SIM_POOL: PerProcess<rayon::ThreadPool> = PerProcess::new();
 
 /// The pool that steps of this process run on, made on first use with rayon's default size
 /// (`RAYON_NUM_THREADS`, else one thread per core).
@@ -40,33 +32,15 @@ static CURRENT_POOL: AtomicPtr<ProcessPool> = AtomicPtr::new(std::ptr::null_mut(
 /// Why not rayon's global pool: it is made once per program, so a child forked after its parent
 /// stepped a world (Python's `multiprocessing` and Gymnasium's `AsyncVectorEnv` with `fork`)
 /// would hand its steps to the parent's threads, which do not exist in the child, and hang.
-/// This pool is made anew in each process that uses it: a forked child's first step makes its
-/// own, as fast as a fresh process's, and the parent's pool is left alone.
+/// This pool is made anew in each process that uses it ([`PerProcess`]): a forked child's first
+/// step makes its own, as fast as a fresh process's, and the parent's pool is left alone.
 pub fn sim_pool() -> &'static rayon::ThreadPool {
-    let pid = std::process::id();
-    let seen = CURRENT_POOL.load(Ordering::Acquire);
-    // SAFETY: every pointer stored in CURRENT_POOL comes from Box::into_raw and is never freed.
-    if let Some(current) = unsafe { seen.as_ref() }
-        && current.pid == pid
-    {
-        return &current.pool;
-    }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .thread_name(|i| format!("stage-sim-{i}"))
-        .build()
-        .unwrap_or_else(|e| panic!("cannot start the simulation's worker threads: {e}"));
-    let made = Box::into_raw(Box::new(ProcessPool { pid, pool }));
-    match CURRENT_POOL.compare_exchange(seen, made, Ordering::AcqRel, Ordering::Acquire) {
-        // SAFETY: just made from a Box, and from now on never freed
-        Ok(_) => unsafe { &(*made).pool },
-        Err(_) => {
-            // another thread of this process made one first: use that one; ours never ran
-            // anything, so dropping it just ends its threads
-            // SAFETY: `made` was not published, so this is its only owner
-            drop(unsafe { Box::from_raw(made) });
-            sim_pool()
-        }
-    }
+    SIM_POOL.get_or_make(|| {
+        rayon::ThreadPoolBuilder::new()
+            .thread_name(|i| format!("stage-sim-{i}"))
+            .build()
+            .unwrap_or_else(|e| panic!("cannot start the simulation's worker threads: {e}"))
+    })
 }
 
 /// Spins (`PAUSE`: 10-140 cycles) before the caller starts yielding: 0.05-0.8 ms, many times

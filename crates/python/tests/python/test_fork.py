@@ -238,3 +238,24 @@ def test_async_vector_env_with_fork_after_the_parent_stepped(tmp_path: Path) -> 
         assert dig_a == dig_b and rew_a == rew_b
         assert all(np.array_equal(a, b) for a, b in zip(obs_a, obs_b))
     assert len({d for _, _, digests in expected for d in digests}) > 3, "the worlds move"
+
+
+def test_render_in_a_child_forked_after_the_parent_rendered(tmp_path: Path) -> None:
+    """The offscreen renderer is per process: a child forked after the parent rendered (its
+    device's driver threads are not in the child) opens its own and draws the same image."""
+    from playerstage.envs import StageEnv
+
+    from test_render import frame
+
+    env = StageEnv(boxes_world(tmp_path), "r0", render_mode="rgb_array")
+    env.reset(seed=0)
+    image = frame(env)
+
+    def child() -> list[int]:
+        again = StageEnv(boxes_world(tmp_path), "r0", render_mode="rgb_array")
+        again.reset(seed=0)
+        fresh, inherited = again.render(), env.render()
+        return [int(np.array_equal(fresh, image)), int(np.array_equal(inherited, image))]
+
+    assert run_in_forked_child(child) == [1, 1]
+    assert np.array_equal(frame(env), image)

@@ -85,7 +85,6 @@ class VectorStageEnv(VectorEnv):
         self._truncations = np.zeros(self.num_envs, dtype=np.bool_)
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         # the bulk step's per-copy episode state (see _began)
-        self._all = np.arange(self.num_envs, dtype=np.intp)
         self._natives: List[Any] = [env._native for env in self.envs]
         self._steps = np.zeros(self.num_envs, dtype=np.int64)
         self._goals = np.zeros((self.num_envs, 2), dtype=np.float64)
@@ -183,19 +182,20 @@ class VectorStageEnv(VectorEnv):
             out = self._empty()
             for i in np.flatnonzero(self._autoreset):
                 infos = self._reset_one(int(i), out, infos)
-            rows = np.flatnonzero(~self._autoreset)
+            rows: Any = np.flatnonzero(~self._autoreset)
             natives = [self._natives[i] for i in rows]
             velocities = velocities[rows]
+            m = len(rows)
         else:
-            rows = self._all
+            rows = slice(None)  # every copy: plain slicing, no index arrays
             natives = self._natives
+            m = self.num_envs
         goal = first.task == "goal"
         if goal and not self._begun[rows].all():
             raise RuntimeError("VectorStageEnv: call reset() before step()")
         running, scans, state = _native.step_observe(
             natives, first.robot, velocities.tolist(), self._frame_skip, first.rangers
         )
-        m = len(rows)
         rangers = {}
         for (name, n, rmax), raw in zip(first.rangers, scans):
             ranges = np.frombuffer(raw, dtype=np.float64).reshape(m, n)
@@ -243,7 +243,7 @@ class VectorStageEnv(VectorEnv):
                     ("stall", stall, bool),
                     ("reached", reached, bool),
                 ):
-                    _add_rows(infos, key, values, rows, dtype, self.num_envs)
+                    _add_rows(infos, key, values, rows, m, dtype, self.num_envs)
         else:
             self._rewards[rows] = 0.0
             self._terminations[rows] = False
@@ -331,12 +331,13 @@ def _put(batch: Any, i: int, obs: Any) -> None:
 
 
 def _add_rows(
-    infos: Dict[str, Any], key: str, values: np.ndarray, rows: np.ndarray, kind: type, n: int
+    infos: Dict[str, Any], key: str, values: np.ndarray, rows: Any, m: int, kind: type, n: int
 ) -> None:
-    """`VectorEnv._add_info` of the same `key` for every copy in `rows` at once: `values[j]`
-    is copy `rows[j]`'s, of Python type `kind` (the array's dtype when the key is new)."""
+    """`VectorEnv._add_info` of the same `key` for the `m` copies `rows` (indices or a slice)
+    at once: `values[j]` is the `j`-th's, of Python type `kind` (the array's dtype when the key
+    is new)."""
     array, mask = infos.get(key), infos.get(f"_{key}")
-    if array is None and len(rows) == n:  # all copies: no other row to leave zero
+    if array is None and m == n:  # all copies: no other row to leave zero
         array = np.asarray(values, dtype=kind)
         mask = np.ones(n, dtype=np.bool_)
     else:

@@ -230,14 +230,7 @@ class StageEnv(gymnasium.Env):
 
     def step(self, action: Any) -> Tuple[Any, float, bool, bool, Dict[str, Any]]:
         self._agent.act(self._native, action)
-        running = self._native.step(self._frame_skip)
-        self._steps += 1
-
-        reward, terminated, info = self._agent.evaluate(self._world)
-        truncated = not running or (
-            self._max_episode_steps is not None and self._steps >= self._max_episode_steps
-        )
-        return self._agent.observe(self._native), reward, terminated, bool(truncated), info
+        return self._stepped(self._native.step(self._frame_skip))
 
     def render(self) -> Optional[np.ndarray]:
         """With ``render_mode="rgb_array"``: the whole world drawn top-down as the world window
@@ -252,6 +245,16 @@ class StageEnv(gymnasium.Env):
         return np.frombuffer(rgb, dtype=np.uint8).reshape(height, width, 3).copy()
 
     # -- internals ----------------------------------------------------------------------
+
+    def _stepped(self, running: bool) -> Tuple[Any, float, bool, bool, Dict[str, Any]]:
+        """The rest of :meth:`step` once the world took its steps (`running`: it has not
+        reached ``quit_time``); :class:`VectorStageEnv` calls it after stepping every copy."""
+        self._steps += 1
+        reward, terminated, info = self._agent.evaluate(self._world)
+        truncated = not running or (
+            self._max_episode_steps is not None and self._steps >= self._max_episode_steps
+        )
+        return self._agent.observe(self._native), reward, terminated, bool(truncated), info
 
     def _load(self) -> None:
         """Loads the worldfile afresh: the world exactly as the file and `world_seed` make it."""

@@ -147,12 +147,11 @@ class VectorStageEnv(VectorEnv):
         # the one call that simulates: every stepped copy's world at once, GIL released
         running = _native.step_worlds([self.envs[i]._native for i in stepped], self._frame_skip)
         for i, still in zip(stepped, running):
-            env = self.envs[i]
-            # what StageEnv.step does after its world's steps
-            env._steps += 1
-            reward, terminated, info = env._agent.evaluate(env._world)
-            self._ended(i, still, reward, terminated)
-            _put(out, i, env._agent.observe(env._native))
+            obs, reward, terminated, truncated, info = self.envs[i]._stepped(still)
+            self._rewards[i] = reward
+            self._terminations[i] = terminated
+            self._truncations[i] = truncated
+            _put(out, i, obs)
             infos = self._add_info(infos, info, i)
         self._autoreset = self._terminations | self._truncations
         return self._result(out, infos)
@@ -288,13 +287,6 @@ class VectorStageEnv(VectorEnv):
         self._terminations[i] = False
         self._truncations[i] = False
         return self._add_info(infos, info, i)
-
-    def _ended(self, i: int, running: bool, reward: float, terminated: bool) -> None:
-        env = self.envs[i]
-        limit = env._max_episode_steps
-        self._rewards[i] = reward
-        self._terminations[i] = terminated
-        self._truncations[i] = (not running) or (limit is not None and env._steps >= limit)
 
     def _result(self, obs: Any, infos: Dict[str, Any]):
         self._last = obs

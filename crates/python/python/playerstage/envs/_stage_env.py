@@ -132,11 +132,7 @@ class StageEnv(gymnasium.Env):
         self._task = task
         self._goal_default = _pose2(goal, "goal") if goal is not None else None
         self._goal_tolerance = float(goal_tolerance)
-        self._goal_reward = float(goal_reward)
-        self._stall_penalty = float(stall_penalty)
-        self._terminate_on_stall = bool(terminate_on_stall)
         self._random_start = bool(random_start)
-        self._flatten = bool(flatten)
         self._max_episode_steps = max_episode_steps
         self._max_draws = int(max_draws)
 
@@ -149,19 +145,16 @@ class StageEnv(gymnasium.Env):
             self._world,
             robot,
             task=task,
-            flatten=self._flatten,
+            flatten=bool(flatten),
             goal_tolerance=self._goal_tolerance,
-            goal_reward=self._goal_reward,
-            stall_penalty=self._stall_penalty,
-            terminate_on_stall=self._terminate_on_stall,
+            goal_reward=float(goal_reward),
+            stall_penalty=float(stall_penalty),
+            terminate_on_stall=bool(terminate_on_stall),
             explore_cell=float(explore_cell),
             explore_rangers=explore_rangers,
         )
-        self._drive: str = self._agent.drive
-        self._rangers: List[Tuple[str, int, float]] = self._agent.rangers
         self._extent: Optional[List[float]] = self._world.extent()
         self.action_space = self._agent.action_space
-        self._dict_space = self._agent.dict_space
         self.observation_space = self._agent.observation_space
         self._steps = 0
 
@@ -180,7 +173,7 @@ class StageEnv(gymnasium.Env):
     @property
     def drive(self) -> str:
         """The robot's drive: ``"diff"``, ``"omni"`` or ``"car"``."""
-        return self._drive
+        return self._agent.drive
 
     @property
     def goal(self) -> Optional[Tuple[float, float]]:

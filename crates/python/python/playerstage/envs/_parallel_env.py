@@ -14,6 +14,7 @@ from pettingzoo import ParallelEnv
 
 from .. import World
 from ._stage_env import (
+    _RESET_OPTIONS,
     Task,
     _check_common,
     _draw_goal,
@@ -22,8 +23,6 @@ from ._stage_env import (
     _pose3,
     _Robot,
 )
-
-_RESET_OPTIONS = frozenset({"random_start", "start", "goal"})
 
 
 def parallel_env(

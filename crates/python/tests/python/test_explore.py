@@ -2,14 +2,15 @@
 world-frame grid, and the info's total matches the room the robot looks around."""
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from playerstage.envs import StageEnv
 
-REPO_BIGBOB = Path(__file__).resolve().parents[4] / "worlds" / "bigbob.world"
+from conftest import REPO
+
+REPO_BIGBOB = REPO / "worlds" / "bigbob.world"
 
 # A 4 x 4 m room (inner faces of the walls at +-2 m) with a robot in the middle whose laser
 # sees half of it (180 degrees, 10 m); turning around shows the rest.

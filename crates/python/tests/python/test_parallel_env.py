@@ -4,7 +4,6 @@ that undo moves, stalls and a carried puck."""
 
 import math
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,7 +13,8 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test
 from playerstage import Pose2d, World, WorldError
 from playerstage.envs import StageEnv, StageParallelEnv, parallel_env
 
-REPO = Path(__file__).resolve().parents[4]
+from conftest import REPO
+
 BIGBOB = REPO / "worlds" / "bigbob.world"
 
 # Four diff-drive robots with 90-ray lasers in a walled 8 x 8 m room with two boxes; r3 faces

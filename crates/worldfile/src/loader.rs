@@ -87,10 +87,20 @@ pub fn relative_to_top(top: &Path, name: &str) -> PathBuf {
     }
 }
 
-/// The candidate paths for `name`: next to the top-level file, then for each `STAGEPATH`
-/// directory `D`, `D/name` and `D/basename(name)` (upstream tries only the basename).
+/// The candidate paths for `name`: next to the top-level file, then those of
+/// [`on_stage_path`].
 pub fn candidates(top: &Path, name: &str, stage_path: &[PathBuf]) -> Vec<PathBuf> {
     let mut out = vec![relative_to_top(top, name)];
+    out.extend(on_stage_path(name, stage_path));
+    out.dedup();
+    out
+}
+
+/// Where `name` is looked for on `STAGEPATH`: for each directory `D`, `D/name` (unless `name`
+/// is absolute) and `D/basename(name)` (upstream tries only the basename). Also how a cfg's
+/// `worldfile` not found beside the cfg is looked for.
+pub fn on_stage_path(name: &str, stage_path: &[PathBuf]) -> Vec<PathBuf> {
+    let mut out = Vec::new();
     let base = Path::new(name).file_name().map(PathBuf::from);
     for dir in stage_path {
         if !name.starts_with('/') {
@@ -100,7 +110,6 @@ pub fn candidates(top: &Path, name: &str, stage_path: &[PathBuf]) -> Vec<PathBuf
             out.push(dir.join(base));
         }
     }
-    out.dedup();
     out
 }
 

@@ -50,7 +50,7 @@ mod sonar;
 mod speech;
 
 use std::collections::HashSet;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, RwLock, RwLockWriteGuard};
 use std::time::Duration;
@@ -585,15 +585,7 @@ fn find_worldfile(
 ) -> Result<PathBuf, BindError> {
     let first = block.resolve_path(written);
     let mut tried = vec![first.clone()];
-    let base = Path::new(written).file_name();
-    for dir in stage_path {
-        if !Path::new(written).is_absolute() {
-            tried.push(dir.join(written));
-        }
-        if let Some(base) = base {
-            tried.push(dir.join(base));
-        }
-    }
+    tried.extend(worldfile::loader::on_stage_path(written, stage_path));
     tried.dedup();
     if let Some(found) = tried.iter().find(|p| p.is_file()) {
         return Ok(found.clone());

@@ -569,15 +569,11 @@ impl Bus {
                 );
                 continue;
             }
+            let name = &self.drivers[driver.0].name;
             if let Some(id) = p.to {
                 let msg = Message::new(dev.addr, p.timestamp.unwrap_or(now), p.body);
-                match Outgoing::from_message(&msg) {
-                    Ok(out) => self.to_clients.push((id, out)),
-                    Err(e) => tracing::error!(
-                        "driver \"{}\" published an unencodable {}: {e}",
-                        self.drivers[driver.0].name,
-                        msg.body.constant()
-                    ),
+                if let Some(out) = encoded_for_clients(name, &msg) {
+                    self.to_clients.push((id, out));
                 }
                 continue;
             }
@@ -590,16 +586,9 @@ impl Bus {
                 match self.subscribers[device.0][i] {
                     Subscriber::Client(id) => {
                         if encoded.is_none() {
-                            match Outgoing::from_message(&msg) {
-                                Ok(out) => encoded = Some(out),
-                                Err(e) => {
-                                    tracing::error!(
-                                        "driver \"{}\" published an unencodable {}: {e}",
-                                        self.drivers[driver.0].name,
-                                        msg.body.constant()
-                                    );
-                                    break;
-                                }
+                            encoded = encoded_for_clients(name, &msg);
+                            if encoded.is_none() {
+                                break;
                             }
                         }
                         if let Some(out) = &encoded {
@@ -624,6 +613,19 @@ impl Bus {
             slot.driver.shutdown();
         }
     }
+}
+
+/// `msg`, published by driver `driver`, encoded once for every client queue it goes to; an
+/// unencodable one is logged and goes nowhere.
+fn encoded_for_clients(driver: &str, msg: &Message) -> Option<Outgoing> {
+    Outgoing::from_message(msg)
+        .map_err(|e| {
+            tracing::error!(
+                "driver \"{driver}\" published an unencodable {}: {e}",
+                msg.body.constant()
+            )
+        })
+        .ok()
 }
 
 struct Conn {

@@ -26,6 +26,8 @@ REPO = Path(__file__).resolve().parents[4]
 WORLDS = REPO / "worlds"
 # Stage's own worlds, from the shared reference material (tests using them skip without it).
 STAGE_WORLDS = Path(os.environ.get("PLAYERSTAGE_SHARED", REPO.parent / "shared")) / "stage-worlds"
+# The manual's Bigbob world (two Bigbobs, oranges, cartons).
+BIGBOB = WORLDS / "bigbob.world"
 # The learning loops' world: a diff robot with a 180-sample laser among three boxes.
 BOXES = WORLDS / "boxes.world"
 

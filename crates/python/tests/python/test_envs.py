@@ -16,9 +16,7 @@ import playerstage.envs  # noqa: F401 (registers playerstage/Stage-v0)
 from playerstage import World, WorldError
 from playerstage.envs import StageEnv
 
-from conftest import BOXES, REPO, STAGE_WORLDS, boxes_world, leaves
-
-BIGBOB = REPO / "worlds" / "bigbob.world"
+from conftest import BIGBOB, BOXES, STAGE_WORLDS, boxes_world, leaves
 
 
 def same_obs(a, b):

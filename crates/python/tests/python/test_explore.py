@@ -8,9 +8,8 @@ import pytest
 
 from playerstage.envs import StageEnv
 
-from conftest import REPO
+from conftest import BIGBOB
 
-REPO_BIGBOB = REPO / "worlds" / "bigbob.world"
 
 # A 4 x 4 m room (inner faces of the walls at +-2 m) with a robot in the middle whose laser
 # sees half of it (180 degrees, 10 m); turning around shows the rest.
@@ -123,7 +122,7 @@ def test_check_env_explore(room):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # advice on box bounds, as in test_envs
         check_env(StageEnv(room, "r0", task="explore", random_start=True))
-        check_env(StageEnv(REPO_BIGBOB, "bob1", task="explore", flatten=True))
+        check_env(StageEnv(BIGBOB, "bob1", task="explore", flatten=True))
 
 
 def test_the_rays_go_where_the_laser_looks(tmp_path):

@@ -17,11 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import boxes_world, leaves
+from conftest import BIGBOB, boxes_world, leaves
 from playerstage import World
 
-REPO = Path(__file__).resolve().parents[4]
-BIGBOB = REPO / "worlds" / "bigbob.world"
 
 # A child does its work in well under a second; this only bounds a hang.
 CHILD_TIMEOUT = 60.0

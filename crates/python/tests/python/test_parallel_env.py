@@ -13,9 +13,8 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test
 from playerstage import Pose2d, World, WorldError
 from playerstage.envs import StageEnv, StageParallelEnv, parallel_env
 
-from conftest import REPO
+from conftest import BIGBOB
 
-BIGBOB = REPO / "worlds" / "bigbob.world"
 
 # Four diff-drive robots with 90-ray lasers in a walled 8 x 8 m room with two boxes; r3 faces
 # the east wall 0.5 m away, r2 carries a (position) turret, which is not an agent.

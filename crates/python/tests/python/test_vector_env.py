@@ -14,9 +14,7 @@ from gymnasium.vector.utils import batch_space, iterate
 from playerstage import World, WorldError, _native
 from playerstage.envs import StageEnv, VectorStageEnv
 
-from conftest import REPO, boxes_world, leaves
-
-BIGBOB = REPO / "worlds" / "bigbob.world"
+from conftest import BIGBOB, boxes_world, leaves
 
 
 def assert_same(a, b, what):
@@ -185,7 +183,6 @@ def test_vector_env_renders_each_copy(tmp_path):
         raise
     assert len(frames) == 2 and all(f.shape == (300, 400, 3) for f in frames)
     assert not np.array_equal(frames[0], frames[1]), "different random starts"
-
 
 
 def test_step_observe_refuses_bad_input():

@@ -547,16 +547,29 @@ impl World {
 #[pyfunction]
 #[pyo3(signature = (worlds, n=1))]
 pub fn step_worlds(py: Python<'_>, worlds: Vec<Bound<'_, World>>, n: u64) -> PyResult<Vec<bool>> {
-    let mut held = Vec::with_capacity(worlds.len());
-    for w in &worlds {
-        held.push(w.try_borrow_mut().map_err(|_| {
-            WorldError::new_err("step_worlds: a world is listed twice or is in use elsewhere")
-        })?);
-    }
+    let mut held = borrow_each(&worlds, "step_worlds")?;
     let mut sims: Vec<&mut stage_sim::World> = held.iter_mut().map(|w| &mut w.world).collect();
     Ok(py.allow_threads(|| {
         on_sim_threads(|| sims.par_iter_mut().map(|world| step_n(world, n)).collect())
     }))
+}
+
+/// Every world of `worlds` borrowed for stepping, or an error naming the call (`what`) when
+/// one is listed twice or in use elsewhere (it cannot be stepped twice at once).
+fn borrow_each<'py>(
+    worlds: &[Bound<'py, World>],
+    what: &str,
+) -> PyResult<Vec<PyRefMut<'py, World>>> {
+    worlds
+        .iter()
+        .map(|w| {
+            w.try_borrow_mut().map_err(|_| {
+                WorldError::new_err(format!(
+                    "{what}: a world is listed twice or is in use elsewhere"
+                ))
+            })
+        })
+        .collect()
 }
 
 /// What [`step_observe`] gives back: per world whether it still runs, each ranger's readings
@@ -587,12 +600,7 @@ pub fn step_observe<'py>(
             worlds.len()
         )));
     }
-    let mut held = Vec::with_capacity(worlds.len());
-    for w in &worlds {
-        held.push(w.try_borrow_mut().map_err(|_| {
-            WorldError::new_err("step_observe: a world is listed twice or is in use elsewhere")
-        })?);
-    }
+    let mut held = borrow_each(&worlds, "step_observe")?;
     // every name and type checked before any world changes: a refused call changes nothing
     let mut ids = Vec::with_capacity(held.len());
     for w in &held {

@@ -590,28 +590,43 @@ impl Inner {
     }
 
     fn read_nonblock(&mut self) -> Result<bool, ClientError> {
-        loop {
-            let m = match self.fifo.pop_front() {
-                Some(m) => m,
-                None => match self.receive(Some(Instant::now()))? {
-                    Some(m) => m,
-                    None => return Ok(false),
-                },
-            };
-            match (m.kind(), self.mode) {
-                (Some(MsgType::Data), DataMode::Push) => {
-                    self.dispatch(m);
-                    return Ok(true);
-                }
-                (Some(MsgType::Data), DataMode::Pull) => {
-                    self.dispatch(m);
-                    self.data_received = true;
-                }
-                (Some(MsgType::Synch), DataMode::Pull) => return self.end_round(m).map(|()| true),
-                (Some(MsgType::Synch), DataMode::Push) => {}
-                (Some(MsgType::RespAck), _) => tracing::warn!("discarding unclaimed ACK"),
-                (kind, _) => return Err(unexpected(kind, &m)),
+        while let Some(m) = self.next_waiting()? {
+            if self.handle(m)? {
+                return Ok(true);
             }
+        }
+        Ok(false)
+    }
+
+    /// The next message that is already here: the oldest kept one, else one the socket has
+    /// without waiting.
+    fn next_waiting(&mut self) -> Result<Option<Received>, ClientError> {
+        match self.fifo.pop_front() {
+            Some(m) => Ok(Some(m)),
+            None => self.receive(Some(Instant::now())),
+        }
+    }
+
+    /// One message of a read, handled: `true` when it completes the read (a PUSH DATA
+    /// message, or the SYNCH ending a PULL round).
+    fn handle(&mut self, m: Received) -> Result<bool, ClientError> {
+        match (m.kind(), self.mode) {
+            (Some(MsgType::Data), DataMode::Push) => {
+                self.dispatch(m);
+                Ok(true)
+            }
+            (Some(MsgType::Data), DataMode::Pull) => {
+                self.dispatch(m);
+                self.data_received = true;
+                Ok(false)
+            }
+            (Some(MsgType::RespAck), _) => {
+                tracing::warn!("discarding unclaimed ACK");
+                Ok(false)
+            }
+            (Some(MsgType::Synch), DataMode::Push) => Ok(false),
+            (Some(MsgType::Synch), DataMode::Pull) => self.end_round(m).map(|()| true),
+            (kind, _) => Err(unexpected(kind, &m)),
         }
     }
 
@@ -638,41 +653,22 @@ impl Inner {
             self.request_data()?;
         }
         loop {
-            let m = match self.fifo.pop_front() {
+            let m = match self.next_waiting()? {
                 Some(m) => m,
-                None => match self.receive(Some(Instant::now()))? {
-                    Some(m) => m,
-                    None if self.mode == DataMode::Pull
-                        && !self.data_requested
-                        && self.data_received =>
-                    {
-                        return Ok(());
-                    }
-                    None => match self.receive(deadline)? {
-                        Some(m) => m,
-                        None => {
-                            return Err(ClientError::Timeout {
-                                what: "data".into(),
-                            });
-                        }
-                    },
-                },
-            };
-            match (m.kind(), self.mode) {
-                (Some(MsgType::Data), DataMode::Push) => {
-                    self.dispatch(m);
+                None if self.mode == DataMode::Pull
+                    && !self.data_requested
+                    && self.data_received =>
+                {
                     return Ok(());
                 }
-                (Some(MsgType::Data), DataMode::Pull) => {
-                    self.dispatch(m);
-                    self.data_received = true;
-                }
-                (Some(MsgType::RespAck), _) => {
-                    tracing::warn!("discarding unclaimed ACK");
-                }
-                (Some(MsgType::Synch), DataMode::Push) => {}
-                (Some(MsgType::Synch), DataMode::Pull) => return self.end_round(m),
-                (kind, _) => return Err(unexpected(kind, &m)),
+                None => self
+                    .receive(deadline)?
+                    .ok_or_else(|| ClientError::Timeout {
+                        what: "data".into(),
+                    })?,
+            };
+            if self.handle(m)? {
+                return Ok(());
             }
         }
     }

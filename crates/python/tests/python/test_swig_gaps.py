@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 from conftest import run_script, start_player, wait_until
 from test_nav import GOAL, nav  # noqa: F401 - the planner/localize server fixture
+from test_playerc import connect, sub
 
 import playerc
 import playercpp
@@ -24,17 +25,6 @@ SIMULATION_REQ_GET_POSE3D = 3
 SIMULATION_REQ_GET_POSE2D = 1
 
 SCRIPTS = Path(__file__).parent / "swig_scripts"
-
-
-def connect(port: int) -> playerc_client:
-    c = playerc_client(None, "localhost", port)
-    assert c.connect() == 0, playerc_error_str()
-    return c
-
-
-def sub(proxy):
-    assert proxy.subscribe(PLAYERC_OPEN_MODE) == 0, playerc_error_str()
-    return proxy
 
 
 def proxy_classes() -> list[type]:

@@ -46,6 +46,8 @@ const TEST_DEPS: &[&str] = &[
     "numpy",
     "gymnasium",
     "pettingzoo",
+    "cyclonedds",
+    "ray",
 ];
 
 fn cargo() -> Command {

@@ -149,6 +149,59 @@ def test_make_vec_style_use_with_bigbob():
     assert isinstance(vec, gymnasium.vector.VectorEnv)
 
 
+@pytest.mark.parametrize("mode", [None, "vector_entry_point", "sync", "async"])
+def test_make_vec_every_mode_matches_lone_stage_envs(tmp_path, mode):
+    # make_vec's default (the registered vector_entry_point) and "vector_entry_point" make a
+    # VectorStageEnv; "sync" and "async" Gymnasium's own vectors of StageEnvs (async: forked
+    # workers). Every mode gives what lone StageEnvs give, truncation by the registered
+    # limit's or the given max_episode_steps included.
+    small_world = boxes_world(tmp_path, "diff")
+    kw = dict(world=small_world, robot="r0", random_start=True, frame_skip=2)
+    extra = {} if mode is None else {"vectorization_mode": mode}
+    vec = gymnasium.make_vec(
+        "playerstage/Stage-v0", num_envs=2, max_episode_steps=3, **kw, **extra
+    )
+    try:
+        if mode in (None, "vector_entry_point"):
+            assert isinstance(vec, VectorStageEnv)
+        else:
+            kind = {"sync": gymnasium.vector.SyncVectorEnv, "async": gymnasium.vector.AsyncVectorEnv}
+            assert type(vec) is kind[mode]
+        assert vec.num_envs == 2
+        lone = [
+            gymnasium.make("playerstage/Stage-v0", max_episode_steps=3, **kw) for _ in range(2)
+        ]
+        obs, _ = vec.reset(seed=4)
+        for i, (env, row) in enumerate(zip(lone, iterate(vec.observation_space, obs))):
+            assert_same(row, env.reset(seed=4 + i)[0], f"reset env {i}")
+        rng = np.random.default_rng(1)
+        truncations = 0
+        for t in range(5):  # episodes of 3 steps: a truncation at step 3, an autoreset at 4
+            actions = rng.uniform(vec.action_space.low, vec.action_space.high)
+            obs, rew, term, trunc, _ = vec.step(actions)
+            truncations += int(trunc.sum())
+            for i, (env, row) in enumerate(zip(lone, iterate(vec.observation_space, obs))):
+                if t == 3:  # NEXT_STEP autoreset of every copy
+                    o, r, te, tr = env.reset()[0], 0.0, False, False
+                else:
+                    o, r, te, tr, _ = env.step(actions[i])
+                assert_same(row, o, f"step {t} env {i}")
+                assert (rew[i], term[i], trunc[i]) == (r, te, tr), f"step {t} env {i}"
+        assert truncations == 2, "max_episode_steps=3 reached the vector env in every mode"
+    finally:
+        vec.close()
+
+
+def test_make_vec_uses_the_registered_step_limit(tmp_path):
+    vec = gymnasium.make_vec(
+        "playerstage/Stage-v0", num_envs=2, world=boxes_world(tmp_path), robot="r0"
+    )
+    assert isinstance(vec, VectorStageEnv)
+    assert all(env._max_episode_steps == 1000 for env in vec.envs)
+    assert vec.spec is not None and vec.spec.kwargs["vectorization_mode"] == "vector_entry_point"
+    vec.close()
+
+
 def test_step_worlds_equals_stepping_each_world_alone():
     alone = [World(BIGBOB, seed) for seed in (0, 1, 2)]
     batch = [World(BIGBOB, seed) for seed in (0, 1, 2)]

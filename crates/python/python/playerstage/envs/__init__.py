@@ -12,6 +12,13 @@
 
 See :class:`StageEnv` for the spaces and the task contract.
 
+``gymnasium.make_vec("playerstage/Stage-v0", num_envs=N, world=..., robot=...)`` makes a
+:class:`VectorStageEnv` (the registered ``vector_entry_point``, Gymnasium's default mode when
+one is registered; ``vectorization_mode="vector_entry_point"`` says so explicitly), whose
+copies step together in Rust threads; ``vectorization_mode="sync"`` or ``"async"`` makes
+Gymnasium's own ``SyncVectorEnv`` / ``AsyncVectorEnv`` of ``StageEnv`` copies instead. In every
+mode the registered 1000-step limit applies unless ``max_episode_steps`` is given.
+
 ``parallel_env(world=PATH, agents=None, ...)`` makes the world's robots the agents of a
 PettingZoo ``ParallelEnv`` (:class:`StageParallelEnv`; it needs the ``pettingzoo`` package,
 imported on first use, so Gymnasium users need not install it).
@@ -42,5 +49,6 @@ if ENV_ID not in registry:
     register(
         id=ENV_ID,
         entry_point="playerstage.envs._stage_env:StageEnv",
+        vector_entry_point="playerstage.envs._vector_env:VectorStageEnv",
         max_episode_steps=1000,
     )

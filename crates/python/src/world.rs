@@ -445,6 +445,40 @@ impl World {
         Ok(d)
     }
 
+    /// Where each of a ranger's readings was cast from, in the world frame, as the ranger now
+    /// stands: `[(x, y, heading)]`, one per reading, laid out as `ranger(name)["ranges"]`
+    /// (one transducer: each sample; several, e.g. a sonar ring: each transducer's first
+    /// sample). `(x, y)` is the transducer's own position on the ranger (its `pose` in the
+    /// `sensor` entity, through the model's `origin`), as the simulator casts from it; the
+    /// heading adds the transducer's own heading and the sample's bearing. Empty before the
+    /// ranger's first update (no readings yet). The explore task maps free space with it.
+    fn ranger_rays(&self, name: &str) -> PyResult<Vec<[f64; 3]>> {
+        let m = self.model(name)?;
+        let r = self.sensor(name, "ranger", |w, m| w.ranger_scans(m))?;
+        let origin = self.world.node(m).map_err(sim_err)?.origin;
+        let frame = self.world.global_pose(m).map_err(sim_err)?.compose(&origin);
+        let one = r.scans().len() == 1;
+        let mut out = Vec::with_capacity(if one {
+            r.bearings().len()
+        } else {
+            r.sensors.len()
+        });
+        for (sensor, scan) in r.sensors.iter().zip(r.scans()) {
+            let at = frame.compose(&Pose {
+                z: 0.0,
+                ..sensor.pose
+            });
+            let bearings = if one {
+                scan.bearings
+            } else {
+                // Player's reading of a transducer in a ring: its first sample
+                &scan.bearings[..scan.bearings.len().min(1)]
+            };
+            out.extend(bearings.iter().map(|b| [at.x, at.y, at.a + b]));
+        }
+        Ok(out)
+    }
+
     /// A blobfinder's data: `{width, height, blobs: [{color, x, y, left, right, top, bottom,
     /// range, area}], time}` with Player's blob fields.
     fn blobfinder<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {

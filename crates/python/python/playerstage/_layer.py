@@ -673,6 +673,13 @@ class World:
         ``range_max`` the largest reach of its transducers (m); known before the first step."""
         return self._w.rangers(name)
 
+    def ranger_rays(self, name: str) -> List[tuple]:
+        """Where each of the ranger's readings was cast from, in the world frame as the ranger
+        now stands: ``[(x, y, heading)]``, one per entry of ``ranger(name).ranges`` (each
+        transducer's own position on the ranger, e.g. every sonar of a ring; its heading plus
+        the reading's bearing); empty before the ranger's first update."""
+        return [tuple(r) for r in self._w.ranger_rays(name)]
+
     def extent(self) -> Optional[List[float]]:
         """The axis-aligned box around every model's blocks as they are now, ``[xmin, ymin,
         xmax, ymax]`` (m); None when no model has blocks."""

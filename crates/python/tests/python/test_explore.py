@@ -139,3 +139,63 @@ def test_the_rays_go_where_the_laser_looks(tmp_path):
     assert 1.6 < seen["east"] < 2.6, seen
     assert 7.0 < seen["west"] < 9.0, seen
     assert 4.5 < seen["north"] < 6.0, seen
+
+
+# Bigbob's sonar ring (worlds/bigbob.inc): four one-sample transducers, 2 m reach, at
+# [x y heading] = [0.75 0.1875 0], [0.75 -0.1875 0], [0.25 0.5 30], [0.25 -0.5 -30] on the robot.
+SONARS = "bob1.ranger:0"
+
+
+def test_ranger_rays_are_each_transducers_pose():
+    from playerstage import World
+
+    w = World(BIGBOB)
+    assert w.ranger_rays(SONARS) == [], "no readings before the first step"
+    w.set_pose("bob1", -4.6, -4.1, math.pi / 2)  # facing +y: x ahead becomes +y
+    w.step(1)
+    rays = np.array(w.ranger_rays(SONARS))
+    assert rays.shape == (4, 3)
+    want = [
+        (-4.6 - 0.1875, -4.1 + 0.75, math.pi / 2),
+        (-4.6 + 0.1875, -4.1 + 0.75, math.pi / 2),
+        (-4.6 - 0.5, -4.1 + 0.25, math.pi / 2 + math.pi / 6),
+        (-4.6 + 0.5, -4.1 + 0.25, math.pi / 2 - math.pi / 6),
+    ]
+    assert np.allclose(rays, want, atol=1e-12)
+    # one transducer: every sample, from its own pose: the tooth laser sits at [0.625 0.125]
+    # facing 270 degrees and fans 20 degrees over 180 samples
+    laser = np.array(w.ranger_rays("bob1.ranger:1"))
+    assert laser.shape == (180, 3)
+    assert np.allclose(laser[:, :2], [-4.6 - 0.125, -4.1 + 0.625], atol=1e-12)
+    heading = math.pi / 2 + 3 * math.pi / 2  # the robot's plus the laser's 270 degrees
+    first = np.angle(np.exp(1j * (laser[0, 2] - (heading - math.radians(10)))))
+    last = np.angle(np.exp(1j * (laser[-1, 2] - (heading + math.radians(10)))))
+    assert abs(first) < 1e-9 and abs(last) < 1e-9
+
+
+def test_explore_casts_a_sonar_ring_from_each_transducer():
+    """A hand-computed case. Bigbob at (-4.6, -3.9) facing +x sees nothing within 2 m with its
+    sonars. With 1 m cells, the grid starts at the world's corner (-8, -8) less the reach plus
+    a cell (3 m): (-11, -11), so a point's cell is (floor(x + 11), floor(y + 11)); a ray's
+    points are every half cell, t = 0, 0.5, 1, 1.5 m, from its transducer:
+
+    - sonar 0 from (-3.85, -3.7125) along +x: x + 11 = 7.15, 7.65, 8.15, 8.65, y + 11 =
+      7.2875: cells (7, 7), (8, 7);
+    - sonar 1 from (-3.85, -4.0875): y + 11 = 6.9125: cells (7, 6), (8, 6);
+    - sonar 2 from (-4.35, -3.4) at 30 degrees: x + 11 = 6.65 + 0.866 t = 6.65, 7.08, 7.52,
+      7.95 and y + 11 = 7.6 + 0.5 t = 7.6, 7.85, 8.1, 8.35: cells (6, 7), (7, 7), (7, 8);
+    - sonar 3 from (-4.35, -4.4) at -30 degrees: y + 11 = 6.6, 6.35, 6.1, 5.85: cells
+      (6, 6), (7, 6), (7, 5).
+
+    Eight distinct cells: 8 m^2. Cast from the ring's centre (-4.6, -3.9) all along +x, as
+    before each transducer had its own pose, the four rays would cover two cells."""
+    env = StageEnv(
+        BIGBOB, "bob1", task="explore", explore_cell=1.0, explore_rangers=[SONARS]
+    )
+    _, info = env.reset(options={"start": (-4.6, -3.9, 0.0)})
+    assert env.world.ranger(SONARS).ranges.tolist() == [2.0] * 4, "nothing within reach"
+    assert env.world.extent() == [-8.0, -8.0, 8.0, 8.0]
+    assert info["explored"] == pytest.approx(8.0)
+    # standing still shows nothing new
+    _, reward, _, _, step_info = env.step(np.zeros(2))
+    assert reward == 0.0 and step_info["explored"] == pytest.approx(8.0)

@@ -59,10 +59,10 @@ class StageEnv(gymnasium.Env):
       robot's rangers show for the first time this episode, in a world-frame grid of
       ``explore_cell``-metre cells (default 0.1 m), minus ``stall_penalty`` on a stall (which
       terminates the episode when ``terminate_on_stall``). A reading marks the cells along its
-      ray, sampled every half cell from the ranger up to the range read (the whole reach when
-      nothing was nearer), as seen; the ray leaves the ranger model's pose at the reading's
-      bearing (a transducer's own offset inside its ranger, as in a sonar ring, is not
-      applied). ``explore_rangers`` names the rangers used (default: all of the robot's).
+      ray, sampled every half cell from its transducer up to the range read (the whole reach
+      when nothing was nearer), as seen; the ray leaves the transducer where it sits on the
+      robot (each sonar of a ring from its own ``pose``) at the transducer's heading plus the
+      reading's bearing (``World.ranger_rays``). ``explore_rangers`` names the rangers used (default: all of the robot's).
       What the start pose shows is mapped at reset without reward. ``info`` has ``new_area``,
       ``explored`` (total area seen, m^2; also in reset's info) and ``stall``. The grid
       covers the world's extent at load plus the rangers' reach; deterministic like the
@@ -436,10 +436,10 @@ class _ExploreMap:
     """The ``"explore"`` task's map: a world-frame grid of square cells, each seen free or not.
 
     A ranger reading marks as seen the cells of the points sampled every half cell along its
-    ray, from the ranger's pose up to (not including) the range read, or up to the ranger's
-    reach when it read nothing nearer. The ray leaves the ranger model's global pose at the
-    reading's bearing (a transducer's own offset within its ranger is not known here, so a
-    sonar ring's rays all start at the ring's origin). The grid covers the world's extent at
+    ray, from its transducer up to (not including) the range read, or up to the ranger's
+    reach when it read nothing nearer. The ray leaves the transducer's own world position (its
+    ``pose`` on the ranger: each sonar of a ring its own) at the transducer's heading plus the
+    reading's bearing, as ``World.ranger_rays`` gives them. The grid covers the world's extent at
     load plus the rangers' reach; what lies outside is not counted. Pure arithmetic on the
     readings: as deterministic as the world.
     """
@@ -463,20 +463,19 @@ class _ExploreMap:
         """Marks what the rangers' current readings show free; returns the new area (m^2)."""
         new = 0
         for name, rmax in rangers:
-            d = native.ranger(name)
-            r = np.asarray(d["ranges"], dtype=np.float64)
-            b = np.asarray(d["bearings"], dtype=np.float64)
-            if r.size == 0 or b.shape != r.shape:
+            r = np.asarray(native.ranger(name)["ranges"], dtype=np.float64)
+            # each reading's ray: its transducer's world position and its heading
+            rays = np.asarray(native.ranger_rays(name), dtype=np.float64).reshape(-1, 3)
+            if r.size == 0 or rays.shape[0] != r.size:
                 continue  # no reading yet
-            x, y, a = native.global_pose(name)
             t = np.arange(0.0, rmax, self.cell / 2)
             ends = np.clip(r, 0.0, rmax)
-            ang = a + b
+            ang = rays[:, 2]
             # the samples short of each reading, in cell units from the grid's corner
             rows, cols = np.nonzero(t[None, :] < ends[:, None])
             steps = t[cols] / self.cell
-            fx = (x - self.x0) / self.cell + np.cos(ang)[rows] * steps
-            fy = (y - self.y0) / self.cell + np.sin(ang)[rows] * steps
+            fx = ((rays[:, 0] - self.x0) / self.cell)[rows] + np.cos(ang)[rows] * steps
+            fy = ((rays[:, 1] - self.y0) / self.cell)[rows] + np.sin(ang)[rows] * steps
             ix, iy = fx.astype(np.int64), fy.astype(np.int64)  # floor where fx, fy >= 0
             inside = (fx >= 0) & (ix < self.nx) & (fy >= 0) & (iy < self.ny)
             cells = (ix * self.ny + iy)[inside]

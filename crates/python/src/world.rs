@@ -31,6 +31,43 @@ pub struct World {
     gui: viewer::world_scene::WorldGui,
     /// The last rendered scene: its static layer is reused while the walls stay put.
     scene: viewer::Scene,
+    /// Position models whose travel, stalls and collisions every step accumulates (`track`).
+    tracks: Vec<Track>,
+}
+
+/// What `World.track` accumulates for one position model, step by step, in native code: a
+/// sweep's per-robot metrics need every step's pose and stall flag, which read from Python
+/// after each step would cost more than the step of a small world.
+struct Track {
+    model: ModelId,
+    name: String,
+    /// The global pose after the last step seen.
+    last: Pose,
+    /// Metres travelled: the sum of each step's straight-line move of the global pose.
+    distance: f64,
+    /// Simulated microseconds spent stalled (a step counts when the flag is set after it).
+    stalled_us: u64,
+    /// How many times the stall flag went from clear to set: the contacts begun.
+    collisions: u64,
+    stalled: bool,
+}
+
+impl Track {
+    /// Reads the model's pose and stall flag after a step of `dt_us` microseconds.
+    fn update(&mut self, world: &stage_sim::World, dt_us: u64) -> stage_sim::Result<()> {
+        let pose = world.global_pose(self.model)?;
+        self.distance += (pose.x - self.last.x).hypot(pose.y - self.last.y);
+        self.last = pose;
+        let stall = world.position_state(self.model)?.stall;
+        if stall {
+            self.stalled_us += dt_us;
+            if !self.stalled {
+                self.collisions += 1;
+            }
+        }
+        self.stalled = stall;
+        Ok(())
+    }
 }
 
 /// The one offscreen renderer of the process, opened by the first `render`: opening a device
@@ -43,11 +80,18 @@ fn sim_err(e: stage_sim::Error) -> PyErr {
     WorldError::new_err(e.to_string())
 }
 
-/// `n` steps of `world`, stopping at its `quit_time`: false once reached.
-fn step_n(world: &mut stage_sim::World, n: u64) -> bool {
+/// `n` steps of `world`, stopping at its `quit_time`: false once reached. Each of `tracks`
+/// is updated after every step.
+fn step_n(world: &mut stage_sim::World, tracks: &mut [Track], n: u64) -> bool {
     let mut running = true;
     for _ in 0..n {
+        let before = world.sim_time();
         running = world.step();
+        let dt = world.sim_time() - before;
+        for t in tracks.iter_mut() {
+            // a tracked model was checked to be a position model: its reads cannot fail
+            let _ = t.update(world, dt);
+        }
         if !running {
             break;
         }
@@ -131,18 +175,23 @@ fn blocks_overlap(a: &Body, i: usize, b: &Body, j: usize) -> bool {
             .is_some_and(|&p| pa.len() > 2 && point_in_polygon(p, pa))
 }
 
-#[pymethods]
 impl World {
-    /// Loads `path` (Stage's `STAGEPATH` honoured for includes and bitmaps) with `seed` for
-    /// every random choice: the same file, seed and commands give the same run. A bad file
-    /// raises `WorldError` naming file:line.
-    #[new]
-    #[pyo3(signature = (path, seed=0))]
-    fn new(py: Python<'_>, path: PathBuf, seed: u64) -> PyResult<Self> {
+    /// What `World(path, seed, text)` loads (see `new`), without the GIL: `load_worlds` makes
+    /// several at once on the simulator's threads.
+    fn open(path: PathBuf, seed: u64, text: Option<String>) -> PyResult<Self> {
         let load_path = path.clone();
-        let (mut world, spec) = py
-            .allow_threads(move || stage_sim::World::load(&load_path, seed))
-            .map_err(sim_err)?;
+        let load = move || -> stage_sim::Result<_> {
+            match text {
+                None => stage_sim::World::load(&load_path, seed),
+                Some(text) => {
+                    let opts = worldfile::LoadOptions::from_env();
+                    let spec = worldfile::WorldSpec::parse(&load_path, &text, &opts)?;
+                    let world = stage_sim::World::from_spec(&spec, seed)?;
+                    Ok((world, spec))
+                }
+            }
+        };
+        let (mut world, spec) = load().map_err(sim_err)?;
         let models: Vec<ModelId> = world.models().collect();
         for m in models {
             use stage_sim::ModelType as T;
@@ -160,9 +209,25 @@ impl World {
             window: spec.window.clone().unwrap_or_default(),
             gui: viewer::world_scene::WorldGui::from_spec(&spec),
             scene: viewer::Scene::default(),
+            tracks: Vec::new(),
             world,
             path,
         })
+    }
+}
+
+#[pymethods]
+impl World {
+    /// Loads `path` (Stage's `STAGEPATH` honoured for includes and bitmaps) with `seed` for
+    /// every random choice: the same file, seed and commands give the same run. A bad file
+    /// raises `WorldError` naming file:line. With `text`, that text is the worldfile, read
+    /// as if it were the file at `path` (which need not exist: includes and bitmaps resolve
+    /// against its directory, messages name it): how a sweep loads a template filled in for
+    /// one run without writing it to disk first.
+    #[new]
+    #[pyo3(signature = (path, seed=0, text=None))]
+    fn new(py: Python<'_>, path: PathBuf, seed: u64, text: Option<String>) -> PyResult<Self> {
+        py.allow_threads(move || World::open(path, seed, text))
     }
 
     /// The whole world drawn top-down by the viewer's offscreen renderer (what the world
@@ -224,8 +289,54 @@ impl World {
     /// world's `quit_time` is reached.
     #[pyo3(signature = (n=1))]
     fn step(&mut self, py: Python<'_>, n: u64) -> bool {
-        let world = &mut self.world;
-        py.allow_threads(|| on_sim_threads(|| step_n(world, n)))
+        let (world, tracks) = (&mut self.world, &mut self.tracks);
+        py.allow_threads(|| on_sim_threads(|| step_n(world, tracks, n)))
+    }
+
+    /// Starts accumulating, from now and at every step, each named position model's distance
+    /// travelled (metres, its global pose's straight-line move per step), time stalled
+    /// (simulated seconds after which its stall flag was set) and collisions (how many times
+    /// the flag went from clear to set); `tracked()` reads them. Replaces the models tracked
+    /// before and starts their counts at zero; an empty list stops tracking. A name that is
+    /// not a position model raises, leaving the tracking as it was.
+    fn track(&mut self, names: Vec<String>) -> PyResult<()> {
+        let mut tracks = Vec::with_capacity(names.len());
+        for name in names {
+            let m = self.model(&name)?;
+            let stalled = self
+                .sensor(&name, "position model", |w, m| w.position_state(m))?
+                .stall;
+            let last = self.world.global_pose(m).map_err(sim_err)?;
+            tracks.push(Track {
+                model: m,
+                name,
+                last,
+                distance: 0.0,
+                stalled_us: 0,
+                collisions: 0,
+                stalled,
+            });
+        }
+        self.tracks = tracks;
+        Ok(())
+    }
+
+    /// What `track` accumulated, per model in the order given: `(name, [x, y, a] global pose
+    /// now, distance m, stalled s, collisions)`.
+    #[allow(clippy::type_complexity)]
+    fn tracked(&self) -> Vec<(String, [f64; 3], f64, f64, u64)> {
+        self.tracks
+            .iter()
+            .map(|t| {
+                (
+                    t.name.clone(),
+                    pose_list(&t.last),
+                    t.distance,
+                    t.stalled_us as f64 / 1e6,
+                    t.collisions,
+                )
+            })
+            .collect()
     }
 
     /// Simulated time in seconds.
@@ -274,6 +385,13 @@ impl World {
     #[getter]
     fn seed(&self) -> u64 {
         self.world.seed()
+    }
+
+    /// What loading the world warned about and went on (an unused property, a `ctrl` that
+    /// is not built in or could not attach, ...), in order: a sweep refuses a plan whose
+    /// controllers did not attach before anything runs.
+    fn warnings(&self) -> Vec<String> {
+        self.world.warnings().to_vec()
     }
 
     /// A digest of every model's state: equal digests mean identical runs.
@@ -582,9 +700,19 @@ impl World {
 #[pyo3(signature = (worlds, n=1))]
 pub fn step_worlds(py: Python<'_>, worlds: Vec<Bound<'_, World>>, n: u64) -> PyResult<Vec<bool>> {
     let mut held = borrow_each(&worlds, "step_worlds")?;
-    let mut sims: Vec<&mut stage_sim::World> = held.iter_mut().map(|w| &mut w.world).collect();
+    let mut sims: Vec<(&mut stage_sim::World, &mut Vec<Track>)> = held
+        .iter_mut()
+        .map(|w| {
+            let w = &mut **w;
+            (&mut w.world, &mut w.tracks)
+        })
+        .collect();
     Ok(py.allow_threads(|| {
-        on_sim_threads(|| sims.par_iter_mut().map(|world| step_n(world, n)).collect())
+        on_sim_threads(|| {
+            sims.par_iter_mut()
+                .map(|(world, tracks)| step_n(world, tracks, n))
+                .collect()
+        })
     }))
 }
 
@@ -609,30 +737,39 @@ fn borrow_each<'py>(
 /// What [`step_observe`] gives back: per world whether it still runs, each ranger's readings
 /// of every world (`len(worlds) * samples` f64, native endian, a world's readings replaced by
 /// `range_max` when their count is not `samples`), and per world `px py pa vx vy va stall x y
-/// a` (odometry, stall as 0/1, global pose; f64).
+/// a` (odometry, stall as 0/1, global pose; f64), followed, when goals were given, by the
+/// goal's `distance ahead left` ([`goal_view`]).
 type Observed<'py> = (Vec<bool>, Vec<Bound<'py, PyBytes>>, Bound<'py, PyBytes>);
 
 /// One vector step of `VectorStageEnv` in one call: commands `velocities[i]` (`[vx, vy, va]`)
-/// to the position model `robot` of `worlds[i]`, steps every world `n` times as
-/// [`step_worlds`] does, then reads what the observations and the goal task need, in bulk, so
-/// Python handles a few arrays instead of dozens of dicts per copy. `rangers` are
-/// `(name, samples, range_max)` as `World.rangers` lists them. Readings are exactly those
-/// `World.ranger` and `World.position` give.
+/// to the position model `robot` of `worlds[i]` (None: no command), steps every world `n`
+/// times as [`step_worlds`] does, then reads what the observations and the goal task need, in
+/// bulk, so Python handles a few arrays instead of dozens of dicts per copy. `rangers` are
+/// `(name, samples, range_max)` as `World.rangers` lists them; `goals[i]` is world `i`'s goal
+/// `(x, y)` for the goal task's distance and relative position. Readings are exactly those
+/// `World.ranger` and `World.position` give. `StageEnv` reads its one world through it too
+/// (`n = 0` at a reset), so a lone env and a vector's copy compute the same numbers.
 #[pyfunction]
+#[pyo3(signature = (worlds, robot, velocities, n, rangers, goals=None))]
 pub fn step_observe<'py>(
     py: Python<'py>,
     worlds: Vec<Bound<'py, World>>,
     robot: &str,
-    velocities: Vec<[f64; 3]>,
+    velocities: Option<Vec<[f64; 3]>>,
     n: u64,
     rangers: Vec<(String, usize, f64)>,
+    goals: Option<Vec<[f64; 2]>>,
 ) -> PyResult<Observed<'py>> {
-    if velocities.len() != worlds.len() {
-        return Err(WorldError::new_err(format!(
-            "step_observe: {} velocities for {} worlds",
-            velocities.len(),
-            worlds.len()
-        )));
+    for (what, len) in [
+        ("velocities", velocities.as_ref().map(Vec::len)),
+        ("goals", goals.as_ref().map(Vec::len)),
+    ] {
+        if let Some(len) = len.filter(|&len| len != worlds.len()) {
+            return Err(WorldError::new_err(format!(
+                "step_observe: {len} {what} for {} worlds",
+                worlds.len()
+            )));
+        }
     }
     let mut held = borrow_each(&worlds, "step_observe")?;
     // every name and type checked before any world changes: a refused call changes nothing
@@ -648,21 +785,32 @@ pub fn step_observe<'py>(
         }
         ids.push((m, rs));
     }
-    for ((w, v), (m, _)) in held.iter_mut().zip(&velocities).zip(&ids) {
+    for ((w, v), (m, _)) in held.iter_mut().zip(velocities.iter().flatten()).zip(&ids) {
         w.world
             .position_cmd_vel(*m, v[0], v[1], v[2])
             .map_err(sim_err)?;
     }
     // each world is read on its own thread right after its steps: only the copying into the
     // returned buffers is left serial, so a vector step scales with the pool like step_worlds
-    let jobs: Vec<(&mut stage_sim::World, &(ModelId, Vec<ModelId>))> =
-        held.iter_mut().map(|w| &mut w.world).zip(&ids).collect();
+    type Job<'a> = (
+        (&'a mut stage_sim::World, &'a mut Vec<Track>),
+        (&'a (ModelId, Vec<ModelId>), Option<[f64; 2]>),
+    );
+    let goal_of = |i: usize| goals.as_ref().map(|g| g[i]);
+    let jobs: Vec<Job<'_>> = held
+        .iter_mut()
+        .map(|w| {
+            let w = &mut **w;
+            (&mut w.world, &mut w.tracks)
+        })
+        .zip(ids.iter().enumerate().map(|(i, id)| (id, goal_of(i))))
+        .collect();
     let read: Vec<stage_sim::Result<(bool, Vec<u8>)>> = py.allow_threads(|| {
         on_sim_threads(|| {
             jobs.into_par_iter()
-                .map(|(world, (m, rs))| {
-                    let running = step_n(world, n);
-                    observe_one(world, *m, rs, &rangers).map(|obs| (running, obs))
+                .map(|((world, tracks), ((m, rs), goal))| {
+                    let running = step_n(world, tracks, n);
+                    observe_one(world, *m, rs, &rangers, goal).map(|obs| (running, obs))
                 })
                 .collect()
         })
@@ -684,23 +832,34 @@ pub fn step_observe<'py>(
         scans.push(PyBytes::new(py, &out));
         offset += samples * 8;
     }
-    let mut state: Vec<u8> = Vec::with_capacity(all.len() * 80);
+    let mut state: Vec<u8> = Vec::with_capacity(all.len() * 13 * 8);
     for obs in &all {
         state.extend_from_slice(&obs[offset..]);
     }
     Ok((running, scans, PyBytes::new(py, &state)))
 }
 
+/// The goal task's view of the goal `(gx, gy)` from the global pose `(x, y, a)`: the distance
+/// to it and its position in the robot's frame (x ahead, y to the left). `StageEnv` and
+/// `VectorStageEnv` both take it from here (through [`step_observe`]), so that a lone env and
+/// a vector's copy agree to the last bit: CPython's `math.hypot` is not libm's `hypot`.
+fn goal_view(goal: [f64; 2], x: f64, y: f64, a: f64) -> [f64; 3] {
+    let (dx, dy) = (goal[0] - x, goal[1] - y);
+    let (c, s) = (a.cos(), a.sin());
+    [dx.hypot(dy), c * dx + s * dy, -s * dx + c * dy]
+}
+
 /// One world's part of [`step_observe`]'s answer, as native-endian f64 bytes: each ranger's
 /// `samples` readings (all `range_max` when the count differs), then `px py pa vx vy va stall
-/// x y a`.
+/// x y a`, then with a `goal` its [`goal_view`] `distance ahead left`.
 fn observe_one(
     world: &stage_sim::World,
     robot: ModelId,
     ids: &[ModelId],
     rangers: &[(String, usize, f64)],
+    goal: Option<[f64; 2]>,
 ) -> stage_sim::Result<Vec<u8>> {
-    let mut out = Vec::with_capacity((rangers.iter().map(|r| r.1).sum::<usize>() + 10) * 8);
+    let mut out = Vec::with_capacity((rangers.iter().map(|r| r.1).sum::<usize>() + 13) * 8);
     for (&r, (_, samples, range_max)) in ids.iter().zip(rangers) {
         let ranges = player_view::ranger_ranges(world.ranger_scans(r)?);
         if ranges.len() == *samples {
@@ -716,5 +875,27 @@ fn observe_one(
     for x in [p.x, p.y, p.a, v.x, v.y, v.a, stall, g.x, g.y, g.a] {
         out.extend(x.to_ne_bytes());
     }
+    if let Some(goal) = goal {
+        for x in goal_view(goal, g.x, g.y, g.a) {
+            out.extend(x.to_ne_bytes());
+        }
+    }
     Ok(out)
+}
+
+/// `count` loads of the worldfile `path` with `seed`, made side by side on the simulator's
+/// threads with the GIL released: each what `World(path, seed)` gives. `VectorStageEnv`
+/// reloads the copies an autoreset restarts with it, so their resets do not load one after
+/// another.
+#[pyfunction]
+pub fn load_worlds(py: Python<'_>, path: PathBuf, seed: u64, count: usize) -> PyResult<Vec<World>> {
+    let loaded: Vec<PyResult<World>> = py.allow_threads(|| {
+        on_sim_threads(|| {
+            (0..count)
+                .into_par_iter()
+                .map(|_| World::open(path.clone(), seed, None))
+                .collect()
+        })
+    });
+    loaded.into_iter().collect()
 }

@@ -612,8 +612,10 @@ class World:
     simulation computes, and deterministic for a seed.
     """
 
-    def __init__(self, path, seed: int = 0):
-        self._w = _native.World(str(path), seed)
+    def __init__(self, path, seed: int = 0, text: Optional[str] = None):
+        """``text``, when given, is the worldfile itself, read as if it were the file at
+        ``path`` (includes and bitmaps resolve against its directory; it need not exist)."""
+        self._w = _native.World(str(path), seed, text=text)
 
     def step(self, n: int = 1) -> bool:
         """Advances ``n`` steps; False once the world's ``quit_time`` is reached."""

@@ -19,7 +19,9 @@
 //! steal this worker's queued connection tasks; `block_in_place` around every step would hand
 //! them over explicitly but costs a thread hand-off per step (fan-out fell 20-fold).
 
+use std::any::Any;
 use std::collections::{HashMap, VecDeque};
+use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -83,6 +85,15 @@ enum Requester {
     },
 }
 
+impl Requester {
+    /// The driver that owes the answer.
+    fn driver(&self) -> DriverId {
+        match *self {
+            Requester::Client { driver, .. } | Requester::Driver { driver, .. } => driver,
+        }
+    }
+}
+
 /// A delivery between drivers, done by the core after the callback that caused it.
 #[derive(Debug)]
 enum Work {
@@ -117,6 +128,10 @@ struct DriverState {
     setting_up: bool,
     waker: DriverWaker,
     woken: Arc<AtomicBool>,
+    /// Set when one of its callbacks panicked: why it is out of service. Its state may be
+    /// half-updated, so it is never called again (not even `shutdown`); its devices refuse
+    /// subscriptions and requests with this text.
+    failed: Option<String>,
 }
 
 /// The drivers, their devices' subscribers and everything that passes between them.
@@ -155,6 +170,7 @@ impl Bus {
                     setting_up: false,
                     waker: DriverWaker::new(DriverId(i), wake.clone(), woken.clone()),
                     woken,
+                    failed: None,
                 }
             })
             .collect();
@@ -175,28 +191,125 @@ impl Bus {
     }
 
     /// Runs one driver callback with a full context; returns its result, what it asked for,
-    /// and whether it took the request it was handling ([`Context::defer`]).
+    /// and whether it took the request it was handling ([`Context::defer`]). `None` when the
+    /// driver is out of service, or panicked in this callback (`what`, for the log): what it
+    /// asked for and published in it is dropped, and it is taken out of service
+    /// ([`Bus::fail`]).
     fn call<R>(
         &mut self,
         d: DriverId,
+        what: &str,
         client: Option<ClientId>,
         request: Option<PendingReply>,
         f: impl FnOnce(&mut dyn Driver, &mut Context<'_>) -> R,
-    ) -> (R, Vec<Action>, bool) {
+    ) -> Option<(R, Vec<Action>, bool)> {
+        if self.state[d.0].failed.is_some() {
+            return None;
+        }
         let now = self.clock.now();
         let waker = self.state[d.0].waker.clone();
+        let published_before = self.published.len();
         let mut ctx =
             Context::new(now, client, &mut self.published).with_core(self.next_id, request, waker);
-        let r = f(self.drivers[d.0].driver.as_mut(), &mut ctx);
+        let driver = self.drivers[d.0].driver.as_mut();
+        // The driver is never called again after a panic, so its possibly broken state is
+        // never observed: asserting unwind safety is sound here.
+        let outcome = catch_unwind(AssertUnwindSafe(|| f(driver, &mut ctx)));
         let deferred = request.is_some() && ctx.defer().is_none();
         let (actions, next) = ctx.finish();
         self.next_id = next;
-        (r, actions, deferred)
+        match outcome {
+            Ok(r) => Some((r, actions, deferred)),
+            Err(payload) => {
+                self.published.truncate(published_before);
+                self.fail(d, what, payload.as_ref());
+                None
+            }
+        }
+    }
+
+    /// Calls a context-free method of driver `d` (`subscribe`, `unsubscribe`, `clock`, ...),
+    /// as [`Bus::call`] does: `None` when the driver is out of service or panicked.
+    fn call_plain<R>(
+        &mut self,
+        d: DriverId,
+        what: &str,
+        f: impl FnOnce(&mut dyn Driver) -> R,
+    ) -> Option<R> {
+        if self.state[d.0].failed.is_some() {
+            return None;
+        }
+        let driver = self.drivers[d.0].driver.as_mut();
+        match catch_unwind(AssertUnwindSafe(|| f(driver))) {
+            Ok(r) => Some(r),
+            Err(payload) => {
+                self.fail(d, what, payload.as_ref());
+                None
+            }
+        }
+    }
+
+    /// Takes driver `d`, whose `what` callback panicked, out of service, as a crashed driver
+    /// of upstream would be had it not taken the whole server with it: the panic is logged
+    /// naming the driver and its devices; every subscription to its devices is dropped (their
+    /// clients get no more data, a new subscription is refused, a request is NACKed); the
+    /// requests it was still to answer are NACKed now; what it had subscribed to is
+    /// released. Every other driver and client carries on.
+    fn fail(&mut self, d: DriverId, what: &str, payload: &(dyn Any + Send)) {
+        let cause = panic_text(payload);
+        let devices: Vec<DeviceIndex> = (0..self.table.len())
+            .map(DeviceIndex)
+            .filter(|&i| self.table.get(i).driver == d)
+            .collect();
+        let names: Vec<String> = devices
+            .iter()
+            .map(|&i| {
+                let a = self.table.get(i).addr;
+                format!("{}:{}:{}", a.robot, a.interf, a.index)
+            })
+            .collect();
+        let origin = devices
+            .first()
+            .map(|&i| self.table.get(i).origin.clone())
+            .unwrap_or_default();
+        let name = self.drivers[d.0].name.clone();
+        tracing::error!(
+            "driver \"{name}\" ({origin}) panicked in {what}: {cause}; its devices ({}) are out of \
+             service: their subscriptions are dropped and their requests refused; the server \
+             carries on",
+            names.join(", ")
+        );
+        self.state[d.0].failed = Some(format!(
+            "driver \"{name}\" is out of service: it panicked in {what}: {cause}"
+        ));
+        self.state[d.0].setting_up = false;
+        self.schedule.set_active(d.0, false);
+        for &device in &devices {
+            self.subscribers[device.0].clear();
+        }
+        self.drivers[d.0].subscriptions = 0;
+        let owed: Vec<u64> = self
+            .pending
+            .iter()
+            .filter(|(_, r)| r.driver() == d)
+            .map(|(&token, _)| token)
+            .collect();
+        for token in owed {
+            if let Some(requester) = self.pending.remove(&token) {
+                self.deliver_reply(requester, Reply::Nack);
+            }
+        }
+        self.release_all(d);
+    }
+
+    /// Why driver `d` is out of service, if it is.
+    fn failure(&self, d: DriverId) -> Option<&str> {
+        self.state[d.0].failed.as_deref()
     }
 
     /// Runs a callback and carries out what it asked for, then delivers what it published.
-    fn run(&mut self, d: DriverId, f: impl FnOnce(&mut dyn Driver, &mut Context<'_>)) {
-        self.run_for(d, None, f);
+    fn run(&mut self, d: DriverId, what: &str, f: impl FnOnce(&mut dyn Driver, &mut Context<'_>)) {
+        self.run_for(d, what, None, f);
     }
 
     /// As [`Bus::run`], for a message from `client` (drivers keep per-client state, e.g.
@@ -204,11 +317,13 @@ impl Bus {
     fn run_for(
         &mut self,
         d: DriverId,
+        what: &str,
         client: Option<ClientId>,
         f: impl FnOnce(&mut dyn Driver, &mut Context<'_>),
     ) {
-        let ((), actions, _) = self.call(d, client, None, f);
-        self.act(d, actions);
+        if let Some(((), actions, _)) = self.call(d, what, client, None, f) {
+            self.act(d, actions);
+        }
         self.fan_out(d);
     }
 
@@ -223,16 +338,22 @@ impl Bus {
     pub fn subscribe(&mut self, sub: Subscriber, device: DeviceIndex) -> Result<(), DriverError> {
         let dev = self.table.get(device);
         let (addr, d) = (dev.addr, dev.driver);
+        if let Some(why) = self.failure(d) {
+            return Err(DriverError::new(why));
+        }
         if self.state[d.0].setting_up {
             return Err(DriverError::new(format!(
                 "subscription cycle: driver \"{}\" is still being set up",
                 self.drivers[d.0].name
             )));
         }
-        self.drivers[d.0].driver.subscribe(addr)?;
+        match self.call_plain(d, "subscribe", |drv| drv.subscribe(addr)) {
+            Some(result) => result?,
+            None => return Err(self.out_of_service(d)),
+        }
         if self.drivers[d.0].subscriptions == 0 {
             if let Err(e) = self.setup(d) {
-                let _ = self.drivers[d.0].driver.unsubscribe(addr);
+                let _ = self.call_plain(d, "unsubscribe", |drv| drv.unsubscribe(addr));
                 return Err(e);
             }
         }
@@ -249,7 +370,11 @@ impl Bus {
     /// fails undoes the others and fails the setup.
     fn setup(&mut self, d: DriverId) -> Result<(), DriverError> {
         self.state[d.0].setting_up = true;
-        let (result, actions, _) = self.call(d, None, None, |drv, ctx| drv.setup(ctx));
+        let Some((result, actions, _)) =
+            self.call(d, "setup", None, None, |drv, ctx| drv.setup(ctx))
+        else {
+            return Err(self.out_of_service(d));
+        };
         let mut result = result;
         let mut rest = Vec::new();
         for action in actions {
@@ -308,15 +433,23 @@ impl Bus {
         if let Some(p) = list.iter().rposition(|&s| s == sub) {
             list.remove(p);
         }
-        if let Subscriber::Client(c) = sub {
-            self.drivers[d.0].driver.client_unsubscribed(addr, c);
+        if self.failure(d).is_some() {
+            // Its subscriptions were dropped when it failed; nothing more to undo.
+            return Ok(());
         }
-        let result = self.drivers[d.0].driver.unsubscribe(addr);
+        if let Subscriber::Client(c) = sub {
+            self.call_plain(d, "client_unsubscribed", |drv| {
+                drv.client_unsubscribed(addr, c)
+            });
+        }
+        let Some(result) = self.call_plain(d, "unsubscribe", |drv| drv.unsubscribe(addr)) else {
+            return Ok(());
+        };
         let slot = &mut self.drivers[d.0];
         slot.subscriptions = slot.subscriptions.saturating_sub(1);
         if slot.subscriptions == 0 {
             self.schedule.set_active(d.0, false);
-            self.run(d, |drv, ctx| drv.teardown(ctx));
+            self.run(d, "teardown", |drv, ctx| drv.teardown(ctx));
             self.release_all(d);
         }
         result
@@ -400,15 +533,23 @@ impl Bus {
     /// A client's request to a device of driver `d`.
     fn client_request(&mut self, id: ClientId, d: DriverId, addr: DeviceAddr, msg: &Message) {
         let token = self.fresh_id();
-        let (reply, actions, deferred) =
-            self.call(d, Some(id), Some(PendingReply(token)), |drv, ctx| {
-                drv.handle_request(ctx, msg)
-            });
         let requester = Requester::Client {
             id,
             header: msg.header,
             addr,
             driver: d,
+        };
+        let called = self.call(
+            d,
+            "handle_request",
+            Some(id),
+            Some(PendingReply(token)),
+            |drv, ctx| drv.handle_request(ctx, msg),
+        );
+        let Some((reply, actions, deferred)) = called else {
+            tracing::debug!("client {}: {}; NACK", id.0, self.out_of_service(d));
+            self.deliver_reply(requester, Reply::Nack);
+            return;
         };
         self.settle(token, requester, reply, deferred);
         self.act(d, actions);
@@ -422,9 +563,7 @@ impl Bus {
                 self.pending.insert(token, requester);
             }
             (Reply::Deferred, false) => {
-                let d = match requester {
-                    Requester::Client { driver, .. } | Requester::Driver { driver, .. } => driver,
-                };
+                let d = requester.driver();
                 tracing::error!(
                     "driver \"{}\" deferred a request without taking it (Context::defer); NACK",
                     self.drivers[d.0].name
@@ -468,9 +607,9 @@ impl Bus {
     pub fn tick(&mut self) {
         for d in self.schedule.take_due() {
             let id = DriverId(d);
-            self.run(id, |drv, ctx| drv.update(ctx));
+            self.run(id, "update", |drv, ctx| drv.update(ctx));
             if self.clock_driver == Some(d) {
-                if let Some(t) = self.drivers[d].driver.clock() {
+                if let Some(Some(t)) = self.call_plain(id, "clock", |drv| drv.clock()) {
                     self.clock.set_simulated(t);
                 }
             }
@@ -487,16 +626,18 @@ impl Bus {
                 Work::Data { to, device, msg } => {
                     // Data queued before the driver let go of the device is not its any more.
                     if self.state[to.0].holds.contains(&device) {
-                        self.run(to, |drv, ctx| drv.handle_data(ctx, &msg));
+                        self.run(to, "handle_data", |drv, ctx| drv.handle_data(ctx, &msg));
                     }
                 }
-                Work::Command { to, msg } => self.run(to, |drv, ctx| drv.handle_command(ctx, &msg)),
-                Work::Reply { to, ticket, result } => {
-                    self.run(to, |drv, ctx| drv.handle_reply(ctx, ticket, result))
-                }
+                Work::Command { to, msg } => self.run(to, "handle_command", |drv, ctx| {
+                    drv.handle_command(ctx, &msg)
+                }),
+                Work::Reply { to, ticket, result } => self.run(to, "handle_reply", |drv, ctx| {
+                    drv.handle_reply(ctx, ticket, result)
+                }),
                 Work::Wake(d) => {
                     self.state[d.0].woken.store(false, Ordering::Release);
-                    self.run(d, |drv, ctx| drv.wake(ctx));
+                    self.run(d, "wake", |drv, ctx| drv.wake(ctx));
                 }
                 Work::Request {
                     from,
@@ -505,10 +646,22 @@ impl Bus {
                     msg,
                 } => {
                     let token = self.fresh_id();
-                    let (reply, actions, deferred) =
-                        self.call(to, None, Some(PendingReply(token)), |drv, ctx| {
-                            drv.handle_request(ctx, &msg)
+                    let called = self.call(
+                        to,
+                        "handle_request",
+                        None,
+                        Some(PendingReply(token)),
+                        |drv, ctx| drv.handle_request(ctx, &msg),
+                    );
+                    let Some((reply, actions, deferred)) = called else {
+                        let why = self.out_of_service(to);
+                        self.work.push_back(Work::Reply {
+                            to: from,
+                            ticket,
+                            result: Err(RequestError::Failed(why.0)),
                         });
+                        continue;
+                    };
                     let requester = Requester::Driver {
                         from,
                         ticket,
@@ -609,10 +762,24 @@ impl Bus {
 
     /// The server is stopping: every driver hears it.
     fn shutdown(&mut self) {
-        for slot in &mut self.drivers {
-            slot.driver.shutdown();
+        for d in 0..self.drivers.len() {
+            self.call_plain(DriverId(d), "shutdown", |drv| drv.shutdown());
         }
     }
+
+    /// The error of a driver that is out of service (after a panic in a call just made).
+    fn out_of_service(&self, d: DriverId) -> DriverError {
+        DriverError::new(self.failure(d).unwrap_or("driver is out of service"))
+    }
+}
+
+/// The message a panic was raised with (`panic!` with a literal or a format), for the log.
+fn panic_text(payload: &(dyn Any + Send)) -> &str {
+    payload
+        .downcast_ref::<&str>()
+        .copied()
+        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+        .unwrap_or("(a panic without a message)")
 }
 
 /// `msg`, published by driver `driver`, encoded once for every client queue it goes to; an
@@ -853,9 +1020,12 @@ impl Core {
         let (addr, driver) = (dev.addr, dev.driver);
         match msg.header.kind().ok() {
             Some(MsgType::Req) => self.bus.client_request(id, driver, addr, msg),
-            Some(MsgType::Cmd) => self
-                .bus
-                .run_for(driver, Some(id), |drv, ctx| drv.handle_command(ctx, msg)),
+            Some(MsgType::Cmd) => {
+                self.bus
+                    .run_for(driver, "handle_command", Some(id), |drv, ctx| {
+                        drv.handle_command(ctx, msg)
+                    })
+            }
             _ => tracing::warn!(
                 "client {}: ignoring {} message sent to {}:{}",
                 id.0,

@@ -548,6 +548,11 @@ impl<'a> Context<'a> {
 /// a remote link) runs on a thread or task of the driver's own, which reports back through
 /// a [`DriverWaker`].
 ///
+/// A panic in any of these methods is a bug of the driver, not of the server: the core catches
+/// it, logs it naming the driver and its devices, and takes that driver out of service (it is
+/// never called again; its subscriptions are dropped, its requests NACKed), while every other
+/// driver and client carries on.
+///
 /// Lifecycle, as Player's `Setup`/`Shutdown`: [`Driver::setup`] runs when the first
 /// subscription to any of the driver's devices arrives (a client's, another driver's, or the
 /// server's for alwayson drivers), [`Driver::teardown`] when the last one ends.

@@ -515,7 +515,8 @@ impl ServerHandle {
 
         let stop_on_exit = stop.clone();
         let core = runtime.spawn(async move {
-            // However the core ends (even by a driver panic), the whole server stops.
+            // However the core ends (even by a panic of its own; a driver's panic is caught and
+            // only takes that driver out of service), the whole server stops.
             struct StopOnExit(watch::Sender<bool>);
             impl Drop for StopOnExit {
                 fn drop(&mut self) {

@@ -147,8 +147,15 @@ def test_malformed_placeholder_is_refused(tmp_path):
     msg = refused(tmp_path, """\
         world = "arena.world.tmpl"
         steps = 5
-    """, template=TEMPLATE.replace("# two", "# {{ not a name }} two"))
-    assert "arena.world.tmpl:1:" in msg and "not part of a {{name}} placeholder" in msg
+    """, template=TEMPLATE.replace("interval_sim 100", "interval_sim {{ 100 }}"))
+    assert "arena.world.tmpl:2:" in msg and "not part of a {{name}} placeholder" in msg
+
+
+def test_placeholders_in_comments_are_left_alone():
+    text = '# {{range}} and {{ junk\nsize [{{a}} 1] name "{{b}}#{{c}}" # {{d}}\n'
+    assert worldtext.placeholders(text) == {"a": 2, "b": 2, "c": 2}
+    assert worldtext.fill(text, {"a": 0.5, "b": "x", "c": 3}) == (
+        '# {{range}} and {{ junk\nsize [0.5 1] name "x#3" # {{d}}\n')
 
 
 def test_worldfile_error_in_one_point_names_the_point(tmp_path):

@@ -92,7 +92,7 @@ def test_execute_one_run(tmp_path):
     json.dumps(result)  # JSON-able as it is
     s = result["summary"]
     assert result["steps"] == 30 and result["sim_time"] == pytest.approx(3.0)
-    assert s["robots"] == 2 and s["label"] == "p2"
+    assert s["robots_tracked"] == 2 and s["label"] == "p2"
     # r0 drives 1 m/s towards the wall at x 2.9 (its half size 0.2): it stops ~2.7 m along
     assert 2.4 < s["r0_x"] < 2.71 and s["distance_total"] == pytest.approx(s["r0_x"], abs=1e-9)
     assert s["collisions_total"] == 1 and s["stalled_total"] > 0
@@ -194,7 +194,8 @@ def _wait_for_runs(out: Path, n: int, proc, timeout=60.0):
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         runs = out / "runs"
-        done = [p for p in runs.iterdir() if (p / "run.json").exists()] if runs.exists() else []
+        done = [p for p in runs.iterdir() if (p / "run.json").exists()
+                and not p.name.startswith(".")] if runs.exists() else []
         if len(done) >= n:
             return
         assert proc.poll() is None, proc.communicate()
@@ -222,7 +223,9 @@ def test_interrupt_and_resume(tmp_path, how):
     if how == "ctrl-c":
         assert proc.returncode == 130, err
         assert "interrupted:" in err and "Traceback" not in err, err
-    stored = {p.name for p in (out / "runs").iterdir() if (p / "run.json").exists()}
+    # a directory still under its temporary name is half-written (killed before its rename)
+    stored = {p.name for p in (out / "runs").iterdir()
+              if (p / "run.json").exists() and not p.name.startswith(".")}
     assert 2 <= len(stored) < 8
     time.sleep(0.5)  # a killed sweep's orphaned worker may still finish its run
     resumed = subprocess.run(sweep_cmd(plan, "-o", out), capture_output=True, text=True,
@@ -287,3 +290,26 @@ def test_console_script_and_bad_plan_exit_status(tmp_path):
     assert ray.returncode == 2 and "cannot read the plan" in ray.stderr
     usage = subprocess.run([str(script)], capture_output=True, text=True, timeout=60)
     assert usage.returncode == 2 and "sweep" in usage.stdout
+
+
+def test_swarm_example(tmp_path):
+    """examples/sweeps: the full plan checks (90 runs), the CI-sized one runs."""
+    from conftest import REPO
+
+    sweeps = REPO / "examples" / "sweeps"
+    full = subprocess.run(sweep_cmd(sweeps / "swarm.toml", "--check"), capture_output=True,
+                          text=True, timeout=120)
+    assert full.returncode == 0 and "90 runs (9 points x 10 seeds)" in full.stdout, full.stderr
+    out = tmp_path / "out"
+    proc = subprocess.run(sweep_cmd(sweeps / "swarm-ci.toml", "-o", out, "-q"),
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    rows = read_csv(out / "summary.csv")
+    head = rows[0]
+    assert head[:4] == ["robots", "range", "seed", "digest"]
+    assert {"dispersion", "stalled_share", "collisions_total"} <= set(head)
+    rows = [dict(zip(head, r)) for r in rows[1:]]
+    assert len(rows) == 8 and all(r["error"] == "" for r in rows)
+    assert all(r["robots_tracked"] == r["robots"] for r in rows)
+    world = (out / "runs" / os.listdir(out / "runs")[0] / "swarm.world").read_text()
+    assert world.count('ctrl "wander"') in (4, 8) and "{{" not in world.split("# ")[-1]

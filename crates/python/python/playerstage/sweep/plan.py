@@ -34,6 +34,9 @@ PLAN_KEYS = (
     "controller", "controllers", "metrics", "python_params", "python_path",
 )
 METRICS_KEYS = ("robots", "robot", "world", "custom", "every")
+#: summary.csv's columns besides the parameters and custom metrics (no parameter may be one).
+SUMMARY_COLUMNS = ("run_id", "seed", "digest", "error", "steps", "sim_time", "robots_tracked") + tuple(
+    f"{m}_{agg}" for m in ("distance", "stalled", "collisions") for agg in ("mean", "total"))
 
 
 class PlanError(ValueError):
@@ -428,6 +431,9 @@ class Plan:
             if k == "seed":
                 self._fail(table, k, "`seed` is the run's seed (set by `seeds`), not a parameter",
                            index)
+            if k in SUMMARY_COLUMNS:
+                self._fail(table, k, f"`{k}` is a built-in column of summary.csv: give the "
+                           "parameter another name", index)
             if "." in k:
                 model, _, prop = k.rpartition(".")
                 if not model or not prop:

@@ -16,12 +16,12 @@ import traceback
 from datetime import datetime, timezone
 from typing import Any, Dict, Iterator, List, Optional
 
-from .plan import RunSpec, resolve_callable
+from .plan import SUMMARY_COLUMNS, RunSpec, resolve_callable
 
 _CURRENT: Optional[RunSpec] = None
 
-#: Summary columns built in runs always have; custom metrics may not reuse these names.
-RESERVED = ("run_id", "seed", "digest", "error", "steps", "sim_time", "robots")
+#: summary.csv's built-in columns: custom metrics may not take these names.
+RESERVED = SUMMARY_COLUMNS
 
 
 def current_run() -> Optional[RunSpec]:
@@ -139,8 +139,9 @@ def _simulate(spec: RunSpec, result: Dict[str, Any], t0: float) -> None:
             if not isinstance(got, dict):
                 raise TypeError(f"metric {ref} returned {type(got).__name__}, not a dict")
             for k, v in got.items():
-                if not isinstance(k, str) or k in RESERVED or k in values:
-                    raise ValueError(f"metric {ref}: name {k!r} is reserved or given twice")
+                if not isinstance(k, str) or k in RESERVED or k in values or k in spec.params:
+                    raise ValueError(f"metric {ref}: name {k!r} is a built-in column's, a "
+                                     "parameter's or given twice")
                 if not (v is None or isinstance(v, (bool, int, float, str))):
                     raise TypeError(f"metric {ref}: {k} = {v!r} is not a number or string")
                 values[k] = v
@@ -164,7 +165,7 @@ def _simulate(spec: RunSpec, result: Dict[str, Any], t0: float) -> None:
     sample()
 
     summary: Dict[str, Any] = {"steps": world.steps, "sim_time": world.time,
-                               "robots": len(robots)}
+                               "robots_tracked": len(robots)}
     tracked = last["tracked"]
     for metric, index in (("distance", 2), ("stalled", 3), ("collisions", 4)):
         if metric in m["robot"] and tracked:

@@ -27,6 +27,8 @@ import uuid
 from typing import Any, Dict, Iterable, List, Optional, Sequence
 
 RUN_FILE = "run.json"
+#: Summary columns the same for every run of a point (the plan sets them): not aggregated.
+CONSTANT = ("steps", "sim_time", "robots_tracked")
 METRICS_FILE = "metrics.csv"
 METRICS_HEADER = ["step", "time", "subject", "metric", "value"]
 
@@ -212,8 +214,8 @@ class Store:
                 groups[key] = []
                 order.append(key)
             groups[key].append(r)
-        numeric = [m for m in metrics
-                   if all(isinstance(r.get("summary", {}).get(m), (int, float))
+        numeric = [m for m in metrics if m not in CONSTANT
+                   and all(isinstance(r.get("summary", {}).get(m), (int, float))
                           and not isinstance(r.get("summary", {}).get(m), bool)
                           for r in results if not r.get("error") and m in r.get("summary", {}))
                    and any(m in r.get("summary", {}) for r in results)]

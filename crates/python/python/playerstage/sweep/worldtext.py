@@ -3,8 +3,10 @@ overrides, both done on the text so the resolved worldfile each run used can be 
 its results and loaded again by ``stage`` or ``player``.
 
 Placeholders are ``{{name}}`` (spaces allowed inside the braces, ``name`` a Python-style
-identifier). Braces have no meaning in Stage's worldfile language, so a placeholder cannot be
-mistaken for worldfile text; any other ``{{`` is refused rather than left in the file.
+identifier), anywhere but in ``#`` comments (which are left as written, so a template can
+document its placeholders). Braces have no meaning in Stage's worldfile language, so a
+placeholder cannot be mistaken for worldfile text; any other ``{{`` outside comments is
+refused rather than left in the file.
 
 Overrides (``"r0.pose" = [1, 2, 0, 90]``) set a property of the model whose worldfile entity
 says ``name "r0"``: the property is appended inside that entity, on the line of its closing
@@ -34,33 +36,51 @@ def line_of(text: str, offset: int) -> int:
     return text.count("\n", 0, offset) + 1
 
 
+_CODE_OR_COMMENT = re.compile(r'("[^"\n]*")|(#[^\n]*)|([^"#]+|")')
+
+
+def _code_spans(text: str) -> List[Tuple[int, int]]:
+    """The spans of ``text`` outside ``#`` comments (strings included: a ``#`` in a string
+    does not start a comment)."""
+    spans: List[Tuple[int, int]] = []
+    for m in _CODE_OR_COMMENT.finditer(text):
+        if m.group(2) is None:
+            if spans and spans[-1][1] == m.start():
+                spans[-1] = (spans[-1][0], m.end())
+            else:
+                spans.append(m.span())
+    return spans
+
+
+def _placeholder_matches(text: str) -> List["re.Match"]:
+    return [m for s, e in _code_spans(text) for m in PLACEHOLDER.finditer(text, s, e)]
+
+
 def placeholders(text: str) -> Dict[str, int]:
-    """Every placeholder name of ``text`` with the line of its first use; a ``{{`` that does
-    not open a well-formed placeholder raises, naming its line."""
+    """Every placeholder name of ``text`` (outside comments) with the line of its first use;
+    a ``{{`` or ``}}`` outside comments that is not part of a placeholder raises, naming its
+    line."""
     found: Dict[str, int] = {}
-    for m in PLACEHOLDER.finditer(text):
+    matches = _placeholder_matches(text)
+    for m in matches:
         found.setdefault(m.group(1), line_of(text, m.start()))
-    stripped = PLACEHOLDER.sub("", text)
+    taken = [m.span() for m in matches]
     for bad in ("{{", "}}"):
-        if bad in stripped:
-            # find the line in the original text: the n-th stray occurrence
-            line = _stray_line(text, bad)
+        line = 0
+        for s, e in _code_spans(text):
+            at = text.find(bad, s, e)
+            while at >= 0 and any(a <= at < b for a, b in taken):
+                at = text.find(bad, at + 1, e)
+            if at >= 0:
+                line = line_of(text, at)
+                break
+        if line:
             raise TemplateError(
                 f"`{bad}` that is not part of a {{{{name}}}} placeholder "
                 "(names are letters, digits and _, not starting with a digit)",
                 line,
             )
     return found
-
-
-def _stray_line(text: str, bad: str) -> int:
-    spans = [m.span() for m in PLACEHOLDER.finditer(text)]
-    at = text.find(bad)
-    while at >= 0:
-        if not any(s <= at < e for s, e in spans):
-            return line_of(text, at)
-        at = text.find(bad, at + 1)
-    return 0
 
 
 def format_value(value, quote_strings: bool) -> str:
@@ -93,7 +113,13 @@ def fill(text: str, values: Dict[str, object]) -> str:
             raise TemplateError(f"placeholder {{{{{name}}}}} has no value", line_of(text, m.start()))
         return format_value(values[name], quote_strings=False)
 
-    return PLACEHOLDER.sub(sub, text)
+    out, last = [], 0
+    for m in _placeholder_matches(text):
+        out.append(text[last:m.start()])
+        out.append(sub(m))
+        last = m.end()
+    out.append(text[last:])
+    return "".join(out)
 
 
 @dataclass

@@ -26,6 +26,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<world::World>()?;
     m.add_function(wrap_pyfunction!(world::step_worlds, m)?)?;
     m.add_function(wrap_pyfunction!(world::step_observe, m)?)?;
+    m.add_function(wrap_pyfunction!(world::load_worlds, m)?)?;
     errors::register(m)?;
     m.add("DEFAULT_PORT", player_client::DEFAULT_PORT)?;
     for (name, code) in convert::INTERFACES {

@@ -175,20 +175,13 @@ fn blocks_overlap(a: &Body, i: usize, b: &Body, j: usize) -> bool {
             .is_some_and(|&p| pa.len() > 2 && point_in_polygon(p, pa))
 }
 
-#[pymethods]
 impl World {
-    /// Loads `path` (Stage's `STAGEPATH` honoured for includes and bitmaps) with `seed` for
-    /// every random choice: the same file, seed and commands give the same run. A bad file
-    /// raises `WorldError` naming file:line. With `text`, that text is the worldfile, read
-    /// as if it were the file at `path` (which need not exist: includes and bitmaps resolve
-    /// against its directory, messages name it): how a sweep loads a template filled in for
-    /// one run without writing it to disk first.
-    #[new]
-    #[pyo3(signature = (path, seed=0, text=None))]
-    fn new(py: Python<'_>, path: PathBuf, seed: u64, text: Option<String>) -> PyResult<Self> {
+    /// What `World(path, seed, text)` loads (see `new`), without the GIL: `load_worlds` makes
+    /// several at once on the simulator's threads.
+    fn open(path: PathBuf, seed: u64, text: Option<String>) -> PyResult<Self> {
         let load_path = path.clone();
-        let (mut world, spec) = py
-            .allow_threads(move || match text {
+        let load = move || -> stage_sim::Result<_> {
+            match text {
                 None => stage_sim::World::load(&load_path, seed),
                 Some(text) => {
                     let opts = worldfile::LoadOptions::from_env();
@@ -196,8 +189,9 @@ impl World {
                     let world = stage_sim::World::from_spec(&spec, seed)?;
                     Ok((world, spec))
                 }
-            })
-            .map_err(sim_err)?;
+            }
+        };
+        let (mut world, spec) = load().map_err(sim_err)?;
         let models: Vec<ModelId> = world.models().collect();
         for m in models {
             use stage_sim::ModelType as T;
@@ -219,6 +213,21 @@ impl World {
             world,
             path,
         })
+    }
+}
+
+#[pymethods]
+impl World {
+    /// Loads `path` (Stage's `STAGEPATH` honoured for includes and bitmaps) with `seed` for
+    /// every random choice: the same file, seed and commands give the same run. A bad file
+    /// raises `WorldError` naming file:line. With `text`, that text is the worldfile, read
+    /// as if it were the file at `path` (which need not exist: includes and bitmaps resolve
+    /// against its directory, messages name it): how a sweep loads a template filled in for
+    /// one run without writing it to disk first.
+    #[new]
+    #[pyo3(signature = (path, seed=0, text=None))]
+    fn new(py: Python<'_>, path: PathBuf, seed: u64, text: Option<String>) -> PyResult<Self> {
+        py.allow_threads(move || World::open(path, seed, text))
     }
 
     /// The whole world drawn top-down by the viewer's offscreen renderer (what the world
@@ -728,30 +737,39 @@ fn borrow_each<'py>(
 /// What [`step_observe`] gives back: per world whether it still runs, each ranger's readings
 /// of every world (`len(worlds) * samples` f64, native endian, a world's readings replaced by
 /// `range_max` when their count is not `samples`), and per world `px py pa vx vy va stall x y
-/// a` (odometry, stall as 0/1, global pose; f64).
+/// a` (odometry, stall as 0/1, global pose; f64), followed, when goals were given, by the
+/// goal's `distance ahead left` ([`goal_view`]).
 type Observed<'py> = (Vec<bool>, Vec<Bound<'py, PyBytes>>, Bound<'py, PyBytes>);
 
 /// One vector step of `VectorStageEnv` in one call: commands `velocities[i]` (`[vx, vy, va]`)
-/// to the position model `robot` of `worlds[i]`, steps every world `n` times as
-/// [`step_worlds`] does, then reads what the observations and the goal task need, in bulk, so
-/// Python handles a few arrays instead of dozens of dicts per copy. `rangers` are
-/// `(name, samples, range_max)` as `World.rangers` lists them. Readings are exactly those
-/// `World.ranger` and `World.position` give.
+/// to the position model `robot` of `worlds[i]` (None: no command), steps every world `n`
+/// times as [`step_worlds`] does, then reads what the observations and the goal task need, in
+/// bulk, so Python handles a few arrays instead of dozens of dicts per copy. `rangers` are
+/// `(name, samples, range_max)` as `World.rangers` lists them; `goals[i]` is world `i`'s goal
+/// `(x, y)` for the goal task's distance and relative position. Readings are exactly those
+/// `World.ranger` and `World.position` give. `StageEnv` reads its one world through it too
+/// (`n = 0` at a reset), so a lone env and a vector's copy compute the same numbers.
 #[pyfunction]
+#[pyo3(signature = (worlds, robot, velocities, n, rangers, goals=None))]
 pub fn step_observe<'py>(
     py: Python<'py>,
     worlds: Vec<Bound<'py, World>>,
     robot: &str,
-    velocities: Vec<[f64; 3]>,
+    velocities: Option<Vec<[f64; 3]>>,
     n: u64,
     rangers: Vec<(String, usize, f64)>,
+    goals: Option<Vec<[f64; 2]>>,
 ) -> PyResult<Observed<'py>> {
-    if velocities.len() != worlds.len() {
-        return Err(WorldError::new_err(format!(
-            "step_observe: {} velocities for {} worlds",
-            velocities.len(),
-            worlds.len()
-        )));
+    for (what, len) in [
+        ("velocities", velocities.as_ref().map(Vec::len)),
+        ("goals", goals.as_ref().map(Vec::len)),
+    ] {
+        if let Some(len) = len.filter(|&len| len != worlds.len()) {
+            return Err(WorldError::new_err(format!(
+                "step_observe: {len} {what} for {} worlds",
+                worlds.len()
+            )));
+        }
     }
     let mut held = borrow_each(&worlds, "step_observe")?;
     // every name and type checked before any world changes: a refused call changes nothing
@@ -767,7 +785,7 @@ pub fn step_observe<'py>(
         }
         ids.push((m, rs));
     }
-    for ((w, v), (m, _)) in held.iter_mut().zip(&velocities).zip(&ids) {
+    for ((w, v), (m, _)) in held.iter_mut().zip(velocities.iter().flatten()).zip(&ids) {
         w.world
             .position_cmd_vel(*m, v[0], v[1], v[2])
             .map_err(sim_err)?;
@@ -776,22 +794,23 @@ pub fn step_observe<'py>(
     // returned buffers is left serial, so a vector step scales with the pool like step_worlds
     type Job<'a> = (
         (&'a mut stage_sim::World, &'a mut Vec<Track>),
-        &'a (ModelId, Vec<ModelId>),
+        (&'a (ModelId, Vec<ModelId>), Option<[f64; 2]>),
     );
+    let goal_of = |i: usize| goals.as_ref().map(|g| g[i]);
     let jobs: Vec<Job<'_>> = held
         .iter_mut()
         .map(|w| {
             let w = &mut **w;
             (&mut w.world, &mut w.tracks)
         })
-        .zip(&ids)
+        .zip(ids.iter().enumerate().map(|(i, id)| (id, goal_of(i))))
         .collect();
     let read: Vec<stage_sim::Result<(bool, Vec<u8>)>> = py.allow_threads(|| {
         on_sim_threads(|| {
             jobs.into_par_iter()
-                .map(|((world, tracks), (m, rs))| {
+                .map(|((world, tracks), ((m, rs), goal))| {
                     let running = step_n(world, tracks, n);
-                    observe_one(world, *m, rs, &rangers).map(|obs| (running, obs))
+                    observe_one(world, *m, rs, &rangers, goal).map(|obs| (running, obs))
                 })
                 .collect()
         })
@@ -813,23 +832,34 @@ pub fn step_observe<'py>(
         scans.push(PyBytes::new(py, &out));
         offset += samples * 8;
     }
-    let mut state: Vec<u8> = Vec::with_capacity(all.len() * 80);
+    let mut state: Vec<u8> = Vec::with_capacity(all.len() * 13 * 8);
     for obs in &all {
         state.extend_from_slice(&obs[offset..]);
     }
     Ok((running, scans, PyBytes::new(py, &state)))
 }
 
+/// The goal task's view of the goal `(gx, gy)` from the global pose `(x, y, a)`: the distance
+/// to it and its position in the robot's frame (x ahead, y to the left). `StageEnv` and
+/// `VectorStageEnv` both take it from here (through [`step_observe`]), so that a lone env and
+/// a vector's copy agree to the last bit: CPython's `math.hypot` is not libm's `hypot`.
+fn goal_view(goal: [f64; 2], x: f64, y: f64, a: f64) -> [f64; 3] {
+    let (dx, dy) = (goal[0] - x, goal[1] - y);
+    let (c, s) = (a.cos(), a.sin());
+    [dx.hypot(dy), c * dx + s * dy, -s * dx + c * dy]
+}
+
 /// One world's part of [`step_observe`]'s answer, as native-endian f64 bytes: each ranger's
 /// `samples` readings (all `range_max` when the count differs), then `px py pa vx vy va stall
-/// x y a`.
+/// x y a`, then with a `goal` its [`goal_view`] `distance ahead left`.
 fn observe_one(
     world: &stage_sim::World,
     robot: ModelId,
     ids: &[ModelId],
     rangers: &[(String, usize, f64)],
+    goal: Option<[f64; 2]>,
 ) -> stage_sim::Result<Vec<u8>> {
-    let mut out = Vec::with_capacity((rangers.iter().map(|r| r.1).sum::<usize>() + 10) * 8);
+    let mut out = Vec::with_capacity((rangers.iter().map(|r| r.1).sum::<usize>() + 13) * 8);
     for (&r, (_, samples, range_max)) in ids.iter().zip(rangers) {
         let ranges = player_view::ranger_ranges(world.ranger_scans(r)?);
         if ranges.len() == *samples {
@@ -845,5 +875,27 @@ fn observe_one(
     for x in [p.x, p.y, p.a, v.x, v.y, v.a, stall, g.x, g.y, g.a] {
         out.extend(x.to_ne_bytes());
     }
+    if let Some(goal) = goal {
+        for x in goal_view(goal, g.x, g.y, g.a) {
+            out.extend(x.to_ne_bytes());
+        }
+    }
     Ok(out)
+}
+
+/// `count` loads of the worldfile `path` with `seed`, made side by side on the simulator's
+/// threads with the GIL released: each what `World(path, seed)` gives. `VectorStageEnv`
+/// reloads the copies an autoreset restarts with it, so their resets do not load one after
+/// another.
+#[pyfunction]
+pub fn load_worlds(py: Python<'_>, path: PathBuf, seed: u64, count: usize) -> PyResult<Vec<World>> {
+    let loaded: Vec<PyResult<World>> = py.allow_threads(|| {
+        on_sim_threads(|| {
+            (0..count)
+                .into_par_iter()
+                .map(|_| World::open(path.clone(), seed, None))
+                .collect()
+        })
+    });
+    loaded.into_iter().collect()
 }

@@ -294,3 +294,64 @@ def test_bulk_step_rewards_goal_and_stall_like_sync_vector_env(tmp_path, toleran
     assert stalled >= 1, "some copy stalled"
     if tolerance > 10:
         assert reached >= 2 * n, "all copies reached at once, twice"
+
+
+def test_load_worlds_equals_separate_loads():
+    worlds = _native.load_worlds(str(BIGBOB), 3, 4)
+    assert len(worlds) == 4 and len({id(w) for w in worlds}) == 4, "four distinct worlds"
+    alone = World(BIGBOB, 3)
+    assert [w.digest() for w in worlds] == [alone.digest()] * 4
+    for w in worlds:
+        w.set_velocity("bob1", 0.3, 0.0, 0.4)
+    alone._w.set_velocity("bob1", 0.3, 0.0, 0.4)
+    alone.step(10)
+    assert _native.step_worlds(worlds, 10) == [True] * 4
+    assert [w.digest() for w in worlds] == [alone.digest()] * 4
+    assert _native.load_worlds(str(BIGBOB), 0, 0) == []
+    with pytest.raises(WorldError):
+        _native.load_worlds("/nonexistent/nothing.world", 0, 2)
+
+
+def test_goal_distance_is_computed_natively_once_for_single_and_vector(tmp_path):
+    """The goal task's distance and relative goal come from one native function (libm's hypot,
+    cos and sin: CPython's math.hypot is its own and may differ in the last bit), which
+    StageEnv and VectorStageEnv both use."""
+    import ctypes
+    import ctypes.util
+
+    libm = ctypes.CDLL(ctypes.util.find_library("m"))
+    for f in ("hypot", "cos", "sin"):
+        getattr(libm, f).restype = ctypes.c_double
+    libm.hypot.argtypes = [ctypes.c_double, ctypes.c_double]
+    libm.cos.argtypes = libm.sin.argtypes = [ctypes.c_double]
+
+    small_world = boxes_world(tmp_path)
+    kw = dict(random_start=True, frame_skip=2)
+    env = StageEnv(small_world, "r0", **kw)
+    vec = VectorStageEnv(1, small_world, "r0", **kw)
+    env.reset(seed=5)
+    vec.reset(seed=5)
+    rng = np.random.default_rng(3)
+    for t in range(20):
+        action = rng.uniform(env.action_space.low, env.action_space.high)
+        obs, _, term, trunc, info = env.step(action)
+        obs_v, _, _, _, info_v = vec.step(action[None])
+        x, y, a = env.world._w.global_pose("r0")
+        dx, dy = env.goal[0] - x, env.goal[1] - y
+        c, s = libm.cos(a), libm.sin(a)
+        assert info["distance"] == libm.hypot(dx, dy), f"step {t}"
+        assert info_v["distance"][0] == info["distance"], f"step {t}"
+        want = np.array([c * dx + s * dy, -s * dx + c * dy], dtype=np.float32)
+        assert np.array_equal(obs["goal"], want) and np.array_equal(obs_v["goal"][0], want)
+        if term or trunc:
+            break
+    # the native call reads without commanding or stepping when asked to
+    w = World(small_world)
+    w._w.set_velocity("r0", 0.4, 0.0, 0.0)
+    rangers = w._w.rangers("r0")
+    running, _, state = _native.step_observe([w._w], "r0", None, 0, rangers, [[1.0, 2.0]])
+    assert running == [True] and w.steps == 0 and len(state) == 13 * 8
+    w.step(3)
+    assert w._w.position("r0")["vx"] == pytest.approx(0.4), "the command was kept"
+    with pytest.raises(WorldError, match="2 goals for 1 worlds"):
+        _native.step_observe([w._w], "r0", None, 0, rangers, [[0, 0], [1, 1]])

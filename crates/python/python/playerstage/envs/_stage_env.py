@@ -10,7 +10,7 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from .. import World
+from .. import World, _native
 
 #: A user task: called after every environment step with the world and the robot's name,
 #: returns ``(reward, terminated, info)``.
@@ -157,6 +157,8 @@ class StageEnv(gymnasium.Env):
         self.action_space = self._agent.action_space
         self.observation_space = self._agent.observation_space
         self._steps = 0
+        # what _place chose for _begin: the start pose and the goal
+        self._placed: Tuple[Sequence[float], Optional[Tuple[float, float]]] = ((0.0,) * 3, None)
 
     # -- public state -------------------------------------------------------------------
 
@@ -185,6 +187,16 @@ class StageEnv(gymnasium.Env):
     def reset(
         self, *, seed: Optional[int] = None, options: Optional[Dict[str, Any]] = None
     ) -> Tuple[Any, Dict[str, Any]]:
+        options = self._reset_options(seed, options)
+        self._load()
+        self._place(options)
+        self._native.step(1)
+        return self._begin()
+
+    def _reset_options(
+        self, seed: Optional[int], options: Optional[Dict[str, Any]]
+    ) -> Dict[str, Any]:
+        """A reset's first part: the seed taken, the options checked (returned as a dict)."""
         super().reset(seed=seed)
         options = dict(options or {})
         unknown = set(options) - _RESET_OPTIONS
@@ -192,9 +204,12 @@ class StageEnv(gymnasium.Env):
             raise ValueError(
                 f"unknown reset option(s) {sorted(unknown)}; known: {sorted(_RESET_OPTIONS)}"
             )
-        self._load()
-        w, robot = self._native, self._robot
+        return options
 
+    def _place(self, options: Dict[str, Any]) -> None:
+        """A reset's part once the world is loaded afresh: the robot placed, the goal chosen
+        (kept for :meth:`_begin`, which runs after the world's first step)."""
+        w, robot = self._native, self._robot
         start = options.get("start")
         if start is not None:
             x, y, a = _pose3(start, "start")
@@ -214,16 +229,23 @@ class StageEnv(gymnasium.Env):
                     w, robot, self.np_random, self._extent, self._max_draws, self._path,
                     start_pose, self._goal_tolerance,
                 )
+        self._placed = (start_pose, goal)
 
-        w.step(1)
+    def _begin(self) -> Tuple[Any, Dict[str, Any]]:
+        """A reset's last part, after the world's first step: the task begun, the first
+        observation and the reset's info."""
+        start_pose, goal = self._placed
         self._steps = 0
         info: Dict[str, Any] = {"start": tuple(start_pose)}
         info.update(self._agent.begin(self._world, goal))
-        return self._agent.observe(w), info
+        return self._agent.observe(self._native), info
 
     def step(self, action: Any) -> Tuple[Any, float, bool, bool, Dict[str, Any]]:
-        self._agent.act(self._native, action)
-        return self._stepped(self._native.step(self._frame_skip))
+        # one native call commands, steps and reads the robot (as VectorStageEnv's copies are)
+        running, reading = self._agent.read(
+            self._native, self._agent.command(action), self._frame_skip
+        )
+        return self._stepped(running, reading)
 
     def render(self) -> Optional[np.ndarray]:
         """With ``render_mode="rgb_array"``: the whole world drawn top-down as the world window
@@ -239,19 +261,31 @@ class StageEnv(gymnasium.Env):
 
     # -- internals ----------------------------------------------------------------------
 
-    def _stepped(self, running: bool) -> Tuple[Any, float, bool, bool, Dict[str, Any]]:
+    def _stepped(
+        self, running: bool, reading: Optional["_Reading"] = None
+    ) -> Tuple[Any, float, bool, bool, Dict[str, Any]]:
         """The rest of :meth:`step` once the world took its steps (`running`: it has not
-        reached ``quit_time``); :class:`VectorStageEnv` calls it after stepping every copy."""
+        reached ``quit_time``; `reading`: the robot read right after them, when at hand);
+        :class:`VectorStageEnv` calls it after stepping every copy."""
         self._steps += 1
-        reward, terminated, info = self._agent.evaluate(self._world)
+        agent = self._agent
+        reward, terminated, info = agent.evaluate(self._world, reading)
         truncated = not running or (
             self._max_episode_steps is not None and self._steps >= self._max_episode_steps
         )
-        return self._agent.observe(self._native), reward, terminated, bool(truncated), info
+        if callable(agent.task):
+            reading = None  # a user task may have moved things: read again
+        return agent.observe(self._native, reading), reward, terminated, bool(truncated), info
 
-    def _load(self) -> None:
-        """Loads the worldfile afresh: the world exactly as the file and `world_seed` make it."""
-        self._world = World(self._path, self._world_seed)
+    def _load(self, native: Any = None) -> None:
+        """Loads the worldfile afresh: the world exactly as the file and `world_seed` make it
+        (`native`: such a load already made, by ``_native.load_worlds``)."""
+        if native is None:
+            self._world = World(self._path, self._world_seed)
+        else:
+            # the same World a load makes, around a native world loaded elsewhere
+            self._world = World.__new__(World)
+            self._world._w = native
         # the native world under it: its dicts and lists are what observations are built from
         self._native = self._world._w
 
@@ -298,6 +332,8 @@ class _Robot:
         self.action_space = spaces.Box(
             np.array(low, dtype=np.float64), np.array(high, dtype=np.float64), dtype=np.float64
         )
+        # the box's bounds as floats: clipping a short action is cheaper in plain Python
+        self._bounds = (self.action_space.low.tolist(), self.action_space.high.tolist())
 
         inf = np.float32(np.inf)
         ranger_spaces = {
@@ -337,19 +373,40 @@ class _Robot:
                 raise ValueError("task 'explore': the world has no blocks, so no area to map")
             self._explore_rangers = [(n, reach[n]) for n in names]
 
-    def act(self, native: Any, action: Any) -> None:
-        """Commands the robot's speeds from `action` (checked against the space, clipped)."""
+    def command(self, action: Any) -> List[float]:
+        """The velocity command ``[vx, vy, va]`` of `action` (checked against the space,
+        clipped to it)."""
         act = np.asarray(action, dtype=np.float64)
         if act.shape != self.action_space.shape:
             raise ValueError(
                 f"action of shape {act.shape} for `{self.robot}`: the action space is "
                 f"{self.action_space}"
             )
-        act = np.clip(act, self.action_space.low, self.action_space.high)
-        if self.drive == "omni":
-            native.set_velocity(self.robot, float(act[0]), float(act[1]), float(act[2]))
-        else:
-            native.set_velocity(self.robot, float(act[0]), 0.0, float(act[1]))
+        low, high = self._bounds
+        v = [min(max(float(x), lo), hi) for x, lo, hi in zip(act.tolist(), low, high)]
+        return v if self.drive == "omni" else [v[0], 0.0, v[1]]
+
+    def act(self, native: Any, action: Any) -> None:
+        """Commands the robot's speeds from `action` (see :meth:`command`)."""
+        native.set_velocity(self.robot, *self.command(action))
+
+    def read(
+        self, native: Any, velocity: Optional[List[float]] = None, steps: int = 0
+    ) -> Tuple[bool, "_Reading"]:
+        """Commands `velocity` (if given), steps the world `steps` times and reads the robot,
+        in one native call (``step_observe``, as :class:`VectorStageEnv` does for all its
+        copies): whether the world still runs, and the reading."""
+        goal = None if self.goal is None else [list(self.goal)]
+        running, scans, state = _native.step_observe(
+            [native],
+            self.robot,
+            None if velocity is None else [velocity],
+            steps,
+            self.rangers,
+            goal,
+        )
+        rangers, state = _readings(self.rangers, scans, state, 1, goal is not None)
+        return running[0], _Reading({k: v[0] for k, v in rangers.items()}, state[0])
 
     def begin(self, world: World, goal: Optional[Tuple[float, float]]) -> Dict[str, Any]:
         """Starts an episode's task once the robot is placed and the world took its first
@@ -358,7 +415,7 @@ class _Robot:
         self.goal = goal if self.task == "goal" else None
         info: Dict[str, Any] = {}
         if self.goal is not None:
-            self.distance = self.goal_distance(native)
+            self.distance = self.read(native)[1].distance
             info.update(goal=self.goal, distance=self.distance)
         if self.task == "explore":
             assert self._extent is not None
@@ -368,8 +425,11 @@ class _Robot:
             info["explored"] = self.explored.area
         return info
 
-    def evaluate(self, world: World) -> Tuple[float, bool, Dict[str, Any]]:
-        """The task's reward, termination and info after a step."""
+    def evaluate(
+        self, world: World, reading: Optional["_Reading"] = None
+    ) -> Tuple[float, bool, Dict[str, Any]]:
+        """The task's reward, termination and info after a step (`reading`: the robot read
+        after it, else read here when the task needs it)."""
         if self.task is None:
             return 0.0, False, {}
         if callable(self.task):
@@ -381,8 +441,9 @@ class _Robot:
             reward, terminated, info = out
             return float(reward), bool(terminated), info
         native = world._w
-        p = native.position(self.robot)
-        stall = bool(p["stall"]) if p is not None else False
+        if reading is None:
+            reading = self.read(native)[1]
+        stall = bool(reading.stall)
         if self.task == "explore":
             assert self.explored is not None
             new = self.explored.see(native, self._explore_rangers)
@@ -390,7 +451,7 @@ class _Robot:
             terminated = stall and self.terminate_on_stall
             info = {"new_area": new, "explored": self.explored.area, "stall": stall}
             return float(reward), terminated, info
-        distance = self.goal_distance(native)
+        distance = reading.distance
         reward = self.distance - distance
         self.distance = distance
         if stall:
@@ -401,35 +462,57 @@ class _Robot:
         terminated = reached or (stall and self.terminate_on_stall)
         return float(reward), terminated, {"distance": distance, "stall": stall, "reached": reached}
 
-    def goal_distance(self, native: Any) -> float:
-        assert self.goal is not None
-        x, y, _ = native.global_pose(self.robot)
-        return math.hypot(self.goal[0] - x, self.goal[1] - y)
-
-    def observe(self, native: Any) -> Any:
-        """The robot's observation now, in :attr:`observation_space`."""
-        rangers = {}
-        for name, n, rmax in self.rangers:
-            ranges = np.asarray(native.ranger(name)["ranges"], dtype=np.float32)
-            if ranges.shape != (n,):
-                ranges = np.full(n, rmax, dtype=np.float32)
-            rangers[name] = np.clip(ranges, np.float32(0.0), np.float32(rmax))
-        p = native.position(self.robot)
-        if p is None:
-            odometry, stall = np.zeros(6, dtype=np.float32), 0
-        else:
-            keys = ("px", "py", "pa", "vx", "vy", "va")
-            odometry = np.array([p[k] for k in keys], dtype=np.float32)
-            stall = int(p["stall"])
-        obs: Dict[str, Any] = {"rangers": rangers, "odometry": odometry, "stall": stall}
+    def observe(self, native: Any, reading: Optional["_Reading"] = None) -> Any:
+        """The robot's observation now (`reading`: the robot read now, else read here), in
+        :attr:`observation_space`."""
+        if reading is None:
+            reading = self.read(native)[1]
+        state = reading.state
+        obs: Dict[str, Any] = {
+            "rangers": reading.rangers,
+            "odometry": state[:6].astype(np.float32),
+            "stall": int(state[6]),
+        }
         if self.goal is not None:
-            x, y, a = native.global_pose(self.robot)
-            dx, dy = self.goal[0] - x, self.goal[1] - y
-            c, s = math.cos(a), math.sin(a)
-            obs["goal"] = np.array([c * dx + s * dy, -s * dx + c * dy], dtype=np.float32)
+            obs["goal"] = state[11:13].astype(np.float32)
         if self.flatten:
             return spaces.flatten(self.dict_space, obs)
         return obs
+
+
+class _Reading:
+    """One robot read by ``step_observe``: its ranger readings (float32, clipped to each
+    ranger's bounds, by name) and its state row (float64: ``px py pa vx vy va stall x y a``,
+    then with a goal ``distance ahead left``)."""
+
+    __slots__ = ("rangers", "state")
+
+    def __init__(self, rangers: Dict[str, np.ndarray], state: np.ndarray) -> None:
+        self.rangers = rangers
+        self.state = state
+
+    @property
+    def stall(self) -> bool:
+        return bool(self.state[6])
+
+    @property
+    def distance(self) -> float:
+        """The goal task's distance to the goal (m), computed natively."""
+        return float(self.state[10])
+
+
+def _readings(
+    rangers: Sequence[Tuple[str, int, float]], scans: Sequence[bytes], state: bytes, m: int,
+    goal: bool,
+) -> Tuple[Dict[str, np.ndarray], np.ndarray]:
+    """``step_observe``'s answer for `m` worlds as arrays with a leading axis of `m`: each
+    ranger's readings as float32 clipped to ``[0, range_max]`` (the observation's), and the
+    float64 state rows (13 columns with goals, else 10)."""
+    out = {}
+    for (name, n, rmax), raw in zip(rangers, scans):
+        ranges = np.frombuffer(raw, dtype=np.float64).reshape(m, n)
+        out[name] = np.clip(ranges.astype(np.float32), np.float32(0.0), np.float32(rmax))
+    return out, np.frombuffer(state, dtype=np.float64).reshape(m, 13 if goal else 10)
 
 
 class _ExploreMap:

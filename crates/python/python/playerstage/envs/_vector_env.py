@@ -5,14 +5,12 @@ from __future__ import annotations
 from copy import deepcopy
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
-import math
-
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, create_empty_array, iterate
 
 from .. import _native
-from ._stage_env import StageEnv
+from ._stage_env import StageEnv, _readings
 
 
 class VectorStageEnv(VectorEnv):
@@ -118,13 +116,8 @@ class VectorStageEnv(VectorEnv):
                     f"options['reset_mask'] {mask!r}: expected a bool array of shape "
                     f"({self.num_envs},) with at least one True"
                 )
-        infos: Dict[str, Any] = {}
         out = deepcopy(self._last)
-        for i in np.flatnonzero(mask):
-            obs, info = self.envs[i].reset(seed=seeds[i], options=options or None)
-            self._began(int(i))
-            _put(out, int(i), obs)
-            infos = self._add_info(infos, info, int(i))
+        infos = self._reset_rows(np.flatnonzero(mask).tolist(), seeds, options or None, out, {})
         self._terminations[mask] = False
         self._truncations[mask] = False
         self._autoreset[mask] = False
@@ -134,14 +127,12 @@ class VectorStageEnv(VectorEnv):
     def step(self, actions: Any) -> Tuple[Any, np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
         if self._bulk:
             return self._step_bulk(actions)
-        infos: Dict[str, Any] = {}
         out = self._empty()
+        infos = self._autoreset_rows(out)
         stepped: List[int] = []
         for i, action in enumerate(iterate(self.action_space, actions)):
             env = self.envs[i]
-            if self._autoreset[i]:
-                infos = self._reset_one(i, out, infos)
-            else:
+            if not self._autoreset[i]:
                 env._agent.act(env._native, action)
                 stepped.append(i)
         # the one call that simulates: every stepped copy's world at once, GIL released
@@ -179,8 +170,7 @@ class VectorStageEnv(VectorEnv):
         out: Any = None  # built from the rows' arrays when every copy steps
         if self._autoreset.any():
             out = self._empty()
-            for i in np.flatnonzero(self._autoreset):
-                infos = self._reset_one(int(i), out, infos)
+            infos = self._autoreset_rows(out)
             rows: Any = np.flatnonzero(~self._autoreset)
             natives = [self._natives[i] for i in rows]
             velocities = velocities[rows]
@@ -192,16 +182,11 @@ class VectorStageEnv(VectorEnv):
         goal = first.task == "goal"
         if goal and not self._begun[rows].all():
             raise RuntimeError("VectorStageEnv: call reset() before step()")
+        goals = self._goals[rows].tolist() if goal else None
         running, scans, state = _native.step_observe(
-            natives, first.robot, velocities.tolist(), self._frame_skip, first.rangers
+            natives, first.robot, velocities.tolist(), self._frame_skip, first.rangers, goals
         )
-        rangers = {}
-        for (name, n, rmax), raw in zip(first.rangers, scans):
-            ranges = np.frombuffer(raw, dtype=np.float64).reshape(m, n)
-            rangers[name] = np.clip(
-                ranges.astype(np.float32), np.float32(0.0), np.float32(rmax)
-            )
-        state = np.frombuffer(state, dtype=np.float64).reshape(m, 10)
+        rangers, state = _readings(first.rangers, scans, state, m, goal)
         parts: Dict[str, Any] = {
             "rangers": rangers,
             "odometry": state[:, :6].astype(np.float32),
@@ -214,25 +199,17 @@ class VectorStageEnv(VectorEnv):
             truncated |= self._steps[rows] >= limit
         if goal:
             # _Robot.evaluate and _Robot.observe over all rows: the same float64 operations in
-            # the same order (hypot, cos and sin from `math`, as there)
+            # the same order, on the distance and relative goal step_observe computed natively
+            # for every copy (as for a lone StageEnv)
             stall = state[:, 6] != 0.0
-            x, y, a = state[:, 7], state[:, 8], state[:, 9]
-            dx, dy = self._goals[rows, 0] - x, self._goals[rows, 1] - y
-            dxs, dys = dx.tolist(), dy.tolist()
-            distance = np.fromiter(map(math.hypot, dxs, dys), dtype=np.float64, count=m)
+            distance = state[:, 10].copy()
             reward = self._distance[rows] - distance
             self._distance[rows] = distance
             reward = np.where(stall, reward - first.stall_penalty, reward)
             reached = distance <= first.goal_tolerance
             reward = np.where(reached, reward + first.goal_reward, reward)
             terminated = reached | (stall & bool(first.terminate_on_stall))
-            angles = a.tolist()
-            c = np.fromiter(map(math.cos, angles), dtype=np.float64, count=m)
-            s = np.fromiter(map(math.sin, angles), dtype=np.float64, count=m)
-            rel = np.empty((m, 2), dtype=np.float32)  # assigning casts as astype does
-            rel[:, 0] = c * dx + s * dy
-            rel[:, 1] = -s * dx + c * dy
-            parts["goal"] = rel
+            parts["goal"] = state[:, 11:13].astype(np.float32)
             self._rewards[rows] = reward
             self._terminations[rows] = terminated
             if m:
@@ -278,15 +255,46 @@ class VectorStageEnv(VectorEnv):
             self._distance[i] = agent.distance
             self._begun[i] = True
 
-    def _reset_one(self, i: int, out: Any, infos: Dict[str, Any]) -> Dict[str, Any]:
-        """NEXT_STEP autoreset of copy `i`: its new episode's first observation, reward 0."""
-        obs, info = self.envs[i].reset()
-        self._began(i)
-        _put(out, i, obs)
-        self._rewards[i] = 0.0
-        self._terminations[i] = False
-        self._truncations[i] = False
-        return self._add_info(infos, info, i)
+    def _autoreset_rows(self, out: Any) -> Dict[str, Any]:
+        """NEXT_STEP autoreset of the copies whose episode ended last step (no seed: their
+        generators go on): their new episodes' first observations written into `out`, reward
+        0 and no termination; returns their infos."""
+        rows = np.flatnonzero(self._autoreset).tolist()
+        if not rows:
+            return {}
+        infos = self._reset_rows(rows, [None] * self.num_envs, None, out, {})
+        self._rewards[rows] = 0.0
+        self._terminations[rows] = False
+        self._truncations[rows] = False
+        return infos
+
+    def _reset_rows(
+        self,
+        rows: List[int],
+        seeds: Sequence[Optional[int]],
+        options: Optional[Dict[str, Any]],
+        out: Any,
+        infos: Dict[str, Any],
+    ) -> Dict[str, Any]:
+        """``StageEnv.reset(seed=seeds[i], options=options)`` of each copy `i` of `rows`, with
+        what costs most done for all of them at once on the simulator's threads: their worlds
+        loaded side by side (``load_worlds``), then each robot placed and goal drawn (from the
+        copy's own generator, so the order does not matter), then every world's first step
+        side by side (``step_worlds``). Observations go into `out`, infos into `infos`."""
+        envs = [self.envs[i] for i in rows]
+        chosen = [env._reset_options(seeds[i], options) for i, env in zip(rows, envs)]
+        first = self.envs[0]
+        natives = _native.load_worlds(first._path, first._world_seed, len(rows))
+        for env, native, opts in zip(envs, natives, chosen):
+            env._load(native)
+            env._place(opts)
+        _native.step_worlds(natives, 1)
+        for i, env in zip(rows, envs):
+            obs, info = env._begin()
+            self._began(i)
+            _put(out, i, obs)
+            infos = self._add_info(infos, info, i)
+        return infos
 
     def _result(self, obs: Any, infos: Dict[str, Any]):
         self._last = obs

@@ -313,3 +313,48 @@ def test_swarm_example(tmp_path):
     assert all(r["robots_tracked"] == r["robots"] for r in rows)
     world = (out / "runs" / os.listdir(out / "runs")[0] / "swarm.world").read_text()
     assert world.count('ctrl "wander"') in (4, 8) and "{{" not in world.split("# ")[-1]
+
+
+def test_progress_display():
+    import io
+
+    from playerstage.sweep.progress import Progress
+
+    stream = io.StringIO()
+    p = Progress(4, skipped=1, stream=stream, bar=True)
+    assert p.eta() is None
+    p.update({"run_id": "a", "error": None})
+    p.update({"run_id": "b", "error": "Traceback ...\nValueError: no"})
+    p.close()
+    text = stream.getvalue()
+    assert "[######################........] 3/4 runs (1 from before), 1 failed" in text
+    assert "left" in text and text.endswith("\n")
+    assert p.remaining == 1 and p.eta() is not None
+
+
+def test_summary_parquet_with_pyarrow(tmp_path):
+    pyarrow_parquet = pytest.importorskip("pyarrow.parquet")
+    plan = make(tmp_path, duration=1)
+    specs = load_plan(plan).runs()[:2]
+    store = Store(str(tmp_path / "out"))
+    executors.local(specs, store, 1)
+    paths = store.summarize([s.run_id for s in specs])
+    table = pyarrow_parquet.read_table(paths["parquet"])
+    rows = read_csv(tmp_path / "out" / "summary.csv")
+    assert table.column_names == rows[0] and table.num_rows == 2
+    assert table.column("digest").to_pylist() == [r[4] for r in rows[1:]]
+
+
+def test_pose_only_metrics_skip_tracking(tmp_path):
+    make(tmp_path)
+    plan = Plan(world="arena.world.tmpl", steps=20, params={"range": 1.0},
+                metrics={"robot": ["pose"], "world": ["digest"], "robots": ["r0"]},
+                controller="helpers.py:drive", python_params=["speed"],
+                points=[{"speed": 0.5}], base_dir=str(tmp_path))
+    result = execute(plan.runs()[0])
+    assert result["error"] is None, result["error"]
+    assert {(r[2], r[3]) for r in result["metrics"]} == {
+        ("world", "digest"), ("r0", "x"), ("r0", "y"), ("r0", "a")}
+    x = [r[4] for r in result["metrics"] if r[3] == "x"][0]
+    assert x == pytest.approx(0.5 * 2.0, abs=0.06)  # 0.5 m/s for 2 s
+    assert "distance_mean" not in result["summary"] and result["summary"]["robots_tracked"] == 1

@@ -7,6 +7,7 @@ is not an exception here: the result carries ``error`` (the traceback) and the s
 """
 
 import contextlib
+import functools
 import fnmatch
 import os
 import platform
@@ -14,7 +15,7 @@ import socket
 import time
 import traceback
 from datetime import datetime, timezone
-from typing import Any, Dict, Iterator, List, Optional
+from typing import Any, Dict, Iterator, List, Optional, Tuple
 
 from .plan import SUMMARY_COLUMNS, RunSpec, resolve_callable
 
@@ -41,15 +42,22 @@ def _running(spec: RunSpec) -> Iterator[None]:
         _CURRENT = before
 
 
-def versions() -> Dict[str, str]:
-    """What made a result: the package and Python versions, and the platform."""
+@functools.lru_cache(maxsize=None)
+def _versions() -> Tuple[Tuple[str, str], ...]:
     try:
         from importlib.metadata import version
 
         ps = version("playerstage")
     except Exception:
         ps = "unknown"
-    return {"playerstage": ps, "python": platform.python_version(), "platform": platform.platform()}
+    return (("playerstage", ps), ("python", platform.python_version()),
+            ("platform", platform.platform()))
+
+
+def versions() -> Dict[str, str]:
+    """What made a result: the package and Python versions, and the platform (looked up once
+    per process: the package metadata search costs milliseconds)."""
+    return dict(_versions())
 
 
 def _now() -> str:
@@ -106,7 +114,9 @@ def _simulate(spec: RunSpec, result: Dict[str, Any], t0: float) -> None:
         for name in fnmatch.filter(positions, pattern):
             if name not in robots:
                 robots.append(name)
-    world._w.track(robots)
+    # the step-by-step tracking costs a little per robot and step: only when asked for
+    tracking = any(k in m["robot"] for k in ("distance", "stalled", "collisions"))
+    world._w.track(robots if tracking else [])
     controller = resolve_callable(spec.controller, spec.python_path) if spec.controller else None
     custom = [resolve_callable(ref, spec.python_path) for ref in m["custom"]]
     every = m["every"]
@@ -121,7 +131,10 @@ def _simulate(spec: RunSpec, result: Dict[str, Any], t0: float) -> None:
             rows.append([step, t, "world", "wall_time", time.perf_counter() - t0])
         if "digest" in m["world"]:
             rows.append([step, t, "world", "digest", f"{world.digest():016x}"])
-        tracked = world._w.tracked()
+        if tracking:
+            tracked = world._w.tracked()
+        else:
+            tracked = [(n, world._w.global_pose(n), 0.0, 0.0, 0) for n in robots]
         for name, pose, distance, stalled, collisions in tracked:
             if "pose" in m["robot"]:
                 rows.extend([[step, t, name, "x", pose[0]], [step, t, name, "y", pose[1]],

@@ -358,3 +358,25 @@ def test_pose_only_metrics_skip_tracking(tmp_path):
     x = [r[4] for r in result["metrics"] if r[3] == "x"][0]
     assert x == pytest.approx(0.5 * 2.0, abs=0.06)  # 0.5 m/s for 2 s
     assert "distance_mean" not in result["summary"] and result["summary"]["robots_tracked"] == 1
+
+
+def test_a_run_that_kills_its_worker_is_recorded_and_the_others_run(tmp_path):
+    make(tmp_path)
+    (tmp_path / "crash.py").write_text(textwrap.dedent("""\
+        import os
+        from playerstage.sweep import current_run
+
+        def drive(world, t):
+            if current_run().params["speed"] > 0.7 and current_run().seed == 1:
+                os._exit(3)  # the worker dies, as on a native crash
+    """))
+    plan = Plan(world="arena.world.tmpl", steps=5, seeds=2, params={"range": 1.0,
+                "speed": [0.5, 1.0]}, controller="crash.py:drive", python_params=["speed"],
+                base_dir=str(tmp_path))
+    specs = plan.runs()
+    store = Store(str(tmp_path / "out"))
+    counts = executors.local(specs, store, 2)
+    assert counts == {"done": 4, "failed": 1}
+    bad = [s for s in specs if s.params["speed"] == 1.0 and s.seed == 1][0]
+    assert "worker process died" in store.read(bad.run_id)["error"]
+    assert all(store.read(s.run_id)["error"] is None for s in specs if s is not bad)

@@ -11,13 +11,14 @@ import concurrent.futures as cf
 import multiprocessing
 import os
 import signal
+import tempfile
 from typing import Any, Dict, List, Optional, Sequence
 
 from .plan import RunSpec
 from .run import execute
 
-#: How many times a run may be in flight when a worker process dies before it is recorded as
-#: failed (the others in flight with it are requeued).
+#: How many times a run may be running in a worker process that dies before it is recorded as
+#: failed (a crash can be the machine's, not the run's: it gets a second chance).
 CRASHES_ALLOWED = 2
 
 
@@ -41,50 +42,62 @@ def crashed_result(spec: RunSpec, why: str) -> Dict[str, Any]:
             "summary": {}, "metrics": [], "error": why}
 
 
+def _execute_marked(spec: RunSpec, running_dir: str) -> Dict[str, Any]:
+    """``execute(spec)`` in a pool worker, with a file named for the run in ``running_dir``
+    while it runs: when the worker dies, what is left there says which runs it took along."""
+    mark = os.path.join(running_dir, spec.run_id)
+    with open(mark, "w"):
+        pass
+    try:
+        return execute(spec)
+    finally:
+        os.remove(mark)
+
+
 def local(specs: Sequence[RunSpec], store, jobs: Optional[int] = None, progress=None,
           context: str = "forkserver") -> Dict[str, int]:
     """Runs ``specs`` on a pool of ``jobs`` worker processes (default: one per core), each
     result stored as it arrives. Ctrl-C (KeyboardInterrupt) ends the workers at once and is
     re-raised; every run finished before it is stored. A worker that dies (a crash in native
-    code, the OOM killer) takes its runs with it: they are requeued on a new pool, and a run
-    in flight at ``CRASHES_ALLOWED`` such deaths is recorded as failed. Returns counts
-    ``{"done", "failed"}``."""
+    code, ``os._exit``, the OOM killer) breaks the pool: the runs that were running are
+    charged with it, everything unfinished is requeued on a new pool, and a run charged
+    ``CRASHES_ALLOWED`` times is recorded as failed. Returns counts ``{"done", "failed"}``."""
     jobs = jobs or os.cpu_count() or 1
     todo = list(specs)
     crashes: Dict[str, int] = {}
     counts = {"done": 0, "failed": 0}
-    while todo:
-        ctx = multiprocessing.get_context(context)
-        pool = cf.ProcessPoolExecutor(max_workers=min(jobs, len(todo)), mp_context=ctx,
-                                      initializer=_worker_init)
-        try:
-            futures = {pool.submit(execute, s): s for s in todo}
-            todo = []
-            for fut in cf.as_completed(futures):
-                spec = futures[fut]
-                try:
-                    result = fut.result()
-                except cf.process.BrokenProcessPool:
-                    # running() was true for the runs handed to a worker: the suspects
-                    continue
-                _finish(result, store, progress, counts)
-            for fut, spec in futures.items():
-                if fut.done() and fut.exception() is not None:
-                    todo.append(spec)
+    with tempfile.TemporaryDirectory(prefix="playerstage-sweep-") as running_dir:
+        while todo:
+            ctx = multiprocessing.get_context(context)
+            pool = cf.ProcessPoolExecutor(max_workers=min(jobs, len(todo)), mp_context=ctx,
+                                          initializer=_worker_init)
+            try:
+                futures = {pool.submit(_execute_marked, s, running_dir): s for s in todo}
+                todo = []
+                for fut in cf.as_completed(futures):
+                    try:
+                        result = fut.result()
+                    except cf.process.BrokenProcessPool:
+                        todo.append(futures[fut])
+                        continue
+                    _finish(result, store, progress, counts)
+            except BaseException:
+                _stop(pool)
+                raise
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)
             if todo:
+                suspects = set(os.listdir(running_dir))
+                for name in suspects:
+                    os.remove(os.path.join(running_dir, name))
                 for spec in todo:
-                    crashes[spec.run_id] = crashes.get(spec.run_id, 0) + 1
-                dead = [s for s in todo if crashes[s.run_id] >= CRASHES_ALLOWED]
-                for s in dead:
-                    _finish(crashed_result(s, f"the worker process died while running it "
-                                              f"({CRASHES_ALLOWED} times)"),
-                            store, progress, counts)
-                todo = [s for s in todo if crashes[s.run_id] < CRASHES_ALLOWED]
-        except BaseException:
-            _stop(pool)
-            raise
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+                    if spec.run_id in suspects:
+                        crashes[spec.run_id] = crashes.get(spec.run_id, 0) + 1
+                for spec in [s for s in todo if crashes.get(s.run_id, 0) >= CRASHES_ALLOWED]:
+                    why = (f"the worker process died while running it ({CRASHES_ALLOWED} "
+                           "times): a crash in native code or the machine out of memory")
+                    _finish(crashed_result(spec, why), store, progress, counts)
+                todo = [s for s in todo if crashes.get(s.run_id, 0) < CRASHES_ALLOWED]
     return counts
 
 

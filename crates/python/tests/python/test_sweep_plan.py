@@ -221,3 +221,20 @@ def test_named_entities_skip_defines_comments_and_strings():
     out = worldtext.set_properties(text, [("a", "pose", [1, 2, 0, 0]), ("b", "color", "red")])
     assert 'bot ( name "a" ranger ( name "a.r" )  pose [ 1 2 0 0 ] )' in out
     assert 'name "b" color "red" )' in out
+
+
+def test_includes_resolve_next_to_the_template(tmp_path):
+    (tmp_path / "inc").mkdir()
+    (tmp_path / "inc" / "bot.inc").write_text(
+        'define bot position ( size [0.4 0.4 0.4] drive "diff" )\n')
+    (tmp_path / "w.world.tmpl").write_text(
+        'include "inc/bot.inc"\ninterval_sim {{dt}}\nbot ( name "r0" )\n')
+    plan = Plan(world="w.world.tmpl", steps=3, params={"dt": [50, 100]}, base_dir=str(tmp_path))
+    from playerstage.sweep import execute
+
+    results = [execute(s) for s in plan.runs()]
+    assert [r["error"] for r in results] == [None, None]
+    assert [r["sim_time"] for r in results] == [0.15, 0.3]
+    (tmp_path / "inc" / "bot.inc").unlink()
+    with pytest.raises(PlanError, match=r"point \{dt=50\} seed 1: the worldfile does not load"):
+        plan.runs()

@@ -135,14 +135,13 @@ _TOKEN = re.compile(r'#[^\n]*|"[^"\n]*"|[()\[\]]|[^\s()\[\]#"]+')
 
 
 def named_entities(text: str) -> List[Entity]:
-    """The entities of ``text`` that give themselves a ``name``, in order (``define`` bodies
-    excluded: they are macros, not models)."""
-    stack: List[Tuple[Optional[str], bool]] = []  # (name, is a define body)
-    names: List[Optional[Entity]] = []
+    """The entities of ``text`` that give themselves a ``name``, in the order they close
+    (``define`` bodies excluded: they are macros, not models)."""
+    defines: List[bool] = []  # per open entity: whether it is a define's body
+    names: List[Optional[Entity]] = []  # per open entity: its name, once seen
     out: List[Entity] = []
-    prev: List[str] = []
+    prev: List[str] = []  # the last three tokens
     bracket = 0
-    define_pending = 0
     for m in _TOKEN.finditer(text):
         tok = m.group(0)
         if tok.startswith("#"):
@@ -152,22 +151,19 @@ def named_entities(text: str) -> List[Entity]:
         elif tok == "]":
             bracket = max(0, bracket - 1)
         elif tok == "(":
-            is_define = define_pending > 0 and len(prev) >= 3 and prev[-3] == "define"
-            define_pending = 0
-            stack.append((None, is_define))
+            # `define NAME PARENT (` opens a macro body
+            defines.append(len(prev) == 3 and prev[0] == "define")
             names.append(None)
         elif tok == ")":
-            if stack:
-                _, is_define = stack.pop()
+            if defines:
+                is_define = defines.pop()
                 ent = names.pop()
                 if ent is not None and not is_define:
                     ent.close = m.start()
                     out.append(ent)
         elif tok.startswith('"'):
-            if prev and prev[-1] == "name" and stack and bracket == 0 and names[-1] is None:
+            if prev and prev[-1] == "name" and names and bracket == 0 and names[-1] is None:
                 names[-1] = Entity(tok[1:-1], -1, line_of(text, m.start()))
-        elif tok == "define":
-            define_pending = 1
         prev.append(tok)
         if len(prev) > 3:
             del prev[0]

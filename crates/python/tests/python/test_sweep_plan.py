@@ -238,3 +238,13 @@ def test_includes_resolve_next_to_the_template(tmp_path):
     (tmp_path / "inc" / "bot.inc").unlink()
     with pytest.raises(PlanError, match=r"point \{dt=50\} seed 1: the worldfile does not load"):
         plan.runs()
+
+
+def test_run_ids_keep_signs_and_are_never_hidden():
+    from playerstage.sweep.plan import run_id
+
+    a, b = run_id({"x": -1}, 1), run_id({"x": 1}, 1)
+    assert a.startswith("x--1_s1_") and b.startswith("x-1_s1_")
+    assert run_id({".m.pose": [1]}, 2).startswith("p.m.pose-1_s2_")
+    assert run_id({}, 4).startswith("s4_") and run_id({}, 4) == run_id({}, 4)
+    assert "/" not in run_id({"n": "a/b c"}, 1)

@@ -209,7 +209,8 @@ def _slug(value: Any) -> str:
         return "_".join(_slug(v) for v in value)
     if isinstance(value, float) and value.is_integer():
         value = int(value) if abs(value) < 1e15 else value
-    return re.sub(r"[^A-Za-z0-9.+]+", "-", str(value)).strip("-") or "x"
+    # keep a value's own minus sign (-1 and 1 must not read alike); other characters -> "-"
+    return re.sub(r"[^A-Za-z0-9.+-]+", "-", str(value)) or "x"
 
 
 def run_id(params: Dict[str, Any], seed: int) -> str:
@@ -220,6 +221,8 @@ def run_id(params: Dict[str, Any], seed: int) -> str:
     slug = "_".join(f"{_slug(k)}-{_slug(v)}" for k, v in params.items())
     if len(slug) > 64:
         slug = slug[:64].rstrip("-_.")
+    if slug.startswith((".", "-")):
+        slug = "p" + slug  # hidden names are the store's temporaries; "-" reads as an option
     return f"{slug}_s{seed}_{digest}" if slug else f"s{seed}_{digest}"
 
 

@@ -248,3 +248,16 @@ def test_run_ids_keep_signs_and_are_never_hidden():
     assert run_id({".m.pose": [1]}, 2).startswith("p.m.pose-1_s2_")
     assert run_id({}, 4).startswith("s4_") and run_id({}, 4) == run_id({}, 4)
     assert "/" not in run_id({"n": "a/b c"}, 1)
+
+
+def test_paths_in_run_specs_are_absolute(tmp_path, monkeypatch):
+    # a worker may run elsewhere (another cwd, another machine with the same paths)
+    import os
+
+    (tmp_path / "arena.world.tmpl").write_text(TEMPLATE)
+    monkeypatch.chdir(tmp_path)
+    r = Plan(world="arena.world.tmpl", steps=1, params={"range": 1.0},
+             python_path=["lib"]).runs()[0]
+    assert r.world_dir == str(tmp_path)
+    assert list(r.python_path) == [str(tmp_path), str(tmp_path / "lib")]
+    assert os.path.isabs(r.world_dir)

@@ -379,7 +379,7 @@ class Plan:
         seeds = self._seeds()
         metrics = self._metrics()
         python_path = self._python_path()
-        template_path = os.path.normpath(os.path.join(self.base_dir, self.world))
+        template_path = os.path.abspath(os.path.join(self.base_dir, self.world))
         try:
             with open(template_path, encoding="utf-8") as f:
                 template = f.read()

@@ -45,6 +45,10 @@ _HEAD_ENV = {
     "RAY_health_check_timeout_ms": "1000",
     "RAY_health_check_failure_threshold": "3",
 }
+# Ray 2.60 turns token authentication on for a `ray start --head` when ~/.ray/auth_token exists
+# (any local `ray.init()` writes one) but not for the nodes joining it, which are then refused:
+# the test cluster says what it wants. Its network is private (a namespace) or loopback.
+_AUTH = {"RAY_AUTH_MODE": "disabled"}
 # Ray refuses less than 75 MiB; the default (30% of RAM per node) is far more than tests need.
 _OBJECT_STORE = str(100 * 1024 * 1024)
 # Ray's unix socket paths (TEMP/session_<date>_<pid>/sockets/plasma_store, ~70 characters below
@@ -161,7 +165,7 @@ class RayCluster:
     def _start(self, label: str, args: list[str], cpus: int, extra_env: dict[str, str]) -> RayNode:
         temp = self.base / f"{label}{len(self.nodes)}"
         temp.mkdir()
-        env = dict(os.environ, **extra_env, **{NODE_LABEL: label})
+        env = dict(os.environ, **_AUTH, **extra_env, **{NODE_LABEL: label})
         env["PYTHONPATH"] = os.pathsep.join(
             p for p in (str(Path(__file__).parent), env.get("PYTHONPATH", "")) if p
         )
@@ -208,7 +212,7 @@ class RayCluster:
 
     def driver(self, argv: list[str], **kwargs) -> subprocess.Popen:
         """Start a driver (any command) in the cluster's network, in a session of its own."""
-        env = dict(kwargs.pop("env", None) or os.environ)
+        env = dict(kwargs.pop("env", None) or os.environ, **_AUTH)
         env["PYTHONPATH"] = os.pathsep.join(
             p for p in (str(Path(__file__).parent), env.get("PYTHONPATH", "")) if p
         )

@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import collections
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Dict, List
@@ -195,6 +197,53 @@ def test_interrupted_ray_sweep_resumes_without_redoing_runs(ray_cluster, local_s
     assert set(redone) == stored_runs(out) - stored
     assert set(redone.values()) == {1}
     assert not any(what == "start" and run in stored for what, run, _, _ in read_marks(second))
+
+
+def processes_using(path: str) -> Dict[int, str]:
+    """Live processes whose command line mentions `path` (Ray's daemons name their dirs)."""
+    found = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                cmd = Path(f"/proc/{entry}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+            except OSError:
+                continue
+            if path in cmd:
+                found[int(entry)] = cmd
+    return found
+
+
+def test_ray_without_address_starts_and_stops_its_own_ray(local_summary, tmp_path):
+    plan, marks = make_plan(tmp_path, delay=0.0)
+    out = tmp_path / "out"
+    # Ray's files (and so its daemons' command lines) under a dir of our own; short, for
+    # Ray's unix socket paths.
+    ray_tmp = tempfile.mkdtemp(prefix="psrayl")
+    try:
+        # HOME too: a local Ray writes its auth token to ~/.ray (Ray's default, token mode on)
+        env = dict(os.environ, RAY_TMPDIR=ray_tmp, HOME=ray_tmp)
+        env.pop("RAY_ADDRESS", None)
+        env.pop("RAY_AUTH_MODE", None)
+        done = subprocess.run(sweep_argv(plan, out, "-q", "--executor", "ray", "--jobs", "2"),
+                              env=env, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr[-4000:]
+        assert (out / "summary.csv").read_text() == local_summary
+        assert set(ends_per_run(marks).values()) == {1} and len(ends_per_run(marks)) == RUNS
+        assert any(n.startswith("session_") for n in os.listdir(Path(ray_tmp, "ray"))), \
+            "the sweep's Ray did not use RAY_TMPDIR"
+        # ray.shutdown() at the end of the sweep took the Ray it started down with it
+        deadline = time.monotonic() + 15
+        while processes_using(ray_tmp) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert not processes_using(ray_tmp)
+    finally:
+        # whatever this test's sweep left running (a failure above), by pid
+        for pid in processes_using(ray_tmp):
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        shutil.rmtree(ray_tmp, ignore_errors=True)
 
 
 # Last in the module: it leaves the cluster with its head alone.

@@ -27,6 +27,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(world::step_worlds, m)?)?;
     m.add_function(wrap_pyfunction!(world::step_observe, m)?)?;
     m.add_function(wrap_pyfunction!(world::load_worlds, m)?)?;
+    m.add_function(wrap_pyfunction!(world::display_available, m)?)?;
+    m.add_function(wrap_pyfunction!(world::close_window, m)?)?;
+    m.add_function(wrap_pyfunction!(world::window_state, m)?)?;
     errors::register(m)?;
     m.add("DEFAULT_PORT", player_client::DEFAULT_PORT)?;
     for (name, code) in convert::INTERFACES {

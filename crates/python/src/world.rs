@@ -80,6 +80,39 @@ fn sim_err(e: stage_sim::Error) -> PyErr {
     WorldError::new_err(e.to_string())
 }
 
+/// A world window error as Python sees it: RuntimeError with a first sentence that says what
+/// to do.
+fn window_err(e: viewer::ViewerError) -> PyErr {
+    match e {
+        viewer::ViewerError::NoDisplay => PyRuntimeError::new_err(
+            "no display for the world window: neither DISPLAY nor WAYLAND_DISPLAY is set \
+             (render_mode=\"rgb_array\" draws without one; under Xvfb, set DISPLAY)",
+        ),
+        e => PyRuntimeError::new_err(format!("the world window cannot open: {e}")),
+    }
+}
+
+/// Whether a display is announced for the world window (`DISPLAY` or `WAYLAND_DISPLAY` set).
+#[pyfunction]
+pub fn display_available() -> bool {
+    viewer::world_window::display_available()
+}
+
+/// Closes the process's world window if it is open (`World.show_window` opens it again), and
+/// waits until it is gone.
+#[pyfunction]
+pub fn close_window(py: Python<'_>) {
+    py.allow_threads(|| viewer::scene_window::SceneWindow::global().hide());
+}
+
+/// `(open, frames painted)` of the process's world window: whether it is up, and how many
+/// frames it has painted since the process started (frames reaching the screen).
+#[pyfunction]
+pub fn window_state() -> (bool, u64) {
+    let w = viewer::scene_window::SceneWindow::global();
+    (w.is_open(), w.frames_painted())
+}
+
 /// `n` steps of `world`, stopping at its `quit_time`: false once reached. Each of `tracks`
 /// is updated after every step.
 fn step_n(world: &mut stage_sim::World, tracks: &mut [Track], n: u64) -> bool {
@@ -283,6 +316,32 @@ impl World {
             .flat_map(|p| [p[0], p[1], p[2]])
             .collect();
         Ok((pixels.width, pixels.height, PyBytes::new(py, &rgb)))
+    }
+
+    /// Shows the world in the process's world window (opened on first use with the `window`
+    /// entity's `size`, titled `title`; one window per process, showing whichever world was
+    /// shown last): the whole world fitted to the window's canvas, as `render` draws it, with
+    /// the simulated time in the status bar. Returns once the frame is handed to the window's
+    /// thread. Raises RuntimeError starting "no display" when neither `DISPLAY` nor
+    /// `WAYLAND_DISPLAY` is set, and one naming the cause when the window cannot open.
+    fn show_window(&mut self, py: Python<'_>, title: &str) -> PyResult<()> {
+        let window = viewer::scene_window::SceneWindow::global();
+        let mut view = viewer::View::from_window(&self.window);
+        let size = view.size;
+        py.allow_threads(|| window.show(title, size))
+            .map_err(window_err)?;
+        view.size = window.canvas_size();
+        let (min, max) = viewer::world_scene::world_extent(&self.world);
+        view.fit(min, max);
+        let vis = viewer::world_scene::VisOptions::from_window(&self.window);
+        viewer::world_scene::build(&self.world, &self.gui, &vis, &view, &[], &mut self.scene);
+        let status = format!(
+            "{}  (step {})",
+            viewer::world_window::clock_text(self.world.sim_time()),
+            self.world.updates()
+        );
+        window.present(std::sync::Arc::new(self.scene.clone()), view, status);
+        Ok(())
     }
 
     /// Advances `n` steps of `interval_sim` each (GIL released); returns False once the

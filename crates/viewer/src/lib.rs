@@ -8,6 +8,8 @@
 //!   the eframe window ([`canvas`]) or an offscreen texture ([`offscreen`]).
 //! * [`world_window`] — the Stage window: [`world_window::run`] with a [`WorldHandle`] the
 //!   simulation owner shares (the `stage` binary now, the `player` server's core later).
+//! * [`scene_window`] — a window showing scenes its caller builds and hands over, for a caller
+//!   that steps its world itself (a Gymnasium environment's `"human"` render mode).
 //! * [`playerv`] — the playerv client: [`playerv::run`].
 //!
 //! Everything renders with no GPU through Mesa's software Vulkan (llvmpipe/lavapipe).
@@ -35,6 +37,7 @@ pub mod offscreen;
 pub mod playerv;
 pub mod render;
 pub mod scene;
+pub mod scene_window;
 mod triangulate;
 pub mod view;
 pub mod world_scene;

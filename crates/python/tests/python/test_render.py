@@ -1,12 +1,18 @@
 """`StageEnv.render()` in ``"rgb_array"`` mode: the viewer's offscreen renderer, headless (Mesa's
 software Vulkan in CI). Without any graphics adapter the tests skip, unless
-PLAYERSTAGE_REQUIRE_GPU=1 makes that a failure (as the viewer's own render tests do)."""
+PLAYERSTAGE_REQUIRE_GPU=1 makes that a failure (as the viewer's own render tests do).
+``"human"`` mode: refused without a display; a real window on Xvfb where it is installed."""
 
 import os
+import shutil
+import subprocess
+import time
 
+import gymnasium
 import numpy as np
 import pytest
 
+from playerstage import World, _native
 from playerstage.envs import StageEnv
 
 # A blue box at the world's centre, walls around: the image is fitted to the walls, so the
@@ -76,11 +82,100 @@ def test_window_size_sets_the_image_size(tmp_path):
     assert frame(env).shape == (120, 160, 3)
 
 
-def test_render_modes_and_refusals(world):
-    assert StageEnv.metadata["render_modes"] == ["rgb_array"]
+def test_render_modes_and_refusals(world, monkeypatch):
+    assert StageEnv.metadata["render_modes"] == ["rgb_array", "human"]
     assert StageEnv(world, "r0").render() is None, "no render_mode: nothing rendered"
-    with pytest.raises(ValueError, match="human"):
-        StageEnv(world, "r0", render_mode="human")
     with pytest.raises(ValueError, match="render_mode"):
         StageEnv(world, "r0", render_mode="ansi")
+    # no display: "human" is refused when the env is made, saying what to do instead
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(RuntimeError, match="needs a display.*rgb_array"):
+        StageEnv(world, "r0", render_mode="human")
+    with pytest.raises(RuntimeError, match="needs a display"):
+        gymnasium.make("playerstage/Stage-v0", world=world, robot="r0", render_mode="human")
+    # and the native call says so too, should a display vanish after the env was made
+    with pytest.raises(RuntimeError, match="no display"):
+        World(world)._w.show_window("no display")
+
+
+@pytest.fixture
+def xvfb(monkeypatch, tmp_path):
+    """An X server (Xvfb) on a free display number, DISPLAY pointing at it; a skip naming the
+    package where Xvfb is not installed (.ci/run installs it)."""
+    exe = shutil.which("Xvfb")
+    if exe is None:
+        pytest.skip("Xvfb is not installed (apt-get install xvfb): no X server for the window")
+    for number in range(90, 140):
+        if not os.path.exists(f"/tmp/.X11-unix/X{number}") and not os.path.exists(
+            f"/tmp/.X{number}-lock"
+        ):
+            break
+    log = open(tmp_path / "xvfb.log", "w")
+    server = subprocess.Popen(
+        [exe, f":{number}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+        stdout=log, stderr=subprocess.STDOUT,
+    )
+    deadline = time.monotonic() + 10
+    while not os.path.exists(f"/tmp/.X11-unix/X{number}"):
+        if server.poll() is not None or time.monotonic() > deadline:
+            server.kill()
+            pytest.fail(f"Xvfb did not start: {(tmp_path / 'xvfb.log').read_text()}")
+        time.sleep(0.05)
+    monkeypatch.setenv("DISPLAY", f":{number}")
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))  # quiets Wayland's probe
+    yield f":{number}"
+    _native.close_window()
+    server.terminate()
+    server.wait(10)
+    log.close()
+
+
+def test_human_mode_shows_the_world_in_a_window(world, xvfb):
+    """A real window on an X server: it opens at reset, paints the frames the env hands it
+    (egui/wgpu on software Vulkan or GL), paced to render_fps, closes with the env, and a
+    new env opens it again."""
+    env = gymnasium.make(
+        "playerstage/Stage-v0", world=world, robot="r0", render_mode="human", task=None
+    )
+    assert env.unwrapped.metadata["render_fps"] == pytest.approx(10.0)  # interval_sim 100 ms
+    assert _native.window_state()[0] is False
+    env.reset(seed=0)
+    opened, painted = _native.window_state()
+    assert opened, "reset opened the window"
+    t0 = time.monotonic()
+    for _ in range(6):
+        env.step(np.array([0.5, 0.0]))
+    elapsed = time.monotonic() - t0
+    assert elapsed >= 0.5, f"6 frames at 10 fps took {elapsed:.2f} s"
+    assert env.render() is None, "human mode returns nothing"
+    deadline = time.monotonic() + 10
+    while _native.window_state()[1] < painted + 3 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _native.window_state()[1] >= painted + 3, "the window painted the frames"
+    env.close()
+    assert _native.window_state()[0] is False, "close() closed the window"
+
+    again = StageEnv(world, "r0", render_mode="human", task=None)
+    again.reset()
+    assert _native.window_state()[0], "a new env opens the window again"
+    again.close()
+    assert _native.window_state()[0] is False
+
+    # make_vec's VectorStageEnv shows copy 0 after its resets and steps
+    vec = gymnasium.make_vec(
+        "playerstage/Stage-v0", num_envs=2, world=world, robot="r0", render_mode="human",
+        task=None,
+    )
+    vec.reset(seed=1)
+    painted = _native.window_state()[1]
+    vec.step(np.zeros(vec.action_space.shape))
+    assert vec.render() is None and _native.window_state()[0]
+    deadline = time.monotonic() + 10
+    while _native.window_state()[1] <= painted and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _native.window_state()[1] > painted
+    vec.close()
+    assert _native.window_state()[0] is False
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import gymnasium
@@ -91,9 +92,11 @@ class StageEnv(gymnasium.Env):
     parent's frame).
     """
 
-    #: ``"rgb_array"``: :meth:`render` draws the world offscreen. Each env's ``render_fps`` is
-    #: the simulated rate of its actions, ``1 / (interval_sim * frame_skip)``.
-    metadata: Dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": None}
+    #: ``"rgb_array"``: :meth:`render` draws the world offscreen. ``"human"``: the world
+    #: window shows the world after every reset and step, paced to ``render_fps``. Each env's
+    #: ``render_fps`` is the simulated rate of its actions, ``1 / (interval_sim *
+    #: frame_skip)``.
+    metadata: Dict[str, Any] = {"render_modes": ["rgb_array", "human"], "render_fps": None}
 
     def __init__(
         self,
@@ -119,7 +122,13 @@ class StageEnv(gymnasium.Env):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode {render_mode!r}: StageEnv renders {self.metadata['render_modes']}"
-                " ('human', in the world window, is not supported yet)"
+            )
+        if render_mode == "human" and not _native.display_available():
+            # fail at make time, not at the first frame: no window without a display
+            raise RuntimeError(
+                "render_mode='human' needs a display for the world window, and neither "
+                "DISPLAY nor WAYLAND_DISPLAY is set; use render_mode='rgb_array' to draw "
+                "without one (or run under Xvfb with DISPLAY set)"
             )
         _check_common(
             frame_skip, max_episode_steps, max_draws, task, goal_tolerance, explore_cell
@@ -157,6 +166,7 @@ class StageEnv(gymnasium.Env):
         self.action_space = self._agent.action_space
         self.observation_space = self._agent.observation_space
         self._steps = 0
+        self._last_frame = -math.inf  # when the last "human" frame was shown (monotonic s)
         # what _place chose for _begin: the start pose and the goal
         self._placed: Tuple[Sequence[float], Optional[Tuple[float, float]]] = ((0.0,) * 3, None)
 
@@ -191,7 +201,10 @@ class StageEnv(gymnasium.Env):
         self._load()
         self._place(options)
         self._native.step(1)
-        return self._begin()
+        out = self._begin()
+        if self.render_mode == "human":
+            self._show()
+        return out
 
     def _reset_options(
         self, seed: Optional[int], options: Optional[Dict[str, Any]]
@@ -245,7 +258,10 @@ class StageEnv(gymnasium.Env):
         running, reading = self._agent.read(
             self._native, self._agent.command(action), self._frame_skip
         )
-        return self._stepped(running, reading)
+        out = self._stepped(running, reading)
+        if self.render_mode == "human":
+            self._show()
+        return out
 
     def render(self) -> Optional[np.ndarray]:
         """With ``render_mode="rgb_array"``: the whole world drawn top-down as the world window
@@ -253,11 +269,39 @@ class StageEnv(gymnasium.Env):
         image's), fitted to every model's blocks: an ``(H, W, 3)`` uint8 array. Drawn by the
         viewer's offscreen renderer on any wgpu adapter, Mesa's software Vulkan (lavapipe)
         included, so it works headless; without any adapter it raises ``RuntimeError`` ("no
-        graphics adapter ..."). None when the env was made without a ``render_mode``."""
+        graphics adapter ..."). None when the env was made without a ``render_mode``.
+
+        With ``render_mode="human"``: shows the world in the world window and returns None.
+        The env does so itself after every :meth:`reset` and :meth:`step` (Gymnasium's
+        convention), waiting as needed so that frames come at most ``render_fps`` a second,
+        the world's own pace. The window (the viewer's, egui/wgpu, on its own thread) opens at
+        the first frame with the worldfile ``window``'s size and shows the whole world and the
+        simulated time; :meth:`close` closes it. One window per process: envs in human mode
+        share it. Without a display the constructor raises ``RuntimeError``; a window that
+        cannot open raises ``RuntimeError`` naming the cause."""
         if self.render_mode is None:
+            return None
+        if self.render_mode == "human":
+            self._show()
             return None
         width, height, rgb = self._native.render()
         return np.frombuffer(rgb, dtype=np.uint8).reshape(height, width, 3).copy()
+
+    def close(self) -> None:
+        """Closes the world window in ``"human"`` mode (nothing else holds resources)."""
+        if self.render_mode == "human":
+            _native.close_window()
+        super().close()
+
+    def _show(self) -> None:
+        """One ``"human"`` frame: waits until ``1 / render_fps`` has passed since the last one,
+        then hands the world to the window."""
+        period = 1.0 / self.metadata["render_fps"]
+        wait = self._last_frame + period - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
+        self._native.show_window(f"{os.path.basename(self._path)}: {self._robot}")
+        self._last_frame = time.monotonic()
 
     # -- internals ----------------------------------------------------------------------
 

@@ -122,11 +122,20 @@ class VectorStageEnv(VectorEnv):
         self._truncations[mask] = False
         self._autoreset[mask] = False
         self._last = out
+        if self.render_mode == "human":
+            self.envs[0]._show()
         return out, infos
 
     def step(self, actions: Any) -> Tuple[Any, np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
-        if self._bulk:
-            return self._step_bulk(actions)
+        result = self._step_bulk(actions) if self._bulk else self._step_each(actions)
+        if self.render_mode == "human":
+            self.envs[0]._show()
+        return result
+
+    def _step_each(
+        self, actions: Any
+    ) -> Tuple[Any, np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
+        """`step` through each copy's own StageEnv code (other tasks, flat observations)."""
         out = self._empty()
         infos = self._autoreset_rows(out)
         stepped: List[int] = []
@@ -307,8 +316,13 @@ class VectorStageEnv(VectorEnv):
         )
 
     def render(self) -> Optional[Tuple[Any, ...]]:
-        """Each copy's :meth:`StageEnv.render`, in order (None without a ``render_mode``)."""
+        """Each copy's :meth:`StageEnv.render`, in order (None without a ``render_mode``).
+        ``"human"``: the world window shows copy 0 (after every reset and step too, as a lone
+        StageEnv does) and this returns None."""
         if self.render_mode is None:
+            return None
+        if self.render_mode == "human":
+            self.envs[0]._show()
             return None
         return tuple(env.render() for env in self.envs)
 

@@ -105,15 +105,30 @@ def main() -> int:
               f"{(em - bm) / bm * 100:+.1f}% (wall, median of {len(sample)})")
         print(f"one run, bare World: {bc:.3f} s; execute(): {ec:.3f} s; overhead "
               f"{(ec - bc) / bc * 100:+.1f}% (CPU time of this process, all its threads)")
+        # the fixed cost per run of the whole machinery (pool round trip, result written to
+        # disk), measured on runs of one step so the simulation does not drown it
+        tiny = Plan(world="swarm.world.tmpl", steps=1, seeds=20, params={"range": [2.0]},
+                    base_dir=tmp).runs()
+        wall1 = sweep(tiny, 1, os.path.join(tmp, "out-tiny"))
+        tb = statistics.median(bare(s)[0] for s in tiny[:5])
+        fixed = wall1 / len(tiny) - tb
+        print(f"fixed cost per run of a 1-worker sweep (1-step runs): {fixed * 1000:.1f} ms "
+              f"beyond loading the world ({tb * 1000:.1f} ms): {fixed / bm * 100:.1f}% of "
+              f"one {args.steps}-step run")
         results = {}
         for jobs in args.jobs if args.jobs is not None else sorted({1, os.cpu_count() or 1}):
             wall = sweep(specs, jobs, os.path.join(tmp, f"out-{jobs}"))
             results[jobs] = wall
             print(f"local, {jobs} worker(s): {wall:.1f} s, {len(specs) / wall * 60:.1f} runs/min")
         if 1 in results:
-            per_run = results[1] / len(specs)
-            print(f"whole 1-worker sweep per run: {per_run:.3f} s against {bm:.3f} s bare: "
-                  f"overhead {(per_run - bm) / bm * 100:+.1f}%")
+            # the pool and the store around execute(): the sweep's wall time against the sum
+            # of its runs' own execute() times (run.json's wall_time), measured in the same
+            # minutes, so the machine's changing load hits both alike
+            inner = sum(r["wall_time"] for r in Store(os.path.join(tmp, "out-1")).results(
+                [s.run_id for s in specs]))
+            print(f"1-worker sweep: {results[1]:.1f} s for {inner:.1f} s inside execute(): pool "
+                  f"and store add {(results[1] - inner) / inner * 100:+.1f}% "
+                  f"({(results[1] - inner) / len(specs) * 1000:.0f} ms per run)")
         summaries = set()
         for j in results:
             with open(os.path.join(tmp, f"out-{j}", "summary.csv"), "rb") as f:

@@ -288,6 +288,9 @@ def test_console_script_and_bad_plan_exit_status(tmp_path):
     ray = subprocess.run(sweep_cmd(tmp_path / "nope.toml"), capture_output=True, text=True,
                          timeout=60)
     assert ray.returncode == 2 and "cannot read the plan" in ray.stderr
+    addr = subprocess.run(sweep_cmd(plan, "--address", "localhost:6379"), capture_output=True,
+                          text=True, timeout=60)
+    assert addr.returncode == 2 and "use it with --executor ray" in addr.stderr
     usage = subprocess.run([str(script)], capture_output=True, text=True, timeout=60)
     assert usage.returncode == 2 and "sweep" in usage.stdout
 

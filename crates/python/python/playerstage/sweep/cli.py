@@ -47,6 +47,10 @@ def main(argv: Optional[List[str]] = None, prog: str = "playerstage sweep") -> i
     if not logging.getLogger().handlers:
         logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO,
                             format="%(name)s: %(message)s", stream=sys.stderr)
+    if args.address is not None and args.executor != "ray":
+        print(f"{prog}: error: --address is the Ray cluster's: use it with --executor ray",
+              file=sys.stderr)
+        return 2
     if args.jobs is not None and args.jobs < 1:
         print(f"{prog}: error: --jobs {args.jobs}: at least 1", file=sys.stderr)
         return 2

@@ -226,6 +226,28 @@ fn collision_stops_robot_at_wall_with_stall() {
     assert!(w.pose(id).unwrap().x < x);
 }
 
+/// A stall is kept while the robot stands still; `set_stall` (a reset or teleport out of the
+/// collision) clears it, and the flag stays clear while the robot does not move into anything.
+#[test]
+fn set_stall_clears_a_kept_stall() {
+    let mut d = WorldDesc::default();
+    d.add(robot("r", 0.0, 0.0, 0.0, Drive::Diff), None);
+    d.add(wall("wall", 1.0, 0.0, 0.2, 4.0, 1.0), None);
+    let mut w = World::from_desc(&d, 1).unwrap();
+    let id = ModelId(0);
+    w.subscribe(id).unwrap();
+    w.position_cmd_vel(id, 1.0, 0.0, 0.0).unwrap();
+    run(&mut w, 30);
+    w.position_cmd_vel(id, 0.0, 0.0, 0.0).unwrap();
+    run(&mut w, 3);
+    assert!(w.position_state(id).unwrap().stall, "kept while stopped");
+    w.set_pose(id, Pose::new(-1.0, 0.0, 0.0, 0.0)).unwrap();
+    w.set_stall(id, false).unwrap();
+    assert!(!w.position_state(id).unwrap().stall);
+    run(&mut w, 3);
+    assert!(!w.position_state(id).unwrap().stall, "clear after steps");
+}
+
 /// Moves happen one at a time in creation order, each against the already-moved robots, even
 /// when the moves are planned in parallel: a robot driving into the spot another one is just
 /// leaving is blocked only if it moves first.

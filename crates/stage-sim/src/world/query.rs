@@ -221,6 +221,12 @@ impl World {
         typed!(self.kind_mut(m), POSITION, KindState::Position(model) => model.set_odom(p))
     }
 
+    /// Sets or clears the stall flag (Stage's `SetStall`): a teleport or reset out of a
+    /// collision clears it, since the flag is otherwise kept while the robot stands still.
+    pub fn set_stall(&mut self, m: ModelId, stall: bool) -> Result<()> {
+        typed!(self.kind_mut(m), POSITION, KindState::Position(p) => p.set_stall(stall))
+    }
+
     /// Player RESET_ODOM.
     pub fn reset_odom(&mut self, m: ModelId) -> Result<()> {
         typed!(self.kind_mut(m), POSITION, KindState::Position(p) => p.set_odom(Pose::ZERO))

@@ -97,6 +97,7 @@ fn per_model_calls() -> Vec<(&'static str, Option<ModelType>, Call)> {
             w.set_odom(m, Pose::ZERO)
         }),
         ("reset_odom", Some(T::Position), |w, m| w.reset_odom(m)),
+        ("set_stall", Some(T::Position), |w, m| w.set_stall(m, false)),
         ("ranger_scans", Some(T::Ranger), |w, m| {
             w.ranger_scans(m).map(drop)
         }),

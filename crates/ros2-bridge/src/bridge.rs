@@ -1,0 +1,781 @@
+//! The node: one [`Vehicle`] per position model with its publishers and subscriptions, the
+//! `/clock` publisher and the `reset_positions` service. [`Bridge::inbound`] applies what
+//! arrived (commands, teleports, resets) to the world before a step; [`Bridge::publish`]
+//! sends the world's state after it.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use ros2_client::qos::{Durability, History, Reliability, WhenFull};
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server,
+    ServiceMapping, ServiceTypeName, Subscription,
+};
+use stage_sim::{ModelId, ModelType, World};
+
+use crate::Error;
+use crate::msgs::{
+    Bool, Clock, Covariance, EmptyMessage, Header, LaserScan, Odometry, Pose, PoseWithCovariance,
+    Quaternion, Range, RosType, TfMessage, Time, Transform, TransformStamped, Twist, TwistStamped,
+    TwistWithCovariance, Vector3,
+};
+use crate::names::{VehicleNames, vehicle_name};
+use crate::params::{Params, RosArgs};
+
+/// The most messages taken from one subscription per step: a flood cannot stall the world.
+const MAX_TAKE_PER_STEP: usize = 64;
+
+/// rclcpp's default for publishers and subscriptions: reliable, volatile, keep last 10
+/// (stage_ros2 creates every publisher and subscription with depth 10). A full send window
+/// drops the sample rather than blocking the simulation on a slow or vanished reader.
+fn default_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability(Reliability::Reliable {
+            when_full: WhenFull::Fail,
+        })
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 10 })
+}
+
+/// tf2's `DynamicBroadcasterQoS`: depth 100, reliable, volatile.
+fn tf_qos() -> QosProfile {
+    default_qos().history(History::KeepLast { depth: 100 })
+}
+
+/// tf2's `StaticBroadcasterQoS`: depth 1, reliable, transient local (a late listener gets
+/// the sensor frames).
+fn tf_static_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability(Reliability::Reliable {
+            when_full: WhenFull::Wait(Duration::from_millis(100)),
+        })
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
+/// Latched state (`stalled`): the last value to late subscribers.
+fn latched_qos() -> QosProfile {
+    default_qos()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
+/// ROS 2's service default: reliable, volatile, keep last 10.
+fn service_qos() -> QosProfile {
+    default_qos()
+}
+
+/// A node, with the name forming and remapping every topic goes through.
+struct Topics {
+    node: Node,
+    namespace: String,
+    remaps: BTreeMap<String, String>,
+}
+
+impl Topics {
+    /// The absolute name of `name`: remapped if a `-r` rule names it, then resolved in the
+    /// node's namespace when relative. (Absolute names also spare ros2-client's relative-name
+    /// joining, which doubles the slash of the root namespace.)
+    fn resolve(&self, name: &str) -> String {
+        let name = self.remaps.get(name).map(String::as_str).unwrap_or(name);
+        if name.starts_with('/') {
+            name.to_string()
+        } else if self.namespace == "/" {
+            format!("/{name}")
+        } else {
+            format!("{}/{name}", self.namespace)
+        }
+    }
+
+    fn name(&self, name: &str) -> Result<Name, Error> {
+        let full = self.resolve(name);
+        Name::parse(&full).map_err(|e| Error::Name {
+            name: full.clone(),
+            message: format!("{e:?}"),
+        })
+    }
+
+    fn publisher<T: RosType>(
+        &mut self,
+        name: &str,
+        qos: QosProfile,
+    ) -> Result<Publisher<T>, Error> {
+        let n = self.name(name)?;
+        let dds = |e: &dyn std::fmt::Display| Error::Dds(format!("publisher {n}: {e}"));
+        let topic = self
+            .node
+            .create_topic(&n, MessageTypeName::new(T::PACKAGE, T::NAME), &qos)
+            .map_err(|e| dds(&e))?;
+        self.node
+            .create_publisher(&topic, Some(qos))
+            .map_err(|e| dds(&e))
+    }
+
+    fn subscription<T: RosType>(
+        &mut self,
+        name: &str,
+        qos: QosProfile,
+    ) -> Result<Subscription<T>, Error> {
+        let n = self.name(name)?;
+        let dds = |e: &dyn std::fmt::Display| Error::Dds(format!("subscription {n}: {e}"));
+        let topic = self
+            .node
+            .create_topic(&n, MessageTypeName::new(T::PACKAGE, T::NAME), &qos)
+            .map_err(|e| dds(&e))?;
+        self.node
+            .create_subscription(&topic, Some(qos))
+            .map_err(|e| dds(&e))
+    }
+}
+
+/// A subscription and the resolved name it is reported under.
+struct Inbound<T: RosType> {
+    topic: String,
+    sub: Subscription<T>,
+}
+
+impl<T: RosType> Inbound<T> {
+    fn new(topics: &mut Topics, name: &str) -> Result<Inbound<T>, Error> {
+        Ok(Inbound {
+            topic: topics.resolve(name),
+            sub: topics.subscription(name, default_qos())?,
+        })
+    }
+
+    /// The messages that arrived, oldest first (at most [`MAX_TAKE_PER_STEP`]); one that
+    /// cannot be read is dropped with a warning naming the topic.
+    fn take(&self) -> Vec<T> {
+        let mut out = Vec::new();
+        for _ in 0..MAX_TAKE_PER_STEP {
+            match self.sub.take() {
+                Ok(Some((m, _))) => out.push(m),
+                Ok(None) => break,
+                Err(e) => {
+                    tracing::warn!("{}: dropped a message that cannot be read: {e}", self.topic)
+                }
+            }
+        }
+        out
+    }
+}
+
+/// A publisher that reports its first failure (a full window, a vanished reader) once.
+struct Outbound<T: RosType> {
+    topic: String,
+    publisher: Publisher<T>,
+    failed: bool,
+}
+
+impl<T: RosType> Outbound<T> {
+    fn new(topics: &mut Topics, name: &str, qos: QosProfile) -> Result<Outbound<T>, Error> {
+        Ok(Outbound {
+            topic: topics.resolve(name),
+            publisher: topics.publisher(name, qos)?,
+            failed: false,
+        })
+    }
+
+    fn send(&mut self, m: T) {
+        if let Err(e) = self.publisher.publish(m) {
+            if !self.failed {
+                tracing::warn!(
+                    "{}: a message was not sent ({e:?}); further failures are not logged",
+                    self.topic
+                );
+                self.failed = true;
+            }
+        }
+    }
+}
+
+/// `cmd_vel`, as Twist or (with `use_stamped_velocity`) TwistStamped.
+enum CmdVel {
+    Plain(Inbound<Twist>),
+    Stamped(Inbound<TwistStamped>),
+}
+
+impl CmdVel {
+    fn take(&self) -> Vec<Twist> {
+        match self {
+            CmdVel::Plain(s) => s.take(),
+            CmdVel::Stamped(s) => s.take().into_iter().map(|m| m.twist).collect(),
+        }
+    }
+}
+
+/// One ranger of a vehicle: `base_scan[N]`, and a Range topic per transducer of a ring.
+struct Ranger {
+    model: ModelId,
+    frame: String,
+    scan: Outbound<LaserScan>,
+    /// Per transducer when there are several: its publisher and frame.
+    transducers: Vec<(Outbound<Range>, String)>,
+    /// The sim time of the last scan published (scans go out once, when fresh).
+    last_us: u64,
+}
+
+/// A position model and its ROS interface.
+struct Vehicle {
+    model: ModelId,
+    name: String,
+    names: VehicleNames,
+    /// The pose `reset_positions` puts it back to (parent frame, as `set_pose` takes).
+    start: stage_sim::Pose,
+    cmd_vel: CmdVel,
+    cmd_pose: Inbound<Pose>,
+    odom: Outbound<Odometry>,
+    ground_truth: Option<Outbound<Odometry>>,
+    stalled: Outbound<Bool>,
+    last_stalled: Option<bool>,
+    rangers: Vec<Ranger>,
+    /// When the watchdog stops the vehicle (sim µs), after a command.
+    watchdog_due_us: Option<u64>,
+    /// The last global pose and its time, for ground truth's velocity.
+    last_global: Option<(stage_sim::Pose, u64)>,
+}
+
+/// Which request/reply mapping a reset server answers.
+struct ResetServer {
+    mapping: ServiceMapping,
+    server: Server<EmptyMessage, EmptyMessage>,
+}
+
+/// The ROS 2 side of a world: built once on it, then [`Bridge::inbound`] before each step and
+/// [`Bridge::publish`] after it.
+pub struct Bridge {
+    params: Params,
+    vehicles: Vec<Vehicle>,
+    /// One publisher per tf topic (`/tf` is shared under one_tf_tree), by resolved name.
+    tf: BTreeMap<String, Outbound<TfMessage>>,
+    tf_static: BTreeMap<String, Outbound<TfMessage>>,
+    static_sent: bool,
+    clock: Outbound<Clock>,
+    reset: Vec<ResetServer>,
+    watchdog_us: u64,
+    // last: the node outlives its entities
+    topics: Topics,
+}
+
+/// Normalises an angle into (-pi, pi].
+fn normalize(a: f64) -> f64 {
+    a.sin().atan2(a.cos())
+}
+
+fn stamp(frame: &str, us: u64) -> Header {
+    Header {
+        stamp: Time::from_micros(us),
+        frame_id: frame.to_string(),
+    }
+}
+
+impl Bridge {
+    /// Creates the node (`stage_ros2`, or as `-r __node:=`/`__ns:=` say) on `context` and
+    /// the interface of every position model of `world` (subscribing the models, as
+    /// stage_ros2 does, so that they update).
+    pub fn new(
+        context: &Context,
+        world: &mut World,
+        params: Params,
+        ros: &RosArgs,
+    ) -> Result<Bridge, Error> {
+        let node_name = ros.node_name.clone().unwrap_or_else(|| "stage_ros2".into());
+        let namespace = match ros.namespace.as_deref() {
+            None | Some("") => "/".to_string(),
+            Some(ns) if ns.starts_with('/') => ns.trim_end_matches('/').to_string(),
+            Some(ns) => format!("/{}", ns.trim_end_matches('/')),
+        };
+        let namespace = if namespace.is_empty() {
+            "/".to_string()
+        } else {
+            namespace
+        };
+        let name = NodeName::new(&namespace, &node_name).map_err(|e| Error::Name {
+            name: format!("{namespace} {node_name}"),
+            message: format!("{e:?}"),
+        })?;
+        let node = context
+            .new_node(name, NodeOptions::new().enable_rosout(false))
+            .map_err(|e| Error::Dds(format!("creating the node: {e:?}")))?;
+        let mut topics = Topics {
+            node,
+            namespace,
+            remaps: ros.remaps.clone(),
+        };
+
+        // vehicles: every position model, in creation order; rangers whose parent is one
+        let positions: Vec<ModelId> = world
+            .models()
+            .filter(|m| world.model_type(*m).ok() == Some(ModelType::Position))
+            .collect();
+        if positions.is_empty() {
+            tracing::warn!(
+                "the world has no position model: only /clock and reset_positions are served"
+            );
+        }
+        let prefixed = params.enforce_prefixes || positions.len() > 1;
+        let mut vehicles = Vec::new();
+        let mut tf = BTreeMap::new();
+        let mut tf_static = BTreeMap::new();
+        for (index, &m) in positions.iter().enumerate() {
+            let stage_name = world.name(m).map_err(Error::Sim)?.to_string();
+            let name = vehicle_name(&stage_name, index);
+            tracing::info!("new vehicle \"{name}\"");
+            let names = VehicleNames::new(&name, prefixed, &params);
+            world.subscribe(m).map_err(Error::Sim)?;
+            let rangers_of: Vec<ModelId> = world
+                .children(m)
+                .map_err(Error::Sim)?
+                .filter(|c| world.model_type(*c).ok() == Some(ModelType::Ranger))
+                .collect();
+            let several = rangers_of.len() > 1;
+            let mut rangers = Vec::new();
+            for (k, &r) in rangers_of.iter().enumerate() {
+                world.subscribe(r).map_err(Error::Sim)?;
+                let (topic, frame) = names.ranger(k + 1, several);
+                let count = world.ranger_scans(r).map_err(Error::Sim)?.sensors.len();
+                if count == 0 {
+                    tracing::warn!(
+                        "{name}: ranger {} has no transducer: nothing to publish",
+                        k + 1
+                    );
+                }
+                let mut transducers = Vec::new();
+                if count > 1 {
+                    for t in 0..count {
+                        let (ttopic, tframe) = VehicleNames::transducer(&topic, &frame, t);
+                        transducers
+                            .push((Outbound::new(&mut topics, &ttopic, default_qos())?, tframe));
+                    }
+                }
+                rangers.push(Ranger {
+                    model: r,
+                    scan: Outbound::new(&mut topics, &topic, default_qos())?,
+                    frame,
+                    transducers,
+                    last_us: 0,
+                });
+            }
+            for (map, topic, qos) in [
+                (&mut tf, &names.tf, tf_qos()),
+                (&mut tf_static, &names.tf_static, tf_static_qos()),
+            ] {
+                let key = topics.resolve(topic);
+                if let std::collections::btree_map::Entry::Vacant(e) = map.entry(key) {
+                    e.insert(Outbound::new(&mut topics, topic, qos)?);
+                }
+            }
+            let cmd_vel = if params.use_stamped_velocity {
+                CmdVel::Stamped(Inbound::new(&mut topics, &names.cmd_vel)?)
+            } else {
+                CmdVel::Plain(Inbound::new(&mut topics, &names.cmd_vel)?)
+            };
+            vehicles.push(Vehicle {
+                model: m,
+                start: world.pose(m).map_err(Error::Sim)?,
+                cmd_vel,
+                cmd_pose: Inbound::new(&mut topics, &names.cmd_pose)?,
+                odom: Outbound::new(&mut topics, &names.odom, default_qos())?,
+                ground_truth: if params.publish_ground_truth {
+                    Some(Outbound::new(
+                        &mut topics,
+                        &names.ground_truth,
+                        default_qos(),
+                    )?)
+                } else {
+                    None
+                },
+                stalled: Outbound::new(&mut topics, &names.stalled, latched_qos())?,
+                last_stalled: None,
+                rangers,
+                watchdog_due_us: None,
+                last_global: None,
+                name,
+                names,
+            });
+        }
+
+        let clock = Outbound::new(&mut topics, "/clock", default_qos())?;
+        // both common request/reply mappings: Cyclone's header in the payload, and Fast DDS's
+        // (ros2-client's Enhanced) related-sample identity; each server drops what it cannot read
+        let mut reset = Vec::new();
+        let service = topics.name("reset_positions")?;
+        for mapping in [ServiceMapping::Cyclone, ServiceMapping::Enhanced] {
+            let server = topics
+                .node
+                .create_server::<EmptyMessage, EmptyMessage>(
+                    mapping,
+                    &service,
+                    &ServiceTypeName::new("std_srvs", "Empty"),
+                    service_qos(),
+                    service_qos(),
+                )
+                .map_err(|e| Error::Dds(format!("service {service}: {e}")))?;
+            reset.push(ResetServer { mapping, server });
+        }
+        let watchdog_us = (params.base_watchdog_timeout.max(0.0) * 1e6) as u64;
+        Ok(Bridge {
+            params,
+            vehicles,
+            tf,
+            tf_static,
+            static_sent: false,
+            clock,
+            reset,
+            watchdog_us,
+            topics,
+        })
+    }
+
+    /// The vehicles' names, in position-model order (what their topics are prefixed with).
+    pub fn vehicle_names(&self) -> Vec<&str> {
+        self.vehicles.iter().map(|v| v.name.as_str()).collect()
+    }
+
+    /// The node's fully qualified name.
+    pub fn node_name(&self) -> String {
+        self.topics.node.fully_qualified_name()
+    }
+
+    /// Applies what arrived since the last call, before the world's next step: velocity
+    /// commands (arming each vehicle's watchdog), teleports, resets; then stops every vehicle
+    /// whose watchdog ran out.
+    pub fn inbound(&mut self, world: &mut World) {
+        let now = world.sim_time();
+        for v in &mut self.vehicles {
+            if let Some(cmd) = v.cmd_vel.take().pop() {
+                let (vx, vy, va) = (cmd.linear.x, cmd.linear.y, cmd.angular.z);
+                if [vx, vy, va].iter().all(|x| x.is_finite()) {
+                    if let Err(e) = world.position_cmd_vel(v.model, vx, vy, va) {
+                        tracing::warn!("{}: {e}", v.names.cmd_vel);
+                    }
+                    v.watchdog_due_us = Some(now + self.watchdog_us);
+                } else {
+                    tracing::warn!("{}: ignored a command that is not finite", v.names.cmd_vel);
+                }
+            }
+            if let Some(p) = v.cmd_pose.take().pop() {
+                teleport(world, v, &p);
+            }
+            if let Some(due) = v.watchdog_due_us
+                && now > due
+            {
+                v.watchdog_due_us = None;
+                let moving = world.position_state(v.model).is_ok_and(|s| {
+                    s.velocity.x != 0.0 || s.velocity.y != 0.0 || s.velocity.a != 0.0
+                }) || world
+                    .position_model(v.model)
+                    .is_ok_and(|p| p.goal.x != 0.0 || p.goal.y != 0.0 || p.goal.a != 0.0);
+                if moving {
+                    let _ = world.position_cmd_vel(v.model, 0.0, 0.0, 0.0);
+                    tracing::info!("watchdog timeout on {}", v.name);
+                }
+            }
+        }
+        let mut resets = 0;
+        for s in &self.reset {
+            for _ in 0..MAX_TAKE_PER_STEP {
+                match s.server.receive_request() {
+                    Ok(Some((id, _))) => {
+                        resets += 1;
+                        if let Err(e) = s.server.send_response(id, EmptyMessage::default()) {
+                            tracing::warn!(
+                                "reset_positions: reply not sent ({:?}): {e:?}",
+                                s.mapping
+                            );
+                        }
+                    }
+                    Ok(None) => break,
+                    // the other mapping's requests do not read as this one's
+                    Err(e) => tracing::debug!("reset_positions ({:?}): {e}", s.mapping),
+                }
+            }
+        }
+        if resets > 0 {
+            tracing::info!("resetting stage");
+            for v in &mut self.vehicles {
+                let _ = world.set_pose(v.model, v.start);
+                let _ = world.set_stall(v.model, false);
+                v.last_global = None;
+            }
+        }
+    }
+
+    /// Publishes the world's state after a step, stamped with its sim time: odometry, ground
+    /// truth, fresh scans, transforms, stall changes and `/clock`. Nothing is published at
+    /// time 0 (ROS reserves a zero clock).
+    pub fn publish(&mut self, world: &World) {
+        let now = world.sim_time();
+        if now == 0 {
+            return;
+        }
+        if !self.static_sent {
+            self.send_static(world);
+            self.static_sent = true;
+        }
+        let mut dynamic: BTreeMap<String, Vec<TransformStamped>> = BTreeMap::new();
+        for v in &mut self.vehicles {
+            let Ok(state) = world.position_state(v.model) else {
+                continue;
+            };
+            let est = state.pose;
+            let odom = Odometry {
+                header: stamp(&v.names.frame_odom, now),
+                child_frame_id: v.names.frame_base_link.clone(),
+                pose: PoseWithCovariance {
+                    pose: Pose {
+                        position: Vector3 {
+                            x: est.x,
+                            y: est.y,
+                            z: 0.0,
+                        },
+                        orientation: Quaternion::from_yaw(est.a),
+                    },
+                    covariance: Covariance::default(),
+                },
+                twist: TwistWithCovariance {
+                    twist: Twist {
+                        linear: Vector3 {
+                            x: state.velocity.x,
+                            y: state.velocity.y,
+                            z: 0.0,
+                        },
+                        angular: Vector3 {
+                            x: 0.0,
+                            y: 0.0,
+                            z: state.velocity.a,
+                        },
+                    },
+                    covariance: Covariance::default(),
+                },
+            };
+            let odom_tf = TransformStamped {
+                header: odom.header.clone(),
+                child_frame_id: odom.child_frame_id.clone(),
+                transform: Transform {
+                    translation: odom.pose.pose.position,
+                    rotation: odom.pose.pose.orientation,
+                },
+            };
+            v.odom.send(odom);
+            let tf_key = self.topics.resolve(&v.names.tf);
+            dynamic.entry(tf_key.clone()).or_default().push(odom_tf);
+
+            let stalled = state.stall;
+            if v.last_stalled != Some(stalled) {
+                v.stalled.send(Bool { data: stalled });
+                v.last_stalled = Some(stalled);
+            }
+
+            if let Some(gt) = &mut v.ground_truth
+                && let Ok(g) = world.global_pose(v.model)
+            {
+                let mut vel = stage_sim::Pose::new(0.0, 0.0, 0.0, 0.0);
+                if let Some((last, t)) = v.last_global
+                    && now > t
+                {
+                    let dt = (now - t) as f64 * 1e-6;
+                    vel = stage_sim::Pose::new(
+                        (g.x - last.x) / dt,
+                        (g.y - last.y) / dt,
+                        (g.z - last.z) / dt,
+                        normalize(g.a - last.a) / dt,
+                    );
+                }
+                v.last_global = Some((g, now));
+                gt.send(Odometry {
+                    header: stamp(&v.names.frame_world, now),
+                    child_frame_id: String::new(),
+                    pose: PoseWithCovariance {
+                        pose: Pose {
+                            position: Vector3 {
+                                x: g.x,
+                                y: g.y,
+                                z: 0.0,
+                            },
+                            orientation: Quaternion::from_yaw(g.a),
+                        },
+                        covariance: Covariance::default(),
+                    },
+                    twist: TwistWithCovariance {
+                        twist: Twist {
+                            linear: Vector3 {
+                                x: vel.x,
+                                y: vel.y,
+                                z: vel.z,
+                            },
+                            angular: Vector3 {
+                                x: 0.0,
+                                y: 0.0,
+                                z: vel.a,
+                            },
+                        },
+                        covariance: Covariance::default(),
+                    },
+                });
+            }
+
+            for r in &mut v.rangers {
+                if !self.params.use_static_transformations {
+                    for mut t in ranger_transforms(world, v.model, &v.names, r) {
+                        t.header.stamp = Time::from_micros(now);
+                        dynamic.entry(tf_key.clone()).or_default().push(t);
+                    }
+                }
+                publish_scan(world, r);
+            }
+        }
+        for (topic, transforms) in dynamic {
+            if let Some(p) = self.tf.get_mut(&topic) {
+                p.send(TfMessage { transforms });
+            }
+        }
+        self.clock.send(Clock {
+            clock: Time::from_micros(now),
+        });
+    }
+
+    /// The sensor frames, once, on each tf_static topic (transient local: tf2 listeners that
+    /// join later still get them).
+    fn send_static(&mut self, world: &World) {
+        if !self.params.use_static_transformations {
+            return;
+        }
+        let mut statics: BTreeMap<String, Vec<TransformStamped>> = BTreeMap::new();
+        for v in &self.vehicles {
+            let key = self.topics.resolve(&v.names.tf_static);
+            for r in &v.rangers {
+                let mut t = ranger_transforms(world, v.model, &v.names, r);
+                for x in &mut t {
+                    x.header.stamp = Time::from_micros(world.sim_time());
+                }
+                statics.entry(key.clone()).or_default().extend(t);
+            }
+        }
+        for (topic, transforms) in statics {
+            if let Some(p) = self.tf_static.get_mut(&topic) {
+                p.send(TfMessage { transforms });
+            }
+        }
+    }
+}
+
+/// Sets a vehicle's pose from a `cmd_pose` (world frame; the height is kept) and clears its
+/// stall, as a teleport out of a collision should.
+fn teleport(world: &mut World, v: &mut Vehicle, p: &Pose) {
+    let values = [p.position.x, p.position.y, p.orientation.yaw()];
+    if !values.iter().all(|x| x.is_finite()) {
+        tracing::warn!("{}: ignored a pose that is not finite", v.names.cmd_pose);
+        return;
+    }
+    let Ok(current) = world.pose(v.model) else {
+        return;
+    };
+    let target = stage_sim::Pose::new(values[0], values[1], current.z, values[2]);
+    // a position model inside another model takes its pose in the parent's frame
+    let local = match world.parent(v.model).ok().flatten() {
+        Some(parent) => match world.global_pose(parent) {
+            Ok(pg) => {
+                let mut l = pg.relative(&target);
+                l.z = current.z;
+                l
+            }
+            Err(_) => target,
+        },
+        None => target,
+    };
+    let _ = world.set_pose(v.model, local);
+    let _ = world.set_stall(v.model, false);
+    v.last_global = None;
+}
+
+/// The transforms from the vehicle's body frame to a ranger's frame (stage_ros2's: the
+/// ranger's pose on the vehicle, raised by the vehicle's height), and to each transducer's
+/// frame when it has several.
+fn ranger_transforms(
+    world: &World,
+    vehicle: ModelId,
+    names: &VehicleNames,
+    r: &Ranger,
+) -> Vec<TransformStamped> {
+    let (Ok(pose), Ok(node)) = (world.pose(r.model), world.node(vehicle)) else {
+        return Vec::new();
+    };
+    let height = node.size[2] + pose.z;
+    let mut out = vec![TransformStamped {
+        header: stamp(&names.frame_base_link, 0),
+        child_frame_id: r.frame.clone(),
+        transform: Transform {
+            translation: Vector3 {
+                x: pose.x,
+                y: pose.y,
+                z: height,
+            },
+            rotation: Quaternion::from_yaw(pose.a),
+        },
+    }];
+    if let Ok(data) = world.ranger_scans(r.model) {
+        for ((_, frame), s) in r.transducers.iter().zip(&data.sensors) {
+            out.push(TransformStamped {
+                header: stamp(&r.frame, 0),
+                child_frame_id: frame.clone(),
+                transform: Transform {
+                    translation: Vector3 {
+                        x: s.pose.x,
+                        y: s.pose.y,
+                        z: s.pose.z,
+                    },
+                    rotation: Quaternion::from_yaw(s.pose.a),
+                },
+            });
+        }
+    }
+    out
+}
+
+/// Publishes a ranger's scan when it is fresh: its first transducer as a LaserScan (as
+/// stage_ros2), and each transducer as a Range when there are several.
+fn publish_scan(world: &World, r: &mut Ranger) {
+    let Ok(data) = world.ranger_scans(r.model) else {
+        return;
+    };
+    if data.time_us == 0 || data.time_us == r.last_us {
+        return;
+    }
+    r.last_us = data.time_us;
+    let (Some(first), Some(scan)) = (data.sensors.first(), data.scan(0)) else {
+        return;
+    };
+    let samples = first.samples.max(1);
+    let fov = first.fov;
+    r.scan.send(LaserScan {
+        header: stamp(&r.frame, data.time_us),
+        angle_min: (-fov / 2.0) as f32,
+        angle_max: (fov / 2.0) as f32,
+        angle_increment: if samples > 1 {
+            (fov / f64::from(samples - 1)) as f32
+        } else {
+            0.0
+        },
+        time_increment: 0.0,
+        scan_time: 0.0,
+        range_min: first.range[0] as f32,
+        range_max: first.range[1] as f32,
+        ranges: scan.ranges.iter().map(|x| *x as f32).collect(),
+        intensities: scan.intensities.iter().map(|x| *x as f32).collect(),
+    });
+    for (k, ((publisher, frame), sensor)) in r.transducers.iter_mut().zip(&data.sensors).enumerate()
+    {
+        let Some(s) = data.scan(k) else { continue };
+        let Some(&range) = s.ranges.first() else {
+            continue;
+        };
+        publisher.send(Range {
+            header: stamp(frame, data.time_us),
+            radiation_type: 0,
+            field_of_view: sensor.fov as f32,
+            min_range: sensor.range[0] as f32,
+            max_range: sensor.range[1] as f32,
+            range: range as f32,
+        });
+    }
+}

@@ -11,7 +11,7 @@ use std::sync::Mutex;
 
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict, PyList};
+use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList};
 use rayon::prelude::*;
 use stage_sim::fork::PerProcess;
 use stage_sim::{Body, GripperCmd, ModelId, Pose, on_sim_threads};
@@ -794,11 +794,12 @@ fn borrow_each<'py>(
 }
 
 /// What [`step_observe`] gives back: per world whether it still runs, each ranger's readings
-/// of every world (`len(worlds) * samples` f64, native endian, a world's readings replaced by
+/// of every world (a bytearray of `len(worlds) * samples` f32, native endian, as the
+/// observation has them: clipped to `[0, range_max]`, a world's readings replaced by
 /// `range_max` when their count is not `samples`), and per world `px py pa vx vy va stall x y
 /// a` (odometry, stall as 0/1, global pose; f64), followed, when goals were given, by the
 /// goal's `distance ahead left` ([`goal_view`]).
-type Observed<'py> = (Vec<bool>, Vec<Bound<'py, PyBytes>>, Bound<'py, PyBytes>);
+type Observed<'py> = (Vec<bool>, Vec<Bound<'py, PyByteArray>>, Bound<'py, PyBytes>);
 
 /// One vector step of `VectorStageEnv` in one call: commands `velocities[i]` (`[vx, vy, va]`)
 /// to the position model `robot` of `worlds[i]` (None: no command), steps every world `n`
@@ -864,7 +865,7 @@ pub fn step_observe<'py>(
         })
         .zip(ids.iter().enumerate().map(|(i, id)| (id, goal_of(i))))
         .collect();
-    let read: Vec<stage_sim::Result<(bool, Vec<u8>)>> = py.allow_threads(|| {
+    let read: Vec<stage_sim::Result<(bool, Observation)>> = py.allow_threads(|| {
         on_sim_threads(|| {
             jobs.into_par_iter()
                 .map(|((world, tracks), ((m, rs), goal))| {
@@ -884,18 +885,39 @@ pub fn step_observe<'py>(
     let mut scans = Vec::with_capacity(rangers.len());
     let mut offset = 0;
     for (_, samples, _) in &rangers {
-        let mut out: Vec<u8> = Vec::with_capacity(all.len() * samples * 8);
+        let mut out: Vec<u8> = Vec::with_capacity(all.len() * samples * 4);
         for obs in &all {
-            out.extend_from_slice(&obs[offset..offset + samples * 8]);
+            let part = &obs.scans[offset..offset + samples];
+            out.extend(part.iter().flat_map(|v| v.to_ne_bytes()));
         }
-        scans.push(PyBytes::new(py, &out));
-        offset += samples * 8;
+        // a bytearray: the arrays numpy makes over it are writable, as observations should be
+        scans.push(PyByteArray::new(py, &out));
+        offset += samples;
     }
     let mut state: Vec<u8> = Vec::with_capacity(all.len() * 13 * 8);
     for obs in &all {
-        state.extend_from_slice(&obs[offset..]);
+        state.extend(obs.state.iter().flat_map(|v| v.to_ne_bytes()));
     }
     Ok((running, scans, PyBytes::new(py, &state)))
+}
+
+/// One world's part of [`step_observe`]'s answer (see [`observe_one`]).
+struct Observation {
+    /// Each ranger's readings, one ranger after another, as the observation has them.
+    scans: Vec<f32>,
+    /// `px py pa vx vy va stall x y a`, then with a goal `distance ahead left`.
+    state: Vec<f64>,
+}
+
+/// A reading as the observation space has it: rounded to f32 (as numpy's `astype` rounds),
+/// then clipped to `[0, range_max]` as `numpy.clip` clips (a NaN stays NaN).
+fn observed_range(r: f64, range_max: f32) -> f32 {
+    let r = r as f32;
+    if r.is_nan() {
+        return r;
+    }
+    let r = if r > 0.0 { r } else { 0.0 };
+    if r < range_max { r } else { range_max }
 }
 
 /// The goal task's view of the goal `(gx, gy)` from the global pose `(x, y, a)`: the distance
@@ -908,38 +930,37 @@ fn goal_view(goal: [f64; 2], x: f64, y: f64, a: f64) -> [f64; 3] {
     [dx.hypot(dy), c * dx + s * dy, -s * dx + c * dy]
 }
 
-/// One world's part of [`step_observe`]'s answer, as native-endian f64 bytes: each ranger's
-/// `samples` readings (all `range_max` when the count differs), then `px py pa vx vy va stall
-/// x y a`, then with a `goal` its [`goal_view`] `distance ahead left`.
+/// One world's part of [`step_observe`]'s answer: each ranger's `samples` readings as the
+/// observation has them ([`observed_range`]; all `range_max` when the count differs), and
+/// `px py pa vx vy va stall x y a`, then with a `goal` its [`goal_view`] `distance ahead
+/// left`.
 fn observe_one(
     world: &stage_sim::World,
     robot: ModelId,
     ids: &[ModelId],
     rangers: &[(String, usize, f64)],
     goal: Option<[f64; 2]>,
-) -> stage_sim::Result<Vec<u8>> {
-    let mut out = Vec::with_capacity((rangers.iter().map(|r| r.1).sum::<usize>() + 13) * 8);
+) -> stage_sim::Result<Observation> {
+    let mut scans = Vec::with_capacity(rangers.iter().map(|r| r.1).sum::<usize>());
     for (&r, (_, samples, range_max)) in ids.iter().zip(rangers) {
+        let top = *range_max as f32;
         let ranges = player_view::ranger_ranges(world.ranger_scans(r)?);
         if ranges.len() == *samples {
-            out.extend(ranges.iter().flat_map(|v| v.to_ne_bytes()));
+            scans.extend(ranges.iter().map(|&v| observed_range(v, top)));
         } else {
-            out.extend((0..*samples).flat_map(|_| range_max.to_ne_bytes()));
+            scans.extend((0..*samples).map(|_| observed_range(*range_max, top)));
         }
     }
+    let mut out = Vec::with_capacity(13);
     let s = world.position_state(robot)?;
     let g = world.global_pose(robot)?;
     let (p, v) = (&s.pose, &s.velocity);
     let stall = if s.stall { 1.0 } else { 0.0 };
-    for x in [p.x, p.y, p.a, v.x, v.y, v.a, stall, g.x, g.y, g.a] {
-        out.extend(x.to_ne_bytes());
-    }
+    out.extend([p.x, p.y, p.a, v.x, v.y, v.a, stall, g.x, g.y, g.a]);
     if let Some(goal) = goal {
-        for x in goal_view(goal, g.x, g.y, g.a) {
-            out.extend(x.to_ne_bytes());
-        }
+        out.extend(goal_view(goal, g.x, g.y, g.a));
     }
-    Ok(out)
+    Ok(Observation { scans, state: out })
 }
 
 /// `count` loads of the worldfile `path` with `seed`, made side by side on the simulator's

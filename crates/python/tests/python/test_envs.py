@@ -101,6 +101,23 @@ def test_bigbob_rangers_and_bounds():
     assert "goal" not in env.observation_space.spaces
 
 
+def test_observed_ranges_are_the_rangers_readings_as_float32_clipped():
+    """The observation's ranges (converted natively) are the ranger's readings rounded to
+    float32 and clipped to [0, range_max] exactly as numpy does it; writable arrays."""
+    env = StageEnv(BIGBOB, "bob1", task=None)
+    obs, _ = env.reset(options={"start": (-4.6, -3.9, 0.5)})
+    rng = np.random.default_rng(2)
+    for t in range(15):
+        for name, n, rmax in env.world.rangers("bob1"):
+            raw = np.asarray(env.world.ranger(name).ranges, dtype=np.float32)
+            want = np.clip(raw, np.float32(0.0), np.float32(rmax))
+            got = obs["rangers"][name]
+            assert got.dtype == np.float32 and got.shape == (n,)
+            assert np.array_equal(got, want), f"step {t} {name}"
+            assert got.flags.writeable
+        obs, *_ = env.step(rng.uniform(env.action_space.low, env.action_space.high))
+
+
 def run_episode(env, seed, actions, options=None):
     obs, info = env.reset(seed=seed, options=options)
     seq, digests = [obs], [env.world.digest()]

@@ -550,12 +550,13 @@ def _readings(
     goal: bool,
 ) -> Tuple[Dict[str, np.ndarray], np.ndarray]:
     """``step_observe``'s answer for `m` worlds as arrays with a leading axis of `m`: each
-    ranger's readings as float32 clipped to ``[0, range_max]`` (the observation's), and the
-    float64 state rows (13 columns with goals, else 10)."""
-    out = {}
-    for (name, n, rmax), raw in zip(rangers, scans):
-        ranges = np.frombuffer(raw, dtype=np.float64).reshape(m, n)
-        out[name] = np.clip(ranges.astype(np.float32), np.float32(0.0), np.float32(rmax))
+    ranger's readings (float32, clipped to ``[0, range_max]`` natively: the observation's;
+    writable, over a fresh bytearray), and the float64 state rows (13 columns with goals, else
+    10)."""
+    out = {
+        name: np.frombuffer(raw, dtype=np.float32).reshape(m, n)
+        for (name, n, _), raw in zip(rangers, scans)
+    }
     return out, np.frombuffer(state, dtype=np.float64).reshape(m, 13 if goal else 10)
 
 

@@ -4,8 +4,9 @@
 //! In the target directory it creates a virtualenv (`python-venv/`) with [`TEST_DEPS`] from
 //! PyPI (once; `pip` is not run again while the venv's marker file lists exactly them, so adding
 //! a dependency reinstalls into an existing venv), builds and installs the package into it with `maturin develop` (dev profile, same
-//! target directory: the workspace's crates are not built twice), makes sure the `player`
-//! binary exists, and runs pytest, which starts `player` servers on free ports. The test fails
+//! target directory: the workspace's crates are not built twice), makes sure the `player` and
+//! `stage_ros2` binaries exist, and runs pytest, which starts `player` servers on free ports and
+//! `stage_ros2` nodes on loopback-only DDS. The test fails
 //! when pytest fails; without a `python3` it fails too, unless `PLAYERSTAGE_SKIP_PYTHON=1`
 //! says to skip (for machines that deliberately have no Python).
 
@@ -102,18 +103,27 @@ fn python_package_test_suite() {
         std::fs::write(&marker, &want).expect("writing the venv marker");
     }
 
-    // The server the tests start: this workspace's `player`.
+    // The servers the tests start: this workspace's `player`, and `stage_ros2` for the ROS 2
+    // bridge's tests.
     let player = profile.join("player");
-    if !player.is_file() {
+    let stage_ros2 = profile.join("stage_ros2");
+    for bin in [&player, &stage_ros2] {
+        if bin.is_file() {
+            continue;
+        }
+        let name = bin
+            .file_name()
+            .and_then(|n| n.to_str())
+            .expect("a binary name");
         let mut build = cargo();
         build
             .current_dir(&root)
-            .args(["build", "-p", "cli", "--bin", "player"])
+            .args(["build", "-p", "cli", "--bin", name])
             .env("CARGO_TARGET_DIR", &target);
         if release {
             build.arg("--release");
         }
-        run(&mut build, "building `player`");
+        run(&mut build, &format!("building `{name}`"));
     }
 
     let mut develop = Command::new(venv.join("bin/maturin"));
@@ -134,6 +144,7 @@ fn python_package_test_suite() {
             .current_dir(root.join("crates/python/tests/python"))
             .args(["-m", "pytest", "-q", "-p", "no:cacheprovider", "-rs", "."])
             .env("PLAYERSTAGE_PLAYER", &player)
+            .env("PLAYERSTAGE_STAGE_ROS2", &stage_ros2)
             .env("CARGO_TARGET_DIR", &target),
         "the Python test suite (pytest)",
     );

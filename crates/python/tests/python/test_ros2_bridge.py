@@ -1,0 +1,373 @@
+"""`stage_ros2` (crates/ros2-bridge) against a real, independent DDS implementation: Cyclone
+DDS's Python binding speaking ROS 2's DDS types and names (see ros2_peer.py). Every test starts
+its own node process in its own domain, on loopback only.
+"""
+
+import math
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+
+import cyclonedds.idl.types as t
+import pytest
+from cyclonedds.idl import IdlStruct
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+
+from ros2_peer import (
+    Bool,
+    Clock,
+    EmptyRequest,
+    EmptyResponse,
+    LaserScan,
+    Node,
+    Odometry,
+    Peer,
+    Pose,
+    Range,
+    TFMessage,
+    Twist,
+    TwistStamped,
+    Vector3,
+    domain_id,
+    publish_until,
+    qos,
+    stage_ros2_bin,
+    wait_for,
+)
+
+# A diff robot at the origin facing +x; its laser (0.1 m ahead of its centre, on top of its
+# 0.3 m body) sees a wall whose near face is at x = 1.95: 1.85 m straight ahead.
+WALL_WORLD = """
+resolution 0.02
+interval_sim 100
+position
+(
+  name "r0"
+  pose [0 0 0 0]
+  size [0.4 0.4 0.3]
+  drive "diff"
+  ranger ( sensor ( range [0.05 4] fov 180 samples 181 ) size [0.1 0.1 0.1] pose [0.1 0 0 0] )
+)
+model ( name "wall" pose [2 0 0 0] size [0.1 4 0.5] )
+"""
+
+# Two named robots and an unnamed one (Stage calls it position:2), two rangers on r1, a
+# four-transducer sonar ring on r0.
+FLEET_WORLD = """
+resolution 0.02
+interval_sim 100
+position
+(
+  name "r0"
+  pose [0 0 0 0]
+  size [0.4 0.4 0.3]
+  ranger (
+    sensor ( pose [0.2 0 0 0] range [0 5] fov 20 samples 1 )
+    sensor ( pose [0 0.2 0 90] range [0 5] fov 20 samples 1 )
+    sensor ( pose [-0.2 0 0 180] range [0 5] fov 20 samples 1 )
+    sensor ( pose [0 -0.2 0 -90] range [0 5] fov 20 samples 1 )
+  )
+)
+position
+(
+  name "r1"
+  pose [0 2 0 0]
+  size [0.4 0.4 0.3]
+  ranger ( sensor ( range [0 4] fov 90 samples 10 ) pose [0.1 0 0 0] )
+  ranger ( sensor ( range [0 2] fov 45 samples 5 ) pose [-0.1 0 0 180] )
+)
+position ( pose [0 -2 0 0] size [0.4 0.4 0.3] )
+model ( name "wall" pose [2 0 0 0] size [0.1 8 0.5] )
+"""
+
+
+@pytest.fixture
+def ros(tmp_path):
+    """Starts nodes (`start(world_text, *args)`) with a peer in their domain; stops them."""
+    nodes = []
+
+    def start(world_text, *args, name="test.world"):
+        world = tmp_path / name
+        world.write_text(world_text)
+        domain = domain_id()
+        node = Node(world, domain, args)
+        nodes.append(node)
+        return node, Peer(domain)
+
+    yield start
+    for n in nodes:
+        n.stop()
+
+
+def yaw(q):
+    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+
+
+def test_odom_scan_and_clock_match_the_world(ros):
+    node, peer = ros(WALL_WORLD, "--fast")
+    odom = peer.reader("odom", Odometry)
+    scan = peer.reader("base_scan", LaserScan)
+    clock = peer.reader("clock", Clock)
+    gt = peer.reader("ground_truth", Odometry)
+
+    o = wait_for(odom)
+    assert (o.header.frame_id, o.child_frame_id) == ("odom", "base_link")
+    assert o.pose.pose.position.x == 0.0 and o.pose.pose.orientation.w == 1.0
+    assert o.header.stamp.sec > 0 or o.header.stamp.nanosec > 0
+
+    s = wait_for(scan)
+    assert s.header.frame_id == "laser"
+    # stage_ros2's angles: -fov/2 .. +fov/2 in samples-1 steps
+    assert s.angle_min == pytest.approx(-math.pi / 2, abs=1e-6)
+    assert s.angle_max == pytest.approx(math.pi / 2, abs=1e-6)
+    assert s.angle_increment == pytest.approx(math.pi / 180, abs=1e-7)
+    assert (s.range_min, s.range_max) == (pytest.approx(0.05), 4.0)
+    assert len(s.ranges) == len(s.intensities) == 181
+    assert s.ranges[90] == pytest.approx(1.85, abs=1e-5)
+    assert s.intensities[90] == 1.0
+    # the beam at +-90 degrees runs along the wall's side and misses: range_max, intensity 0
+    assert s.ranges[0] == 4.0 and s.intensities[0] == 0.0
+
+    g = wait_for(gt)
+    assert g.header.frame_id == "world"
+    assert (g.pose.pose.position.x, g.pose.pose.position.y) == (0.0, 0.0)
+
+    stamps = []
+    deadline = time.monotonic() + 5
+    while len(stamps) < 20 and time.monotonic() < deadline:
+        stamps += [c.clock.sec + c.clock.nanosec * 1e-9 for c in clock.take(N=100)]
+        time.sleep(0.01)
+    assert len(stamps) >= 20
+    assert all(s > 0 for s in stamps), "a zero /clock"
+    assert stamps == sorted(stamps) and stamps[-1] > stamps[0]
+    assert node.proc.poll() is None
+
+
+def test_cmd_vel_drives_and_the_watchdog_stops(ros):
+    node, peer = ros(
+        WALL_WORLD, "--speedup", "5", "--ros-args", "-p", "base_watchdog_timeout:=0.5"
+    )
+    odom = peer.reader("odom", Odometry)
+    gt = peer.reader("ground_truth", Odometry)
+    cmd = peer.writer("cmd_vel", Twist)
+    wait_for(odom)
+    publish_until(
+        cmd,
+        Twist(linear=Vector3(x=0.3), angular=Vector3(z=0.0)),
+        odom,
+        lambda m: m.twist.twist.linear.x == pytest.approx(0.3) and m.pose.pose.position.x > 0.05,
+    )
+    # no more commands: 0.5 s of sim time later the robot stands
+    stopped = wait_for(odom, lambda m: m.twist.twist.linear.x == 0.0, timeout=10)
+    x = stopped.pose.pose.position.x
+    assert 0.05 < x < 1.0
+    time.sleep(0.5)
+    later = [m.pose.pose.position.x for m in odom.take(N=100)]
+    assert later and all(v == pytest.approx(x) for v in later)
+    g = wait_for(gt)
+    assert g.pose.pose.position.x == pytest.approx(x, abs=1e-6), "perfect odometry"
+    deadline = time.monotonic() + 3
+    while "watchdog timeout on r0" not in node.text() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert "watchdog timeout on r0" in node.text()
+
+
+def test_stamped_velocity(ros):
+    node, peer = ros(
+        WALL_WORLD, "--fast", "--ros-args", "-p", "use_stamped_velocity:=true"
+    )
+    odom = peer.reader("odom", Odometry)
+    cmd = peer.writer("cmd_vel", TwistStamped)
+    wait_for(odom)
+    publish_until(
+        cmd,
+        TwistStamped(twist=Twist(angular=Vector3(z=0.5))),
+        odom,
+        lambda m: m.twist.twist.angular.z == pytest.approx(0.5),
+    )
+
+
+def test_tf_frames_and_a_late_tf_static_reader(ros):
+    node, peer = ros(WALL_WORLD, "--fast")
+    tf = peer.reader("tf", TFMessage, depth=100)
+    m = wait_for(tf)
+    (odom_tf,) = m.transforms
+    assert (odom_tf.header.frame_id, odom_tf.child_frame_id) == ("odom", "base_link")
+    # a tf2 listener that starts late still gets the sensor frames (transient local)
+    time.sleep(1.5)
+    late = peer.reader("tf_static", TFMessage, depth=1, transient_local=True)
+    s = wait_for(late, timeout=5)
+    (laser,) = s.transforms
+    assert (laser.header.frame_id, laser.child_frame_id) == ("base_link", "laser")
+    tr = laser.transform.translation
+    assert (tr.x, tr.y, tr.z) == (pytest.approx(0.1), 0.0, pytest.approx(0.3))
+
+
+def test_reset_positions_through_cyclones_mapping(ros):
+    node, peer = ros(WALL_WORLD, "--fast")
+    gt = peer.reader("ground_truth", Odometry)
+    stalled = peer.reader("stalled", Bool, depth=1, transient_local=True)
+    cmd = peer.writer("cmd_vel", Twist)
+    assert wait_for(stalled).data is False
+    # drive into the wall until stalled
+    publish_until(cmd, Twist(linear=Vector3(x=1.0)), stalled, lambda m: m.data, timeout=15)
+    g = wait_for(gt)
+    assert g.pose.pose.position.x > 1.5
+    cmd.write(Twist())
+
+    req_topic = peer.topic("rq/reset_positionsRequest", EmptyRequest)
+    rep_topic = peer.topic("rr/reset_positionsReply", EmptyResponse)
+    requests = DataWriter(peer.dp, req_topic, qos=qos())
+    replies = DataReader(peer.dp, rep_topic, qos=qos())
+    guid = 0x1234_5678_9ABC_DEF0
+    reply = publish_until(
+        requests,
+        EmptyRequest(guid=guid, seq=1),
+        replies,
+        lambda r: r.guid == guid,
+        timeout=10,
+    )
+    assert reply.seq == 1 or reply.seq == 1 << 32  # ros2-client swaps the halves back
+    back = wait_for(gt, lambda m: abs(m.pose.pose.position.x) < 1e-9, timeout=5)
+    assert back.pose.pose.position.y == 0.0 and yaw(back.pose.pose.orientation) == 0.0
+    assert wait_for(stalled, lambda m: not m.data, timeout=5).data is False
+    assert "resetting stage" in node.text()
+
+
+def test_one_vehicle_with_enforced_prefixes(ros):
+    node, peer = ros(WALL_WORLD, "--fast", "--enforce-prefixes")
+    odom = peer.reader("r0/odom", Odometry)
+    scan = peer.reader("r0/base_scan", LaserScan)
+    tf = peer.reader("r0/tf", TFMessage, depth=100)
+    assert wait_for(odom).header.frame_id == "odom"
+    assert wait_for(scan).header.frame_id == "laser"
+    assert wait_for(tf).transforms[0].child_frame_id == "base_link"
+
+
+def test_several_vehicles_prefixes_and_one_tf_tree(ros):
+    node, peer = ros(FLEET_WORLD, "--fast", "--ros-args", "-p", "one_tf_tree:=true")
+    r0 = peer.reader("r0/odom", Odometry)
+    r1_scan1 = peer.reader("r1/base_scan1", LaserScan)
+    r1_scan2 = peer.reader("r1/base_scan2", LaserScan)
+    unnamed = peer.reader("robot_2/odom", Odometry)
+    tf = peer.reader("/tf", TFMessage, depth=100)
+    tf_static = peer.reader("/tf_static", TFMessage, depth=1, transient_local=True)
+    ring = [peer.reader(f"r0/base_scan/range{k}", Range) for k in range(4)]
+
+    o = wait_for(r0)
+    assert (o.header.frame_id, o.child_frame_id) == ("r0/odom", "r0/base_link")
+    s1, s2 = wait_for(r1_scan1), wait_for(r1_scan2)
+    assert (s1.header.frame_id, len(s1.ranges)) == ("r1/laser1", 10)
+    assert (s2.header.frame_id, len(s2.ranges)) == ("r1/laser2", 5)
+    assert s2.angle_max == pytest.approx(math.radians(22.5), abs=1e-6)
+    u = wait_for(unnamed)
+    assert u.header.frame_id == "robot_2/odom"
+    assert "not a valid ROS name" in node.text() and "robot_2" in node.text()
+
+    children = set()
+    deadline = time.monotonic() + 5
+    while len(children) < 3 and time.monotonic() < deadline:
+        for m in tf.take(N=100):
+            children |= {(x.header.frame_id, x.child_frame_id) for x in m.transforms}
+        time.sleep(0.01)
+    assert {("r0/odom", "r0/base_link"), ("r1/odom", "r1/base_link"),
+            ("robot_2/odom", "robot_2/base_link")} <= children
+    statics = {(x.header.frame_id, x.child_frame_id) for x in wait_for(tf_static).transforms}
+    assert {("r0/base_link", "r0/laser"), ("r1/base_link", "r1/laser1"),
+            ("r1/base_link", "r1/laser2"), ("r0/laser", "r0/laser_range0")} <= statics
+
+    # the sonar ring: one Range per transducer; the front one sees the wall 1.75 m ahead
+    readings = [wait_for(r) for r in ring]
+    assert [r.header.frame_id for r in readings] == [f"r0/laser_range{k}" for k in range(4)]
+    assert readings[0].range == pytest.approx(1.75, abs=1e-5)
+    assert readings[0].field_of_view == pytest.approx(math.radians(20), abs=1e-6)
+    assert readings[2].range == 5.0 and readings[2].max_range == 5.0
+
+
+def test_cmd_pose_teleports(ros):
+    node, peer = ros(WALL_WORLD, "--fast")
+    gt = peer.reader("ground_truth", Odometry)
+    scan = peer.reader("base_scan", LaserScan)
+    teleport = peer.writer("cmd_pose", Pose)
+    wait_for(gt)
+    target = Pose()
+    target.position.x = 1.0
+    target.orientation.z = math.sin(0.25)
+    target.orientation.w = math.cos(0.25)
+    g = publish_until(teleport, target, gt, lambda m: m.pose.pose.position.x == pytest.approx(1.0))
+    assert yaw(g.pose.pose.orientation) == pytest.approx(0.5)
+    # the laser now sees the wall from where the robot was put
+    target.orientation.z, target.orientation.w = 0.0, 1.0
+    publish_until(teleport, target, scan, lambda s: s.ranges[90] == pytest.approx(0.85, abs=1e-5))
+
+
+@dataclass
+class BrokenTwist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
+    """A Twist_ that is one byte long: what a confused peer might send."""
+
+    x: t.uint8 = 0
+
+
+def test_malformed_messages_and_a_vanished_peer_do_not_stop_the_node(ros):
+    node, peer = ros(WALL_WORLD, "--fast")
+    clock = peer.reader("clock", Clock)
+    wait_for(clock)
+    bad = DataWriter(peer.dp, peer.topic("rt/cmd_vel", BrokenTwist), qos=qos())
+    deadline = time.monotonic() + 10
+    while "cmd_vel: dropped a message" not in node.text() and time.monotonic() < deadline:
+        bad.write(BrokenTwist(x=7))
+        time.sleep(0.05)
+    assert "/cmd_vel: dropped a message that cannot be read" in node.text()
+
+    # a reader in another process that is killed without a goodbye
+    script = (
+        "import sys, time; sys.path.insert(0, '.');"
+        "from ros2_peer import *; p = Peer(int(sys.argv[1]));"
+        "r = [p.reader(n, c) for n, c in (('base_scan', LaserScan), ('odom', Odometry))];"
+        "wait_for(r[0]); print('ready', flush=True); time.sleep(60)"
+    )
+    domain = node.domain
+    peer_proc = subprocess.Popen(
+        [sys.executable, "-c", script, str(domain)],
+        cwd=os.path.dirname(__file__),
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert peer_proc.stdout.readline().strip() == "ready"
+    finally:
+        peer_proc.kill()
+        peer_proc.wait()
+    def latest():
+        m = wait_for(clock)
+        for m in clock.take(N=100) or [m]:
+            pass
+        return m.clock.sec + m.clock.nanosec * 1e-9
+
+    # still stepping at full speed (--fast: far more than 2 s of sim time in half a second)
+    before = latest()
+    time.sleep(0.5)
+    assert latest() - before > 2.0
+    assert node.proc.poll() is None
+    assert "panicked" not in node.text()
+
+
+def test_a_bad_world_file_is_one_clear_error(tmp_path):
+    broken = tmp_path / "broken.world"
+    broken.write_text("position ( name \"r0\" pose [0 0 0 )\n")
+    for world in (broken, tmp_path / "missing.world"):
+        done = subprocess.run(
+            [str(stage_ros2_bin()), "-g", str(world)],
+            capture_output=True,
+            text=True,
+            timeout=30,
+            env={"ROS_LOCALHOST_ONLY": "1", "ROS_DOMAIN_ID": str(domain_id()), "PATH": ""},
+        )
+        assert done.returncode != 0
+        errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+        assert len(errors) == 1, done.stderr
+        assert world.name in errors[0]
+        assert "panicked" not in done.stderr

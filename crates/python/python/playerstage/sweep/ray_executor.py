@@ -16,10 +16,13 @@ Ray gives up on a task (retries used up, the task unable to start) the run is st
 with Ray's error, as the local executor stores a run whose worker died; ``--retry-failed``
 runs it again.
 
-Workers import ``playerstage``: on one machine the driver's environment serves, for a
+Workers import ``playerstage``: on one machine the driver's environment serves; on a
 multi-machine cluster every node needs the same package version installed (``pip install
 playerstage`` or the wheel, in the Python that runs ``ray start``), or pass a Ray
-``runtime_env`` (e.g. ``{"pip": ["playerstage==X.Y"]}``) to :func:`run`.
+``runtime_env`` (e.g. ``{"pip": ["playerstage==X.Y"]}``) to :func:`run`. A run carries its
+filled worldfile's text, but what that worldfile includes or loads (``include``, bitmaps) and
+the plan's Python callables are read on the node from the driver's paths: keep the plan's
+directory on a shared filesystem (or at the same path on every node).
 """
 
 from __future__ import annotations

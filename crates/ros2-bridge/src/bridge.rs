@@ -15,9 +15,9 @@ use stage_sim::{ModelId, ModelType, World};
 
 use crate::Error;
 use crate::msgs::{
-    Bool, Clock, Covariance, EmptyMessage, Header, LaserScan, Odometry, Pose, PoseWithCovariance,
-    Quaternion, Range, RosType, TfMessage, Time, Transform, TransformStamped, Twist, TwistStamped,
-    TwistWithCovariance, Vector3,
+    Bool, Clock, Covariance, EmptyMessage, Header, LaserScan, Odometry, PlainEmptyRequest, Pose,
+    PoseWithCovariance, Quaternion, Range, RosType, TfMessage, Time, Transform, TransformStamped,
+    Twist, TwistStamped, TwistWithCovariance, Vector3,
 };
 use crate::names::{VehicleNames, vehicle_name};
 use crate::params::{Params, RosArgs};
@@ -234,10 +234,68 @@ struct Vehicle {
     last_global: Option<(stage_sim::Pose, u64)>,
 }
 
-/// Which request/reply mapping a reset server answers.
-struct ResetServer {
-    mapping: ServiceMapping,
-    server: Server<EmptyMessage, EmptyMessage>,
+/// The `reset_positions` servers: Cyclone's request/reply mapping (a header in the payload)
+/// and Fast DDS's (ros2-client's `Enhanced`: the related sample identity in inline QoS). Both
+/// read the same topics; each drops the other's requests.
+struct ResetServers {
+    cyclone: Server<EmptyMessage, EmptyMessage>,
+    fast_dds: Server<PlainEmptyRequest, EmptyMessage>,
+}
+
+impl ResetServers {
+    fn new(topics: &mut Topics) -> Result<ResetServers, Error> {
+        let service = topics.name("reset_positions")?;
+        let err = |e: &dyn std::fmt::Display| Error::Dds(format!("service {service}: {e}"));
+        let ty = ServiceTypeName::new("std_srvs", "Empty");
+        let cyclone = topics
+            .node
+            .create_server(
+                ServiceMapping::Cyclone,
+                &service,
+                &ty,
+                service_qos(),
+                service_qos(),
+            )
+            .map_err(|e| err(&e))?;
+        let fast_dds = topics
+            .node
+            .create_server(
+                ServiceMapping::Enhanced,
+                &service,
+                &ty,
+                service_qos(),
+                service_qos(),
+            )
+            .map_err(|e| err(&e))?;
+        Ok(ResetServers { cyclone, fast_dds })
+    }
+
+    /// Answers every request that arrived; the number answered.
+    fn answer(&self) -> usize {
+        answer_all(&self.cyclone, "Cyclone") + answer_all(&self.fast_dds, "Fast DDS")
+    }
+}
+
+/// Answers the requests waiting at `server` (at most [`MAX_TAKE_PER_STEP`]).
+fn answer_all<Req: ros2_client::Message + Clone + 'static>(
+    server: &Server<Req, EmptyMessage>,
+    mapping: &str,
+) -> usize {
+    let mut n = 0;
+    for _ in 0..MAX_TAKE_PER_STEP {
+        match server.receive_request() {
+            Ok(Some((id, _))) => {
+                n += 1;
+                if let Err(e) = server.send_response(id, EmptyMessage::default()) {
+                    tracing::warn!("reset_positions: reply not sent ({mapping} mapping): {e:?}");
+                }
+            }
+            Ok(None) => break,
+            // the other mapping's requests do not read as this one's
+            Err(e) => tracing::debug!("reset_positions ({mapping} mapping): {e}"),
+        }
+    }
+    n
 }
 
 /// The ROS 2 side of a world: built once on it, then [`Bridge::inbound`] before each step and
@@ -250,7 +308,7 @@ pub struct Bridge {
     tf_static: BTreeMap<String, Outbound<TfMessage>>,
     static_sent: bool,
     clock: Outbound<Clock>,
-    reset: Vec<ResetServer>,
+    reset: ResetServers,
     watchdog_us: u64,
     // last: the node outlives its entities
     topics: Topics,
@@ -395,23 +453,8 @@ impl Bridge {
         }
 
         let clock = Outbound::new(&mut topics, "/clock", default_qos())?;
-        // both common request/reply mappings: Cyclone's header in the payload, and Fast DDS's
-        // (ros2-client's Enhanced) related-sample identity; each server drops what it cannot read
-        let mut reset = Vec::new();
-        let service = topics.name("reset_positions")?;
-        for mapping in [ServiceMapping::Cyclone, ServiceMapping::Enhanced] {
-            let server = topics
-                .node
-                .create_server::<EmptyMessage, EmptyMessage>(
-                    mapping,
-                    &service,
-                    &ServiceTypeName::new("std_srvs", "Empty"),
-                    service_qos(),
-                    service_qos(),
-                )
-                .map_err(|e| Error::Dds(format!("service {service}: {e}")))?;
-            reset.push(ResetServer { mapping, server });
-        }
+        // both common request/reply mappings, each server dropping the other's requests
+        let reset = ResetServers::new(&mut topics)?;
         let watchdog_us = (params.base_watchdog_timeout.max(0.0) * 1e6) as u64;
         Ok(Bridge {
             params,
@@ -471,25 +514,7 @@ impl Bridge {
                 }
             }
         }
-        let mut resets = 0;
-        for s in &self.reset {
-            for _ in 0..MAX_TAKE_PER_STEP {
-                match s.server.receive_request() {
-                    Ok(Some((id, _))) => {
-                        resets += 1;
-                        if let Err(e) = s.server.send_response(id, EmptyMessage::default()) {
-                            tracing::warn!(
-                                "reset_positions: reply not sent ({:?}): {e:?}",
-                                s.mapping
-                            );
-                        }
-                    }
-                    Ok(None) => break,
-                    // the other mapping's requests do not read as this one's
-                    Err(e) => tracing::debug!("reset_positions ({:?}): {e}", s.mapping),
-                }
-            }
-        }
+        let resets = self.reset.answer();
         if resets > 0 {
             tracing::info!("resetting stage");
             for v in &mut self.vehicles {

@@ -319,6 +319,52 @@ pub struct EmptyMessage {
 }
 impl ros2_client::Message for EmptyMessage {}
 
+/// std_srvs/Empty's request as Fast DDS sends it (ros2-client's `Enhanced` mapping): the one
+/// byte and nothing else. Cyclone's request of the same type starts with a 16-byte header; a
+/// server in each mapping reads both, and this type makes the Fast DDS server refuse Cyclone's
+/// (so the Cyclone client is not sent a reply it cannot read, nor the robots reset twice).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct PlainEmptyRequest {
+    /// The placeholder byte.
+    pub structure_needs_at_least_one_member: u8,
+}
+impl ros2_client::Message for PlainEmptyRequest {}
+
+impl<'de> Deserialize<'de> for PlainEmptyRequest {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        /// Bytes past the member that show a header in front (CDR pads to 4, so up to 3 are
+        /// padding).
+        const MORE: usize = 4;
+        struct Bytes;
+        impl<'de> Visitor<'de> for Bytes {
+            type Value = PlainEmptyRequest;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("std_srvs/Empty's one byte")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+                let member: u8 = seq
+                    .next_element()?
+                    .ok_or_else(|| de::Error::invalid_length(0, &self))?;
+                for _ in 0..MORE {
+                    // the end of the data is the answer we want
+                    match seq.next_element::<u8>() {
+                        Ok(Some(_)) => {}
+                        Ok(None) | Err(_) => {
+                            return Ok(PlainEmptyRequest {
+                                structure_needs_at_least_one_member: member,
+                            });
+                        }
+                    }
+                }
+                Err(de::Error::custom(
+                    "a request with a header in front (Cyclone's mapping), not Fast DDS's",
+                ))
+            }
+        }
+        d.deserialize_tuple(1 + MORE, Bytes)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -179,6 +179,18 @@ class EmptyResponse(IdlStruct, typename=_name("std_srvs", "srv", "Empty_Response
     structure_needs_at_least_one_member: t.uint8 = 0
 
 
+# The same types as Fast DDS (and ros2-client's Enhanced mapping) send them: no header, the
+# request's identity travels in the sample's inline QoS.
+@dataclass
+class PlainEmptyRequest(IdlStruct, typename=_name("std_srvs", "srv", "Empty_Request")):
+    structure_needs_at_least_one_member: t.uint8 = 0
+
+
+@dataclass
+class PlainEmptyResponse(IdlStruct, typename=_name("std_srvs", "srv", "Empty_Response")):
+    structure_needs_at_least_one_member: t.uint8 = 0
+
+
 def qos(depth=10, transient_local=False):
     """ROS 2's QoS: reliable, keep last `depth`, volatile or transient local."""
     return Qos(

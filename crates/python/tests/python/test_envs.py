@@ -287,3 +287,27 @@ def test_no_free_pose_is_an_error(tmp_path):
         env.reset(seed=0, options={"random_start": True})
     with pytest.raises(ValueError, match="max_draws"):
         StageEnv(path, "r0", max_draws=0)
+
+
+def test_action_clip_single_and_batch_agree():
+    """StageEnv clips an action in plain Python (cheaper for a short action); VectorStageEnv
+    clips its batch with numpy. They must agree bit for bit, signed zeros and NaN included,
+    whatever the batch's memory layout, or a lone env and a vector's copy could command
+    different speeds (numpy.clip itself treats -0.0 differently in strided arrays)."""
+    import math
+
+    from playerstage.envs._stage_env import _clip, _clip_batch
+
+    values = [-0.0, 0.0, math.nan, -1.0, 2.0, 0.5, math.inf, -math.inf, 1e-300, -0.5, 1.0]
+    for lo, hi in [(0.0, 1.0), (-0.5, 0.0), (-1.0, 1.0), (-0.0, 0.0), (0.0, 0.0)]:
+        bounds = np.array([lo, lo]), np.array([hi, hi])
+        contiguous = np.array([[v, v] for v in values])
+        strided = np.array([values] * 2).T
+        for batch in (_clip_batch(contiguous, *bounds), _clip_batch(strided, *bounds)):
+            for x, want in zip(values, batch[:, 0].tolist()):
+                got = _clip(x, lo, hi)
+                if math.isnan(want):
+                    assert math.isnan(got)
+                else:
+                    assert got == want and math.copysign(1, got) == math.copysign(1, want)
+        assert _clip(-0.0, 0.0, 1.0) == 0.0 and math.copysign(1, _clip(-0.0, 0.0, 1.0)) == 1

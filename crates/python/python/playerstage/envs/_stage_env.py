@@ -426,8 +426,7 @@ class _Robot:
                 f"action of shape {act.shape} for `{self.robot}`: the action space is "
                 f"{self.action_space}"
             )
-        low, high = self._bounds
-        v = [min(max(float(x), lo), hi) for x, lo, hi in zip(act.tolist(), low, high)]
+        v = [_clip(x, lo, hi) for x, lo, hi in zip(act.tolist(), *self._bounds)]
         return v if self.drive == "omni" else [v[0], 0.0, v[1]]
 
     def act(self, native: Any, action: Any) -> None:
@@ -522,6 +521,22 @@ class _Robot:
         if self.flatten:
             return spaces.flatten(self.dict_space, obs)
         return obs
+
+
+def _clip(x: float, lo: float, hi: float) -> float:
+    """`x` clipped to `[lo, hi]`: a NaN stays NaN, and a value not strictly inside a bound
+    becomes the bound (so ``-0.0`` against a bound of ``0.0`` gives ``0.0``). The rule of
+    :func:`_clip_batch`, which VectorStageEnv uses, so that a lone env and a vector's copy
+    command the same speeds to the bit (``numpy.clip``'s own treatment of signed zeros
+    depends on the arrays' memory layout)."""
+    x = x if (x != x or x > lo) else lo
+    return x if (x != x or x < hi) else hi
+
+
+def _clip_batch(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """:func:`_clip` of every element of `x` (bounds broadcast), whatever its layout."""
+    x = np.where((x > lo) | (x != x), x, lo)
+    return np.where((x < hi) | (x != x), x, hi)
 
 
 class _Reading:

@@ -10,7 +10,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, create_empty_array, iterate
 
 from .. import _native
-from ._stage_env import StageEnv, _readings
+from ._stage_env import StageEnv, _clip_batch, _readings
 
 
 class VectorStageEnv(VectorEnv):
@@ -169,7 +169,7 @@ class VectorStageEnv(VectorEnv):
             raise ValueError(
                 f"actions of shape {acts.shape}: the action space is {self.action_space}"
             )
-        acts = np.clip(acts, self.single_action_space.low, self.single_action_space.high)
+        acts = _clip_batch(acts, self.single_action_space.low, self.single_action_space.high)
         if first.drive == "omni":
             velocities = acts
         else:

@@ -73,18 +73,9 @@ struct Topics {
 }
 
 impl Topics {
-    /// The absolute name of `name`: remapped if a `-r` rule names it, then resolved in the
-    /// node's namespace when relative. (Absolute names also spare ros2-client's relative-name
-    /// joining, which doubles the slash of the root namespace.)
+    /// The absolute name of `name` in this node ([`crate::names::resolve`]).
     fn resolve(&self, name: &str) -> String {
-        let name = self.remaps.get(name).map(String::as_str).unwrap_or(name);
-        if name.starts_with('/') {
-            name.to_string()
-        } else if self.namespace == "/" {
-            format!("/{name}")
-        } else {
-            format!("{}/{name}", self.namespace)
-        }
+        crate::names::resolve(&self.namespace, &self.remaps, name)
     }
 
     fn name(&self, name: &str) -> Result<Name, Error> {

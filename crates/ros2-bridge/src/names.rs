@@ -1,7 +1,30 @@
 //! How stage_ros2 forms the names of a vehicle's topics and frames (`vehicle.cpp`,
 //! `ranger.cpp`), and which name a vehicle gets.
 
+use std::collections::BTreeMap;
+
 use crate::params::Params;
+
+/// The absolute name of topic `name` in a node in `namespace` (`/` or `/a/b`): resolved in
+/// the namespace when relative, then remapped if a `-r FROM:=TO` rule names it (as written or
+/// as resolved), the target resolved likewise. The bridge creates every topic by its absolute
+/// name, which also spares ros2-client's relative-name joining (it doubles the root's slash).
+pub fn resolve(namespace: &str, remaps: &BTreeMap<String, String>, name: &str) -> String {
+    let absolute = |n: &str| {
+        if n.starts_with('/') {
+            n.to_string()
+        } else if namespace == "/" {
+            format!("/{n}")
+        } else {
+            format!("{namespace}/{n}")
+        }
+    };
+    let resolved = absolute(name);
+    match remaps.get(name).or_else(|| remaps.get(&resolved)) {
+        Some(to) => absolute(to),
+        None => resolved,
+    }
+}
 
 /// Whether `name` can be a ROS 2 name token: ASCII letters, digits and underscores, not
 /// starting with a digit, no doubled underscore (what rcl and ros2-client's `Name` accept). A
@@ -123,6 +146,22 @@ impl VehicleNames {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn names_resolve_in_the_namespace_then_remap() {
+        let none = BTreeMap::new();
+        assert_eq!(resolve("/", &none, "odom"), "/odom");
+        assert_eq!(resolve("/", &none, "/tf"), "/tf");
+        assert_eq!(resolve("/team", &none, "r0/odom"), "/team/r0/odom");
+        assert_eq!(resolve("/team", &none, "/clock"), "/clock");
+        let remaps = BTreeMap::from([
+            ("base_scan".to_string(), "scan".to_string()),
+            ("/team/odom".to_string(), "/odometry".to_string()),
+        ]);
+        assert_eq!(resolve("/team", &remaps, "base_scan"), "/team/scan");
+        assert_eq!(resolve("/team", &remaps, "odom"), "/odometry");
+        assert_eq!(resolve("/team", &remaps, "cmd_vel"), "/team/cmd_vel");
+    }
 
     #[test]
     fn ros_name_tokens() {

@@ -164,6 +164,28 @@ class Bool(IdlStruct, typename=_name("std_msgs", "msg", "Bool")):
     data: bool = False
 
 
+# The node graph (`ros2 node list` reads it): Jazzy's 16-byte GIDs.
+@dataclass
+class Gid(IdlStruct, typename=_name("rmw_dds_common", "msg", "Gid")):
+    data: t.array[t.uint8, 16] = field(default_factory=lambda: [0] * 16)
+
+
+@dataclass
+class NodeEntitiesInfo(IdlStruct, typename=_name("rmw_dds_common", "msg", "NodeEntitiesInfo")):
+    node_namespace: str = ""
+    node_name: str = ""
+    reader_gid_seq: t.sequence[Gid] = field(default_factory=list)
+    writer_gid_seq: t.sequence[Gid] = field(default_factory=list)
+
+
+@dataclass
+class ParticipantEntitiesInfo(
+    IdlStruct, typename=_name("rmw_dds_common", "msg", "ParticipantEntitiesInfo")
+):
+    gid: Gid = field(default_factory=Gid)
+    node_entities_info_seq: t.sequence[NodeEntitiesInfo] = field(default_factory=list)
+
+
 # rmw_cyclonedds puts {uint64 guid; int64 seq} in front of every request and reply.
 @dataclass
 class EmptyRequest(IdlStruct, typename=_name("std_srvs", "srv", "Empty_Request")):

@@ -24,6 +24,7 @@ from ros2_peer import (
     LaserScan,
     Node,
     Odometry,
+    ParticipantEntitiesInfo,
     Peer,
     PlainEmptyRequest,
     PlainEmptyResponse,
@@ -312,6 +313,37 @@ def test_several_vehicles_prefixes_and_one_tf_tree(ros):
     assert readings[0].range == pytest.approx(1.75, abs=1e-5)
     assert readings[0].field_of_view == pytest.approx(math.radians(20), abs=1e-6)
     assert readings[2].range == 5.0 and readings[2].max_range == 5.0
+
+
+def test_node_graph_entry_and_ros_remapping(ros):
+    """The node is in `ros_discovery_info` as `ros2 node list` reads it, under the name and
+    namespace a launch file's Node(name=, namespace=) passes; its relative topics move into the
+    namespace and `-r` remaps one."""
+    node, peer = ros(
+        WALL_WORLD,
+        "--fast",
+        "--ros-args",
+        "-r", "__node:=sim",
+        "-r", "__ns:=/team",
+        "-r", "base_scan:=scan",
+        "-r", "/team/odom:=/odometry",
+    )
+    graph = DataReader(
+        peer.dp,
+        peer.topic("ros_discovery_info", ParticipantEntitiesInfo),
+        qos=qos(depth=1, transient_local=True),
+    )
+
+    def ours(m):
+        return any(
+            (n.node_namespace, n.node_name) == ("/team", "sim") and len(n.writer_gid_seq) >= 8
+            for n in m.node_entities_info_seq
+        )
+
+    wait_for(graph, ours)
+    assert wait_for(peer.reader("/odometry", Odometry)).header.frame_id == "odom"
+    assert len(wait_for(peer.reader("team/scan", LaserScan)).ranges) == 181
+    assert "as /team/sim" in node.text()
 
 
 def test_cmd_pose_teleports(ros):

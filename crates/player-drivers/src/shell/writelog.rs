@@ -45,35 +45,60 @@ use crate::options;
 /// The name cfg files use.
 pub const NAME: &str = "writelog";
 
-/// An open log: plain text (flushed after every line, as upstream) or gzip.
+/// An open log: plain text (each line written to the file as it comes, as upstream flushes
+/// after every line) or gzip.
 enum Sink {
-    Plain(BufWriter<File>),
+    /// `complete` is the length of the file up to the end of its last complete line.
+    Plain {
+        file: File,
+        complete: u64,
+    },
     Gzip(GzEncoder<BufWriter<File>>),
 }
 
 impl Sink {
     fn create(path: &Path) -> std::io::Result<Sink> {
-        let file = BufWriter::with_capacity(1 << 16, File::create(path)?);
+        let file = File::create(path)?;
         Ok(if is_gzip(path) {
-            Sink::Gzip(GzEncoder::new(file, Compression::default()))
+            Sink::Gzip(GzEncoder::new(
+                BufWriter::with_capacity(1 << 16, file),
+                Compression::default(),
+            ))
         } else {
-            Sink::Plain(file)
+            Sink::Plain { file, complete: 0 }
         })
     }
 
+    /// Writes one line (ending in a newline). When a plain log cannot take the whole line
+    /// (a full disk, a file size limit), the part that was written is cut off again: a line
+    /// cut short could still read as a message whose last number lost its last digits.
     fn write_line(&mut self, line: &str) -> std::io::Result<()> {
         match self {
-            Sink::Plain(w) => {
-                w.write_all(line.as_bytes())?;
-                w.flush()
-            }
+            Sink::Plain { file, complete } => match file.write_all(line.as_bytes()) {
+                Ok(()) => {
+                    *complete += line.len() as u64;
+                    Ok(())
+                }
+                Err(e) => {
+                    let cut = file.set_len(*complete);
+                    Err(match cut {
+                        Ok(()) => e,
+                        Err(cut) => std::io::Error::new(
+                            e.kind(),
+                            format!(
+                                "{e}, and cutting the part of the line written failed too: {cut}"
+                            ),
+                        ),
+                    })
+                }
+            },
             Sink::Gzip(w) => w.write_all(line.as_bytes()),
         }
     }
 
     fn close(self) -> std::io::Result<()> {
         match self {
-            Sink::Plain(mut w) => w.flush(),
+            Sink::Plain { mut file, .. } => file.flush(),
             Sink::Gzip(w) => w.finish()?.flush(),
         }
     }
@@ -174,6 +199,8 @@ pub struct WriteLog {
     held: Vec<String>,
     warned: BTreeSet<(u16, u8, u8)>,
     lines_written: u64,
+    /// Why the last file stopped being written, if it did.
+    failed: Option<String>,
 }
 
 impl std::fmt::Debug for WriteLog {
@@ -251,6 +278,7 @@ impl WriteLog {
             held: Vec::new(),
             warned: BTreeSet::new(),
             lines_written: 0,
+            failed: None,
         })
     }
 
@@ -276,6 +304,8 @@ impl WriteLog {
         sink.write_line(FILE_HEADER)
             .map_err(|e| format!("writing {}: {e}", self.path.display()))?;
         self.sink = Some(sink);
+        self.failed = None;
+        self.lines_written = 0;
         tracing::info!("{NAME}: logging to {}", self.path.display());
         for dev in self.devices.clone() {
             let bodies: Vec<Body> = match dev.interf {
@@ -306,13 +336,30 @@ impl WriteLog {
         }
     }
 
+    /// Writes a line. A write that fails (a full disk, a file size limit) stops the
+    /// recording with one error naming the file and the cause, instead of one per message:
+    /// the log keeps every line before it, complete, and clients see the log device stopped
+    /// (GET_STATE) until they give it a new file name.
     fn write(&mut self, line: &str) {
         let Some(sink) = self.sink.as_mut() else {
             return;
         };
         match sink.write_line(line) {
             Ok(()) => self.lines_written += 1,
-            Err(e) => tracing::error!("{NAME}: writing {}: {e}", self.path.display()),
+            Err(e) => {
+                tracing::error!(
+                    "{NAME}: writing {} failed: {e}; recording stopped after {} message \
+                     lines (the log ends with its last complete line); give the log device a \
+                     new file name (PLAYER_LOG_REQ_SET_FILENAME) to record again",
+                    self.path.display(),
+                    self.lines_written
+                );
+                // Dropping a gzip sink tries to finish its stream, quietly.
+                self.sink = None;
+                self.enabled = false;
+                self.held.clear();
+                self.failed = Some(e.to_string());
+            }
         }
     }
 
@@ -423,6 +470,14 @@ impl Driver for WriteLog {
             return Reply::NotHandled;
         };
         match req {
+            LogReq::SetWriteState(Some(s)) if s.state != 0 && self.sink.is_none() => {
+                let why = self.failed.as_deref().unwrap_or("it could not be opened");
+                tracing::warn!(
+                    "{NAME}: cannot record to {}: {why}; set a new file name first",
+                    self.path.display()
+                );
+                Reply::Nack
+            }
             LogReq::SetWriteState(Some(s)) => {
                 super::switch_state(NAME, &mut self.enabled, s.state, "logging");
                 Reply::ack(LogReq::SetWriteState(None))

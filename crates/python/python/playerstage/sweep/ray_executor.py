@@ -43,14 +43,14 @@ DEFAULT_MAX_RETRIES = 3
 _WAIT_SECONDS = 0.5
 
 
-def _execute_on_worker(spec: Any) -> Dict[str, Any]:
+def _execute_on_worker(spec: RunSpec) -> Dict[str, Any]:
     """The task body: one run in the worker process (imported there by reference)."""
     from playerstage.sweep.run import execute
 
     return execute(spec)
 
 
-def _import_ray():
+def _import_ray() -> Any:
     try:
         import ray
     except ImportError as e:
@@ -60,7 +60,7 @@ def _import_ray():
     return ray
 
 
-def _window(ray, jobs: Optional[int]) -> int:
+def _window(ray: Any, jobs: Optional[int]) -> int:
     """How many tasks to keep submitted: `jobs`, else twice the cluster's CPUs (so every CPU has
     a next run queued and results stream back instead of arriving all at the end)."""
     if jobs is not None:

@@ -4,13 +4,21 @@
 //!
 //! The link ([`RemoteLink`]) is opened by the first subscription and closed by the last, so a
 //! cfg that names a server which is not up yet still starts: its data simply begins when that
-//! server answers. Everything crossing the network happens on the link's task; the core only
-//! drains what arrived when the link wakes it, so a slow or silent peer never stalls the server.
+//! server answers. A link that fails or breaks while the device is subscribed (the remote
+//! server is not up yet, was killed or restarted) is logged once, naming the remote device and
+//! where it is required, and opened again after a pause that grows from [`RETRY_FIRST`] to
+//! [`RETRY_MAX`]; meanwhile requests are NACKed at once and commands dropped, and data resumes
+//! when the remote server is back. Upstream's `TCPRemoteDriver` stays down until the last
+//! subscription ends and a new one reconnects; a client re-subscribing recovers here too.
+//!
+//! Everything crossing the network happens on the link's task; the core only drains what
+//! arrived when the link wakes it, so a slow or silent peer never stalls the server.
 //! Requests are deferred until the remote reply (or the link's 5 s timeout, answered NACK).
 
 use std::collections::{HashMap, VecDeque};
 use std::net::Ipv4Addr;
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use player_proto::constants::PLAYER_OPEN_MODE;
 use player_proto::{Body, DeviceAddr, MapMsg, MapReq, Message};
@@ -21,6 +29,14 @@ use crate::remote::{RemoteEvent, RemoteLink, RequestTicket};
 /// What the link reported and the core has not handled yet.
 type Inbox = Arc<Mutex<VecDeque<RemoteEvent>>>;
 
+/// The pause before the first new attempt after a link failed or broke: short, so a restarted
+/// remote server is found again at once.
+pub const RETRY_FIRST: Duration = Duration::from_millis(100);
+
+/// The longest pause between attempts (each failed attempt doubles the pause up to it): a
+/// remote server that stays down costs one connection attempt, and one log line, this often.
+pub const RETRY_MAX: Duration = Duration::from_secs(2);
+
 /// The driver of one remote device.
 #[derive(Debug)]
 pub struct RemoteDevice {
@@ -30,6 +46,10 @@ pub struct RemoteDevice {
     origin: String,
     link: Option<(RemoteLink, Inbox)>,
     waiting: HashMap<RequestTicket, PendingReply>,
+    /// While subscribed without a working link: when to try again, and the pause after that.
+    retry: Option<(Instant, Duration)>,
+    /// The link was up before it broke (the next `Connected` is a recovery).
+    was_up: bool,
 }
 
 impl RemoteDevice {
@@ -40,6 +60,8 @@ impl RemoteDevice {
             origin: required.origin.clone(),
             link: None,
             waiting: HashMap::new(),
+            retry: None,
+            was_up: false,
         }
     }
 
@@ -54,10 +76,9 @@ impl RemoteDevice {
             ctx.answer(pending, Reply::Nack);
         }
     }
-}
 
-impl Driver for RemoteDevice {
-    fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
+    /// Opens a link to the remote device; its events wake this driver.
+    fn connect(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
         let waker = ctx
             .waker()
             .ok_or_else(|| DriverError::new("a remote device needs a running server"))?;
@@ -76,11 +97,6 @@ impl Driver for RemoteDevice {
                 waker.wake();
             }
         };
-        tracing::info!(
-            "connecting to remote device {} (required at {})",
-            self.addr,
-            self.origin
-        );
         let link = RemoteLink::spawn(
             &handle,
             self.host(),
@@ -93,9 +109,57 @@ impl Driver for RemoteDevice {
         Ok(())
     }
 
+    /// The link failed or broke (`why` names the device and the peer): requests waiting are
+    /// NACKed, and a new link is tried after the current pause.
+    fn lost(&mut self, ctx: &mut Context<'_>, why: &str) {
+        self.link = None;
+        self.refuse_waiting(ctx);
+        let pause = match self.retry {
+            Some((_, pause)) => pause,
+            None => RETRY_FIRST,
+        };
+        if self.retry.is_none() {
+            tracing::warn!(
+                "{why} (required at {}); requests to it are refused until it is back, trying \
+                 again every {RETRY_MAX:?} at most",
+                self.origin
+            );
+        } else {
+            tracing::debug!(
+                "{why} (required at {}); trying again in {pause:?}",
+                self.origin
+            );
+        }
+        self.retry = Some((Instant::now() + pause, (pause * 2).min(RETRY_MAX)));
+    }
+}
+
+impl Driver for RemoteDevice {
+    fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), DriverError> {
+        tracing::info!(
+            "connecting to remote device {} (required at {})",
+            self.addr,
+            self.origin
+        );
+        self.retry = None;
+        self.was_up = false;
+        self.connect(ctx)
+    }
+
+    fn update(&mut self, ctx: &mut Context<'_>) {
+        if let Some((at, _)) = self.retry
+            && self.link.is_none()
+            && Instant::now() >= at
+            && let Err(e) = self.connect(ctx)
+        {
+            tracing::error!("remote device {}: {e}", self.addr);
+        }
+    }
+
     fn teardown(&mut self, ctx: &mut Context<'_>) {
         // Dropping the link closes it; what it still reports goes to an inbox nobody reads.
         self.link = None;
+        self.retry = None;
         self.refuse_waiting(ctx);
     }
 
@@ -133,13 +197,24 @@ impl Driver for RemoteDevice {
                     };
                     ctx.answer(pending, reply);
                 }
-                RemoteEvent::Connected { driver_name } => tracing::info!(
-                    "remote device {} is up (driver \"{driver_name}\")",
-                    self.addr
-                ),
+                RemoteEvent::Connected { driver_name } => {
+                    if self.retry.take().is_some() && self.was_up {
+                        tracing::warn!(
+                            "remote device {} is back (driver \"{driver_name}\")",
+                            self.addr
+                        );
+                    } else {
+                        tracing::info!(
+                            "remote device {} is up (driver \"{driver_name}\")",
+                            self.addr
+                        );
+                    }
+                    self.was_up = true;
+                }
                 RemoteEvent::Failed(why) | RemoteEvent::Closed(why) => {
-                    tracing::warn!("{why} (required at {})", self.origin);
-                    self.refuse_waiting(ctx);
+                    self.lost(ctx, &why);
+                    // What this link still reported is of no use any more.
+                    break;
                 }
             }
         }

@@ -17,8 +17,11 @@
 //! device (upstream accepts any pair, and would then hand, say, ranger data to laser clients);
 //! upstream's `remote_host`, `remote_port` and `connect` properties, which re-point or
 //! disconnect a remote pair at run time, are not supported (a remote pair is always
-//! connected, as upstream's default `connect 1`); and the required devices are subscribed once
-//! for all clients rather than once per client (each subscriber still receives all data).
+//! connected, as upstream's default `connect 1`); the required devices are subscribed once
+//! for all clients rather than once per client (each subscriber still receives all data); and
+//! a remote server that dies is reported once and reconnected to when it is back, with no
+//! need to subscribe again (see [`player_server::remote_device`]): meanwhile requests to the
+//! provided device are NACKed at once (upstream's time out).
 
 use player_proto::{Body, DeviceAddr, Message};
 use player_server::{

@@ -7,12 +7,16 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
 
 use anyhow::Context;
 use clap::{Arg, ArgAction, ArgMatches, CommandFactory, FromArgMatches, Parser};
 use ros2_bridge::params::{Kind, split_ros_args};
 use ros2_bridge::{Bridge, Discovery, PARAMETERS, Params};
 use stage_sim::World;
+use viewer::handle::{Pacing, WindowSetup, WorldHandle, spawn_simulation};
+use viewer::world_window::{self, WindowOptions};
 use worldfile::{LoadOptions, WorldSpec};
 
 /// ROS 2 node for the Stage simulator, a drop-in for stage_ros2.
@@ -134,6 +138,7 @@ fn run() -> anyhow::Result<()> {
     for w in &spec.warnings {
         eprintln!("{w}");
     }
+    let setup = WindowSetup::from_spec(&spec);
     let mut world = World::from_owned_spec(spec, args.seed)
         .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
     let speedup = if args.fast {
@@ -141,10 +146,9 @@ fn run() -> anyhow::Result<()> {
     } else {
         args.speedup.unwrap_or(world.config().speedup)
     };
-    if params.enable_gui {
-        // the world window needs the simulation on another thread than the bridge's commands:
-        // not wired yet, so the node runs headless (as stage_ros2 with enable_gui:=false)
-        eprintln!("note: stage_ros2 runs headless (the world window is not available here yet)");
+    let gui = params.enable_gui && world_window::display_available();
+    if params.enable_gui && !gui {
+        eprintln!("note: no display (DISPLAY and WAYLAND_DISPLAY unset): running headless (as -g)");
     }
 
     let discovery = Discovery::from_env()?;
@@ -163,9 +167,66 @@ fn run() -> anyhow::Result<()> {
         },
         vehicles
     ))?;
+    if gui {
+        return windowed(WorldHandle::with_setup(world, setup), bridge, speedup);
+    }
     let quit = AtomicBool::new(false);
     let steps =
         stage_sim::on_sim_threads(|| ros2_bridge::run(&mut world, &mut bridge, speedup, &quit));
     tracing::info!("world done after {steps} steps");
+    Ok(())
+}
+
+/// The bridge, shared by the simulation thread (publishing after each step) and the thread
+/// applying what arrives; a panic elsewhere does not make it unusable.
+fn lock(bridge: &Mutex<Bridge>) -> MutexGuard<'_, Bridge> {
+    bridge
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// The world window on this thread (stage_ros2's `enable_gui`), the simulation on its own
+/// publishing after each step, and a thread applying inbound messages between steps; when the
+/// window cannot open, the node goes on headless.
+fn windowed(handle: WorldHandle, bridge: Bridge, speedup: f64) -> anyhow::Result<()> {
+    let bridge = Arc::new(Mutex::new(bridge));
+    let publisher = bridge.clone();
+    let sim = spawn_simulation(vec![handle.clone()], Pacing { speedup }, move |_, w| {
+        lock(&publisher).publish(w)
+    })
+    .context("starting the simulation thread")?;
+    let (h, b) = (handle.clone(), bridge.clone());
+    let inbound = std::thread::Builder::new()
+        .name("ros2 inbound".into())
+        .spawn(move || {
+            while !h.quit_requested() {
+                h.update(|w| lock(&b).inbound(w));
+                std::thread::sleep(Duration::from_millis(5));
+            }
+        })
+        .context("starting the inbound thread")?;
+    let options = WindowOptions {
+        screenshot: None,
+        screenshot_after: Duration::ZERO,
+    };
+    let shown = world_window::run(handle.clone(), options);
+    handle.request_quit();
+    sim.join()
+        .map_err(|_| anyhow::anyhow!("the simulation thread panicked"))?;
+    inbound
+        .join()
+        .map_err(|_| anyhow::anyhow!("the inbound thread panicked"))?;
+    if let Err(e) = shown {
+        eprintln!("note: cannot open the world window ({e}): running headless");
+        let quit = AtomicBool::new(false);
+        // both threads have ended: the bridge is this thread's alone again
+        let mut bridge = Arc::try_unwrap(bridge)
+            .map_err(|_| anyhow::anyhow!("the bridge is still shared"))?
+            .into_inner()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        handle.update(|w| {
+            stage_sim::on_sim_threads(|| ros2_bridge::run(w, &mut bridge, speedup, &quit))
+        });
+    }
     Ok(())
 }

@@ -250,11 +250,11 @@ def stage_ros2_bin():
 class Node:
     """A `stage_ros2` process on `world` in domain `domain`, localhost only."""
 
-    def __init__(self, world, domain, args=()):
+    def __init__(self, world, domain, args=(), headless=True, env=None):
         self.domain = domain
-        env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_LOCALHOST_ONLY="1")
+        env = dict(env or os.environ, ROS_DOMAIN_ID=str(domain), ROS_LOCALHOST_ONLY="1")
         self.proc = subprocess.Popen(
-            [str(stage_ros2_bin()), "-g", str(world), *args],
+            [str(stage_ros2_bin()), *(["-g"] if headless else []), str(world), *args],
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             text=True,

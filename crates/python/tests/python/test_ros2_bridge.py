@@ -430,3 +430,28 @@ def test_a_bad_world_file_is_one_clear_error(tmp_path):
         assert len(errors) == 1, done.stderr
         assert world.name in errors[0]
         assert "panicked" not in done.stderr
+
+
+def test_enable_gui_without_a_usable_display_goes_on_headless(ros, tmp_path):
+    """enable_gui (stage_ros2's default) with a display that cannot be opened: the window
+    path starts (simulation and inbound threads), fails, and the node goes on headless."""
+    world = tmp_path / "gui.world"
+    world.write_text(WALL_WORLD)
+    domain = domain_id()
+    env = dict(os.environ, DISPLAY=":987", XDG_RUNTIME_DIR=str(tmp_path))
+    env.pop("WAYLAND_DISPLAY", None)
+    node = Node(world, domain, ["--fast"], headless=False, env=env)
+    try:
+        peer = Peer(domain)
+        odom = peer.reader("odom", Odometry)
+        wait_for(odom)
+        publish_until(
+            peer.writer("cmd_vel", Twist),
+            Twist(linear=Vector3(x=0.2)),
+            odom,
+            lambda m: m.twist.twist.linear.x == pytest.approx(0.2),
+        )
+        assert "cannot open the world window" in node.text()
+        assert node.proc.poll() is None
+    finally:
+        node.stop()

@@ -14,7 +14,9 @@ every copy's steps (a vector step of 64 copies is 64 environment steps). Scaling
 run in subprocesses whose simulation pool has 1 thread and then one per core
 (`RAYON_NUM_THREADS`), for VectorStageEnv(64) and for the bare simulation (`step_worlds` of
 64 worlds, what the copies' steps cost without Python); the figure is the speed-up over the
-core count.
+core count. Wall-clock speed-ups mean little on a machine busy with other work, so the last
+line also bounds them from CPU time on one thread (Amdahl's law, counting all of a vector
+step beyond the bare steps as serial).
 
     target/python-venv/bin/python crates/python/bench/envs.py \
         --irsim-python /tmp/irsim/bin/python [--seconds 3]
@@ -69,16 +71,17 @@ obstacle:
 EPISODE = 500
 
 
-def rate(step, seconds):
-    """Calls of `step()` per second over about `seconds` (after a short warm-up)."""
+def rate(step, seconds, clock=time.perf_counter):
+    """Calls of `step()` per second of `clock` over about `seconds` of it (after a short
+    warm-up)."""
     for _ in range(20):
         step()
-    n, t0 = 0, time.perf_counter()
+    n, t0 = 0, clock()
     while True:
         for _ in range(50):
             step()
         n += 50
-        dt = time.perf_counter() - t0
+        dt = clock() - t0
         if dt >= seconds:
             return n / dt
 
@@ -100,7 +103,7 @@ def bench_single(world, seconds):
     return rate(step, seconds)
 
 
-def bench_vector(make, n, seconds):
+def bench_vector(make, n, seconds, clock=time.perf_counter):
     import numpy as np
 
     vec = make(n)
@@ -111,7 +114,7 @@ def bench_vector(make, n, seconds):
     def step():
         vec.step(rng.uniform(lo, hi))
 
-    r = rate(step, seconds) * n
+    r = rate(step, seconds, clock) * n
     vec.close()
     return r
 
@@ -142,19 +145,19 @@ def bench_irsim(seconds):
     return r
 
 
-def bench_threads(world, n, seconds):
+def bench_threads(world, n, seconds, clock=time.perf_counter):
     """VectorStageEnv(n) env steps/s and bare step_worlds world steps/s, on this process's
-    pool (its size set by RAYON_NUM_THREADS before the first step)."""
+    pool (its size set by RAYON_NUM_THREADS before the first step), per second of `clock`."""
     from playerstage import World, _native
     from playerstage.envs import VectorStageEnv
 
     env_rate = bench_vector(
-        lambda n: VectorStageEnv(n, world, "r0", max_episode_steps=EPISODE), n, seconds
+        lambda n: VectorStageEnv(n, world, "r0", max_episode_steps=EPISODE), n, seconds, clock
     )
     worlds = [World(world, seed)._w for seed in range(n)]
     for w in worlds:
         w.set_velocity("r0", 0.2, 0.0, 0.3)
-    sim_rate = rate(lambda: _native.step_worlds(worlds, 1), seconds) * n
+    sim_rate = rate(lambda: _native.step_worlds(worlds, 1), seconds, clock) * n
     return env_rate, sim_rate
 
 
@@ -172,6 +175,9 @@ def main():
         return
     if o.threads_worker:
         print(*bench_threads(o.threads_worker, 64, o.seconds))
+        if os.environ.get("RAYON_NUM_THREADS") == "1":
+            # CPU time on one thread: what a busy machine distorts least
+            print(*bench_threads(o.threads_worker, 64, o.seconds, time.process_time))
         return
 
     import gymnasium
@@ -207,7 +213,10 @@ def main():
             )
             if run.returncode != 0:
                 sys.exit(f"thread scaling run failed:\n{run.stderr}")
-            threads[t] = [float(x) for x in run.stdout.split()]
+            lines = run.stdout.strip().splitlines()
+            threads[t] = [float(x) for x in lines[0].split()]
+            if t == 1:
+                cpu = [float(x) for x in lines[1].split()]
     if o.irsim_python:
         run = subprocess.run(
             [o.irsim_python, __file__, "--irsim-worker", "--seconds", str(o.seconds)],
@@ -231,6 +240,17 @@ def main():
             f"  {what}: {one:,.0f} on 1 thread, {all_:,.0f} on {cores}: "
             f"{all_ / one:.2f}x ({100 * all_ / one / cores:.0f}% of linear)"
         )
+    # Amdahl from CPU time on one thread: the part of a vector step beyond the bare steps
+    # (Python, argument checks, readings, resets; an upper bound on what stays serial, since
+    # the readings are taken on the pool too) bounds the speed-up on `cores` cores
+    step_us, sim_us = 64e6 / cpu[0], 64e6 / cpu[1]
+    serial = max(step_us - sim_us, 0.0) / step_us
+    bound = 1 / (serial + (1 - serial) / cores)
+    print(
+        f"  one 64-copy vector step, 1 thread, CPU time: {step_us:,.0f} us, of which bare "
+        f"steps {sim_us:,.0f} us; the rest ({100 * serial:.0f}%) if serial bounds {cores} "
+        f"cores to {bound:.2f}x ({100 * bound / cores:.0f}% of linear)"
+    )
 
 
 if __name__ == "__main__":

@@ -25,8 +25,13 @@ class VectorStageEnv(VectorEnv):
     task (or ``task=None``) on ``Dict`` observations, that call
     (:func:`playerstage._native.step_observe`) also sets every copy's command and returns all
     the readings as a few arrays, from which the batched observation and the rewards are
-    computed as StageEnv computes them; other tasks and ``flatten=True`` run each copy's own
-    StageEnv code around :func:`playerstage._native.step_worlds`.
+    computed as StageEnv computes them (the goal's distance and relative position by the same
+    native code a lone StageEnv uses); other tasks and ``flatten=True`` run each copy's own
+    StageEnv code around :func:`playerstage._native.step_worlds`. Resets, explicit or
+    automatic, reload all the copies concerned side by side on the pool
+    (:func:`playerstage._native.load_worlds`) and take their first steps together.
+    ``gymnasium.make_vec("playerstage/Stage-v0", num_envs=N, ...)`` makes one (the registered
+    ``vector_entry_point``).
 
     **Spaces** — ``single_observation_space`` / ``single_action_space`` are the StageEnv's;
     ``observation_space`` / ``action_space`` are what :func:`gymnasium.vector.utils.batch_space`

@@ -114,7 +114,10 @@ fn a_killed_remote_is_reported_and_the_chain_recovers_when_it_restarts() {
         assert!(killed.elapsed() < PATIENCE, "requests were never refused");
         std::thread::sleep(Duration::from_millis(20));
     };
-    assert!(refused < Duration::from_secs(1), "NACK after {refused:?}");
+    assert!(
+        refused < Duration::from_millis(2500),
+        "NACK after {refused:?}"
+    );
     // The log names the remote device and where the cfg requires it.
     let log = local.wait_for_log("requests to it are refused", PATIENCE);
     let warning = log
@@ -128,7 +131,10 @@ fn a_killed_remote_is_reported_and_the_chain_recovers_when_it_restarts() {
             && warning.contains("local.cfg:1"),
         "{warning}"
     );
-    // Its data stops; the local ranger serves on, to this client and a new one.
+    // Its data stops; the local ranger serves on, to this client and a new one. (Data sent
+    // before the kill may still be on its way, or kept from the wait for the NACK: let it
+    // through first.)
+    ranger_rounds(&client, &ranger, 5);
     base.not_fresh();
     ranger_rounds(&client, &ranger, 25);
     assert!(!base.is_fresh(), "chained data while the remote is down");

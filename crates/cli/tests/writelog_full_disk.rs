@@ -140,7 +140,8 @@ fn writelog_on_a_full_disk_stops_with_one_clear_error_and_a_readable_log() {
     client.set_read_timeout(Some(Duration::from_secs(5)));
     let base = Position2dProxy::new(&client, 0).unwrap();
     let log = ClientProxy::subscribe(&client, InterfaceCode::LOG, 0).unwrap();
-    assert!(recording(&log), "recording from the start (autorecord)");
+    // (Recording starts with the server and the disk fills within a fraction of a second:
+    // whether it still records by now is a race, so only its state after the error is checked.)
     let path = file.display().to_string();
     let start = Instant::now();
     read_until(&client, "the write error in the server's log", || {

@@ -261,3 +261,22 @@ def test_paths_in_run_specs_are_absolute(tmp_path, monkeypatch):
     assert r.world_dir == str(tmp_path)
     assert list(r.python_path) == [str(tmp_path), str(tmp_path / "lib")]
     assert os.path.isabs(r.world_dir)
+
+
+def test_seed_placeholder_and_derived_text(tmp_path):
+    (tmp_path / "w.world.tmpl").write_text(
+        'define bot position ( size [0.4 0.4 0.4] )\nbot ( name "s{{seed}}" )\n{{more}}\n')
+    (tmp_path / "gen.py").write_text(
+        "def bots(params, seed):\n"
+        "    if params['n'] < 0:\n"
+        "        raise ValueError('n must be >= 0')\n"
+        "    return '\\n'.join(f'bot ( name \"b{i}\" pose [{i} 2 0 0] )' for i in range(params['n']))\n")
+    plan = Plan(world="w.world.tmpl", steps=1, seeds=[7], params={"n": [0, 2]},
+                derive={"more": "gen.py:bots"}, python_params=["n"], base_dir=str(tmp_path))
+    runs = plan.runs()
+    assert 'name "s7"' in runs[0].world_text and "b0" not in runs[0].world_text
+    assert 'bot ( name "b1" pose [1 2 0 0] )' in runs[1].world_text
+    plan.params = {"n": [1, -1]}
+    with pytest.raises(PlanError, match=r"plan: \[derive\] more: point \{n=-1\} seed 7: "
+                                        r"ValueError: n must be >= 0"):
+        plan.runs()

@@ -372,6 +372,8 @@ def test_a_run_that_kills_its_worker_is_recorded_and_the_others_run(tmp_path):
         def drive(world, t):
             if current_run().params["speed"] > 0.7 and current_run().seed == 1:
                 os._exit(3)  # the worker dies, as on a native crash
+            if current_run().params["speed"] < 0.7 and current_run().seed == 2:
+                raise SystemExit(4)  # a failed run, not a dead worker
     """))
     plan = Plan(world="arena.world.tmpl", steps=5, seeds=2, params={"range": 1.0,
                 "speed": [0.5, 1.0]}, controller="crash.py:drive", python_params=["speed"],
@@ -379,7 +381,9 @@ def test_a_run_that_kills_its_worker_is_recorded_and_the_others_run(tmp_path):
     specs = plan.runs()
     store = Store(str(tmp_path / "out"))
     counts = executors.local(specs, store, 2)
-    assert counts == {"done": 4, "failed": 1}
+    assert counts == {"done": 4, "failed": 2}
     bad = [s for s in specs if s.params["speed"] == 1.0 and s.seed == 1][0]
     assert "worker process died" in store.read(bad.run_id)["error"]
-    assert all(store.read(s.run_id)["error"] is None for s in specs if s is not bad)
+    exits = [s for s in specs if s.params["speed"] == 0.5 and s.seed == 2][0]
+    assert "SystemExit: 4" in store.read(exits.run_id)["error"]
+    assert all(store.read(s.run_id)["error"] is None for s in specs if s not in (bad, exits))

@@ -80,6 +80,9 @@ def local(specs: Sequence[RunSpec], store, jobs: Optional[int] = None, progress=
                     except cf.process.BrokenProcessPool:
                         todo.append(futures[fut])
                         continue
+                    except Exception as e:  # e.g. a result that could not be pickled back
+                        result = crashed_result(futures[fut], f"the run's result did not come "
+                                                f"back from its worker: {type(e).__name__}: {e}")
                     _finish(result, store, progress, counts)
             except BaseException:
                 _stop(pool)

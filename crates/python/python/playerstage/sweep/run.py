@@ -94,7 +94,7 @@ def execute(spec: RunSpec) -> Dict[str, Any]:
     try:
         with _running(spec):
             _simulate(spec, result, t0)
-    except Exception:
+    except (Exception, SystemExit):  # a callable's sys.exit() fails its run, not the worker
         result["error"] = traceback.format_exc()
     result["wall_time"] = time.perf_counter() - t0
     result["finished"] = _now()

@@ -55,7 +55,8 @@ def worlds():
 
 
 def header(interf, index, mtype, subtype, size, host=0, robot=0, ts=0.0, seq=0):
-    return struct.pack(">IIHHIIdII", host, robot, interf, index, mtype, subtype, ts, seq, size)
+    # XDR widens the 16-bit interface and index to 4 bytes: 40 bytes in all
+    return struct.pack(">IIIIIIdII", host, robot, interf, index, mtype, subtype, ts, seq, size)
 
 
 def wire():

@@ -24,6 +24,8 @@ whether every sweep's summary.csv is byte-identical.
 from __future__ import annotations
 
 import argparse
+import csv
+import io
 import json
 import os
 import shutil
@@ -94,6 +96,22 @@ def busy(out: str) -> float:
     return sum(r.get("wall_time") or 0.0 for r in Store(out).results())
 
 
+def report_differences(summaries: Dict[str, str]) -> None:
+    """Whether every sweep's summary.csv is the first one's; if not, which columns differ."""
+    (first, ref), *rest = summaries.items()
+    differ = [(name, text) for name, text in rest if text != ref]
+    print(f"summary.csv identical across all {len(summaries)} sweeps: {not differ}")
+    ref_rows = list(csv.reader(io.StringIO(ref)))
+    for name, text in differ:
+        rows = list(csv.reader(io.StringIO(text)))
+        if rows[0] != ref_rows[0]:
+            print(f"  {name}: other columns than {first}: {rows[0]} against {ref_rows[0]}")
+            continue
+        cols = sorted({rows[0][c] for a, b in zip(rows[1:], ref_rows[1:])
+                       for c in range(len(a)) if a[c] != b[c]})
+        print(f"  {name}: differs from {first} in columns {cols}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=60)
@@ -152,7 +170,7 @@ def main() -> int:
                 configs["ray, local Ray started for the sweep"] = ray_on(
                     [], None, "starting Ray", os.cpu_count() or 1)
             best: Dict[str, float] = {}
-            summaries = set()
+            summaries: Dict[str, str] = {}
             for round_ in range(args.repeat):
                 for k, (name, go) in enumerate(configs.items()):
                     out = os.path.join(tmp, f"out-{round_}-{k}")
@@ -163,7 +181,7 @@ def main() -> int:
                           f"inside execute() {used:.0f}% of {slots} slot(s) x wall; load "
                           f"average {os.getloadavg()[0]:.1f}", flush=True)
                     best[name] = min(best.get(name, wall), wall)
-                    summaries.add(Path(out, "summary.csv").read_bytes())
+                    summaries[f"{name} (round {round_ + 1})"] = Path(out, "summary.csv").read_text()
                     shutil.rmtree(out)
             if args.repeat > 1:
                 for name, wall in best.items():
@@ -171,7 +189,7 @@ def main() -> int:
         finally:
             cluster.close()
             shutil.rmtree(cluster_dir, ignore_errors=True)
-        print(f"summary.csv identical across all sweeps: {len(summaries) == 1}")
+        report_differences(summaries)
     return 0
 
 

@@ -68,8 +68,13 @@ def netns_usable() -> bool:
     made = subprocess.run(["ip", "netns", "add", name], capture_output=True)
     if made.returncode != 0:
         return False
-    subprocess.run(["ip", "netns", "del", name], capture_output=True)
-    return True
+    try:
+        # entering one needs more (a mount namespace of its own) than making one
+        entered = subprocess.run(["ip", "netns", "exec", name, "ip", "link", "set", "lo", "up"],
+                                 capture_output=True)
+        return entered.returncode == 0
+    finally:
+        subprocess.run(["ip", "netns", "del", name], capture_output=True)
 
 
 def _free_port() -> int:

@@ -13,8 +13,8 @@ install ir-sim`); this script runs its IR-SIM part there, in a subprocess. Vecto
 every copy's steps (a vector step of 64 copies is 64 environment steps). Scaling: 64 copies
 run in subprocesses whose simulation pool has 1 thread and then one per core
 (`RAYON_NUM_THREADS`), for VectorStageEnv(64) and for the bare simulation (`step_worlds` of
-64 worlds, what the copies' steps cost without Python); the figure is the speed-up over the
-core count. Wall-clock speed-ups mean little on a machine busy with other work, so the last
+the vector env's 64 worlds as it left them, what the copies' steps cost without Python); the
+figure is the speed-up over the core count. Wall-clock speed-ups mean little on a machine busy with other work, so the last
 line also bounds them from CPU time on one thread (Amdahl's law, counting all of a vector
 step beyond the bare steps as serial).
 
@@ -148,15 +148,19 @@ def bench_irsim(seconds):
 def bench_threads(world, n, seconds, clock=time.perf_counter):
     """VectorStageEnv(n) env steps/s and bare step_worlds world steps/s, on this process's
     pool (its size set by RAYON_NUM_THREADS before the first step), per second of `clock`."""
-    from playerstage import World, _native
+    from playerstage import _native
     from playerstage.envs import VectorStageEnv
 
-    env_rate = bench_vector(
-        lambda n: VectorStageEnv(n, world, "r0", max_episode_steps=EPISODE), n, seconds, clock
-    )
-    worlds = [World(world, seed)._w for seed in range(n)]
-    for w in worlds:
-        w.set_velocity("r0", 0.2, 0.0, 0.3)
+    made = []
+
+    def make(n):
+        made.append(VectorStageEnv(n, world, "r0", max_episode_steps=EPISODE))
+        return made[-1]
+
+    env_rate = bench_vector(make, n, seconds, clock)
+    # the same worlds as the vector env left them, stepped on with their last commands: the
+    # simulation's share of its steps (robots that hit walls cost more than free ones)
+    worlds = made[-1]._natives
     sim_rate = rate(lambda: _native.step_worlds(worlds, 1), seconds, clock) * n
     return env_rate, sim_rate
 

@@ -18,7 +18,8 @@
 //!
 //! Where we differ: Player loads the image when the first client subscribes and fails the
 //! subscription if it cannot; we load it when the server starts, so a missing or unreadable
-//! image (or a missing resolution) stops the server with an error naming the cfg block. A
+//! image (or a missing resolution) stops the server with an error naming the cfg block. An image
+//! over [`MAX_PIXELS`] is refused from its header (Player reads any size). A
 //! `resolution` of 0 is refused (Player accepts it and serves a map of scale 0). For images with
 //! an alpha channel, Player 3.0.2 counted one channel too many and so read pixels at the wrong
 //! stride, shearing the map and reading past the image's end (fixed upstream after 3.0.2, bug
@@ -42,6 +43,11 @@ pub const NAME: &str = "mapfile";
 const OCCUPIED_ABOVE: f64 = 0.95;
 /// Below this `occ` a cell is free.
 const FREE_BELOW: f64 = 0.1;
+
+/// Largest image read, in pixels: the worldfile loader's default bitmap bound. A map of this
+/// size is 100 MB of cells; without a bound a 389 KB PNG of 20000 x 20000 pixels (highly
+/// compressible) took `player --check` to 789 MB.
+pub const MAX_PIXELS: u64 = 100_000_000;
 
 /// The options of a `mapfile` block.
 #[derive(Clone, Debug, PartialEq)]
@@ -94,18 +100,27 @@ impl MapFileOptions {
         })
     }
 
-    /// Reads the image and makes the grid.
+    /// Reads the image and makes the grid. An image over [`MAX_PIXELS`] is refused from its
+    /// header, before anything is decoded.
     pub fn load(&self) -> Result<OccupancyGrid, Error> {
         let image_error = |source| Error::Image {
             path: self.filename.clone(),
             source,
         };
-        let image = image::ImageReader::open(&self.filename)
-            .map_err(|e| image_error(image::ImageError::IoError(e)))?
-            .with_guessed_format()
-            .map_err(|e| image_error(image::ImageError::IoError(e)))?
-            .decode()
-            .map_err(image_error)?;
+        let open = || {
+            image::ImageReader::open(&self.filename)
+                .map_err(|e| image_error(image::ImageError::IoError(e)))?
+                .with_guessed_format()
+                .map_err(|e| image_error(image::ImageError::IoError(e)))
+        };
+        let (width, height) = open()?.into_dimensions().map_err(image_error)?;
+        if u64::from(width) * u64::from(height) > MAX_PIXELS {
+            return Err(Error::Map(format!(
+                "image file {} is {width} x {height} pixels, more than the limit of {MAX_PIXELS}",
+                self.filename.display()
+            )));
+        }
+        let image = open()?.decode().map_err(image_error)?;
         self.grid(&image)
     }
 
@@ -274,6 +289,44 @@ mod tests {
             negate,
             origin,
         }
+    }
+
+    /// A PNG that announces `width` x `height` grey pixels and holds no image data (an empty
+    /// IDAT chunk).
+    fn png_header_only(width: u32, height: u32) -> Vec<u8> {
+        fn chunk(png: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+            png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+            let mut crc = flate2::Crc::new();
+            crc.update(kind);
+            crc.update(data);
+            png.extend_from_slice(kind);
+            png.extend_from_slice(data);
+            png.extend_from_slice(&crc.sum().to_be_bytes());
+        }
+        let mut ihdr = width.to_be_bytes().to_vec();
+        ihdr.extend_from_slice(&height.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 0, 0, 0, 0]);
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        chunk(&mut png, b"IHDR", &ihdr);
+        chunk(&mut png, b"IDAT", &[]);
+        chunk(&mut png, b"IEND", &[]);
+        png
+    }
+
+    #[test]
+    fn an_image_over_the_pixel_bound_is_refused_from_its_header() {
+        let path = std::env::temp_dir().join(format!("mapfile-huge-{}.png", std::process::id()));
+        std::fs::write(&path, png_header_only(20_000, 20_000)).unwrap();
+        let opts = MapFileOptions {
+            filename: path.clone(),
+            ..opts(0.05, false, None)
+        };
+        let err = opts.load().unwrap_err().to_string();
+        std::fs::remove_file(&path).unwrap();
+        assert!(
+            err.contains("20000 x 20000 pixels, more than the limit of 100000000"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -142,7 +142,12 @@ def main() -> int:
               f"load average {os.getloadavg()[0]:.1f}", flush=True)
         cluster_dir = tempfile.mkdtemp(prefix="psray")
         t0 = time.perf_counter()
-        cluster = ray_cluster.start_cluster(Path(cluster_dir), args.node_cpus, args.node_cpus)
+        try:
+            # (start_cluster cleans up its own processes when it fails; the dir is ours)
+            cluster = ray_cluster.start_cluster(Path(cluster_dir), args.node_cpus, args.node_cpus)
+        except BaseException:
+            shutil.rmtree(cluster_dir, ignore_errors=True)
+            raise
         try:
             where = f"namespace {cluster.namespace}" if cluster.namespace else "loopback"
             print(f"two-node Ray cluster ({args.node_cpus} CPU(s) each, {where}) started in "

@@ -14,6 +14,7 @@ import collections
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -244,6 +245,24 @@ def test_ray_without_address_starts_and_stops_its_own_ray(local_summary, tmp_pat
             except ProcessLookupError:
                 pass
         shutil.rmtree(ray_tmp, ignore_errors=True)
+
+
+def test_unreachable_cluster_is_refused_before_any_run(tmp_path):
+    """An --address where no Ray head answers: exit 2 and one line naming the address, within
+    seconds (Ray alone retries for minutes), and no run executed."""
+    plan, marks = make_plan(tmp_path, delay=0.0)
+    with socket.socket() as s:  # a port nothing listens on (bound, never listening)
+        s.bind(("127.0.0.1", 0))
+        address = f"127.0.0.1:{s.getsockname()[1]}"
+        started = time.monotonic()
+        done = subprocess.run(
+            sweep_argv(plan, tmp_path / "out", "-q", "--executor", "ray", "--address", address),
+            capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr[-4000:]
+    assert f"cannot reach the Ray cluster at {address}" in done.stderr
+    assert "Traceback" not in done.stderr
+    assert time.monotonic() - started < 60
+    assert read_marks(marks) == []
 
 
 # Last in the module: it leaves the cluster with its head alone.

@@ -99,7 +99,12 @@ def main(argv: Optional[List[str]] = None, prog: str = "playerstage sweep") -> i
                     print(f"{prog}: error: the ray executor is not installed", file=sys.stderr)
                     return 2
                 raise
-            ray_executor.run(todo, store, args.address, args.jobs, progress)
+            try:
+                ray_executor.run(todo, store, args.address, args.jobs, progress)
+            except ray_executor.RayUnavailable as e:
+                progress.close()
+                print(f"{prog}: error: {e}", file=sys.stderr)
+                return 2
         else:
             local(todo, store, args.jobs, progress)
     except KeyboardInterrupt:

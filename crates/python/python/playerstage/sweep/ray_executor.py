@@ -28,6 +28,7 @@ directory on a shared filesystem (or at the same path on every node).
 from __future__ import annotations
 
 import logging
+import socket
 from typing import Any, Dict, List, Optional, Sequence, Set
 
 from .executors import _finish, crashed_result
@@ -50,11 +51,35 @@ def _execute_on_worker(spec: RunSpec) -> Dict[str, Any]:
     return execute(spec)
 
 
+# How long the driver tries to reach a cluster's head before refusing the sweep.
+_CONNECT_SECONDS = 10.0
+
+
+class RayUnavailable(RuntimeError):
+    """The sweep cannot start on Ray: Ray is not installed, or the cluster's head does not answer
+    at the given address. The CLI reports it in one line and exits 2, before any run starts (Ray
+    itself would retry an unreachable head for minutes)."""
+
+
+def _check_reachable(address: str) -> None:
+    """Refuses an address whose head does not accept a TCP connection within a few seconds.
+    Only plain ``HOST:PORT`` is checked; ``auto`` and ``ray://`` addresses go to Ray as given."""
+    if address == "auto" or "://" in address:
+        return
+    host, sep, port = address.rpartition(":")
+    if not sep or not host or not port.isdigit():
+        raise RayUnavailable(f"--address {address!r} is not HOST:PORT (the head's GCS port)")
+    try:
+        socket.create_connection((host, int(port)), timeout=_CONNECT_SECONDS).close()
+    except OSError as e:
+        raise RayUnavailable(f"cannot reach the Ray cluster at {address}: {e}") from e
+
+
 def _import_ray() -> Any:
     try:
         import ray
     except ImportError as e:
-        raise RuntimeError(
+        raise RayUnavailable(
             "the ray executor needs Ray: pip install 'ray>=2' (and the same on every node)"
         ) from e
     return ray
@@ -108,6 +133,7 @@ def run(
             ray.init(address="local", num_cpus=jobs, include_dashboard=False, **options)
             log.info("started a local Ray for the sweep (%s CPUs)", jobs or "all")
         else:
+            _check_reachable(address)
             ray.init(address=address, **options)
             log.info("connected to the Ray cluster at %s", address)
         started_here = True

@@ -459,6 +459,7 @@ def test_enable_gui_without_a_usable_display_goes_on_headless(ros, tmp_path):
 
 def test_a_world_without_vehicles_says_so_and_serves_the_clock(ros):
     node, peer = ros('model ( name "wall" pose [2 0 0 0] size [0.1 4 0.5] )\n', "--fast")
-    assert wait_for(peer.reader("clock", Clock)).clock.nanosec > 0
+    c = wait_for(peer.reader("clock", Clock)).clock
+    assert c.sec > 0 or c.nanosec > 0
     assert "no position model" in node.text()
     assert "vehicles []" in node.text()

@@ -463,3 +463,13 @@ def test_a_world_without_vehicles_says_so_and_serves_the_clock(ros):
     assert c.sec > 0 or c.nanosec > 0
     assert "no position model" in node.text()
     assert "vehicles []" in node.text()
+
+
+def test_a_launch_files_parameter_file(ros, tmp_path):
+    """What `ros2 launch` passes for Node(parameters=[{...}]): a YAML file under /**."""
+    params = tmp_path / "params.yaml"
+    params.write_text(
+        "/**:\n  ros__parameters:\n    enforce_prefixes: true\n    frame_id_odom: map_odom\n"
+    )
+    node, peer = ros(WALL_WORLD, "--fast", "--ros-args", "--params-file", str(params))
+    assert wait_for(peer.reader("r0/odom", Odometry)).header.frame_id == "map_odom"

@@ -78,6 +78,22 @@ pub type SharedWorld = Arc<RwLock<World>>;
 /// The name the driver is registered under, as in cfg files.
 pub const STAGE_DRIVER_NAME: &str = "stage";
 
+/// Something the host program runs in lock-step with the world, beside the Player clients
+/// (e.g. the ROS 2 bridge of `player --ros2`): the driver that steps the world calls
+/// [`StepHook::before_step`] right before each step and [`StepHook::after_step`] right after
+/// a step that happened, both under the world's write lock, on the server's schedule. The
+/// server knows nothing else of it: what it commands reaches the world as a client's command
+/// would, and Player clients see the result in the same step's data.
+pub trait StepHook {
+    /// Applies what the hook has for the world (commands, teleports) before a step.
+    fn before_step(&mut self, world: &mut World);
+    /// Reads the world right after a step (publishing its state elsewhere).
+    fn after_step(&mut self, world: &World);
+}
+
+/// The hook slot the [`StageHandle`] and the world-stepping driver share.
+type HookSlot = Arc<Mutex<Option<Box<dyn StepHook + Send>>>>;
+
 /// How the `stage` driver builds its world.
 #[derive(Clone, Debug, Default)]
 pub struct StageOptions {
@@ -94,6 +110,7 @@ pub struct StageOptions {
 pub struct StageHandle {
     inner: Arc<Mutex<HandleState>>,
     paused: Arc<AtomicBool>,
+    hook: HookSlot,
 }
 
 #[derive(Default)]
@@ -163,6 +180,20 @@ impl StageHandle {
 
     fn record(&self, record: DeviceRecord) {
         self.state().devices.push(record);
+    }
+
+    /// Runs `hook` around every step of the world from the next step on (replacing any hook
+    /// set before). A host builds it on [`StageHandle::world`] once the cfg is built, so that
+    /// a hook that cannot be made is a start-up error rather than a failure mid-run. Paused
+    /// (see [`StageHandle::paused`]), the world does not step and the hook is not called.
+    pub fn set_step_hook(&self, hook: Box<dyn StepHook + Send>) {
+        *self.hook.lock().unwrap_or_else(|p| p.into_inner()) = Some(hook);
+    }
+}
+
+impl std::fmt::Debug for dyn StepHook + Send {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("StepHook")
     }
 }
 
@@ -317,6 +348,8 @@ pub struct StageDriver {
     steps_world: bool,
     /// Set by a world window: the world does not step.
     paused: Arc<AtomicBool>,
+    /// The host's [`StepHook`], called around each step (by the block that steps the world).
+    hook: HookSlot,
     interval: Duration,
     sim_time_us: u64,
     quit_reported: bool,
@@ -388,6 +421,7 @@ impl StageDriver {
             drawings: handle.drawings(),
             steps_world,
             paused: handle.paused(),
+            hook: handle.hook.clone(),
             interval: Duration::from_micros(interval_us.max(1)),
             sim_time_us,
             quit_reported: false,
@@ -713,8 +747,16 @@ impl Driver for StageDriver {
 
     fn update(&mut self, ctx: &mut Context<'_>) {
         if self.steps_world && !self.paused.load(Ordering::Relaxed) {
+            let mut hook = self.hook.lock().unwrap_or_else(|e| e.into_inner());
             let mut w = self.world.write().unwrap_or_else(|e| e.into_inner());
-            if !w.step() && !self.quit_reported {
+            if let Some(h) = hook.as_mut() {
+                h.before_step(&mut w);
+            }
+            let stepped = w.step();
+            if let (true, Some(h)) = (stepped, hook.as_mut()) {
+                h.after_step(&w);
+            }
+            if !stepped && !self.quit_reported {
                 self.quit_reported = true;
                 tracing::info!(
                     "stage: quit_time reached at {:.3} s: simulated time stops",

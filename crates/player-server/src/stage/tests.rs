@@ -384,6 +384,74 @@ fn the_pause_flag_stops_simulated_time() {
     assert!((s.sim.clock().unwrap() - t - 0.1).abs() < 1e-9);
 }
 
+/// A step hook that drives the robot forward before each step and records the sim time and
+/// the robot's x after it.
+struct Recorder {
+    robot: ModelId,
+    before: usize,
+    after: Arc<Mutex<Vec<(u64, f64)>>>,
+}
+
+impl StepHook for Recorder {
+    fn before_step(&mut self, world: &mut World) {
+        self.before += 1;
+        world.position_cmd_vel(self.robot, 1.0, 0.0, 0.0).unwrap();
+    }
+
+    fn after_step(&mut self, world: &World) {
+        let x = world.pose(self.robot).unwrap().x;
+        self.after.lock().unwrap().push((world.sim_time(), x));
+        assert!(self.before > 0, "after_step before any before_step");
+    }
+}
+
+#[test]
+fn a_step_hook_runs_around_every_step_and_not_while_paused() {
+    let a = addr(InterfaceCode::POSITION2D, 0);
+    let mut s = setup("hook", &[(InterfaceCode::POSITION2D, 0)]);
+    // a client keeps the robot subscribed, so the hook's command lasts
+    s.robot.subscribe(a).unwrap();
+    step(&mut s);
+    let world = s.handle.world().unwrap();
+    let robot = {
+        let w = world.read().unwrap();
+        w.models().find(|m| w.name(*m).unwrap() == "robot").unwrap()
+    };
+    let after = Arc::new(Mutex::new(Vec::new()));
+    s.handle.set_step_hook(Box::new(Recorder {
+        robot,
+        before: 0,
+        after: after.clone(),
+    }));
+    for _ in 0..3 {
+        step(&mut s);
+    }
+    s.handle.paused().store(true, Ordering::Relaxed);
+    step(&mut s);
+    s.handle.paused().store(false, Ordering::Relaxed);
+    let seen = after.lock().unwrap().clone();
+    assert_eq!(
+        seen.iter().map(|(t, _)| *t).collect::<Vec<_>>(),
+        [200_000, 300_000, 400_000]
+    );
+    // the hook's command moved the robot: 1 m/s for 0.1 s per step
+    assert!(
+        seen[0].1 > 0.05 && seen[2].1 > seen[1].1 && seen[1].1 > seen[0].1,
+        "{seen:?}"
+    );
+    // a Player client sees the move the hook commanded
+    let data = step(&mut s)
+        .into_iter()
+        .find_map(|p| match p.body {
+            Body::Position2d(Position2dMsg::Data(player_proto::Position2dData::State(st))) => {
+                Some(st.pos)
+            }
+            _ => None,
+        })
+        .expect("position2d data");
+    assert!(data.px >= seen[2].1 - 1e-9, "{data:?} after {seen:?}");
+}
+
 fn command(d: &mut Box<dyn Driver>, a: DeviceAddr, body: impl Into<Body>) {
     let mut out = Vec::new();
     let m = Message::new(a, 0.0, body);

@@ -3,7 +3,9 @@
 //! listens on every port a device names and serves until SIGINT/SIGTERM. Without a cfg it
 //! serves the built-in Bigbob world (`worlds/bigbob.cfg`, embedded). `player --check FILE.cfg`
 //! builds the server the same way, with the same drivers, but binds no port and runs nothing:
-//! it reports what the configuration creates and every problem in it.
+//! it reports what the configuration creates and every problem in it. `player FILE.cfg --ros2`
+//! also serves the stage world as the `stage_ros2` node does (`ros2-bridge`), so Player clients
+//! and ROS 2 nodes drive one simulation.
 
 use std::fs::OpenOptions;
 use std::io::IsTerminal;
@@ -13,9 +15,12 @@ use std::sync::Mutex;
 use anyhow::{Context, bail};
 use clap::Parser;
 use player_proto::constants::PLAYERTCP_DEFAULT_PORT;
-use player_server::stage::{self, StageHandle, StageOptions};
+use player_server::stage::{self, StageHandle, StageOptions, StepHook};
 use player_server::test_driver::{TEST_DRIVER_NAME, TestDriver};
 use player_server::{DriverRegistry, Pace, Server, ServerConfig, ServerError};
+use ros2_bridge::params::split_ros_args;
+use ros2_bridge::{Bridge, Discovery, Params, RosArgs};
+use stage_sim::World;
 use tracing_subscriber::EnvFilter;
 use viewer::handle::WorldHandle;
 use viewer::world_window::{self, WindowOptions};
@@ -72,6 +77,12 @@ struct Args {
     /// exists (an addition to Player's flags, like Stage's `-g`).
     #[arg(short = 'g', long = "no-gui")]
     no_gui: bool,
+    /// Also serve the stage world to ROS 2 as the `stage_ros2` node does (its topics, frames,
+    /// services and parameters, given after `--ros-args`; ROS_DOMAIN_ID and
+    /// ROS_LOCALHOST_ONLY as there), stepped with the server: Player clients and ROS 2 nodes
+    /// drive one simulation (an addition to Player's flags).
+    #[arg(long)]
+    ros2: bool,
     /// The configuration file; without one, the built-in Bigbob world (`worlds/bigbob.cfg`).
     cfgfile: Option<PathBuf>,
 }
@@ -128,7 +139,10 @@ fn init_logging(args: &Args) -> anyhow::Result<()> {
         2 => "debug",
         _ => "trace",
     };
-    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(level));
+    // RustDDS and ros2-client (`--ros2`) narrate discovery at info and warn: only their errors,
+    // unless RUST_LOG asks for more
+    let filter = EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| EnvFilter::new(format!("{level},rustdds=error,ros2_client=error")));
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_target(false);
@@ -192,7 +206,71 @@ fn registry(args: &Args) -> (DriverRegistry, StageHandle) {
     (registry, stage)
 }
 
-fn serve(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
+/// The ROS 2 node of `--ros2`, stepped by the stage driver: inbound messages before each step,
+/// publications after it. The DDS context outlives the node built on it.
+struct Ros2Hook<C> {
+    bridge: Bridge,
+    _context: C,
+}
+
+impl<C> StepHook for Ros2Hook<C> {
+    fn before_step(&mut self, world: &mut World) {
+        self.bridge.inbound(world);
+    }
+
+    fn after_step(&mut self, world: &World) {
+        self.bridge.publish(world);
+    }
+}
+
+/// Builds the `stage_ros2` node on the stage world of this server (parameters from
+/// `--ros-args`; `world_file` and `enable_gui` have no say: the cfg names the world) and hooks
+/// it to the world's steps. Any failure is a start-up error.
+fn attach_ros2(stage: &StageHandle, ros: &RosArgs) -> anyhow::Result<()> {
+    let world = stage.world().ok_or_else(|| {
+        anyhow::anyhow!(
+            "--ros2: the cfg runs no Stage world (a `stage` driver block providing `simulation`)"
+        )
+    })?;
+    let mut params = Params::default();
+    for (name, value) in &ros.parameters {
+        match name.as_str() {
+            "world_file" | "enable_gui" => {
+                tracing::warn!("--ros2: parameter `{name}` ignored: the cfg sets up the world")
+            }
+            _ => match params.set(name, value) {
+                Err(ros2_bridge::Error::UnknownParameter(n)) => {
+                    tracing::warn!("--ros2: unknown parameter `{n}` ignored")
+                }
+                r => r.context("--ros2")?,
+            },
+        }
+    }
+    let discovery = Discovery::from_env().context("--ros2")?;
+    let context = discovery.context().context("--ros2")?;
+    let bridge = {
+        let mut w = world.write().unwrap_or_else(|e| e.into_inner());
+        Bridge::new(&context, &mut w, params, ros).context("--ros2")?
+    };
+    println!(
+        "ROS 2: node {} on domain {}{}: vehicles [{}]",
+        bridge.node_name(),
+        discovery.domain_id,
+        if discovery.localhost_only {
+            " (localhost only)"
+        } else {
+            ""
+        },
+        bridge.vehicle_names().join(", ")
+    );
+    stage.set_step_hook(Box::new(Ros2Hook {
+        bridge,
+        _context: context,
+    }));
+    Ok(())
+}
+
+fn serve(args: &Args, ros: &RosArgs, cfgfile: &Path) -> anyhow::Result<()> {
     init_logging(args)?;
     eprintln!(
         "Player v.3.0.2 (playerstage-rs {})",
@@ -248,6 +326,9 @@ fn serve(args: &Args, cfgfile: &Path) -> anyhow::Result<()> {
     }
     if server.table().is_empty() {
         bail!("No devices read in configuration file {cfgname}. Is it correct?");
+    }
+    if args.ros2 {
+        attach_ros2(&stage_handle, ros)?;
     }
     let handle = server
         .start()
@@ -367,7 +448,12 @@ fn main() -> std::process::ExitCode {
 }
 
 fn run() -> anyhow::Result<()> {
-    let args = Args::parse();
+    // `--ros-args ... [--]` sections are the ROS 2 node's (as a launch file passes them)
+    let (ours, ros) = split_ros_args(std::env::args())?;
+    let args = Args::parse_from(ours);
+    if ros != RosArgs::default() && !args.ros2 {
+        bail!("--ros-args configures the ROS 2 node: give --ros2 too");
+    }
     let (cfgfile, _unpacked) = match &args.cfgfile {
         Some(path) => (path.clone(), None),
         None => {
@@ -383,6 +469,6 @@ fn run() -> anyhow::Result<()> {
     if args.check {
         run_check(&args, &cfgfile)
     } else {
-        serve(&args, &cfgfile)
+        serve(&args, &ros, &cfgfile)
     }
 }

@@ -473,3 +473,116 @@ def test_a_launch_files_parameter_file(ros, tmp_path):
     )
     node, peer = ros(WALL_WORLD, "--fast", "--ros-args", "--params-file", str(params))
     assert wait_for(peer.reader("r0/odom", Odometry)).header.frame_id == "map_odom"
+
+
+# `player FILE.cfg --ros2`: the Player server's stage world, also served to ROS 2.
+ROS2_CFG = """
+driver( name "stage" provides ["simulation:0"] worldfile "test.world" )
+driver( name "stage" model "r0" provides ["position2d:0"] )
+"""
+
+
+def test_player_ros2_one_world_two_doors(tmp_path, monkeypatch, player_bin):
+    """A Player client and a ROS 2 peer on one simulation: each sees what the other commands,
+    and /clock is the server's sim time."""
+    import playerc
+    from conftest import PlayerServer, wait_until
+
+    (tmp_path / "test.world").write_text(WALL_WORLD)
+    cfg = tmp_path / "two_doors.cfg"
+    cfg.write_text(ROS2_CFG)
+    domain = domain_id()
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
+    monkeypatch.setenv("ROS_LOCALHOST_ONLY", "1")
+    server = PlayerServer(
+        player_bin,
+        cfg,
+        # `--` ends the ROS arguments: the cfg comes after them
+        ["-g", "--speedup", "2", "--ros2", "--ros-args", "-p", "base_watchdog_timeout:=0.3", "--"],
+    )
+    try:
+        out = "".join(server.output)
+        assert f"ROS 2: node /stage_ros2 on domain {domain} (localhost only): vehicles [r0]" in out
+        peer = Peer(domain)
+        odom = peer.reader("odom", Odometry)
+        gt = peer.reader("ground_truth", Odometry)
+        clock = peer.reader("clock", Clock)
+        cmd = peer.writer("cmd_vel", Twist)
+
+        c = playerc.playerc_client(None, "localhost", server.port)
+        assert c.connect() == 0, playerc.playerc_error_str()
+        p = playerc.playerc_position2d(c, 0)
+        assert p.subscribe(playerc.PLAYERC_OPEN_MODE) == 0, playerc.playerc_error_str()
+        c.read()
+        assert (p.px, p.py) == (0.0, 0.0)
+
+        # ROS 2 door -> Player door: cmd_vel moves the robot the Player client reads
+        wait_for(odom)
+        publish_until(
+            cmd,
+            Twist(linear=Vector3(x=0.3)),
+            odom,
+            lambda m: m.pose.pose.position.x > 0.05,
+        )
+        wait_until(lambda: p.px > 0.05 and p.vx == pytest.approx(0.3), 10, step=c.read)
+        # the watchdog (0.3 s, a --ros-args parameter) stops it, as the Player client sees
+        wait_until(lambda: p.vx == 0.0, 10, step=c.read)
+        x = p.px
+        assert 0.05 < x < 1.5
+
+        # Player door -> ROS 2 door: a position2d command turns the robot ROS 2 watches
+        assert p.set_cmd_vel(0.0, 0.0, 0.5, 1) == 0
+        g = wait_for(
+            gt,
+            lambda m: m.twist.twist.angular.z == pytest.approx(0.5)
+            and yaw(m.pose.pose.orientation) > 0.2,
+        )
+        assert g.pose.pose.position.x == pytest.approx(x, abs=1e-6)
+        wait_for(odom, lambda m: yaw(m.pose.pose.orientation) > 0.2)
+        assert p.set_cmd_vel(0.0, 0.0, 0.0, 1) == 0
+
+        # /clock is the server's simulated time: it advances, close to the Player data's time
+        c.read()
+        stamps = [m.clock.sec + m.clock.nanosec * 1e-9 for m in clock.take(N=100)]
+        deadline = time.monotonic() + 3
+        while len(stamps) < 5 and time.monotonic() < deadline:
+            time.sleep(0.05)
+            stamps += [m.clock.sec + m.clock.nanosec * 1e-9 for m in clock.take(N=100)]
+        assert len(stamps) >= 5 and stamps == sorted(stamps) and stamps[-1] > stamps[0]
+        c.read()
+        assert abs(p.info.datatime - stamps[-1]) < 1.0, (p.info.datatime, stamps[-1])
+        c.disconnect()
+        assert server.proc.poll() is None
+    finally:
+        server.stop()
+
+
+def test_player_ros2_refuses_a_bad_domain_and_stray_ros_args(tmp_path, monkeypatch, player_bin):
+    """A bridge that cannot be built is a start-up error (exit 1, one line), never a panic."""
+    (tmp_path / "test.world").write_text(WALL_WORLD)
+    cfg = tmp_path / "two_doors.cfg"
+    cfg.write_text(ROS2_CFG)
+    monkeypatch.setenv("ROS_DOMAIN_ID", "999")
+    run = subprocess.run(
+        [str(player_bin), "-g", "--ros2", str(cfg)], capture_output=True, text=True, timeout=30
+    )
+    assert run.returncode == 1
+    assert "error: --ros2: ROS_DOMAIN_ID: `999` is not a domain id" in run.stderr
+    assert "panicked" not in run.stderr
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain_id()))
+    run = subprocess.run(
+        [str(player_bin), "-g", str(cfg), "--ros-args", "-p", "enforce_prefixes:=true"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert run.returncode == 1
+    assert "--ros-args configures the ROS 2 node: give --ros2 too" in run.stderr
+    run = subprocess.run(
+        [str(player_bin), "-g", "--ros2", str(cfg), "--ros-args", "-p", "one_tf_tree:=maybe"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert run.returncode == 1
+    assert "parameter `one_tf_tree`" in run.stderr and "panicked" not in run.stderr

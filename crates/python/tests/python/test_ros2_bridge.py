@@ -557,6 +557,82 @@ def test_player_ros2_one_world_two_doors(tmp_path, monkeypatch, player_bin):
         server.stop()
 
 
+# A robot turned 30 degrees, off the origin, among a wall and a box: its 181 rays see
+# different distances (and some see nothing), so equal scans mean equal rays, not equal defaults.
+SCAN_WORLD = """
+resolution 0.02
+interval_sim 100
+position
+(
+  name "r0"
+  pose [0.3 -0.4 0 30]
+  size [0.4 0.4 0.3]
+  drive "diff"
+  ranger ( sensor ( range [0.05 4] fov 180 samples 181 ) size [0.1 0.1 0.1] pose [0.1 0 0 0] )
+)
+model ( name "wall" pose [2 0 0 0] size [0.1 4 0.5] )
+model ( name "box" pose [0.2 1.2 0 15] size [0.6 0.3 0.5] )
+"""
+
+SCAN_CFG = """
+driver( name "stage" provides ["simulation:0"] worldfile "test.world" )
+driver( name "stage" model "r0" provides ["position2d:0" "ranger:0"] )
+"""
+
+
+def test_player_ros2_scans_equal_the_player_rangers(tmp_path, monkeypatch, player_bin):
+    """The robot's laser read through both doors of one simulation, standing still (so every
+    step's scan is the same): base_scan's ranges are the Player ranger's, each as the bridge
+    converts it (double -> float32), and its angles are the ranger's configured fan."""
+    import struct
+
+    import playerc
+    from conftest import PlayerServer, wait_until
+
+    (tmp_path / "test.world").write_text(SCAN_WORLD)
+    cfg = tmp_path / "scan.cfg"
+    cfg.write_text(SCAN_CFG)
+    domain = domain_id()
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
+    monkeypatch.setenv("ROS_LOCALHOST_ONLY", "1")
+    server = PlayerServer(player_bin, cfg, ["-g", "--speedup", "2", "--ros2"])
+    try:
+        peer = Peer(domain)
+        scan = peer.reader("base_scan", LaserScan)
+
+        c = playerc.playerc_client(None, "localhost", server.port)
+        assert c.connect() == 0, playerc.playerc_error_str()
+        r = playerc.playerc_ranger(c, 0)
+        assert r.subscribe(playerc.PLAYERC_OPEN_MODE) == 0, playerc.playerc_error_str()
+        wait_until(lambda: r.ranges_count == 181, 10, step=c.read)
+        player_ranges = list(r.ranges)
+        s = wait_for(scan)
+        # two more scans from later steps on both sides: the robot stands still, nothing moves
+        c.read()
+        assert list(r.ranges) == player_ranges
+        assert wait_for(scan).ranges == s.ranges
+
+        # double -> float32, as the bridge converts; the scene gives varied ranges and misses
+        as_f32 = [struct.unpack("f", struct.pack("f", x))[0] for x in player_ranges]
+        assert list(s.ranges) == as_f32
+        assert len(set(as_f32)) > 50 and 4.0 in as_f32 and min(as_f32) < 1.5
+
+        # the fan: Player's min/max angle are base_scan's; Stage's angular_res is fov/samples
+        # where stage_ros2 spreads the samples over fov in samples-1 steps
+        cfg_answer = r.get_config()
+        assert cfg_answer[0] == 0, playerc.playerc_error_str()
+        f32 = lambda x: struct.unpack("f", struct.pack("f", x))[0]  # noqa: E731
+        assert s.angle_min == f32(r.min_angle) and s.angle_max == f32(r.max_angle)
+        fov = r.max_angle - r.min_angle
+        assert r.angular_res == pytest.approx(fov / 181)
+        assert s.angle_increment == pytest.approx(r.angular_res * 181 / 180, rel=1e-6)
+        assert (s.range_min, s.range_max) == (f32(r.min_range), f32(r.max_range))
+        c.disconnect()
+        assert server.proc.poll() is None
+    finally:
+        server.stop()
+
+
 def test_player_ros2_refuses_a_bad_domain_and_stray_ros_args(tmp_path, monkeypatch, player_bin):
     """A bridge that cannot be built is a start-up error (exit 1, one line), never a panic."""
     (tmp_path / "test.world").write_text(WALL_WORLD)

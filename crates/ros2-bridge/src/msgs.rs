@@ -294,6 +294,84 @@ pub struct Range {
 }
 ros_type!(Range, "sensor_msgs", "Range");
 
+/// A `uint8[]` as CDR's sequence of octets, written in one piece (serde's default for a
+/// `Vec<u8>` goes byte by byte: slow for camera images).
+mod octets {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[u8], s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_bytes(v)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<u8>, D::Error> {
+        Vec::<u8>::deserialize(d)
+    }
+}
+
+/// sensor_msgs/Image (a camera's `image` and `depth`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Image {
+    /// Stamp and the camera's frame.
+    pub header: Header,
+    /// Rows.
+    pub height: u32,
+    /// Columns.
+    pub width: u32,
+    /// Pixel encoding (`rgba8`, `32FC1`, `16UC1`).
+    pub encoding: String,
+    /// 1 when multi-byte pixels are big-endian (ours are little-endian: 0).
+    pub is_bigendian: u8,
+    /// Bytes per row.
+    pub step: u32,
+    /// The pixels, row-major from the top-left.
+    #[serde(with = "octets")]
+    pub data: Vec<u8>,
+}
+ros_type!(Image, "sensor_msgs", "Image");
+
+/// sensor_msgs/RegionOfInterest (CameraInfo's `roi`; all zero: the full image).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RegionOfInterest {
+    /// Left edge (pixels).
+    pub x_offset: u32,
+    /// Top edge (pixels).
+    pub y_offset: u32,
+    /// Rows (0: the full image).
+    pub height: u32,
+    /// Columns (0: the full image).
+    pub width: u32,
+    /// Whether the region is to be rectified.
+    pub do_rectify: bool,
+}
+
+/// sensor_msgs/CameraInfo: a camera's pinhole model (`camera_info`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CameraInfo {
+    /// Stamp and the camera's frame.
+    pub header: Header,
+    /// Rows.
+    pub height: u32,
+    /// Columns.
+    pub width: u32,
+    /// The distortion model's name (stage_ros2 leaves it empty).
+    pub distortion_model: String,
+    /// Distortion parameters.
+    pub d: Vec<f64>,
+    /// Intrinsic matrix, row-major.
+    pub k: [f64; 9],
+    /// Rectification matrix, row-major.
+    pub r: [f64; 9],
+    /// Projection matrix (3x4), row-major.
+    pub p: [f64; 12],
+    /// Horizontal binning (0: none).
+    pub binning_x: u32,
+    /// Vertical binning (0: none).
+    pub binning_y: u32,
+    /// Region of interest (zero: the full image).
+    pub roi: RegionOfInterest,
+}
+ros_type!(CameraInfo, "sensor_msgs", "CameraInfo");
+
 /// rosgraph_msgs/Clock.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Clock {

@@ -133,6 +133,24 @@ impl VehicleNames {
         )
     }
 
+    /// A camera's topics and frame (`camera.cpp`): `image`, `depth`, `camera_info` and
+    /// `camera`, numbered from 1 (`image1`, ..., `camera1`) when the vehicle has several cameras
+    /// (stage_ros2 numbers them when it has several rangers, a slip).
+    pub fn camera(&self, id: usize, several: bool) -> CameraNames {
+        let n = if several {
+            id.to_string()
+        } else {
+            String::new()
+        };
+        let t = &self.topic_prefix;
+        CameraNames {
+            image: format!("{t}image{n}"),
+            depth: format!("{t}depth{n}"),
+            camera_info: format!("{t}camera_info{n}"),
+            frame: format!("{}camera{n}", self.frame_prefix),
+        }
+    }
+
     /// A sonar ring transducer's topic and frame (ours; stage_ros2 publishes only a ranger's
     /// first transducer): `<scan topic>/range<k>` and `<laser frame>_range<k>`, `k` from 0.
     pub fn transducer(scan_topic: &str, laser_frame: &str, k: usize) -> (String, String) {
@@ -141,6 +159,19 @@ impl VehicleNames {
             format!("{laser_frame}_range{k}"),
         )
     }
+}
+
+/// A camera's topic names and frame (see [`VehicleNames::camera`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CameraNames {
+    /// `image[N]`: the colour image.
+    pub image: String,
+    /// `depth[N]`: the depth image.
+    pub depth: String,
+    /// `camera_info[N]`: the pinhole model.
+    pub camera_info: String,
+    /// `camera[N]`: the optical frame.
+    pub frame: String,
 }
 
 #[cfg(test)]
@@ -240,6 +271,33 @@ mod tests {
         assert_eq!(
             VehicleNames::transducer("r1/base_scan", "r1/laser", 3),
             ("r1/base_scan/range3".into(), "r1/laser_range3".into())
+        );
+    }
+
+    #[test]
+    fn cameras_are_numbered_when_a_vehicle_has_several() {
+        let mut p = Params::default();
+        p.set("one_tf_tree", "true").unwrap();
+        let n = VehicleNames::new("r1", true, &p);
+        let two = n.camera(2, true);
+        assert_eq!(
+            (two.image, two.depth, two.camera_info, two.frame),
+            (
+                "r1/image2".into(),
+                "r1/depth2".into(),
+                "r1/camera_info2".into(),
+                "r1/camera2".into()
+            )
+        );
+        let solo = VehicleNames::new("r0", false, &Params::default()).camera(1, false);
+        assert_eq!(
+            (solo.image, solo.depth, solo.camera_info, solo.frame),
+            (
+                "image".into(),
+                "depth".into(),
+                "camera_info".into(),
+                "camera".into()
+            )
         );
     }
 }

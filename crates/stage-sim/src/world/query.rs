@@ -249,6 +249,12 @@ impl World {
         typed!(self.kind(m), "a blobfinder", KindState::Blobfinder(b) => &b.cfg)
     }
 
+    /// Camera configuration (resolution, clipping range, fields of view, pan and tilt): what
+    /// a host needs to describe the images, e.g. a pinhole model for ROS's CameraInfo.
+    pub fn camera_config(&self, m: ModelId) -> Result<&crate::desc::CameraDesc> {
+        typed!(self.kind(m), "a camera", KindState::Camera(c) => &c.cfg)
+    }
+
     /// Fiducial detections.
     pub fn fiducials(&self, m: ModelId) -> Result<&FiducialData> {
         typed!(self.kind(m), "a fiducial finder", KindState::Fiducial(f) => &f.data)

@@ -40,7 +40,7 @@ for t in $(cargo fuzz list); do
         failed+=("$t")
         continue
     fi
-    stats="$(grep -E '^#[0-9]+ +DONE' "$scratch/$t.log" | tail -1 || true)"
+    stats="$(grep -E '^#[0-9]+[[:space:]]+DONE' "$scratch/$t.log" | tail -1 || true)"
     echo "$t: ok in $((SECONDS - start)) s: $stats"
 done
 if [ ${#failed[@]} -gt 0 ]; then

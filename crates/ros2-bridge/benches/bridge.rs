@@ -1,16 +1,24 @@
 //! What the bridge costs: a world of 100 diff robots, each with a 181-ray laser, stepped
 //! headless as fast as possible, without the bridge and with it (every vehicle's odom,
 //! ground truth, scan and transform, and /clock, published after every step). The DDS
-//! participant is loopback only (`ROS_LOCALHOST_ONLY=1` semantics) in `ROS_DOMAIN_ID` or 231;
-//! without subscribers RustDDS still serialises and queues every sample, so this is the
-//! bridge's own cost; a subscriber adds the sending (see the README's figure).
+//! participant is loopback only (`ROS_LOCALHOST_ONLY=1` semantics) in `ROS_DOMAIN_ID` or 231.
+//! Twice: with no subscriber (the bridge writes only what someone reads, so this is its floor)
+//! and with a reader subscribed to everything (a second DDS participant in this process, on a
+//! thread of its own, taking every odom, ground_truth, base_scan, tf and /clock sample); the
+//! latter also gives the latency from the end of a step to its scan (r0's) reaching the reader.
 //!
 //! `cargo bench -p ros2-bridge --bench bridge [-- STEPS]`
 
-use std::sync::atomic::AtomicBool;
-use std::time::Instant;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
+use ros2_bridge::msgs::{Clock, LaserScan, Odometry, RosType, TfMessage};
 use ros2_bridge::{Bridge, Discovery, Params, RosArgs};
+use ros2_client::{
+    Context, MessageTypeName, Name, NodeName, NodeOptions, QosProfile, Subscription,
+};
 use stage_sim::World;
 use worldfile::{LoadOptions, WorldSpec};
 
@@ -52,14 +60,20 @@ fn load() -> World {
     World::from_owned_spec(spec, 1).expect("the bench world builds")
 }
 
-fn main() {
-    let steps: u64 = std::env::args()
-        .skip(1)
-        .find_map(|a| a.parse().ok())
-        .unwrap_or(600);
-    let quit = AtomicBool::new(false);
+fn context() -> Context {
+    let vars = |k: &str| match k {
+        "ROS_LOCALHOST_ONLY" => Some("1".to_string()),
+        "ROS_DOMAIN_ID" => Some(std::env::var(k).unwrap_or_else(|_| "231".into())),
+        _ => None,
+    };
+    Discovery::from_vars(vars)
+        .and_then(|d| d.context())
+        .expect("a DDS participant")
+}
 
-    // the rangers update only when subscribed: subscribe them as the bridge does
+/// A world with every position model and ranger subscribed (the rangers update only then),
+/// as the bridge subscribes them.
+fn load_subscribed() -> World {
     let mut world = load();
     let models: Vec<_> = world.models().collect();
     for m in models {
@@ -70,6 +84,116 @@ fn main() {
             world.subscribe(m).expect("a model of the world");
         }
     }
+    world
+}
+
+/// A subscription the reader drains, type-erased: the number of samples taken.
+trait Drain: Send {
+    fn drain(&self) -> usize;
+}
+
+impl<T: RosType> Drain for Subscription<T> {
+    fn drain(&self) -> usize {
+        let mut n = 0;
+        while let Ok(Some(_)) = self.take() {
+            n += 1;
+        }
+        n
+    }
+}
+
+fn subscribe<T: RosType>(node: &mut ros2_client::Node, name: &str) -> Subscription<T> {
+    let qos = QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast {
+        depth: if name.ends_with("tf") { 100 } else { 10 },
+    });
+    let n = Name::parse(name).expect("a topic name");
+    let topic = node
+        .create_topic(&n, MessageTypeName::new(T::PACKAGE, T::NAME), &qos)
+        .expect("a topic");
+    node.create_subscription(&topic, Some(qos))
+        .expect("a subscription")
+}
+
+/// What the reader saw: samples taken, and when each of r0's scans arrived (by stamp, µs).
+#[derive(Default)]
+struct Seen {
+    samples: usize,
+    scan_arrival: HashMap<u64, Instant>,
+}
+
+/// Starts a reader of every topic the bridge publishes for the fleet, on its own thread.
+fn start_reader(stop: Arc<AtomicBool>, seen: Arc<Mutex<Seen>>) -> std::thread::JoinHandle<()> {
+    let ctx = context();
+    let mut node = ctx
+        .new_node(
+            NodeName::new("/", "bench_reader").expect("a node name"),
+            NodeOptions::new().enable_rosout(false),
+        )
+        .expect("the reader node");
+    let mut subs: Vec<Box<dyn Drain>> = Vec::new();
+    for i in 0..100 {
+        subs.push(Box::new(subscribe::<Odometry>(
+            &mut node,
+            &format!("/r{i}/odom"),
+        )));
+        subs.push(Box::new(subscribe::<Odometry>(
+            &mut node,
+            &format!("/r{i}/ground_truth"),
+        )));
+        if i > 0 {
+            subs.push(Box::new(subscribe::<LaserScan>(
+                &mut node,
+                &format!("/r{i}/base_scan"),
+            )));
+        }
+        subs.push(Box::new(subscribe::<TfMessage>(
+            &mut node,
+            &format!("/r{i}/tf"),
+        )));
+    }
+    subs.push(Box::new(subscribe::<Clock>(&mut node, "/clock")));
+    let scan0 = subscribe::<LaserScan>(&mut node, "/r0/base_scan");
+    std::thread::spawn(move || {
+        let _keep = (ctx, node);
+        while !stop.load(Ordering::Relaxed) {
+            let mut n = 0;
+            while let Ok(Some((scan, _))) = scan0.take() {
+                let t = scan.header.stamp;
+                let us = t.sec as u64 * 1_000_000 + u64::from(t.nanosec) / 1000;
+                seen.lock().unwrap().scan_arrival.insert(us, Instant::now());
+                n += 1;
+            }
+            n += subs.iter().map(|s| s.drain()).sum::<usize>();
+            seen.lock().unwrap().samples += n;
+            if n == 0 {
+                std::thread::sleep(Duration::from_micros(200));
+            }
+        }
+    })
+}
+
+/// Steps `world` with `bridge` `steps` times; the wall time taken and when each step ended.
+fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64) -> (f64, HashMap<u64, Instant>) {
+    let mut ended = HashMap::new();
+    let start = Instant::now();
+    stage_sim::on_sim_threads(|| {
+        for _ in 0..steps {
+            bridge.inbound(world);
+            world.step();
+            ended.insert(world.sim_time(), Instant::now());
+            bridge.publish(world);
+        }
+    });
+    (start.elapsed().as_secs_f64(), ended)
+}
+
+fn main() {
+    let steps: u64 = std::env::args()
+        .skip(1)
+        .find_map(|a| a.parse().ok())
+        .unwrap_or(600);
+
+    let mut world = load_subscribed();
     let start = Instant::now();
     stage_sim::on_sim_threads(|| {
         for _ in 0..steps {
@@ -78,44 +202,91 @@ fn main() {
     });
     let alone = start.elapsed().as_secs_f64();
     let sim = world.sim_time() as f64 * 1e-6;
-
-    let mut world = load();
-    let vars = |k: &str| match k {
-        "ROS_LOCALHOST_ONLY" => Some("1".to_string()),
-        "ROS_DOMAIN_ID" => Some(std::env::var(k).unwrap_or_else(|_| "231".into())),
-        _ => None,
-    };
-    let context = Discovery::from_vars(vars)
-        .and_then(|d| d.context())
-        .expect("a DDS participant");
-    let params = Params {
-        world_file: "fleet.world".into(),
-        ..Params::default()
-    };
-    let mut bridge =
-        Bridge::new(&context, &mut world, params, &RosArgs::default()).expect("the bridge starts");
-    // run() paces nothing at speedup <= 0 and stops at quit_time: set one
-    world.set_quit_time_us(world.config().interval_sim_us * steps);
-    let start = Instant::now();
-    let taken =
-        stage_sim::on_sim_threads(|| ros2_bridge::run(&mut world, &mut bridge, -1.0, &quit));
-    let bridged = start.elapsed().as_secs_f64();
-
     println!("100 robots x 181-ray lasers, {steps} steps ({sim:.0} s simulated)");
     println!(
-        "  world alone:      {:8.1} steps/s  real-time factor {:7.1}x",
+        "  world alone:            {:8.1} steps/s  real-time factor {:7.1}x",
         steps as f64 / alone,
         sim / alone
     );
+    let report = |label: &str, t: f64| {
+        println!(
+            "  {label} {:8.1} steps/s  real-time factor {:7.1}x  bridge share {:3.0}% ({:.2} ms/step)",
+            steps as f64 / t,
+            sim / t,
+            100.0 * (t - alone).max(0.0) / t,
+            (t - alone) / steps as f64 * 1e3
+        );
+    };
+    let params = || Params {
+        world_file: "fleet.world".into(),
+        ..Params::default()
+    };
+
+    // no subscriber
+    let ctx = context();
+    let mut world = load_subscribed();
+    let mut bridge =
+        Bridge::new(&ctx, &mut world, params(), &RosArgs::default()).expect("the bridge starts");
+    let (t, _) = bridged(&mut world, &mut bridge, steps);
+    let (written, skipped) = bridge.counts();
+    report("bridge, no subscriber: ", t);
+    println!("    samples written {written}, skipped (no reader) {skipped}");
+    drop(bridge);
+    drop(ctx);
+
+    // a reader of everything
+    let stop = Arc::new(AtomicBool::new(false));
+    let seen = Arc::new(Mutex::new(Seen::default()));
+    let reader = start_reader(stop.clone(), seen.clone());
+    let ctx = context();
+    let mut world = load_subscribed();
+    let mut bridge =
+        Bridge::new(&ctx, &mut world, params(), &RosArgs::default()).expect("the bridge starts");
+    // discovery: step until every topic is matched (nothing skipped in a step), 30 s at most
+    let warm = Instant::now();
+    let mut warm_steps = 0;
+    loop {
+        let before = bridge.counts().1;
+        bridged(&mut world, &mut bridge, 1);
+        warm_steps += 1;
+        if bridge.counts().1 == before || warm.elapsed() > Duration::from_secs(30) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let (before_w, before_s) = bridge.counts();
+    let taken_before = seen.lock().unwrap().samples;
+    let (t, ended) = bridged(&mut world, &mut bridge, steps);
+    std::thread::sleep(Duration::from_millis(500));
+    stop.store(true, Ordering::Relaxed);
+    reader.join().expect("the reader thread");
+    let (written, skipped) = bridge.counts();
+    report("bridge, a reader of all:", t);
+    let seen = seen.lock().unwrap();
     println!(
-        "  with the bridge:  {:8.1} steps/s  real-time factor {:7.1}x  ({taken} steps)",
-        taken as f64 / bridged,
-        sim / bridged
+        "    after {warm_steps} warm-up steps: samples written {}, skipped {}, taken by the reader {}",
+        written - before_w,
+        skipped - before_s,
+        seen.samples - taken_before
     );
-    println!(
-        "  bridge share of the run: {:.0}%  ({:.2} ms per step publishing 100 x (odom, ground_truth, \
-         base_scan, tf) + /clock)",
-        100.0 * (bridged - alone) / bridged,
-        (bridged - alone) / steps as f64 * 1e3
-    );
+    let mut lat: Vec<f64> = ended
+        .iter()
+        .filter_map(|(us, end)| {
+            seen.scan_arrival
+                .get(us)
+                .map(|got| got.saturating_duration_since(*end).as_secs_f64() * 1e3)
+        })
+        .collect();
+    lat.sort_by(f64::total_cmp);
+    if lat.is_empty() {
+        println!("    step-to-scan latency: no scan of r0 matched a step");
+    } else {
+        println!(
+            "    step end -> r0's scan at the reader: median {:.2} ms, p95 {:.2} ms, max {:.2} ms ({} scans)",
+            lat[lat.len() / 2],
+            lat[lat.len() * 95 / 100],
+            lat[lat.len() - 1],
+            lat.len()
+        );
+    }
 }

@@ -3,9 +3,12 @@
 //! arrived (commands, teleports, resets) to the world before a step; [`Bridge::publish`]
 //! sends the world's state after it.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
+use ros2_client::dds::rustdds::{
+    DomainParticipantStatusEvent, DomainParticipantStatusListener, GUID, StatusEvented,
+};
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server,
@@ -150,24 +153,109 @@ impl<T: RosType> Inbound<T> {
     }
 }
 
+/// The size of RustDDS's participant status channel (`sync_status_channel(2048)` in its
+/// `DomainParticipant`): a full channel drops events, so a drain that finds this many may
+/// have missed some.
+const STATUS_CHANNEL_CAPACITY: usize = 2048;
+
+/// Which of the node's writers have a matched reader, kept from the DDS participant's status
+/// events (RustDDS does not implement `get_matched_subscriptions`, and ros2-client's count
+/// needs a node spinner). A volatile writer with no matched reader is skipped: RustDDS would
+/// serialise, store and wake its event loop for a sample nobody can ever receive (a reader
+/// matched later gets a GAP for it, volatile durability), which was most of the bridge's
+/// cost with 100 robots.
+struct Matches {
+    listener: DomainParticipantStatusListener,
+    /// Local writer -> the remote readers matched with it.
+    readers: BTreeMap<GUID, BTreeSet<GUID>>,
+    /// Set once events may have been lost (the channel was full): every writer is treated as
+    /// matched from then on, as before this filter existed.
+    all: bool,
+}
+
+impl Matches {
+    fn new(context: &Context) -> Matches {
+        Matches {
+            listener: context.domain_participant().status_listener(),
+            readers: BTreeMap::new(),
+            all: false,
+        }
+    }
+
+    /// Applies the status events that arrived since the last call.
+    fn poll(&mut self) {
+        let mut n = 0;
+        while let Some(event) = self.listener.try_recv_status() {
+            n += 1;
+            match event {
+                DomainParticipantStatusEvent::RemoteReaderMatched {
+                    local_writer,
+                    remote_reader,
+                } => {
+                    self.readers
+                        .entry(local_writer)
+                        .or_default()
+                        .insert(remote_reader);
+                }
+                DomainParticipantStatusEvent::ReaderLost { guid, .. } => {
+                    for readers in self.readers.values_mut() {
+                        readers.remove(&guid);
+                    }
+                }
+                _ => {}
+            }
+        }
+        if n >= STATUS_CHANNEL_CAPACITY && !self.all {
+            tracing::warn!(
+                "DDS status events may have been lost: publishing on every topic, matched or not"
+            );
+            self.all = true;
+        }
+    }
+
+    /// Whether `writer` has a reader (or matches are unknown).
+    fn matched(&self, writer: GUID) -> bool {
+        self.all || self.readers.get(&writer).is_some_and(|r| !r.is_empty())
+    }
+}
+
 /// A publisher that reports its first failure (a full window, a vanished reader) once.
 struct Outbound<T: RosType> {
     topic: String,
     publisher: Publisher<T>,
+    guid: GUID,
+    /// Transient local: written whether or not a reader is matched (late joiners get it).
+    latched: bool,
     failed: bool,
+    /// Samples written and skipped (no matched reader), for [`Bridge::counts`].
+    written: u64,
+    skipped: u64,
 }
 
 impl<T: RosType> Outbound<T> {
     fn new(topics: &mut Topics, name: &str, qos: QosProfile) -> Result<Outbound<T>, Error> {
+        let latched = qos.durability != Durability::Volatile;
+        let publisher = topics.publisher(name, qos)?;
         Ok(Outbound {
             topic: topics.resolve(name),
-            publisher: topics.publisher(name, qos)?,
+            guid: publisher.guid(),
+            publisher,
+            latched,
             failed: false,
+            written: 0,
+            skipped: 0,
         })
     }
 
-    fn send(&mut self, m: T) {
-        if let Err(e) = self.publisher.publish(m) {
+    /// Writes the message `make` builds, unless the topic is volatile and has no matched
+    /// reader (then nothing is built).
+    fn send(&mut self, matches: &Matches, make: impl FnOnce() -> T) {
+        if !self.latched && !matches.matched(self.guid) {
+            self.skipped += 1;
+            return;
+        }
+        self.written += 1;
+        if let Err(e) = self.publisher.publish(make()) {
             if !self.failed {
                 tracing::warn!(
                     "{}: a message was not sent ({e:?}); further failures are not logged",
@@ -210,6 +298,8 @@ struct Vehicle {
     model: ModelId,
     name: String,
     names: VehicleNames,
+    /// The resolved name of its tf topic (the key into [`Bridge::tf`]).
+    tf_key: String,
     /// The pose `reset_positions` puts it back to (parent frame, as `set_pose` takes).
     start: stage_sim::Pose,
     cmd_vel: CmdVel,
@@ -298,6 +388,8 @@ pub struct Bridge {
     tf: BTreeMap<String, Outbound<TfMessage>>,
     tf_static: BTreeMap<String, Outbound<TfMessage>>,
     static_sent: bool,
+    /// Which writers have readers: the volatile ones without are not written.
+    matches: Matches,
     clock: Outbound<Clock>,
     reset: ResetServers,
     watchdog_us: u64,
@@ -342,6 +434,8 @@ impl Bridge {
             name: format!("{namespace} {node_name}"),
             message: format!("{e:?}"),
         })?;
+        // before any entity: its matches are in the events from now on
+        let mut matches = Matches::new(context);
         let node = context
             .new_node(name, NodeOptions::new().enable_rosout(false))
             .map_err(|e| Error::Dds(format!("creating the node: {e:?}")))?;
@@ -418,7 +512,10 @@ impl Bridge {
             } else {
                 CmdVel::Plain(Inbound::new(&mut topics, &names.cmd_vel)?)
             };
+            // drained as entities are made, so a big fleet's own events do not fill the channel
+            matches.poll();
             vehicles.push(Vehicle {
+                tf_key: topics.resolve(&names.tf),
                 model: m,
                 start: world.pose(m).map_err(Error::Sim)?,
                 cmd_vel,
@@ -453,6 +550,7 @@ impl Bridge {
             tf,
             tf_static,
             static_sent: false,
+            matches,
             clock,
             reset,
             watchdog_us,
@@ -470,10 +568,39 @@ impl Bridge {
         self.topics.node.fully_qualified_name()
     }
 
+    /// Samples written and samples not written for want of a matched reader, over every topic
+    /// since the start: what skipping unread volatile topics saves (the bench prints it).
+    pub fn counts(&self) -> (u64, u64) {
+        let mut c = (0, 0);
+        let mut add = |w: u64, s: u64| {
+            c.0 += w;
+            c.1 += s;
+        };
+        for v in &self.vehicles {
+            add(v.odom.written, v.odom.skipped);
+            add(v.stalled.written, v.stalled.skipped);
+            if let Some(g) = &v.ground_truth {
+                add(g.written, g.skipped);
+            }
+            for r in &v.rangers {
+                add(r.scan.written, r.scan.skipped);
+                for (t, _) in &r.transducers {
+                    add(t.written, t.skipped);
+                }
+            }
+        }
+        for p in self.tf.values().chain(self.tf_static.values()) {
+            add(p.written, p.skipped);
+        }
+        add(self.clock.written, self.clock.skipped);
+        c
+    }
+
     /// Applies what arrived since the last call, before the world's next step: velocity
     /// commands (arming each vehicle's watchdog), teleports, resets; then stops every vehicle
     /// whose watchdog ran out.
     pub fn inbound(&mut self, world: &mut World) {
+        self.matches.poll();
         let now = world.sim_time();
         for v in &mut self.vehicles {
             if let Some(cmd) = v.cmd_vel.take().pop() {
@@ -524,10 +651,12 @@ impl Bridge {
         if now == 0 {
             return;
         }
+        self.matches.poll();
         if !self.static_sent {
             self.send_static(world);
             self.static_sent = true;
         }
+        let matches = &self.matches;
         let mut dynamic: BTreeMap<String, Vec<TransformStamped>> = BTreeMap::new();
         for v in &mut self.vehicles {
             let Ok(state) = world.position_state(v.model) else {
@@ -572,13 +701,13 @@ impl Bridge {
                     rotation: odom.pose.pose.orientation,
                 },
             };
-            v.odom.send(odom);
-            let tf_key = self.topics.resolve(&v.names.tf);
+            v.odom.send(matches, || odom);
+            let tf_key = &v.tf_key;
             dynamic.entry(tf_key.clone()).or_default().push(odom_tf);
 
             let stalled = state.stall;
             if v.last_stalled != Some(stalled) {
-                v.stalled.send(Bool { data: stalled });
+                v.stalled.send(matches, || Bool { data: stalled });
                 v.last_stalled = Some(stalled);
             }
 
@@ -598,7 +727,7 @@ impl Bridge {
                     );
                 }
                 v.last_global = Some((g, now));
-                gt.send(Odometry {
+                gt.send(matches, || Odometry {
                     header: stamp(&v.names.frame_world, now),
                     child_frame_id: String::new(),
                     pose: PoseWithCovariance {
@@ -637,15 +766,15 @@ impl Bridge {
                         dynamic.entry(tf_key.clone()).or_default().push(t);
                     }
                 }
-                publish_scan(world, r);
+                publish_scan(world, r, matches);
             }
         }
         for (topic, transforms) in dynamic {
             if let Some(p) = self.tf.get_mut(&topic) {
-                p.send(TfMessage { transforms });
+                p.send(matches, || TfMessage { transforms });
             }
         }
-        self.clock.send(Clock {
+        self.clock.send(matches, || Clock {
             clock: Time::from_micros(now),
         });
     }
@@ -669,7 +798,7 @@ impl Bridge {
         }
         for (topic, transforms) in statics {
             if let Some(p) = self.tf_static.get_mut(&topic) {
-                p.send(TfMessage { transforms });
+                p.send(&self.matches, || TfMessage { transforms });
             }
         }
     }
@@ -750,7 +879,7 @@ fn ranger_transforms(
 
 /// Publishes a ranger's scan when it is fresh: its first transducer as a LaserScan (as
 /// stage_ros2), and each transducer as a Range when there are several.
-fn publish_scan(world: &World, r: &mut Ranger) {
+fn publish_scan(world: &World, r: &mut Ranger, matches: &Matches) {
     let Ok(data) = world.ranger_scans(r.model) else {
         return;
     };
@@ -763,7 +892,7 @@ fn publish_scan(world: &World, r: &mut Ranger) {
     };
     let samples = first.samples.max(1);
     let fov = first.fov;
-    r.scan.send(LaserScan {
+    r.scan.send(matches, || LaserScan {
         header: stamp(&r.frame, data.time_us),
         angle_min: (-fov / 2.0) as f32,
         angle_max: (fov / 2.0) as f32,
@@ -785,7 +914,7 @@ fn publish_scan(world: &World, r: &mut Ranger) {
         let Some(&range) = s.ranges.first() else {
             continue;
         };
-        publisher.send(Range {
+        publisher.send(matches, || Range {
             header: stamp(frame, data.time_us),
             radiation_type: 0,
             field_of_view: sensor.fov as f32,
@@ -793,5 +922,93 @@ fn publish_scan(world: &World, r: &mut Ranger) {
             max_range: sensor.range[1] as f32,
             range: range as f32,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Instant;
+
+    use super::*;
+    use crate::Discovery;
+
+    /// A loopback participant in a domain of this test's own.
+    fn context(domain: u32) -> Context {
+        let vars = move |k: &str| match k {
+            "ROS_LOCALHOST_ONLY" => Some("1".to_string()),
+            "ROS_DOMAIN_ID" => Some(domain.to_string()),
+            _ => None,
+        };
+        Discovery::from_vars(vars)
+            .and_then(|d| d.context())
+            .expect("a DDS participant")
+    }
+
+    fn world() -> World {
+        let text = "interval_sim 100\n\
+                    position ( name \"r0\" pose [0 0 0 0] size [0.4 0.4 0.3] \
+                    ranger ( sensor ( range [0 8] fov 180 samples 5 ) ) )\n";
+        let spec = worldfile::WorldSpec::parse(
+            std::path::Path::new("matches.world"),
+            text,
+            &worldfile::LoadOptions::default(),
+        )
+        .expect("the test world parses");
+        World::from_owned_spec(spec, 1).expect("the test world builds")
+    }
+
+    fn step(world: &mut World, bridge: &mut Bridge) {
+        bridge.inbound(world);
+        world.step();
+        bridge.publish(world);
+    }
+
+    /// Volatile topics nobody reads are not written (only the latched tf_static and stalled
+    /// are); once a reader of /clock matches, /clock is written and its samples arrive.
+    #[test]
+    fn unread_topics_are_skipped_and_a_reader_gets_its_topic() {
+        let domain = 200 + std::process::id() % 30;
+        let ctx = context(domain);
+        let mut world = world();
+        let mut bridge =
+            Bridge::new(&ctx, &mut world, Params::default(), &RosArgs::default()).unwrap();
+        for _ in 0..5 {
+            step(&mut world, &mut bridge);
+        }
+        let (written, skipped) = bridge.counts();
+        // stalled (latched) and tf_static once; odom, ground_truth, base_scan, tf, /clock
+        // skipped at every step
+        assert_eq!(written, 2, "only the latched topics are written");
+        assert!(skipped >= 5 * 4, "{skipped} samples skipped");
+
+        let reader_ctx = context(domain);
+        let mut node = reader_ctx
+            .new_node(
+                NodeName::new("/", "reader").unwrap(),
+                NodeOptions::new().enable_rosout(false),
+            )
+            .unwrap();
+        let qos = default_qos();
+        let topic = node
+            .create_topic(
+                &Name::parse("/clock").unwrap(),
+                MessageTypeName::new(Clock::PACKAGE, Clock::NAME),
+                &qos,
+            )
+            .unwrap();
+        let sub: Subscription<Clock> = node.create_subscription(&topic, Some(qos)).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let mut got = None;
+        while got.is_none() && Instant::now() < deadline {
+            step(&mut world, &mut bridge);
+            if let Ok(Some((c, _))) = sub.take() {
+                got = Some(c);
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let clock = got.expect("/clock reaches a reader once it matches");
+        assert!(clock.clock.sec > 0 || clock.clock.nanosec > 0);
+        let (written_after, _) = bridge.counts();
+        assert!(written_after > written, "/clock is written once read");
     }
 }

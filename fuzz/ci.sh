@@ -30,7 +30,8 @@ failed=()
 for t in $(cargo fuzz list); do
     mkdir -p "corpus/$t" "$scratch/$t" "artifacts/$t"
     start=$SECONDS
-    if ! cargo fuzz run --sanitizer none "$t" "$scratch/$t" "corpus/$t" -- \
+    # TMPDIR: the targets' scratch folders (one per process) go with the step's own
+    if ! TMPDIR="$scratch" cargo fuzz run --sanitizer none "$t" "$scratch/$t" "corpus/$t" -- \
         -rss_limit_mb=2048 -timeout=10 -max_len=262144 -max_total_time="$seconds" \
         -artifact_prefix="artifacts/$t/" -print_final_stats=1 >"$scratch/$t.log" 2>&1; then
         tail -40 "$scratch/$t.log"

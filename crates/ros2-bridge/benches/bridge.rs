@@ -3,16 +3,20 @@
 //! ground truth, scan and transform, and /clock, published after every step). The DDS
 //! participant is loopback only (`ROS_LOCALHOST_ONLY=1` semantics) in `ROS_DOMAIN_ID` or 231.
 //! Twice: with no subscriber (the bridge writes only what someone reads, so this is its floor)
-//! and with a reader subscribed to everything (a second DDS participant in this process, on a
-//! thread of its own, taking every odom, ground_truth, base_scan, tf and /clock sample); the
-//! latter also gives the latency from the end of a step to its scan (r0's) reaching the reader.
+//! and with a reader subscribed to everything (this bench run again as a child process,
+//! `--reader`, taking every odom, ground_truth, base_scan, tf and /clock sample); the latter
+//! also gives the latency from the end of a step to its scan (r0's) reaching the reader (wall
+//! clock, both processes on this machine). On a 2-core machine the reader's own work competes
+//! with the simulation, as a ROS 2 node on the same machine would.
 //!
 //! `cargo bench -p ros2-bridge --bench bridge [-- STEPS]`
 
 use std::collections::HashMap;
+use std::io::{BufRead, Read, Write};
+use std::process::{Command, Stdio};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use ros2_bridge::msgs::{Clock, LaserScan, Odometry, RosType, TfMessage};
 use ros2_bridge::{Bridge, Discovery, Params, RosArgs};
@@ -114,15 +118,18 @@ fn subscribe<T: RosType>(node: &mut ros2_client::Node, name: &str) -> Subscripti
         .expect("a subscription")
 }
 
-/// What the reader saw: samples taken, and when each of r0's scans arrived (by stamp, µs).
-#[derive(Default)]
-struct Seen {
-    samples: usize,
-    scan_arrival: HashMap<u64, Instant>,
+/// Wall-clock time in ns (comparable between the two processes).
+fn wall_ns() -> u128 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0)
 }
 
-/// Starts a reader of every topic the bridge publishes for the fleet, on its own thread.
-fn start_reader(stop: Arc<AtomicBool>, seen: Arc<Mutex<Seen>>) -> std::thread::JoinHandle<()> {
+/// The child: subscribes to every topic the bridge publishes for the fleet, says `ready`,
+/// drains them until its stdin closes, then prints `samples N` and `scan STAMP_US WALL_NS`
+/// per scan of r0.
+fn reader_main() {
     let ctx = context();
     let mut node = ctx
         .new_node(
@@ -153,34 +160,47 @@ fn start_reader(stop: Arc<AtomicBool>, seen: Arc<Mutex<Seen>>) -> std::thread::J
     }
     subs.push(Box::new(subscribe::<Clock>(&mut node, "/clock")));
     let scan0 = subscribe::<LaserScan>(&mut node, "/r0/base_scan");
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = stop.clone();
     std::thread::spawn(move || {
-        let _keep = (ctx, node);
-        while !stop.load(Ordering::Relaxed) {
-            let mut n = 0;
-            while let Ok(Some((scan, _))) = scan0.take() {
-                let t = scan.header.stamp;
-                let us = t.sec as u64 * 1_000_000 + u64::from(t.nanosec) / 1000;
-                seen.lock().unwrap().scan_arrival.insert(us, Instant::now());
-                n += 1;
-            }
-            n += subs.iter().map(|s| s.drain()).sum::<usize>();
-            seen.lock().unwrap().samples += n;
-            if n == 0 {
-                std::thread::sleep(Duration::from_micros(200));
-            }
+        let _ = std::io::stdin().read_to_end(&mut Vec::new());
+        s.store(true, Ordering::Relaxed);
+    });
+    println!("ready");
+    let _ = std::io::stdout().flush();
+    let mut samples = 0;
+    let mut arrivals = Vec::new();
+    while !stop.load(Ordering::Relaxed) {
+        let mut n = 0;
+        while let Ok(Some((scan, _))) = scan0.take() {
+            let t = scan.header.stamp;
+            let us = t.sec as u64 * 1_000_000 + u64::from(t.nanosec) / 1000;
+            arrivals.push((us, wall_ns()));
+            n += 1;
         }
-    })
+        n += subs.iter().map(|s| s.drain()).sum::<usize>();
+        samples += n;
+        if n == 0 {
+            std::thread::sleep(Duration::from_micros(200));
+        }
+    }
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "samples {samples}");
+    for (us, ns) in arrivals {
+        let _ = writeln!(out, "scan {us} {ns}");
+    }
 }
 
-/// Steps `world` with `bridge` `steps` times; the wall time taken and when each step ended.
-fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64) -> (f64, HashMap<u64, Instant>) {
+/// Steps `world` with `bridge` `steps` times; the wall time taken and when each step ended
+/// (by sim time, wall ns).
+fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64) -> (f64, HashMap<u64, u128>) {
     let mut ended = HashMap::new();
     let start = Instant::now();
     stage_sim::on_sim_threads(|| {
         for _ in 0..steps {
             bridge.inbound(world);
             world.step();
-            ended.insert(world.sim_time(), Instant::now());
+            ended.insert(world.sim_time(), wall_ns());
             bridge.publish(world);
         }
     });
@@ -188,6 +208,10 @@ fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64) -> (f64, HashMap<
 }
 
 fn main() {
+    if std::env::args().any(|a| a == "--reader") {
+        reader_main();
+        return;
+    }
     let steps: u64 = std::env::args()
         .skip(1)
         .find_map(|a| a.parse().ok())
@@ -204,7 +228,7 @@ fn main() {
     let sim = world.sim_time() as f64 * 1e-6;
     println!("100 robots x 181-ray lasers, {steps} steps ({sim:.0} s simulated)");
     println!(
-        "  world alone:            {:8.1} steps/s  real-time factor {:7.1}x",
+        "  world alone:              {:8.1} steps/s  real-time factor {:7.1}x",
         steps as f64 / alone,
         sim / alone
     );
@@ -229,15 +253,24 @@ fn main() {
         Bridge::new(&ctx, &mut world, params(), &RosArgs::default()).expect("the bridge starts");
     let (t, _) = bridged(&mut world, &mut bridge, steps);
     let (written, skipped) = bridge.counts();
-    report("bridge, no subscriber: ", t);
+    report("bridge, no subscriber:   ", t);
     println!("    samples written {written}, skipped (no reader) {skipped}");
     drop(bridge);
     drop(ctx);
 
-    // a reader of everything
-    let stop = Arc::new(AtomicBool::new(false));
-    let seen = Arc::new(Mutex::new(Seen::default()));
-    let reader = start_reader(stop.clone(), seen.clone());
+    // a reader of everything, in a child process
+    let mut child = Command::new(std::env::current_exe().expect("this bench's path"))
+        .arg("--reader")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("the reader process starts");
+    let mut lines = std::io::BufReader::new(child.stdout.take().expect("its stdout")).lines();
+    assert_eq!(
+        lines.next().and_then(Result::ok).as_deref(),
+        Some("ready"),
+        "the reader process starts"
+    );
     let ctx = context();
     let mut world = load_subscribed();
     let mut bridge =
@@ -255,26 +288,38 @@ fn main() {
         std::thread::sleep(Duration::from_millis(20));
     }
     let (before_w, before_s) = bridge.counts();
-    let taken_before = seen.lock().unwrap().samples;
     let (t, ended) = bridged(&mut world, &mut bridge, steps);
-    std::thread::sleep(Duration::from_millis(500));
-    stop.store(true, Ordering::Relaxed);
-    reader.join().expect("the reader thread");
     let (written, skipped) = bridge.counts();
-    report("bridge, a reader of all:", t);
-    let seen = seen.lock().unwrap();
+    // the reader drains what is in flight, then is told to stop
+    std::thread::sleep(Duration::from_millis(1000));
+    drop(child.stdin.take());
+    let mut samples = 0;
+    let mut arrival = HashMap::new();
+    for line in lines.map_while(Result::ok) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        match f.as_slice() {
+            ["samples", n] => samples = n.parse().unwrap_or(0),
+            ["scan", us, ns] => {
+                if let (Ok(us), Ok(ns)) = (us.parse::<u64>(), ns.parse::<u128>()) {
+                    arrival.insert(us, ns);
+                }
+            }
+            _ => {}
+        }
+    }
+    let _ = child.wait();
+    report("bridge, a reader of all: ", t);
     println!(
-        "    after {warm_steps} warm-up steps: samples written {}, skipped {}, taken by the reader {}",
+        "    after {warm_steps} warm-up steps: samples written {}, skipped {}; the reader took {samples} in all",
         written - before_w,
         skipped - before_s,
-        seen.samples - taken_before
     );
     let mut lat: Vec<f64> = ended
         .iter()
         .filter_map(|(us, end)| {
-            seen.scan_arrival
+            arrival
                 .get(us)
-                .map(|got| got.saturating_duration_since(*end).as_secs_f64() * 1e3)
+                .map(|got| got.saturating_sub(*end) as f64 * 1e-6)
         })
         .collect();
     lat.sort_by(f64::total_cmp);
@@ -282,7 +327,7 @@ fn main() {
         println!("    step-to-scan latency: no scan of r0 matched a step");
     } else {
         println!(
-            "    step end -> r0's scan at the reader: median {:.2} ms, p95 {:.2} ms, max {:.2} ms ({} scans)",
+            "    step end -> r0's scan at the reader: median {:.2} ms, p95 {:.2} ms, max {:.2} ms ({} of {steps} scans)",
             lat[lat.len() / 2],
             lat[lat.len() * 95 / 100],
             lat[lat.len() - 1],

@@ -8,7 +8,7 @@ import os
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cyclonedds.idl.types as t
 import pytest
@@ -17,6 +17,8 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 
 from ros2_peer import (
+    Header,
+    _name,
     Bool,
     Clock,
     EmptyRequest,
@@ -473,6 +475,110 @@ def test_a_launch_files_parameter_file(ros, tmp_path):
     )
     node, peer = ros(WALL_WORLD, "--fast", "--ros-args", "--params-file", str(params))
     assert wait_for(peer.reader("r0/odom", Odometry)).header.frame_id == "map_odom"
+
+
+# A robot with a camera facing a red wall whose near face is 1.95 m ahead: the middle rows see
+# the wall, the top ones the sky above it, the bottom ones the floor.
+CAMERA_WORLD = """
+resolution 0.02
+interval_sim 100
+position
+(
+  name "r0"
+  pose [0 0 0 0]
+  size [0.4 0.4 0.3]
+  camera ( resolution [32 24] range [0.2 8.0] fov [60 40] size [0.1 0.1 0.1] )
+)
+model ( name "wall" pose [2 0 0 0] size [0.1 8 0.5] color "red" )
+"""
+
+
+@dataclass
+class Image(IdlStruct, typename=_name("sensor_msgs", "msg", "Image")):
+    header: Header = field(default_factory=Header)
+    height: t.uint32 = 0
+    width: t.uint32 = 0
+    encoding: str = ""
+    is_bigendian: t.uint8 = 0
+    step: t.uint32 = 0
+    data: t.sequence[t.uint8] = field(default_factory=list)
+
+
+@dataclass
+class RegionOfInterest(IdlStruct, typename=_name("sensor_msgs", "msg", "RegionOfInterest")):
+    x_offset: t.uint32 = 0
+    y_offset: t.uint32 = 0
+    height: t.uint32 = 0
+    width: t.uint32 = 0
+    do_rectify: bool = False
+
+
+@dataclass
+class CameraInfo(IdlStruct, typename=_name("sensor_msgs", "msg", "CameraInfo")):
+    header: Header = field(default_factory=Header)
+    height: t.uint32 = 0
+    width: t.uint32 = 0
+    distortion_model: str = ""
+    d: t.sequence[t.float64] = field(default_factory=list)
+    k: t.array[t.float64, 9] = field(default_factory=lambda: [0.0] * 9)
+    r: t.array[t.float64, 9] = field(default_factory=lambda: [0.0] * 9)
+    p: t.array[t.float64, 12] = field(default_factory=lambda: [0.0] * 12)
+    binning_x: t.uint32 = 0
+    binning_y: t.uint32 = 0
+    roi: RegionOfInterest = field(default_factory=RegionOfInterest)
+
+
+def test_camera_image_depth_info_and_frame(ros):
+    import struct
+
+    node, peer = ros(CAMERA_WORLD, "--fast")  # is_depth_canonical defaults to true
+    image = peer.reader("image", Image)
+    depth = peer.reader("depth", Image)
+    info = peer.reader("camera_info", CameraInfo)
+    tf_static = peer.reader("tf_static", TFMessage, depth=1, transient_local=True)
+
+    im = wait_for(image)
+    assert (im.header.frame_id, im.encoding, im.width, im.height) == ("camera", "rgba8", 32, 24)
+    assert im.step == 32 * 4 and len(im.data) == 32 * 24 * 4
+    px = lambda row, col: tuple(im.data[(row * 32 + col) * 4 : (row * 32 + col) * 4 + 4])  # noqa: E731
+    assert px(12, 16) == (255, 0, 0, 255)  # the red wall
+    assert px(0, 16)[3] == 0  # the sky is transparent
+
+    d = wait_for(depth)
+    assert (d.header.frame_id, d.encoding, d.step, d.is_bigendian) == ("camera", "32FC1", 128, 0)
+    z = struct.unpack(f"<{32 * 24}f", bytes(d.data))
+    # depth along the optical axis: the whole wall is 1.95 m away, at every column
+    for col in range(32):
+        assert z[12 * 32 + col] == pytest.approx(1.95, abs=2e-3), col
+        assert z[11 * 32 + col] == pytest.approx(1.95, abs=2e-3), col
+    assert z[0 * 32 + 16] == math.inf  # sky: beyond the far clip
+    assert 0.2 < z[23 * 32 + 16] < 1.9  # the floor, nearer than the wall
+
+    ci = wait_for(info)
+    assert (ci.header.frame_id, ci.width, ci.height) == ("camera", 32, 24)
+    fx, fy = 32 / (2 * math.tan(math.radians(30))), 24 / (2 * math.tan(math.radians(20)))
+    assert ci.k == pytest.approx([fx, 0, 16, 0, fy, 12, 0, 0, 1])
+    assert ci.p == pytest.approx([fx, 0, 16, 0, 0, fy, 12, 0, 0, 0, 1, 0])
+    assert list(ci.d) == [0.0] * 4
+
+    frames = {x.child_frame_id: x for x in wait_for(tf_static, timeout=5).transforms}
+    cam = frames["camera"]
+    assert cam.header.frame_id == "base_link"
+    tr, q = cam.transform.translation, cam.transform.rotation
+    assert (tr.x, tr.y) == (0.0, 0.0) and tr.z > 0.3
+    # the optical frame (z ahead, x right, y down): RPY(-pi/2, 0, -pi/2)
+    assert (q.x, q.y, q.z, q.w) == pytest.approx((-0.5, 0.5, -0.5, 0.5))
+
+
+def test_camera_depth_in_millimetres_when_not_canonical(ros):
+    import struct
+
+    node, peer = ros(CAMERA_WORLD, "--fast", "--ros-args", "-p", "is_depth_canonical:=false")
+    d = wait_for(peer.reader("depth", Image))
+    assert (d.encoding, d.step) == ("16UC1", 64)
+    z = struct.unpack(f"<{32 * 24}H", bytes(d.data))
+    assert all(1948 <= z[12 * 32 + col] <= 1950 for col in range(32))
+    assert z[16] == 0  # nothing seen: 0, as REP 118 says for 16UC1
 
 
 # `player FILE.cfg --ros2`: the Player server's stage world, also served to ROS 2.

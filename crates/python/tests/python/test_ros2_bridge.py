@@ -581,6 +581,32 @@ def test_camera_depth_in_millimetres_when_not_canonical(ros):
     assert z[16] == 0  # nothing seen: 0, as REP 118 says for 16UC1
 
 
+def test_two_cameras_are_numbered_and_a_panned_one_turns_its_frame(ros):
+    world = CAMERA_WORLD.replace(
+        "  camera ( resolution [32 24]",
+        "  camera ( resolution [8 6] range [0.2 8.0] fov [60 40] pantilt [90 0] )\n"
+        "  camera ( resolution [32 24]",
+    )
+    node, peer = ros(world, "--fast")
+    first = wait_for(peer.reader("image1", Image))
+    second = wait_for(peer.reader("image2", Image))
+    assert (first.header.frame_id, first.width, first.height) == ("camera1", 8, 6)
+    assert (second.header.frame_id, second.width, second.height) == ("camera2", 32, 24)
+    assert wait_for(peer.reader("depth2", Image)).encoding == "32FC1"
+    assert wait_for(peer.reader("camera_info1", CameraInfo)).width == 8
+    frames = {
+        x.child_frame_id: x
+        for x in wait_for(
+            peer.reader("tf_static", TFMessage, depth=1, transient_local=True), timeout=5
+        ).transforms
+    }
+    # panned 90 degrees left: the optical axis (z) along the body's +y
+    q = frames["camera1"].transform.rotation
+    assert (q.x, q.y, q.z, q.w) == pytest.approx((-math.sqrt(0.5), 0, 0, math.sqrt(0.5)))
+    q = frames["camera2"].transform.rotation
+    assert (q.x, q.y, q.z, q.w) == pytest.approx((-0.5, 0.5, -0.5, 0.5))
+
+
 # `player FILE.cfg --ros2`: the Player server's stage world, also served to ROS 2.
 ROS2_CFG = """
 driver( name "stage" provides ["simulation:0"] worldfile "test.world" )

@@ -50,17 +50,19 @@ BITMAPS = REPO / "bitmaps"
 EXAMPLES = REPO / "examples" / "python"
 
 
-def _find_player():
-    env = os.environ.get("PLAYERSTAGE_PLAYER")
+def find_binary(name, env_var):
+    """This workspace's binary `name`: the path in `env_var` (pytest.rs sets it), else the
+    newest debug or release build under the target directory, else None."""
+    env = os.environ.get(env_var)
     if env:
         return Path(env)
     roots = [os.environ.get("CARGO_TARGET_DIR"), REPO / "target"]
     found = [
-        Path(r) / p / "player"
+        Path(r) / p / name
         for r in roots
         if r
         for p in ("debug", "release")
-        if (Path(r) / p / "player").is_file()
+        if (Path(r) / p / name).is_file()
     ]
     if not found:
         return None
@@ -69,7 +71,7 @@ def _find_player():
 
 @pytest.fixture(scope="session")
 def player_bin():
-    path = _find_player()
+    path = find_binary("player", "PLAYERSTAGE_PLAYER")
     if path is None:
         pytest.fail(
             "no `player` binary: build it with `cargo build -p cli --bin player` or set "

@@ -14,6 +14,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from conftest import find_binary
+
 # Cyclone reads its configuration when the first participant of a domain is created.
 _CONFIG = Path(tempfile.mkdtemp(prefix="playerstage-cyclonedds-")) / "lo.xml"
 _CONFIG.write_text(
@@ -31,7 +33,6 @@ from cyclonedds.sub import DataReader  # noqa: E402
 from cyclonedds.topic import Topic  # noqa: E402
 from cyclonedds.util import duration  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[4]
 
 
 def _name(package, kind, name):
@@ -228,23 +229,13 @@ def domain_id():
 
 
 def stage_ros2_bin():
-    env = os.environ.get("PLAYERSTAGE_STAGE_ROS2")
-    if env:
-        return Path(env)
-    roots = [os.environ.get("CARGO_TARGET_DIR"), REPO / "target"]
-    found = [
-        Path(r) / p / "stage_ros2"
-        for r in roots
-        if r
-        for p in ("debug", "release")
-        if (Path(r) / p / "stage_ros2").is_file()
-    ]
-    if not found:
+    found = find_binary("stage_ros2", "PLAYERSTAGE_STAGE_ROS2")
+    if found is None:
         raise RuntimeError(
             "no `stage_ros2` binary: build it with `cargo build -p cli --bin stage_ros2` or set "
             "PLAYERSTAGE_STAGE_ROS2"
         )
-    return max(found, key=lambda p: p.stat().st_mtime)
+    return found
 
 
 class Node:

@@ -126,10 +126,11 @@ fn wall_ns() -> u128 {
         .unwrap_or(0)
 }
 
-/// The child: subscribes to every topic the bridge publishes for the fleet, says `ready`,
+/// The child: subscribes to every topic the bridge publishes for the fleet (`all`, else to
+/// r0's scan alone), says `ready`,
 /// drains them until its stdin closes, then prints `samples N` and `scan STAMP_US WALL_NS`
 /// per scan of r0.
-fn reader_main() {
+fn reader_main(all: bool) {
     let ctx = context();
     let mut node = ctx
         .new_node(
@@ -138,7 +139,7 @@ fn reader_main() {
         )
         .expect("the reader node");
     let mut subs: Vec<Box<dyn Drain>> = Vec::new();
-    for i in 0..100 {
+    for i in (0..100).filter(|_| all) {
         subs.push(Box::new(subscribe::<Odometry>(
             &mut node,
             &format!("/r{i}/odom"),
@@ -158,7 +159,9 @@ fn reader_main() {
             &format!("/r{i}/tf"),
         )));
     }
-    subs.push(Box::new(subscribe::<Clock>(&mut node, "/clock")));
+    if all {
+        subs.push(Box::new(subscribe::<Clock>(&mut node, "/clock")));
+    }
     let scan0 = subscribe::<LaserScan>(&mut node, "/r0/base_scan");
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
@@ -208,8 +211,8 @@ fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64) -> (f64, HashMap<
 }
 
 fn main() {
-    if std::env::args().any(|a| a == "--reader") {
-        reader_main();
+    if let Some(a) = std::env::args().find(|a| a.starts_with("--reader")) {
+        reader_main(a == "--reader");
         return;
     }
     let steps: u64 = std::env::args()
@@ -258,9 +261,20 @@ fn main() {
     drop(bridge);
     drop(ctx);
 
-    // a reader of everything, in a child process
+    // a reader of everything, then of r0's scan alone (the latency without the load)
+    with_reader(true, steps, &report);
+    with_reader(false, steps, &report);
+}
+
+/// Runs the bridge with a reader process (of everything, or of r0's scan alone) and prints
+/// the rate, the samples and the step-to-scan latency.
+fn with_reader(all: bool, steps: u64, report: &dyn Fn(&str, f64)) {
+    let params = || Params {
+        world_file: "fleet.world".into(),
+        ..Params::default()
+    };
     let mut child = Command::new(std::env::current_exe().expect("this bench's path"))
-        .arg("--reader")
+        .arg(if all { "--reader" } else { "--reader-scan" })
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .spawn()
@@ -275,14 +289,18 @@ fn main() {
     let mut world = load_subscribed();
     let mut bridge =
         Bridge::new(&ctx, &mut world, params(), &RosArgs::default()).expect("the bridge starts");
-    // discovery: step until every topic is matched (nothing skipped in a step), 30 s at most
+    // discovery: step until every topic read is matched (all: nothing skipped in a step;
+    // else r0's scan written), 30 s at most; the first step writes the latched topics
+    bridged(&mut world, &mut bridge, 1);
     let warm = Instant::now();
-    let mut warm_steps = 0;
+    let mut warm_steps = 1;
     loop {
-        let before = bridge.counts().1;
+        let (w, s) = bridge.counts();
         bridged(&mut world, &mut bridge, 1);
         warm_steps += 1;
-        if bridge.counts().1 == before || warm.elapsed() > Duration::from_secs(30) {
+        let (w2, s2) = bridge.counts();
+        let ready = if all { s2 == s } else { w2 > w };
+        if ready || warm.elapsed() > Duration::from_secs(30) {
             break;
         }
         std::thread::sleep(Duration::from_millis(20));
@@ -308,7 +326,14 @@ fn main() {
         }
     }
     let _ = child.wait();
-    report("bridge, a reader of all: ", t);
+    report(
+        if all {
+            "bridge, a reader of all: "
+        } else {
+            "bridge, r0's scan read:  "
+        },
+        t,
+    );
     println!(
         "    after {warm_steps} warm-up steps: samples written {}, skipped {}; the reader took {samples} in all",
         written - before_w,

@@ -14,23 +14,8 @@ mod common;
 use std::net::TcpListener;
 use std::time::{Duration, Instant};
 
-use common::{PlayerProcess, player_command};
+use common::{PATIENCE, PlayerProcess, player_command, read_until};
 use player_client::{ClientError, PlayerClient, Position2dProxy, RangerProxy};
-
-/// Longest anything may take on a busy machine.
-const PATIENCE: Duration = Duration::from_secs(30);
-
-/// Reads until `done` holds, failing after [`PATIENCE`].
-fn read_until(client: &PlayerClient, what: &str, mut done: impl FnMut() -> bool) {
-    let start = Instant::now();
-    while !done() {
-        assert!(start.elapsed() < PATIENCE, "timed out waiting for {what}");
-        match client.read() {
-            Ok(()) | Err(ClientError::NoData | ClientError::Overflow { .. }) => {}
-            Err(e) => panic!("reading while waiting for {what}: {e}"),
-        }
-    }
-}
 
 /// Reads until `count` fresh rounds of `ranger`.
 fn ranger_rounds(client: &PlayerClient, ranger: &RangerProxy, count: u32) {

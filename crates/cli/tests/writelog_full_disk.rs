@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{PlayerProcess, player_command};
+use common::{PlayerProcess, player_command, read_until};
 
 use player_client::{ClientError, ClientProxy, PlayerClient, Position2dProxy, RangerProxy};
 use player_drivers::shell::readlog::LogReader;
@@ -20,9 +20,6 @@ use player_proto::{Body, InterfaceCode, LogMsg, LogReq};
 
 /// The disk's size (tmpfs) or the file-size limit.
 const DISK: u64 = 64 * 1024;
-/// Longest anything may take: the log fills in about a second.
-const PATIENCE: Duration = Duration::from_secs(30);
-
 /// Where the log goes, and how the disk is made full.
 enum Disk {
     /// A tmpfs of [`DISK`] bytes mounted here (unmounted on drop).
@@ -93,18 +90,6 @@ fn start_server(cfg: &Path, disk: &Disk) -> PlayerProcess {
         }
     }
     PlayerProcess::spawn(cmd)
-}
-
-/// Reads until `done` holds, failing after [`PATIENCE`].
-fn read_until(client: &PlayerClient, what: &str, mut done: impl FnMut() -> bool) {
-    let start = Instant::now();
-    while !done() {
-        assert!(start.elapsed() < PATIENCE, "timed out waiting for {what}");
-        match client.read() {
-            Ok(()) | Err(ClientError::NoData | ClientError::Overflow { .. }) => {}
-            Err(e) => panic!("reading while waiting for {what}: {e}"),
-        }
-    }
 }
 
 /// The log device's GET_STATE: whether it records.

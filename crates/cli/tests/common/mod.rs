@@ -118,3 +118,24 @@ impl Drop for PlayerProcess {
         self.kill();
     }
 }
+
+/// Longest anything may take on a busy machine.
+pub const PATIENCE: Duration = Duration::from_secs(30);
+
+/// Reads until `done` holds, failing after [`PATIENCE`]. A read with nothing waiting, or a
+/// queue overflow, is not an error here: the condition decides.
+pub fn read_until(
+    client: &player_client::PlayerClient,
+    what: &str,
+    mut done: impl FnMut() -> bool,
+) {
+    use player_client::ClientError;
+    let start = Instant::now();
+    while !done() {
+        assert!(start.elapsed() < PATIENCE, "timed out waiting for {what}");
+        match client.read() {
+            Ok(()) | Err(ClientError::NoData | ClientError::Overflow { .. }) => {}
+            Err(e) => panic!("reading while waiting for {what}: {e}"),
+        }
+    }
+}

@@ -16,6 +16,8 @@ use ros2_client::{
 };
 use stage_sim::{ModelId, ModelType, World};
 
+mod camera;
+
 use crate::Error;
 use crate::msgs::{
     Bool, Clock, Covariance, EmptyMessage, Header, LaserScan, Odometry, PlainEmptyRequest, Pose,
@@ -349,6 +351,7 @@ struct Vehicle {
     stalled: Outbound<Bool>,
     last_stalled: Option<bool>,
     rangers: Vec<Ranger>,
+    cameras: Vec<camera::Camera>,
     /// When the watchdog stops the vehicle (sim µs), after a command.
     watchdog_due_us: Option<u64>,
     /// The last global pose and its time, for ground truth's velocity.
@@ -573,6 +576,7 @@ impl Bridge {
                 stalled: Outbound::new(&mut topics, &names.stalled, latched_qos())?,
                 last_stalled: None,
                 rangers,
+                cameras: camera::cameras_of(world, &mut topics, m, &names)?,
                 watchdog_due_us: None,
                 last_global: None,
                 name,
@@ -808,6 +812,15 @@ impl Bridge {
                 }
                 publish_scan(world, r, matches);
             }
+            for c in &mut v.cameras {
+                if !self.params.use_static_transformations
+                    && let Some(mut t) = c.transform(world, v.model, &v.names)
+                {
+                    t.header.stamp = Time::from_micros(now);
+                    dynamic.entry(tf_key.clone()).or_default().push(t);
+                }
+                c.publish(world, &self.params, matches);
+            }
         }
         for (topic, transforms) in dynamic {
             if let Some(p) = self.tf.get_mut(&topic) {
@@ -834,6 +847,12 @@ impl Bridge {
                     x.header.stamp = Time::from_micros(world.sim_time());
                 }
                 statics.entry(key.clone()).or_default().extend(t);
+            }
+            for c in &v.cameras {
+                if let Some(mut t) = c.transform(world, v.model, &v.names) {
+                    t.header.stamp = Time::from_micros(world.sim_time());
+                    statics.entry(key.clone()).or_default().push(t);
+                }
             }
         }
         for (topic, transforms) in statics {

@@ -12,7 +12,7 @@ import multiprocessing
 import os
 import signal
 import tempfile
-from typing import Any, Dict, List, Optional, Sequence
+from typing import Any, Dict, List, Optional, Sequence, Set
 
 from .plan import RunSpec
 from .run import execute
@@ -60,48 +60,67 @@ def local(specs: Sequence[RunSpec], store, jobs: Optional[int] = None, progress=
     result stored as it arrives. Ctrl-C (KeyboardInterrupt) ends the workers at once and is
     re-raised; every run finished before it is stored. A worker that dies (a crash in native
     code, ``os._exit``, the OOM killer) breaks the pool: the runs that were running are
-    charged with it, everything unfinished is requeued on a new pool, and a run charged
-    ``CRASHES_ALLOWED`` times is recorded as failed. Returns counts ``{"done", "failed"}``."""
+    charged with it and everything unfinished is requeued on a new pool. When several runs were
+    running, each of them is tried next alone, in a pool of its own, so that the crash is
+    charged to the run that causes it and not to a neighbour that happened to share the pool;
+    a run charged ``CRASHES_ALLOWED`` times is recorded as failed. Returns counts ``{"done",
+    "failed"}``."""
     jobs = jobs or os.cpu_count() or 1
     todo = list(specs)
     crashes: Dict[str, int] = {}
+    isolate: Set[str] = set()  # runs to try alone next
     counts = {"done": 0, "failed": 0}
     with tempfile.TemporaryDirectory(prefix="playerstage-sweep-") as running_dir:
         while todo:
-            ctx = multiprocessing.get_context(context)
-            pool = cf.ProcessPoolExecutor(max_workers=min(jobs, len(todo)), mp_context=ctx,
-                                          initializer=_worker_init)
-            try:
-                futures = {pool.submit(_execute_marked, s, running_dir): s for s in todo}
-                todo = []
-                for fut in cf.as_completed(futures):
-                    try:
-                        result = fut.result()
-                    except cf.process.BrokenProcessPool:
-                        todo.append(futures[fut])
-                        continue
-                    except Exception as e:  # e.g. a result that could not be pickled back
-                        result = crashed_result(futures[fut], f"the run's result did not come "
-                                                f"back from its worker: {type(e).__name__}: {e}")
-                    _finish(result, store, progress, counts)
-            except BaseException:
-                _stop(pool)
-                raise
-            finally:
-                pool.shutdown(wait=True, cancel_futures=True)
-            if todo:
+            alone = [s for s in todo if s.run_id in isolate]
+            batch = alone[:1] if alone else todo
+            isolate.difference_update(s.run_id for s in batch)
+            rest = [s for s in todo if s is not batch[0]] if alone else []
+            broken = _run_pool(batch, min(jobs, len(batch)), context, running_dir, store,
+                               progress, counts)
+            if broken:
                 suspects = set(os.listdir(running_dir))
                 for name in suspects:
                     os.remove(os.path.join(running_dir, name))
-                for spec in todo:
+                for spec in broken:
                     if spec.run_id in suspects:
                         crashes[spec.run_id] = crashes.get(spec.run_id, 0) + 1
-                for spec in [s for s in todo if crashes.get(s.run_id, 0) >= CRASHES_ALLOWED]:
+                if len(suspects) > 1:
+                    isolate.update(suspects)
+                for spec in [s for s in broken if crashes.get(s.run_id, 0) >= CRASHES_ALLOWED]:
                     why = (f"the worker process died while running it ({CRASHES_ALLOWED} "
                            "times): a crash in native code or the machine out of memory")
                     _finish(crashed_result(spec, why), store, progress, counts)
-                todo = [s for s in todo if crashes.get(s.run_id, 0) < CRASHES_ALLOWED]
+                broken = [s for s in broken if crashes.get(s.run_id, 0) < CRASHES_ALLOWED]
+            todo = rest + broken
     return counts
+
+
+def _run_pool(batch: List[RunSpec], workers: int, context: str, running_dir: str, store,
+              progress, counts: Dict[str, int]) -> List[RunSpec]:
+    """Runs ``batch`` on a new pool of ``workers`` processes, storing each result; returns the
+    runs left unfinished because a worker died (the pool broke)."""
+    ctx = multiprocessing.get_context(context)
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+    broken: List[RunSpec] = []
+    try:
+        futures = {pool.submit(_execute_marked, s, running_dir): s for s in batch}
+        for fut in cf.as_completed(futures):
+            try:
+                result = fut.result()
+            except cf.process.BrokenProcessPool:
+                broken.append(futures[fut])
+                continue
+            except Exception as e:  # e.g. a result that could not be pickled back
+                result = crashed_result(futures[fut], f"the run's result did not come "
+                                        f"back from its worker: {type(e).__name__}: {e}")
+            _finish(result, store, progress, counts)
+    except BaseException:
+        _stop(pool)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return broken
 
 
 def _finish(result, store, progress, counts) -> None:

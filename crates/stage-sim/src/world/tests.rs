@@ -124,6 +124,9 @@ fn per_model_calls() -> Vec<(&'static str, Option<ModelType>, Call)> {
         ("camera_image", Some(T::Camera), |w, m| {
             w.camera_image(m).map(drop)
         }),
+        ("camera_config", Some(T::Camera), |w, m| {
+            w.camera_config(m).map(drop)
+        }),
         ("actuator", Some(T::Actuator), |w, m| {
             w.actuator(m).map(drop)
         }),

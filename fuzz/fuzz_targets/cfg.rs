@@ -9,27 +9,12 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use playerstage_fuzz::{top_part, write_tree};
-use worldfile::{CfgFile, Host, Limits, LoadOptions};
-
-fn options() -> LoadOptions {
-    LoadOptions {
-        limits: Limits {
-            max_file_bytes: 1 << 20,
-            max_tokens: 200_000,
-            max_include_depth: 16,
-            max_entities: 5_000,
-            max_parse_steps: 2_000_000,
-            max_nesting: 100,
-            max_bitmap_pixels: 1 << 16,
-        },
-        ..LoadOptions::default()
-    }
-}
+use playerstage_fuzz::{load_options, top_part, write_tree};
+use worldfile::{CfgFile, Host};
 
 fuzz_target!(|data: &[u8]| {
     let top = write_tree(data, "main.cfg");
-    let opts = options();
+    let opts = load_options();
     let loaded = CfgFile::load(&top, &opts);
     if let Ok(text) = std::str::from_utf8(top_part(data)) {
         let parsed = CfgFile::parse(&top, text, &opts);

@@ -17,24 +17,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use playerstage_fuzz::{top_part, write_bitmaps, write_tree};
-use worldfile::{Limits, LoadOptions, WorldSpec};
-
-fn options() -> LoadOptions {
-    LoadOptions {
-        stage_path: Vec::new(),
-        limits: Limits {
-            max_file_bytes: 1 << 20,
-            max_tokens: 200_000,
-            max_include_depth: 16,
-            max_entities: 5_000,
-            max_parse_steps: 2_000_000,
-            max_nesting: 100,
-            max_bitmap_pixels: 1 << 16,
-        },
-        ..LoadOptions::default()
-    }
-}
+use playerstage_fuzz::{load_options, top_part, write_bitmaps, write_tree};
+use worldfile::WorldSpec;
 
 /// Whether the world is small enough to build: every number in its dump is bounded
 /// (sample counts, sizes, poses, ranges, resolutions as integers), and the grid has at most
@@ -64,7 +48,7 @@ fn buildable(spec: &WorldSpec, dump: &serde_json::Value) -> bool {
 fuzz_target!(|data: &[u8]| {
     write_bitmaps();
     let top = write_tree(data, "main.world");
-    let opts = options();
+    let opts = load_options();
     let loaded = WorldSpec::load(&top, &opts);
     if let Ok(text) = std::str::from_utf8(top_part(data)) {
         let parsed = WorldSpec::parse(&top, text, &opts);

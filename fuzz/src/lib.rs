@@ -5,6 +5,26 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use worldfile::{Limits, LoadOptions};
+
+/// What the worldfile and cfg targets load with: no STAGEPATH (inputs stay inside their
+/// tree) and limits far below the defaults, so an input that merely asks for a huge file,
+/// token count or bitmap is refused quickly instead of using up the run's time and memory.
+pub fn load_options() -> LoadOptions {
+    LoadOptions {
+        limits: Limits {
+            max_file_bytes: 1 << 20,
+            max_tokens: 200_000,
+            max_include_depth: 16,
+            max_entities: 5_000,
+            max_parse_steps: 2_000_000,
+            max_nesting: 100,
+            max_bitmap_pixels: 1 << 16,
+        },
+        ..LoadOptions::default()
+    }
+}
+
 /// The process's scratch folder (made once, emptied of the previous input's files by
 /// [`write_tree`]). Under the system temp folder, named by process id so parallel fuzz jobs
 /// do not share it.

@@ -14,7 +14,6 @@ pub mod transport;
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
 
 pub use bridge::Bridge;
 pub use params::{PARAMETERS, Params, RosArgs};
@@ -75,10 +74,7 @@ pub enum Error {
 /// inbound messages before each step, publications after it, paced at `speedup` times real
 /// time (`<= 0`: as fast as possible). Returns the number of steps taken.
 pub fn run(world: &mut World, bridge: &mut Bridge, speedup: f64, quit: &AtomicBool) -> u64 {
-    let interval = world.config().interval_sim_us;
-    let step_wall = (speedup > 0.0 && speedup.is_finite())
-        .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / speedup));
-    let mut next = Instant::now();
+    let mut pacer = Pacer::new(world.config().interval_sim_us, speedup);
     let mut steps = 0;
     while !quit.load(Ordering::Relaxed) {
         bridge.inbound(world);
@@ -87,18 +83,10 @@ pub fn run(world: &mut World, bridge: &mut Bridge, speedup: f64, quit: &AtomicBo
         }
         steps += 1;
         bridge.publish(world);
-        if let Some(d) = step_wall {
-            next += d;
-            let now = Instant::now();
-            if next > now {
-                std::thread::sleep(next - now);
-            } else if now - next > Duration::from_millis(250) {
-                // too far behind: no burst of catch-up steps
-                next = now;
-            }
-        }
+        pacer.wait();
     }
     steps
 }
 
 use stage_sim::World;
+use stage_sim::pacing::Pacer;

@@ -103,6 +103,7 @@ pub mod generate;
 pub mod geom;
 pub mod models;
 pub mod node;
+pub mod pacing;
 pub mod pool;
 pub mod pose;
 pub mod raster;

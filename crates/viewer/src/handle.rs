@@ -19,6 +19,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
 use std::time::{Duration, Instant};
 
+use stage_sim::pacing::Pacer;
 use stage_sim::{ModelId, Pose, World};
 use worldfile::{WindowSpec, WorldSpec};
 
@@ -346,10 +347,7 @@ pub fn spawn_simulation(
                 let Some(first) = handles.first() else {
                     return;
                 };
-                let interval = first.read().config().interval_sim_us;
-                let step_wall = (pacing.speedup > 0.0 && pacing.speedup.is_finite())
-                    .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / pacing.speedup));
-                let mut next = Instant::now();
+                let mut pacer = Pacer::new(first.read().config().interval_sim_us, pacing.speedup);
                 while !handles.iter().any(WorldHandle::quit_requested) {
                     let mut stepped_any = false;
                     for (i, h) in handles.iter().enumerate() {
@@ -374,19 +372,10 @@ pub fn spawn_simulation(
                     }
                     if !stepped_any {
                         std::thread::sleep(Duration::from_millis(10));
-                        next = Instant::now();
+                        pacer.restart();
                         continue;
                     }
-                    if let Some(d) = step_wall {
-                        next += d;
-                        let now = Instant::now();
-                        if next > now {
-                            std::thread::sleep(next - now);
-                        } else if now - next > Duration::from_millis(250) {
-                            // too far behind (a slow world): do not try to catch up in a burst
-                            next = now;
-                        }
-                    }
+                    pacer.wait();
                 }
             })
         })

@@ -205,8 +205,7 @@ fn headless(args: &Args, worlds: &[WorldHandle], speedup: f64) -> anyhow::Result
 /// The headless loop: steps, pacing by `speedup`, clock and progress lines.
 fn step_headless(args: &Args, worlds: &[WorldHandle], speedup: f64) -> anyhow::Result<()> {
     let interval = worlds[0].read().config().interval_sim_us;
-    let step_wall = (speedup > 0.0 && speedup.is_finite())
-        .then(|| Duration::from_secs_f64(interval as f64 * 1e-6 / speedup));
+    let step_wall = stage_sim::pacing::step_wall(interval, speedup);
     let quit = worlds
         .iter()
         .map(|w| w.read().config().quit_time_us)

@@ -1,7 +1,8 @@
 """`StageEnv.render()` in ``"rgb_array"`` mode: the viewer's offscreen renderer, headless (Mesa's
 software Vulkan in CI). Without any graphics adapter the tests skip, unless
 PLAYERSTAGE_REQUIRE_GPU=1 makes that a failure (as the viewer's own render tests do).
-``"human"`` mode: refused without a display; a real window on Xvfb where it is installed."""
+``"human"`` mode: refused without a display; a real window on Xvfb where it is installed.
+The same for `parallel_env`."""
 
 import os
 import shutil
@@ -13,7 +14,7 @@ import numpy as np
 import pytest
 
 from playerstage import World, _native
-from playerstage.envs import StageEnv
+from playerstage.envs import StageEnv, parallel_env
 
 # A blue box at the world's centre, walls around: the image is fitted to the walls, so the
 # box lies at the image's centre.
@@ -99,10 +100,12 @@ def test_render_modes_and_refusals(world, monkeypatch):
         World(world)._w.show_window("no display")
 
 
-@pytest.fixture
-def xvfb(monkeypatch, tmp_path):
-    """An X server (Xvfb) on a free display number, DISPLAY pointing at it; a skip naming the
-    package where Xvfb is not installed (.ci/run installs it)."""
+@pytest.fixture(scope="module")
+def xvfb_server(tmp_path_factory):
+    """An X server (Xvfb) on a free display number, one for the module: the process's world
+    window keeps the X connection its event loop opened first, so the server must outlive
+    every window test of the process. A skip naming the package where Xvfb is not installed
+    (.ci/run installs it)."""
     exe = shutil.which("Xvfb")
     if exe is None:
         pytest.skip("Xvfb is not installed (apt-get install xvfb): no X server for the window")
@@ -111,7 +114,8 @@ def xvfb(monkeypatch, tmp_path):
             f"/tmp/.X{number}-lock"
         ):
             break
-    log = open(tmp_path / "xvfb.log", "w")
+    logs = tmp_path_factory.mktemp("xvfb")
+    log = open(logs / "xvfb.log", "w")
     server = subprocess.Popen(
         [exe, f":{number}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
         stdout=log, stderr=subprocess.STDOUT,
@@ -120,16 +124,24 @@ def xvfb(monkeypatch, tmp_path):
     while not os.path.exists(f"/tmp/.X11-unix/X{number}"):
         if server.poll() is not None or time.monotonic() > deadline:
             server.kill()
-            pytest.fail(f"Xvfb did not start: {(tmp_path / 'xvfb.log').read_text()}")
+            pytest.fail(f"Xvfb did not start: {(logs / 'xvfb.log').read_text()}")
         time.sleep(0.05)
-    monkeypatch.setenv("DISPLAY", f":{number}")
-    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
-    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))  # quiets Wayland's probe
-    yield f":{number}"
+    yield f":{number}", logs
     _native.close_window()
     server.terminate()
     server.wait(10)
     log.close()
+
+
+@pytest.fixture
+def xvfb(xvfb_server, monkeypatch):
+    """DISPLAY pointing at the module's X server for one test; the window closed after it."""
+    display, logs = xvfb_server
+    monkeypatch.setenv("DISPLAY", display)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(logs))  # quiets Wayland's probe
+    yield display
+    _native.close_window()
 
 
 def test_human_mode_shows_the_world_in_a_window(world, xvfb):
@@ -179,3 +191,74 @@ def test_human_mode_shows_the_world_in_a_window(world, xvfb):
     vec.close()
     assert _native.window_state()[0] is False
 
+
+
+def test_parallel_env_rgb_array_draws_every_agent(tmp_path):
+    """parallel_env's "rgb_array" frame is StageEnv's picture of the same world: the whole
+    world, agents and all, and it changes when an agent moves; PettingZoo's API test still
+    passes with a render_mode set."""
+    path = tmp_path / "two.world"
+    # a second robot, green, at the top right
+    path.write_text(
+        WORLD.format(
+            window='position ( name "r1" pose [2 2 0 0] size [0.4 0.4 0.3] color "green" '
+            'drive "diff" )'
+        )
+    )
+    env = parallel_env(path, task=None, render_mode="rgb_array")
+    assert env.metadata["render_modes"] == ["rgb_array", "human"]
+    assert env.metadata["render_fps"] == pytest.approx(10.0)
+    env.reset(seed=0)
+    img = frame(env)
+    assert img.shape == (300, 400, 3) and img.dtype == np.uint8
+    lone = StageEnv(path, "r0", task=None, render_mode="rgb_array")
+    lone.reset(seed=0)
+    assert np.array_equal(frame(lone), img), "the same world draws the same picture"
+    green = np.all(img == (0, 255, 0), axis=-1) | (
+        (img[..., 1] > 150) & (img[..., 0] < 100) & (img[..., 2] < 100)
+    )
+    assert green.any(), "r1 (green) is drawn"
+    for _ in range(10):
+        env.step({"r0": np.array([0.5, 0.5]), "r1": np.array([0.5, -0.5])})
+    moved = frame(env)
+    assert moved.shape == img.shape and not np.array_equal(moved, img)
+    assert parallel_env(path, task=None).render() is None, "no render_mode: nothing rendered"
+    with pytest.raises(ValueError, match="render_mode"):
+        parallel_env(path, render_mode="ansi")
+
+    import warnings
+
+    from pettingzoo.test import parallel_api_test
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="parallel_env.reset: unknown option")
+        parallel_api_test(parallel_env(path, task=None, render_mode="rgb_array"), num_cycles=20)
+
+
+def test_parallel_env_human_refused_without_display(world, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(RuntimeError, match="needs a display.*rgb_array"):
+        parallel_env(world, render_mode="human")
+
+
+def test_parallel_env_human_mode_shows_the_world(world, xvfb):
+    """On an X server: the window opens at reset, paints the frames of the steps, paced to
+    render_fps (10 a second here), render() returns None, close() closes it."""
+    env = parallel_env(world, task=None, render_mode="human")
+    assert _native.window_state()[0] is False
+    env.reset(seed=0)
+    opened, painted = _native.window_state()
+    assert opened, "reset opened the window"
+    t0 = time.monotonic()
+    for _ in range(6):
+        env.step({"r0": np.array([0.5, 0.0])})
+    elapsed = time.monotonic() - t0
+    assert elapsed >= 0.5, f"6 frames at 10 fps took {elapsed:.2f} s"
+    assert env.render() is None, "human mode returns nothing"
+    deadline = time.monotonic() + 10
+    while _native.window_state()[1] < painted + 3 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _native.window_state()[1] >= painted + 3, "the window painted the frames"
+    env.close()
+    assert _native.window_state()[0] is False, "close() closed the window"

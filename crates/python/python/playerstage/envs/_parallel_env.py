@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
@@ -12,16 +13,19 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from .. import World
+from .. import World, _native
 from ._stage_env import (
     _RESET_OPTIONS,
     Task,
     _check_common,
+    _check_render_mode,
     _draw_goal,
     _place_free,
     _pose2,
     _pose3,
+    _rgb_frame,
     _Robot,
+    _show_frame,
 )
 
 
@@ -68,9 +72,22 @@ class StageParallelEnv(ParallelEnv):
     the env's generator, seeded by ``reset(seed=...)``: the same seed, options and actions give
     the same episode and world digest. Unknown option keys are ignored with a warning
     (PettingZoo's API test passes one).
+
+    **Rendering** — as :class:`StageEnv` renders, the whole world (every agent and the rest):
+    ``render_mode="rgb_array"``: :meth:`render` returns the world drawn top-down by the
+    viewer's offscreen renderer (headless, software rendering included), an ``(H, W, 3)``
+    uint8 array of the worldfile ``window``'s ``size``. ``render_mode="human"``: the world
+    window shows the world after every :meth:`reset` and :meth:`step`, paced to
+    ``metadata["render_fps"]`` (``1 / (interval_sim * frame_skip)``, the simulated rate of the
+    steps); :meth:`render` shows a frame and returns None; :meth:`close` closes the window.
+    Without a display, ``"human"`` is refused when the env is made.
     """
 
-    metadata: Dict[str, Any] = {"name": "playerstage_stage_parallel_v0", "render_modes": []}
+    metadata: Dict[str, Any] = {
+        "name": "playerstage_stage_parallel_v0",
+        "render_modes": ["rgb_array", "human"],
+        "render_fps": None,
+    }
 
     def __init__(
         self,
@@ -93,8 +110,7 @@ class StageParallelEnv(ParallelEnv):
         explore_rangers: Optional[Sequence[str]] = None,
         render_mode: Optional[str] = None,
     ) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r}: parallel_env does not render")
+        _check_render_mode(render_mode, self.metadata["render_modes"], "parallel_env")
         _check_common(frame_skip, max_episode_steps, max_draws, task, goal_tolerance, explore_cell)
         self.render_mode = render_mode
         self._path = os.fspath(world)
@@ -106,6 +122,11 @@ class StageParallelEnv(ParallelEnv):
         self._max_episode_steps = max_episode_steps
         self._max_draws = int(max_draws)
         self._load()
+        self.metadata = {
+            **self.metadata,
+            "render_fps": 1.0 / (self._world.interval * self._frame_skip),
+        }
+        self._last_frame = -math.inf  # when the last "human" frame was shown (monotonic s)
 
         positions = self._world.models("position")
         if agents is None:
@@ -234,6 +255,8 @@ class StageParallelEnv(ParallelEnv):
             info.update(self._robots[name].begin(self._world, chosen[name]))
             infos[name] = info
         obs = {name: self._robots[name].observe(w) for name in self.agents}
+        if self.render_mode == "human":
+            self._show()
         return obs, infos
 
     def step(self, actions: Mapping[str, Any]) -> Tuple[
@@ -273,13 +296,35 @@ class StageParallelEnv(ParallelEnv):
         for name in live:
             if name not in self.agents:
                 w.set_velocity(name, 0.0, 0.0, 0.0)  # out of the episode: it stops
+        if self.render_mode == "human":
+            self._show()
         return obs, rewards, terminations, truncations, infos
 
-    def render(self) -> None:
-        raise NotImplementedError("parallel_env does not render yet")
+    def render(self) -> Optional[np.ndarray]:
+        """``"rgb_array"``: the whole world drawn offscreen, an ``(H, W, 3)`` uint8 array (see
+        :meth:`StageEnv.render`; raises ``RuntimeError`` "no graphics adapter ..." when wgpu
+        finds none). ``"human"``: a frame in the world window (paced to ``render_fps``), None.
+        None without a ``render_mode``."""
+        if self.render_mode is None:
+            return None
+        if self.render_mode == "human":
+            self._show()
+            return None
+        return _rgb_frame(self._native)
 
     def close(self) -> None:
-        pass
+        """Closes the world window in ``"human"`` mode (nothing else holds resources)."""
+        if self.render_mode == "human":
+            _native.close_window()
+
+    def _show(self) -> None:
+        """One ``"human"`` frame of the current world, at most ``render_fps`` a second."""
+        self._last_frame = _show_frame(
+            self._native,
+            f"{os.path.basename(self._path)}: {len(self.agents)} agents",
+            self.metadata["render_fps"],
+            self._last_frame,
+        )
 
     # -- internals ----------------------------------------------------------------------
 

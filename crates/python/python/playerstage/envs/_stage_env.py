@@ -119,17 +119,7 @@ class StageEnv(gymnasium.Env):
         explore_rangers: Optional[Sequence[str]] = None,
         render_mode: Optional[str] = None,
     ) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode {render_mode!r}: StageEnv renders {self.metadata['render_modes']}"
-            )
-        if render_mode == "human" and not _native.display_available():
-            # fail at make time, not at the first frame: no window without a display
-            raise RuntimeError(
-                "render_mode='human' needs a display for the world window, and neither "
-                "DISPLAY nor WAYLAND_DISPLAY is set; use render_mode='rgb_array' to draw "
-                "without one (or run under Xvfb with DISPLAY set)"
-            )
+        _check_render_mode(render_mode, self.metadata["render_modes"], "StageEnv")
         _check_common(
             frame_skip, max_episode_steps, max_draws, task, goal_tolerance, explore_cell
         )
@@ -284,8 +274,7 @@ class StageEnv(gymnasium.Env):
         if self.render_mode == "human":
             self._show()
             return None
-        width, height, rgb = self._native.render()
-        return np.frombuffer(rgb, dtype=np.uint8).reshape(height, width, 3).copy()
+        return _rgb_frame(self._native)
 
     def close(self) -> None:
         """Closes the world window in ``"human"`` mode (nothing else holds resources)."""
@@ -296,12 +285,12 @@ class StageEnv(gymnasium.Env):
     def _show(self) -> None:
         """One ``"human"`` frame: waits until ``1 / render_fps`` has passed since the last one,
         then hands the world to the window."""
-        period = 1.0 / self.metadata["render_fps"]
-        wait = self._last_frame + period - time.monotonic()
-        if wait > 0:
-            time.sleep(wait)
-        self._native.show_window(f"{os.path.basename(self._path)}: {self._robot}")
-        self._last_frame = time.monotonic()
+        self._last_frame = _show_frame(
+            self._native,
+            f"{os.path.basename(self._path)}: {self._robot}",
+            self.metadata["render_fps"],
+            self._last_frame,
+        )
 
     # -- internals ----------------------------------------------------------------------
 
@@ -521,6 +510,38 @@ class _Robot:
         if self.flatten:
             return spaces.flatten(self.dict_space, obs)
         return obs
+
+
+def _check_render_mode(render_mode: Optional[str], modes: Sequence[str], who: str) -> None:
+    """A constructor's check of its `render_mode` (StageEnv and parallel_env share it):
+    one of `modes` or None, and ``"human"`` only with a display, so that a headless run fails
+    when the env is made, not at its first frame."""
+    if render_mode is not None and render_mode not in modes:
+        raise ValueError(f"render_mode {render_mode!r}: {who} renders {list(modes)}")
+    if render_mode == "human" and not _native.display_available():
+        raise RuntimeError(
+            "render_mode='human' needs a display for the world window, and neither "
+            "DISPLAY nor WAYLAND_DISPLAY is set; use render_mode='rgb_array' to draw "
+            "without one (or run under Xvfb with DISPLAY set)"
+        )
+
+
+def _rgb_frame(native: Any) -> np.ndarray:
+    """The whole world drawn offscreen (``World.render``) as an ``(H, W, 3)`` uint8 array the
+    caller owns."""
+    width, height, rgb = native.render()
+    return np.frombuffer(rgb, dtype=np.uint8).reshape(height, width, 3).copy()
+
+
+def _show_frame(native: Any, title: str, fps: float, last: float) -> float:
+    """One ``"human"`` frame of `native` in the world window, shown no sooner than ``1 / fps``
+    after the last one (shown at `last`, monotonic seconds): the world's own pace. Returns
+    when this one was shown."""
+    wait = last + 1.0 / fps - time.monotonic()
+    if wait > 0:
+        time.sleep(wait)
+    native.show_window(title)
+    return time.monotonic()
 
 
 def _clip(x: float, lo: float, hi: float) -> float:

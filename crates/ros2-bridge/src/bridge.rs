@@ -19,6 +19,7 @@ use stage_sim::{ModelId, ModelType, World};
 mod camera;
 
 use crate::Error;
+use crate::inbound;
 use crate::msgs::{
     Bool, Clock, Covariance, EmptyMessage, Header, LaserScan, Odometry, PlainEmptyRequest, Pose,
     PoseWithCovariance, Quaternion, Range, RosType, TfMessage, Time, Transform, TransformStamped,
@@ -648,18 +649,16 @@ impl Bridge {
         let now = world.sim_time();
         for v in &mut self.vehicles {
             if let Some(cmd) = v.cmd_vel.take(&mut self.matches).pop() {
-                let (vx, vy, va) = (cmd.linear.x, cmd.linear.y, cmd.angular.z);
-                if [vx, vy, va].iter().all(|x| x.is_finite()) {
-                    if let Err(e) = world.position_cmd_vel(v.model, vx, vy, va) {
-                        tracing::warn!("{}: {e}", v.names.cmd_vel);
-                    }
-                    v.watchdog_due_us = Some(now + self.watchdog_us);
-                } else {
-                    tracing::warn!("{}: ignored a command that is not finite", v.names.cmd_vel);
+                match inbound::apply_cmd_vel(world, v.model, &cmd) {
+                    Ok(()) => v.watchdog_due_us = Some(now + self.watchdog_us),
+                    Err(e) => tracing::warn!("{}: {e}", v.names.cmd_vel),
                 }
             }
             if let Some(p) = v.cmd_pose.take(&mut self.matches).pop() {
-                teleport(world, v, &p);
+                match inbound::apply_cmd_pose(world, v.model, &p) {
+                    Ok(()) => v.last_global = None,
+                    Err(e) => tracing::warn!("{}: {e}", v.names.cmd_pose),
+                }
             }
             if let Some(due) = v.watchdog_due_us
                 && now > due
@@ -679,9 +678,8 @@ impl Bridge {
         let resets = self.reset.answer();
         if resets > 0 {
             tracing::info!("resetting stage");
+            inbound::reset(world, self.vehicles.iter().map(|v| (v.model, v.start)));
             for v in &mut self.vehicles {
-                let _ = world.set_pose(v.model, v.start);
-                let _ = world.set_stall(v.model, false);
                 v.last_global = None;
             }
         }
@@ -861,35 +859,6 @@ impl Bridge {
             }
         }
     }
-}
-
-/// Sets a vehicle's pose from a `cmd_pose` (world frame; the height is kept) and clears its
-/// stall, as a teleport out of a collision should.
-fn teleport(world: &mut World, v: &mut Vehicle, p: &Pose) {
-    let values = [p.position.x, p.position.y, p.orientation.yaw()];
-    if !values.iter().all(|x| x.is_finite()) {
-        tracing::warn!("{}: ignored a pose that is not finite", v.names.cmd_pose);
-        return;
-    }
-    let Ok(current) = world.pose(v.model) else {
-        return;
-    };
-    let target = stage_sim::Pose::new(values[0], values[1], current.z, values[2]);
-    // a position model inside another model takes its pose in the parent's frame
-    let local = match world.parent(v.model).ok().flatten() {
-        Some(parent) => match world.global_pose(parent) {
-            Ok(pg) => {
-                let mut l = pg.relative(&target);
-                l.z = current.z;
-                l
-            }
-            Err(_) => target,
-        },
-        None => target,
-    };
-    let _ = world.set_pose(v.model, local);
-    let _ = world.set_stall(v.model, false);
-    v.last_global = None;
 }
 
 /// The transforms from the vehicle's body frame to a ranger's frame (stage_ros2's: the

@@ -7,7 +7,11 @@
 //! `--reader`, taking every odom, ground_truth, base_scan, tf and /clock sample); the latter
 //! also gives the latency from the end of a step to its scan (r0's) reaching the reader (wall
 //! clock, both processes on this machine). On a 2-core machine the reader's own work competes
-//! with the simulation, as a ROS 2 node on the same machine would.
+//! with the simulation, as a ROS 2 node on the same machine would; so each bridged run also
+//! reports CPU time per step from the kernel's per-thread accounting (`/proc/PID/task/*/
+//! schedstat`): the world's step (the `stage-sim` threads, less the stepping thread's time
+//! inside `publish`, from its thread CPU clock), the bridge's own work (`publish` on the
+//! stepping thread, the publisher thread, RustDDS's threads) and the reader process's.
 //!
 //! `cargo bench -p ros2-bridge --bench bridge [-- STEPS]`
 
@@ -18,6 +22,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+use ros2_bridge::bridge::PUBLISHER_THREAD_NAME;
 use ros2_bridge::msgs::{Clock, LaserScan, Odometry, RosType, TfMessage};
 use ros2_bridge::{Bridge, Discovery, Params, RosArgs};
 use ros2_client::{
@@ -194,20 +199,124 @@ fn reader_main(all: bool) {
     }
 }
 
-/// Steps `world` with `bridge` `steps` times; the wall time taken and when each step ended
-/// (by sim time, wall ns).
-fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64) -> (f64, HashMap<u64, u128>) {
+/// The calling thread's CPU time (ns).
+fn thread_cpu_ns() -> u64 {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes the timespec it is given and nothing else.
+    let r = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
+    if r != 0 {
+        return 0;
+    }
+    t.tv_sec as u64 * 1_000_000_000 + t.tv_nsec as u64
+}
+
+/// CPU time (ns) of each thread of process `pid` (`self` for this one), by thread id, with
+/// its name: the first field of `schedstat` is the time the thread ran.
+fn threads_cpu(pid: &str) -> HashMap<u64, (String, u64)> {
+    let mut out = HashMap::new();
+    let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
+        return out;
+    };
+    for task in tasks.flatten() {
+        let Some(tid) = task.file_name().to_str().and_then(|t| t.parse().ok()) else {
+            continue;
+        };
+        let read = |f: &str| std::fs::read_to_string(task.path().join(f)).unwrap_or_default();
+        let ns = read("schedstat")
+            .split_whitespace()
+            .next()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0);
+        out.insert(tid, (read("comm").trim().to_string(), ns));
+    }
+    out
+}
+
+/// CPU time (ns) each named group of threads took between two [`threads_cpu`] readings (a
+/// thread started in between counts from 0; one that ended is lost).
+fn cpu_between(
+    before: &HashMap<u64, (String, u64)>,
+    after: &HashMap<u64, (String, u64)>,
+) -> HashMap<&'static str, u64> {
+    let mut out = HashMap::new();
+    for (tid, (name, ns)) in after {
+        let was = before.get(tid).map_or(0, |(_, b)| *b);
+        let group = if name.starts_with("stage-sim") {
+            "world"
+        } else if name.starts_with("RustDDS") {
+            "dds"
+        } else if name == PUBLISHER_THREAD_NAME {
+            "publisher"
+        } else {
+            "other"
+        };
+        *out.entry(group).or_insert(0) += ns.saturating_sub(was);
+    }
+    out
+}
+
+/// What a bridged run measured.
+struct Run {
+    /// Wall time (s).
+    wall: f64,
+    /// When each step ended (by sim time, wall ns).
+    ended: HashMap<u64, u128>,
+    /// The stepping thread's CPU time inside `publish` (ns).
+    publish_cpu: u64,
+    /// The process's CPU time per thread group over the run (ns).
+    cpu: HashMap<&'static str, u64>,
+}
+
+/// Steps `world` with `bridge` `steps` times.
+fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64) -> Run {
     let mut ended = HashMap::new();
+    let mut publish_cpu = 0;
+    let before = threads_cpu("self");
     let start = Instant::now();
     stage_sim::on_sim_threads(|| {
         for _ in 0..steps {
             bridge.inbound(world);
             world.step();
             ended.insert(world.sim_time(), wall_ns());
+            let t = thread_cpu_ns();
             bridge.publish(world);
+            publish_cpu += thread_cpu_ns().saturating_sub(t);
         }
     });
-    (start.elapsed().as_secs_f64(), ended)
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu_between(&before, &threads_cpu("self"));
+    Run {
+        wall,
+        ended,
+        publish_cpu,
+        cpu,
+    }
+}
+
+/// Prints the CPU time per step of the world, of the bridge (by part) and of the reader
+/// process (`reader_ns`, when there is one).
+fn report_cpu(run: &Run, steps: u64, reader_ns: Option<u64>) {
+    let per_step = |ns: u64| ns as f64 * 1e-6 / steps as f64;
+    let g = |k: &str| run.cpu.get(k).copied().unwrap_or(0);
+    let world = g("world").saturating_sub(run.publish_cpu);
+    let bridge = run.publish_cpu + g("publisher") + g("dds");
+    println!(
+        "    CPU per step: world {:.2} ms; bridge {:.2} ms (publish on the stepping thread {:.2}, \
+         publisher thread {:.2}, RustDDS threads {:.2}) = {:.0}% of this process's{}",
+        per_step(world),
+        per_step(bridge),
+        per_step(run.publish_cpu),
+        per_step(g("publisher")),
+        per_step(g("dds")),
+        100.0 * bridge as f64 / (world + bridge).max(1) as f64,
+        match reader_ns {
+            Some(r) => format!("; the reader process {:.2} ms", per_step(r)),
+            None => String::new(),
+        }
+    );
 }
 
 fn main() {
@@ -254,10 +363,11 @@ fn main() {
     let mut world = load_subscribed();
     let mut bridge =
         Bridge::new(&ctx, &mut world, params(), &RosArgs::default()).expect("the bridge starts");
-    let (t, _) = bridged(&mut world, &mut bridge, steps);
+    let run = bridged(&mut world, &mut bridge, steps);
     let (written, skipped) = bridge.counts();
-    report("bridge, no subscriber:   ", t);
+    report("bridge, no subscriber:   ", run.wall);
     println!("    samples written {written}, skipped (no reader) {skipped}");
+    report_cpu(&run, steps, None);
     drop(bridge);
     drop(ctx);
 
@@ -306,7 +416,12 @@ fn with_reader(all: bool, steps: u64, report: &dyn Fn(&str, f64)) {
         std::thread::sleep(Duration::from_millis(20));
     }
     let (before_w, before_s) = bridge.counts();
-    let (t, ended) = bridged(&mut world, &mut bridge, steps);
+    let reader_pid = child.id().to_string();
+    let reader_before = threads_cpu(&reader_pid);
+    let run = bridged(&mut world, &mut bridge, steps);
+    let reader_cpu: u64 = cpu_between(&reader_before, &threads_cpu(&reader_pid))
+        .values()
+        .sum();
     let (written, skipped) = bridge.counts();
     // the reader drains what is in flight, then is told to stop
     std::thread::sleep(Duration::from_millis(1000));
@@ -332,14 +447,16 @@ fn with_reader(all: bool, steps: u64, report: &dyn Fn(&str, f64)) {
         } else {
             "bridge, r0's scan read:  "
         },
-        t,
+        run.wall,
     );
+    report_cpu(&run, steps, Some(reader_cpu));
     println!(
         "    after {warm_steps} warm-up steps: samples written {}, skipped {}; the reader took {samples} in all",
         written - before_w,
         skipped - before_s,
     );
-    let mut lat: Vec<f64> = ended
+    let mut lat: Vec<f64> = run
+        .ended
         .iter()
         .filter_map(|(us, end)| {
             arrival

@@ -17,6 +17,10 @@ use ros2_client::{
 use stage_sim::{ModelId, ModelType, World};
 
 mod camera;
+mod writer;
+
+pub use writer::THREAD_NAME as PUBLISHER_THREAD_NAME;
+use writer::{Job, Sink, Writer};
 
 use crate::Error;
 use crate::inbound;
@@ -262,14 +266,20 @@ impl Matches {
     }
 }
 
-/// A publisher that reports its first failure (a full window, a vanished reader) once.
+/// What a step's publishing writes through: the matches that say which writers have a reader,
+/// and the step's messages, queued for the publisher thread.
+struct Out<'a> {
+    matches: &'a Matches,
+    jobs: &'a mut Vec<Job>,
+}
+
+/// A publisher (written on the publisher thread, [`writer`]) and what the stepping thread
+/// keeps of it: whether to write, and the counts.
 struct Outbound<T: RosType> {
-    topic: String,
-    publisher: Publisher<T>,
+    sink: std::sync::Arc<Sink<T>>,
     guid: GUID,
     /// Transient local: written whether or not a reader is matched (late joiners get it).
     latched: bool,
-    failed: bool,
     /// Samples written and skipped (no matched reader), for [`Bridge::counts`].
     written: u64,
     skipped: u64,
@@ -278,35 +288,25 @@ struct Outbound<T: RosType> {
 impl<T: RosType> Outbound<T> {
     fn new(topics: &mut Topics, name: &str, qos: QosProfile) -> Result<Outbound<T>, Error> {
         let latched = qos.durability != Durability::Volatile;
-        let publisher = topics.publisher(name, qos)?;
+        let sink = Sink::new(topics.resolve(name), topics.publisher(name, qos)?);
         Ok(Outbound {
-            topic: topics.resolve(name),
-            guid: publisher.guid(),
-            publisher,
+            guid: sink.guid(),
+            sink,
             latched,
-            failed: false,
             written: 0,
             skipped: 0,
         })
     }
 
-    /// Writes the message `make` builds, unless the topic is volatile and has no matched
-    /// reader (then nothing is built).
-    fn send(&mut self, matches: &Matches, make: impl FnOnce() -> T) {
-        if !self.latched && !matches.matched(self.guid) {
+    /// Queues the message `make` builds for the publisher thread, unless the topic is
+    /// volatile and has no matched reader (then nothing is built).
+    fn send(&mut self, out: &mut Out<'_>, make: impl FnOnce() -> T) {
+        if !self.latched && !out.matches.matched(self.guid) {
             self.skipped += 1;
             return;
         }
         self.written += 1;
-        if let Err(e) = self.publisher.publish(make()) {
-            if !self.failed {
-                tracing::warn!(
-                    "{}: a message was not sent ({e:?}); further failures are not logged",
-                    self.topic
-                );
-                self.failed = true;
-            }
-        }
+        out.jobs.push(self.sink.job(make()));
     }
 }
 
@@ -437,6 +437,10 @@ pub struct Bridge {
     clock: Outbound<Clock>,
     reset: ResetServers,
     watchdog_us: u64,
+    /// The step's messages, queued by [`Bridge::publish`] and handed to `writer` at its end.
+    jobs: Vec<Job>,
+    /// The publisher thread; dropped before the node, after writing what is queued.
+    writer: Writer,
     // last: the node outlives its entities
     topics: Topics,
 }
@@ -599,6 +603,8 @@ impl Bridge {
             clock,
             reset,
             watchdog_us,
+            jobs: Vec::new(),
+            writer: Writer::start()?,
             topics,
         })
     }
@@ -687,7 +693,9 @@ impl Bridge {
 
     /// Publishes the world's state after a step, stamped with its sim time: odometry, ground
     /// truth, fresh scans, transforms, stall changes and `/clock`. Nothing is published at
-    /// time 0 (ROS reserves a zero clock).
+    /// time 0 (ROS reserves a zero clock). The messages are built here and handed to the
+    /// publisher thread, which serialises and writes them, in order, while the next step is
+    /// computed; this waits only when that thread is two steps behind.
     pub fn publish(&mut self, world: &World) {
         let now = world.sim_time();
         if now == 0 {
@@ -698,7 +706,10 @@ impl Bridge {
             self.send_static(world);
             self.static_sent = true;
         }
-        let matches = &self.matches;
+        let mut out = Out {
+            matches: &self.matches,
+            jobs: &mut self.jobs,
+        };
         let mut dynamic: BTreeMap<String, Vec<TransformStamped>> = BTreeMap::new();
         for v in &mut self.vehicles {
             let Ok(state) = world.position_state(v.model) else {
@@ -743,13 +754,13 @@ impl Bridge {
                     rotation: odom.pose.pose.orientation,
                 },
             };
-            v.odom.send(matches, || odom);
+            v.odom.send(&mut out, || odom);
             let tf_key = &v.tf_key;
             dynamic.entry(tf_key.clone()).or_default().push(odom_tf);
 
             let stalled = state.stall;
             if v.last_stalled != Some(stalled) {
-                v.stalled.send(matches, || Bool { data: stalled });
+                v.stalled.send(&mut out, || Bool { data: stalled });
                 v.last_stalled = Some(stalled);
             }
 
@@ -769,7 +780,7 @@ impl Bridge {
                     );
                 }
                 v.last_global = Some((g, now));
-                gt.send(matches, || Odometry {
+                gt.send(&mut out, || Odometry {
                     header: stamp(&v.names.frame_world, now),
                     child_frame_id: String::new(),
                     pose: PoseWithCovariance {
@@ -808,7 +819,7 @@ impl Bridge {
                         dynamic.entry(tf_key.clone()).or_default().push(t);
                     }
                 }
-                publish_scan(world, r, matches);
+                publish_scan(world, r, &mut out);
             }
             for c in &mut v.cameras {
                 if !self.params.use_static_transformations
@@ -817,17 +828,21 @@ impl Bridge {
                     t.header.stamp = Time::from_micros(now);
                     dynamic.entry(tf_key.clone()).or_default().push(t);
                 }
-                c.publish(world, &self.params, matches);
+                c.publish(world, &self.params, &mut out);
             }
         }
         for (topic, transforms) in dynamic {
             if let Some(p) = self.tf.get_mut(&topic) {
-                p.send(matches, || TfMessage { transforms });
+                p.send(&mut out, || TfMessage { transforms });
             }
         }
-        self.clock.send(matches, || Clock {
+        self.clock.send(&mut out, || Clock {
             clock: Time::from_micros(now),
         });
+        // the next step's queue starts with room for as many
+        let n = self.jobs.len();
+        self.writer
+            .submit(std::mem::replace(&mut self.jobs, Vec::with_capacity(n)));
     }
 
     /// The sensor frames, once, on each tf_static topic (transient local: tf2 listeners that
@@ -853,9 +868,13 @@ impl Bridge {
                 }
             }
         }
+        let mut out = Out {
+            matches: &self.matches,
+            jobs: &mut self.jobs,
+        };
         for (topic, transforms) in statics {
             if let Some(p) = self.tf_static.get_mut(&topic) {
-                p.send(&self.matches, || TfMessage { transforms });
+                p.send(&mut out, || TfMessage { transforms });
             }
         }
     }
@@ -907,7 +926,7 @@ fn ranger_transforms(
 
 /// Publishes a ranger's scan when it is fresh: its first transducer as a LaserScan (as
 /// stage_ros2), and each transducer as a Range when there are several.
-fn publish_scan(world: &World, r: &mut Ranger, matches: &Matches) {
+fn publish_scan(world: &World, r: &mut Ranger, out: &mut Out<'_>) {
     let Ok(data) = world.ranger_scans(r.model) else {
         return;
     };
@@ -920,7 +939,7 @@ fn publish_scan(world: &World, r: &mut Ranger, matches: &Matches) {
     };
     let samples = first.samples.max(1);
     let fov = first.fov;
-    r.scan.send(matches, || LaserScan {
+    r.scan.send(out, || LaserScan {
         header: stamp(&r.frame, data.time_us),
         angle_min: (-fov / 2.0) as f32,
         angle_max: (fov / 2.0) as f32,
@@ -942,7 +961,7 @@ fn publish_scan(world: &World, r: &mut Ranger, matches: &Matches) {
         let Some(&range) = s.ranges.first() else {
             continue;
         };
-        publisher.send(matches, || Range {
+        publisher.send(out, || Range {
             header: stamp(frame, data.time_us),
             radiation_type: 0,
             field_of_view: sensor.fov as f32,

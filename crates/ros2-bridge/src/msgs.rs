@@ -9,8 +9,11 @@ use serde::de::{self, SeqAccess, Visitor};
 use serde::ser::SerializeTuple;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-/// A message type's ROS 2 package and name (`("nav_msgs", "Odometry")`).
-pub trait RosType: Serialize + serde::de::DeserializeOwned + fmt::Debug + Send + 'static {
+/// A message type's ROS 2 package and name (`("nav_msgs", "Odometry")`). `Send + Sync`: the
+/// publisher thread serialises and writes what the stepping thread built.
+pub trait RosType:
+    Serialize + serde::de::DeserializeOwned + fmt::Debug + Send + Sync + 'static
+{
     /// The ROS 2 package (`nav_msgs`).
     const PACKAGE: &'static str;
     /// The type's name in its package (`Odometry`).

@@ -7,7 +7,7 @@
 
 use stage_sim::{CameraDesc, CameraImage, ModelId, ModelType, World};
 
-use super::{Matches, Outbound, Topics, default_qos, stamp};
+use super::{Out, Outbound, Topics, default_qos, stamp};
 use crate::Error;
 use crate::msgs::{CameraInfo, Image, Quaternion, Transform, TransformStamped, Vector3};
 use crate::names::{CameraNames, VehicleNames};
@@ -62,7 +62,7 @@ pub(super) fn cameras_of(
 impl Camera {
     /// Publishes the image, the depth image and the camera info when the camera has a fresh
     /// image (each built only when a reader is matched).
-    pub(super) fn publish(&mut self, world: &World, params: &Params, matches: &Matches) {
+    pub(super) fn publish(&mut self, world: &World, params: &Params, out: &mut Out<'_>) {
         let (Ok(img), Ok(cfg)) = (
             world.camera_image(self.model),
             world.camera_config(self.model),
@@ -74,7 +74,7 @@ impl Camera {
         }
         self.last_us = img.time_us;
         let frame = &self.frame;
-        self.image.send(matches, || Image {
+        self.image.send(out, || Image {
             header: stamp(frame, img.time_us),
             height: img.height,
             width: img.width,
@@ -84,8 +84,8 @@ impl Camera {
             data: img.rgba.clone(),
         });
         self.depth
-            .send(matches, || depth_image(frame, img, cfg, params));
-        self.info.send(matches, || camera_info(frame, img, cfg));
+            .send(out, || depth_image(frame, img, cfg, params));
+        self.info.send(out, || camera_info(frame, img, cfg));
     }
 
     /// The transform from the vehicle's body frame to the camera's optical frame (z ahead, x

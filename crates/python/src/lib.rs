@@ -13,11 +13,13 @@ use pyo3::prelude::*;
 pub mod client;
 pub mod convert;
 pub mod errors;
+pub mod vector;
 pub mod world;
 
 /// The module's contents: the two classes, the functions that step many worlds at once for
-/// `playerstage.envs.VectorStageEnv` ([`world::step_worlds`], [`world::step_observe`]), the
-/// exception hierarchy, the interface codes the Python side addresses devices with, and
+/// `playerstage.envs.VectorStageEnv` ([`world::step_worlds`], [`world::step_observe`]) and
+/// its native step ([`vector::VectorCore`]; the goal task's reward, [`vector::goal_reward`]),
+/// the exception hierarchy, the interface codes the Python side addresses devices with, and
 /// Player's default port (`DEFAULT_PORT`, so the Python modules' defaults come from the one
 /// Rust constant).
 #[pymodule]
@@ -27,6 +29,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(world::step_worlds, m)?)?;
     m.add_function(wrap_pyfunction!(world::step_observe, m)?)?;
     m.add_function(wrap_pyfunction!(world::load_worlds, m)?)?;
+    m.add_class::<vector::VectorCore>()?;
+    m.add_function(wrap_pyfunction!(vector::goal_reward, m)?)?;
     m.add_function(wrap_pyfunction!(world::display_available, m)?)?;
     m.add_function(wrap_pyfunction!(world::close_window, m)?)?;
     m.add_function(wrap_pyfunction!(world::window_state, m)?)?;

@@ -23,7 +23,7 @@ use crate::errors::WorldError;
 /// A loaded world: `World(path, seed=0)`.
 #[pyclass(module = "playerstage._native")]
 pub struct World {
-    world: stage_sim::World,
+    pub(crate) world: stage_sim::World,
     path: PathBuf,
     /// The worldfile's `window` (default size, what to draw) for `render`.
     window: worldfile::WindowSpec,
@@ -32,13 +32,13 @@ pub struct World {
     /// The last rendered scene: its static layer is reused while the walls stay put.
     scene: viewer::Scene,
     /// Position models whose travel, stalls and collisions every step accumulates (`track`).
-    tracks: Vec<Track>,
+    pub(crate) tracks: Vec<Track>,
 }
 
 /// What `World.track` accumulates for one position model, step by step, in native code: a
 /// sweep's per-robot metrics need every step's pose and stall flag, which read from Python
 /// after each step would cost more than the step of a small world.
-struct Track {
+pub(crate) struct Track {
     model: ModelId,
     name: String,
     /// The global pose after the last step seen.
@@ -79,7 +79,7 @@ impl Track {
 /// parent's device, whose driver threads it does not have, so it opens its own.
 static OFFSCREEN: PerProcess<Mutex<Option<viewer::Offscreen>>> = PerProcess::new();
 
-fn sim_err(e: stage_sim::Error) -> PyErr {
+pub(crate) fn sim_err(e: stage_sim::Error) -> PyErr {
     WorldError::new_err(e.to_string())
 }
 
@@ -118,7 +118,7 @@ pub fn window_state() -> (bool, u64) {
 
 /// `n` steps of `world`, stopping at its `quit_time`: false once reached. Each of `tracks`
 /// is updated after every step.
-fn step_n(world: &mut stage_sim::World, tracks: &mut [Track], n: u64) -> bool {
+pub(crate) fn step_n(world: &mut stage_sim::World, tracks: &mut [Track], n: u64) -> bool {
     let mut running = true;
     for _ in 0..n {
         let before = world.sim_time();
@@ -155,7 +155,7 @@ impl World {
 
     /// What `read` gives of the model `name`, a `kind` of sensor; an error naming the model
     /// when there is none or it is not one.
-    fn sensor<'w, T>(
+    pub(crate) fn sensor<'w, T>(
         &'w self,
         name: &str,
         kind: &str,
@@ -905,11 +905,11 @@ pub fn step_observe<'py>(
 }
 
 /// One world's part of [`step_observe`]'s answer (see [`observe_one`]).
-struct Observation {
+pub(crate) struct Observation {
     /// Each ranger's readings, one ranger after another, as the observation has them.
-    scans: Vec<f32>,
+    pub(crate) scans: Vec<f32>,
     /// `px py pa vx vy va stall x y a`, then with a goal `distance ahead left`.
-    state: Vec<f64>,
+    pub(crate) state: Vec<f64>,
 }
 
 /// A reading as the observation space has it: rounded to f32 (as numpy's `astype` rounds),
@@ -937,7 +937,7 @@ fn goal_view(goal: [f64; 2], x: f64, y: f64, a: f64) -> [f64; 3] {
 /// observation has them ([`observed_range`]; all `range_max` when the count differs), and
 /// `px py pa vx vy va stall x y a`, then with a `goal` its [`goal_view`] `distance ahead
 /// left`.
-fn observe_one(
+pub(crate) fn observe_one(
     world: &stage_sim::World,
     robot: ModelId,
     ids: &[ModelId],

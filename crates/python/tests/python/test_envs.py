@@ -13,7 +13,7 @@ import gymnasium
 from gymnasium.utils.env_checker import check_env
 
 import playerstage.envs  # noqa: F401 (registers playerstage/Stage-v0)
-from playerstage import World, WorldError
+from playerstage import World, WorldError, _native
 from playerstage.envs import StageEnv
 
 from conftest import BIGBOB, BOXES, STAGE_WORLDS, boxes_world, leaves
@@ -289,25 +289,33 @@ def test_no_free_pose_is_an_error(tmp_path):
         StageEnv(path, "r0", max_draws=0)
 
 
-def test_action_clip_single_and_batch_agree():
-    """StageEnv clips an action in plain Python (cheaper for a short action); VectorStageEnv
-    clips its batch with numpy. They must agree bit for bit, signed zeros and NaN included,
-    whatever the batch's memory layout, or a lone env and a vector's copy could command
-    different speeds (numpy.clip itself treats -0.0 differently in strided arrays)."""
+def test_action_clip_single_and_vector_agree():
+    """StageEnv clips an action in plain Python; VectorStageEnv's native step (VectorCore)
+    clips its batch. They must agree bit for bit, signed zeros and NaN included, whatever the
+    batch's memory layout, or a lone env and a vector's copy could command different speeds
+    (numpy.clip itself treats -0.0 differently in strided arrays)."""
     import math
 
-    from playerstage.envs._stage_env import _clip, _clip_batch
+    from playerstage.envs._stage_env import _clip
 
     values = [-0.0, 0.0, math.nan, -1.0, 2.0, 0.5, math.inf, -math.inf, 1e-300, -0.5, 1.0]
+    n = len(values)
     for lo, hi in [(0.0, 1.0), (-0.5, 0.0), (-1.0, 1.0), (-0.0, 0.0), (0.0, 0.0)]:
-        bounds = np.array([lo, lo]), np.array([hi, hi])
+        core = _native.VectorCore(n, "r0", [], False, [lo, lo], [hi, hi], 1, None)
         contiguous = np.array([[v, v] for v in values])
         strided = np.array([values] * 2).T
-        for batch in (_clip_batch(contiguous, *bounds), _clip_batch(strided, *bounds)):
-            for x, want in zip(values, batch[:, 0].tolist()):
-                got = _clip(x, lo, hi)
-                if math.isnan(want):
-                    assert math.isnan(got)
-                else:
-                    assert got == want and math.copysign(1, got) == math.copysign(1, want)
+        for batch in (contiguous, strided):
+            commands = core.commands(np.ascontiguousarray(batch).tobytes())
+            for x, (vx, vy, va) in zip(values, commands):
+                want = _clip(x, lo, hi)
+                assert vy == 0.0, "a diff drive has no sideways speed"
+                for got in (vx, va):
+                    if math.isnan(want):
+                        assert math.isnan(got)
+                    else:
+                        assert got == want and math.copysign(1, got) == math.copysign(1, want)
         assert _clip(-0.0, 0.0, 1.0) == 0.0 and math.copysign(1, _clip(-0.0, 0.0, 1.0)) == 1
+    omni = _native.VectorCore(1, "r0", [], True, [-1, -2, -3], [1, 2, 3], 1, None)
+    assert omni.commands(np.array([5.0, -5.0, 0.5]).tobytes()) == [[1.0, -2.0, 0.5]]
+    with pytest.raises(ValueError, match="bytes of actions for 1 envs of 3"):
+        omni.commands(np.array([5.0, -5.0]).tobytes())

@@ -355,3 +355,56 @@ def test_goal_distance_is_computed_natively_once_for_single_and_vector(tmp_path)
     assert w._w.position("r0")["vx"] == pytest.approx(0.4), "the command was kept"
     with pytest.raises(WorldError, match="2 goals for 1 worlds"):
         _native.step_observe([w._w], "r0", None, 0, rangers, [[0, 0], [1, 1]])
+
+
+def test_goal_reward_is_the_documented_formula():
+    """The goal task's reward, natively (StageEnv, parallel_env and VectorStageEnv all take it
+    from there): the decrease of the distance to the goal, minus stall_penalty on a stall,
+    plus goal_reward within goal_tolerance (which terminates, as a stall does with
+    terminate_on_stall). Hand-computed cases, in the argument order (before, distance, stall,
+    goal_tolerance, goal_reward, stall_penalty, terminate_on_stall)."""
+    g = _native.goal_reward
+    # 3.0 -> 2.5 m, free, far from the goal: +0.5, nothing ends
+    assert g(3.0, 2.5, False, 0.3, 1.0, 1.0, False) == (0.5, False, False)
+    # moving away: a negative reward
+    assert g(2.0, 2.25, False, 0.3, 1.0, 1.0, False) == (-0.25, False, False)
+    # stalled while 0.5 m nearer: 0.5 - 2.0
+    assert g(3.0, 2.5, True, 0.3, 1.0, 2.0, False) == (-1.5, False, False)
+    # ... and with terminate_on_stall it ends the episode without reaching
+    assert g(3.0, 2.5, True, 0.3, 1.0, 2.0, True) == (-1.5, False, True)
+    # reached: 0.5 -> 0.25 within 0.3: 0.25 + 4.0
+    assert g(0.5, 0.25, False, 0.3, 4.0, 1.0, False) == (4.25, True, True)
+    # exactly at the tolerance counts as reached (distance <= goal_tolerance)
+    assert g(0.5, 0.3, False, 0.3, 1.0, 1.0, False)[1:] == (True, True)
+    # reached while stalled: both terms, 0.25 - 1.0 + 2.0
+    assert g(0.5, 0.25, True, 0.3, 2.0, 1.0, False) == (1.25, True, True)
+    # the float operations in the documented order: (before - distance) - penalty + bonus
+    before, distance = 0.1 + 0.2, 0.1
+    assert g(before, distance, True, 0.3, 0.7, 0.3, False)[0] == (before - distance) - 0.3 + 0.7
+
+
+def test_bulk_step_hands_out_fresh_arrays(tmp_path):
+    """The bulk step's observations, rewards and flags are numpy views of one block made per
+    step: a step never overwrites what an earlier one returned; they are writable and
+    C-contiguous, as create_empty_array's would be; bad actions are refused clearly."""
+    small_world = boxes_world(tmp_path, "diff")
+    vec = VectorStageEnv(3, small_world, "r0", random_start=True, max_episode_steps=3)
+    vec.reset(seed=1)
+    rng = np.random.default_rng(0)
+    first = vec.step(rng.uniform(vec.action_space.low, vec.action_space.high))
+    kept = [np.copy(x) for x in leaves(first[0])] + [np.copy(x) for x in first[1:4]]
+    for _ in range(4):  # across an autoreset (max_episode_steps=3)
+        vec.step(rng.uniform(vec.action_space.low, vec.action_space.high))
+    now = leaves(first[0]) + list(first[1:4])
+    for a, b in zip(now, kept):
+        assert np.array_equal(a, b), "an earlier step's arrays were overwritten"
+        assert a.flags.writeable and a.flags.c_contiguous
+    assert first[1].dtype == np.float64 and first[2].dtype == first[3].dtype == np.bool_
+    with pytest.raises(ValueError, match="actions of shape"):
+        vec.step(np.zeros((2, 2)))
+    # a Fortran-ordered batch is taken as its values
+    acts = np.asfortranarray(rng.uniform(vec.action_space.low, vec.action_space.high))
+    twin = VectorStageEnv(3, small_world, "r0", random_start=True, max_episode_steps=3)
+    vec.reset(seed=2)
+    twin.reset(seed=2)
+    assert_same(vec.step(acts)[0], twin.step(np.ascontiguousarray(acts))[0], "layouts")

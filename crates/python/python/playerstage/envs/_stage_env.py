@@ -484,15 +484,13 @@ class _Robot:
             info = {"new_area": new, "explored": self.explored.area, "stall": stall}
             return float(reward), terminated, info
         distance = reading.distance
-        reward = self.distance - distance
+        # the formula's one definition, native: VectorStageEnv's copies compute it there too
+        reward, reached, terminated = _native.goal_reward(
+            self.distance, distance, stall, self.goal_tolerance, self.goal_reward,
+            self.stall_penalty, self.terminate_on_stall,
+        )
         self.distance = distance
-        if stall:
-            reward -= self.stall_penalty
-        reached = distance <= self.goal_tolerance
-        if reached:
-            reward += self.goal_reward
-        terminated = reached or (stall and self.terminate_on_stall)
-        return float(reward), terminated, {"distance": distance, "stall": stall, "reached": reached}
+        return reward, terminated, {"distance": distance, "stall": stall, "reached": reached}
 
     def observe(self, native: Any, reading: Optional["_Reading"] = None) -> Any:
         """The robot's observation now (`reading`: the robot read now, else read here), in
@@ -546,18 +544,12 @@ def _show_frame(native: Any, title: str, fps: float, last: float) -> float:
 
 def _clip(x: float, lo: float, hi: float) -> float:
     """`x` clipped to `[lo, hi]`: a NaN stays NaN, and a value not strictly inside a bound
-    becomes the bound (so ``-0.0`` against a bound of ``0.0`` gives ``0.0``). The rule of
-    :func:`_clip_batch`, which VectorStageEnv uses, so that a lone env and a vector's copy
-    command the same speeds to the bit (``numpy.clip``'s own treatment of signed zeros
-    depends on the arrays' memory layout)."""
+    becomes the bound (so ``-0.0`` against a bound of ``0.0`` gives ``0.0``). VectorStageEnv's
+    native step clips by the same rule (``VectorCore.commands``), so that a lone env and a
+    vector's copy command the same speeds to the bit (``numpy.clip``'s own treatment of signed
+    zeros depends on the arrays' memory layout)."""
     x = x if (x != x or x > lo) else lo
     return x if (x != x or x < hi) else hi
-
-
-def _clip_batch(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """:func:`_clip` of every element of `x` (bounds broadcast), whatever its layout."""
-    x = np.where((x > lo) | (x != x), x, lo)
-    return np.where((x < hi) | (x != x), x, hi)
 
 
 class _Reading:

@@ -10,7 +10,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, create_empty_array, iterate
 
 from .. import _native
-from ._stage_env import StageEnv, _clip_batch, _readings
+from ._stage_env import StageEnv
 
 
 class VectorStageEnv(VectorEnv):
@@ -22,14 +22,19 @@ class VectorStageEnv(VectorEnv):
     exactly what :class:`gymnasium.vector.SyncVectorEnv` of those envs gives. What differs is
     the simulation: one call steps every copy's world ``frame_skip`` times on the simulator's
     thread pool with the GIL released, so copies use all cores. For the built-in ``"goal"``
-    task (or ``task=None``) on ``Dict`` observations, that call
-    (:func:`playerstage._native.step_observe`) also sets every copy's command and returns all
-    the readings as a few arrays, from which the batched observation and the rewards are
-    computed as StageEnv computes them (the goal's distance and relative position by the same
-    native code a lone StageEnv uses); other tasks and ``flatten=True`` run each copy's own
-    StageEnv code around :func:`playerstage._native.step_worlds`. Resets, explicit or
+    task (or ``task=None``) on ``Dict`` observations, the whole step is native
+    (:class:`playerstage._native.VectorCore`, which keeps every copy's world, goal, distance,
+    step count and autoreset flag): it takes the action batch as one float64 buffer, clips and
+    commands each copy's action, and on the pool steps, reads and scores each copy (the goal
+    task's reward by the native function a lone StageEnv uses) and writes its rows of one
+    block, of which the batched observation, rewards, flags and infos are numpy views (a
+    fresh block every step: arrays handed out are never overwritten). So the serial share of a
+    vector step, what Python and the argument handling cost, stays small next to the
+    simulation. Other tasks (``"explore"``, callables) and ``flatten=True`` run each copy's
+    own StageEnv code around :func:`playerstage._native.step_worlds`. Resets, explicit or
     automatic, reload all the copies concerned side by side on the pool
-    (:func:`playerstage._native.load_worlds`) and take their first steps together.
+    (:func:`playerstage._native.load_worlds`) and take their first steps together; placing the
+    robots and drawing goals stays in Python, once per episode.
     ``gymnasium.make_vec("playerstage/Stage-v0", num_envs=N, ...)`` makes one (the registered
     ``vector_entry_point``).
 
@@ -77,22 +82,48 @@ class VectorStageEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._frame_skip = first._frame_skip
         agent = first._agent
-        # The built-in goal task (or none) on Dict observations runs on step_observe: one native
-        # call commands, steps and reads every copy; other tasks and flat observations go
-        # through each copy's own StageEnv code after step_worlds.
+        # The built-in goal task (or none) on Dict observations runs on a native VectorCore:
+        # one call commands, steps, reads and scores every copy; other tasks and flat
+        # observations go through each copy's own StageEnv code after step_worlds.
         self._bulk = (agent.task is None or agent.task == "goal") and not agent.flatten
+        if self._bulk:
+            goal = agent.task == "goal"
+            self._core = _native.VectorCore(
+                self.num_envs,
+                agent.robot,
+                agent.rangers,
+                agent.drive == "omni",
+                self.single_action_space.low.tolist(),
+                self.single_action_space.high.tolist(),
+                self._frame_skip,
+                first._max_episode_steps,
+                (
+                    agent.goal_tolerance,
+                    agent.goal_reward,
+                    agent.stall_penalty,
+                    agent.terminate_on_stall,
+                )
+                if goal
+                else None,
+            )
+            # numpy views over the block each step returns: (key, dtype, shape, offset)
+            self._sections = [
+                (key, np.dtype(dtype), tuple(shape), offset)
+                for key, dtype, shape, offset in self._core.layout()[1]
+            ]
+            spaces = self.single_observation_space.spaces
+            # the batched observation's keys in the space's order (create_empty_array's)
+            self._obs_keys = [
+                (k, list(spaces[k].spaces) if k == "rangers" else None) for k in spaces
+            ]
         # the last batched observation: a partial reset (reset_mask) keeps the other rows
         self._last: Any = self._empty()
         self._rewards = np.zeros(self.num_envs, dtype=np.float64)
         self._terminations = np.zeros(self.num_envs, dtype=np.bool_)
         self._truncations = np.zeros(self.num_envs, dtype=np.bool_)
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
-        # the bulk step's per-copy episode state (see _began)
+        # each copy's current world (the bulk step's are also held by the VectorCore)
         self._natives: List[Any] = [env._native for env in self.envs]
-        self._steps = np.zeros(self.num_envs, dtype=np.int64)
-        self._goals = np.zeros((self.num_envs, 2), dtype=np.float64)
-        self._distance = np.zeros(self.num_envs, dtype=np.float64)
-        self._begun = np.zeros(self.num_envs, dtype=np.bool_)
 
     def reset(
         self,
@@ -164,110 +195,68 @@ class VectorStageEnv(VectorEnv):
     def _step_bulk(
         self, actions: Any
     ) -> Tuple[Any, np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
-        """`step` for the goal task (or none) on Dict observations: StageEnv's commands,
-        observations and rewards computed for all copies at once from the arrays one
-        `step_observe` call returns (no per-copy Python objects, so the Python share of a
-        vector step stays small next to the simulation, which runs on every core)."""
-        first = self.envs[0]._agent
+        """`step` for the goal task (or none) on Dict observations: one native call
+        (``VectorCore.step``) clips and commands every copy's action, steps the worlds on the
+        simulator's pool, reads them, computes rewards, terminations, truncations and infos
+        and keeps the copies' episode state (goal, distance, steps, autoreset), all as a lone
+        StageEnv computes them (the goal task's reward by the same native function); it hands
+        back one block, of which the batched observation and the rest are numpy views. Only
+        the copies it skipped (autoreset) come back through Python, to be reset."""
         acts = np.asarray(actions, dtype=np.float64)
         if acts.shape != self.action_space.shape:
             raise ValueError(
                 f"actions of shape {acts.shape}: the action space is {self.action_space}"
             )
-        acts = _clip_batch(acts, self.single_action_space.low, self.single_action_space.high)
-        if first.drive == "omni":
-            velocities = acts
-        else:
-            velocities = np.zeros((self.num_envs, 3))
-            velocities[:, 0], velocities[:, 2] = acts[:, 0], acts[:, 1]
-        infos: Dict[str, Any] = {}
-        out: Any = None  # built from the rows' arrays when every copy steps
-        if self._autoreset.any():
-            out = self._empty()
-            infos = self._autoreset_rows(out)
-            rows: Any = np.flatnonzero(~self._autoreset)
-            natives = [self._natives[i] for i in rows]
-            velocities = velocities[rows]
-            m = len(rows)
-        else:
-            rows = slice(None)  # every copy: plain slicing, no index arrays
-            natives = self._natives
-            m = self.num_envs
-        goal = first.task == "goal"
-        if goal and not self._begun[rows].all():
-            raise RuntimeError("VectorStageEnv: call reset() before step()")
-        goals = self._goals[rows].tolist() if goal else None
-        running, scans, state = _native.step_observe(
-            natives, first.robot, velocities.tolist(), self._frame_skip, first.rangers, goals
-        )
-        rangers, state = _readings(first.rangers, scans, state, m, goal)
-        parts: Dict[str, Any] = {
-            "rangers": rangers,
-            "odometry": state[:, :6].astype(np.float32),
-            "stall": state[:, 6].astype(np.int64),
+        block, skipped = self._core.step(acts.tobytes())
+        v = {
+            key: np.ndarray(shape, dtype, buffer=block, offset=offset)
+            for key, dtype, shape, offset in self._sections
         }
-        self._steps[rows] += 1
-        limit = self.envs[0]._max_episode_steps
-        truncated = ~np.asarray(running, dtype=np.bool_)
-        if limit is not None:
-            truncated |= self._steps[rows] >= limit
-        if goal:
-            # _Robot.evaluate and _Robot.observe over all rows: the same float64 operations in
-            # the same order, on the distance and relative goal step_observe computed natively
-            # for every copy (as for a lone StageEnv)
-            stall = state[:, 6] != 0.0
-            distance = state[:, 10].copy()
-            reward = self._distance[rows] - distance
-            self._distance[rows] = distance
-            reward = np.where(stall, reward - first.stall_penalty, reward)
-            reached = distance <= first.goal_tolerance
-            reward = np.where(reached, reward + first.goal_reward, reward)
-            terminated = reached | (stall & bool(first.terminate_on_stall))
-            parts["goal"] = state[:, 11:13].astype(np.float32)
-            self._rewards[rows] = reward
-            self._terminations[rows] = terminated
-            if m:
-                # what _add_info makes of each copy's {"distance", "stall", "reached"}
-                for key, values, dtype in (
-                    ("distance", distance, float),
-                    ("stall", stall, bool),
-                    ("reached", reached, bool),
+        out = {
+            k: {r: v["rangers/" + r] for r in names} if names is not None else v[k]
+            for k, names in self._obs_keys
+        }
+        goal = "distance" in v
+        infos: Dict[str, Any] = {}
+        if not skipped:
+            if goal:
+                n = self.num_envs
+                infos = {
+                    "distance": v["distance"],
+                    "_distance": np.ones(n, dtype=np.bool_),
+                    "stall": v["stall_flag"],
+                    "_stall": np.ones(n, dtype=np.bool_),
+                    "reached": v["reached"],
+                    "_reached": np.ones(n, dtype=np.bool_),
+                }
+        else:
+            # NEXT_STEP autoreset of the skipped copies: their first observations go into
+            # their rows of the block (left zero, with reward 0 and no flags, natively)
+            infos = self._reset_rows(skipped, [None] * self.num_envs, None, out, {})
+            stepped = np.ones(self.num_envs, dtype=np.bool_)
+            stepped[skipped] = False
+            rows = np.flatnonzero(stepped)
+            m = len(rows)
+            if goal and m:
+                # what _add_info makes of each stepped copy's {"distance", "stall", "reached"}
+                for key, section, dtype in (
+                    ("distance", "distance", float),
+                    ("stall", "stall_flag", bool),
+                    ("reached", "reached", bool),
                 ):
-                    _add_rows(infos, key, values, rows, m, dtype, self.num_envs)
-        else:
-            self._rewards[rows] = 0.0
-            self._terminations[rows] = False
-        self._truncations[rows] = truncated
-        self._autoreset = self._terminations | self._truncations
-        spaces = self.single_observation_space.spaces
-        if out is None:
-            # every row is this step's: the batched observation is the arrays themselves, in
-            # the space's key order as create_empty_array lays it out
-            out = {
-                k: {r: rangers[r] for r in spaces[k].spaces} if k == "rangers" else parts[k]
-                for k in spaces
-            }
-        else:
-            for k in spaces:
-                if k == "rangers":
-                    for r in spaces[k].spaces:
-                        out[k][r][rows] = rangers[r]
-                else:
-                    out[k][rows] = parts[k]
-        return self._result(out, infos)
+                    _add_rows(infos, key, v[section][rows], rows, m, dtype, self.num_envs)
+        self._last = out
+        return out, v["reward"], v["terminated"], v["truncated"], infos
 
     def _began(self, i: int) -> None:
-        """Takes copy `i`'s episode state after its reset: the bulk step keeps every copy's
-        world, goal, distance and step count in arrays (the copies' own StageEnv objects are
-        not updated by bulk steps; their next reset starts afresh anyway)."""
+        """Hands copy `i`'s new episode to the VectorCore after its reset (its world, goal,
+        distance to the goal and step count; the copies' own StageEnv objects are not updated
+        by bulk steps: their next reset starts afresh anyway)."""
         env = self.envs[i]
-        agent = env._agent
         self._natives[i] = env._native
-        self._steps[i] = env._steps
-        if agent.goal is not None:
-            self._goals[i] = agent.goal
-            self._distance[i] = agent.distance
-            self._begun[i] = True
+        if self._bulk:
+            agent = env._agent
+            self._core.begin(i, env._native, agent.goal, agent.distance, env._steps)
 
     def _autoreset_rows(self, out: Any) -> Dict[str, Any]:
         """NEXT_STEP autoreset of the copies whose episode ended last step (no seed: their

@@ -298,10 +298,15 @@ impl<T: RosType> Outbound<T> {
         })
     }
 
+    /// Whether a message sent now would be written: the topic is latched or has a reader.
+    fn wanted(&self, matches: &Matches) -> bool {
+        self.latched || matches.matched(self.guid)
+    }
+
     /// Queues the message `make` builds for the publisher thread, unless the topic is
     /// volatile and has no matched reader (then nothing is built).
     fn send(&mut self, out: &mut Out<'_>, make: impl FnOnce() -> T) {
-        if !self.latched && !out.matches.matched(self.guid) {
+        if !self.wanted(out.matches) {
             self.skipped += 1;
             return;
         }
@@ -341,8 +346,9 @@ struct Vehicle {
     model: ModelId,
     name: String,
     names: VehicleNames,
-    /// The resolved name of its tf topic (the key into [`Bridge::tf`]).
+    /// The resolved name of its tf topic, then its index in [`Bridge::tf`].
     tf_key: String,
+    tf_index: usize,
     /// The pose `reset_positions` puts it back to (parent frame, as `set_pose` takes).
     start: stage_sim::Pose,
     cmd_vel: CmdVel,
@@ -428,8 +434,9 @@ fn answer_all<Req: ros2_client::Message + Clone + 'static>(
 pub struct Bridge {
     params: Params,
     vehicles: Vec<Vehicle>,
-    /// One publisher per tf topic (`/tf` is shared under one_tf_tree), by resolved name.
-    tf: BTreeMap<String, Outbound<TfMessage>>,
+    /// One publisher per tf topic (`/tf` is shared under one_tf_tree), in name order; each
+    /// vehicle knows its own by index, so a step gathers transforms without name lookups.
+    tf: Vec<Outbound<TfMessage>>,
     tf_static: BTreeMap<String, Outbound<TfMessage>>,
     static_sent: bool,
     /// Which writers have readers: the volatile ones without are not written.
@@ -564,6 +571,7 @@ impl Bridge {
             matches.poll();
             vehicles.push(Vehicle {
                 tf_key: topics.resolve(&names.tf),
+                tf_index: 0,
                 model: m,
                 start: world.pose(m).map_err(Error::Sim)?,
                 cmd_vel,
@@ -593,10 +601,13 @@ impl Bridge {
         // both common request/reply mappings, each server dropping the other's requests
         let reset = ResetServers::new(&mut topics)?;
         let watchdog_us = (params.base_watchdog_timeout.max(0.0) * 1e6) as u64;
+        for v in &mut vehicles {
+            v.tf_index = tf.keys().position(|k| *k == v.tf_key).unwrap_or(0);
+        }
         Ok(Bridge {
             params,
             vehicles,
-            tf,
+            tf: tf.into_values().collect(),
             tf_static,
             static_sent: false,
             matches,
@@ -640,7 +651,7 @@ impl Bridge {
                 }
             }
         }
-        for p in self.tf.values().chain(self.tf_static.values()) {
+        for p in self.tf.iter().chain(self.tf_static.values()) {
             add(p.written, p.skipped);
         }
         add(self.clock.written, self.clock.skipped);
@@ -710,13 +721,31 @@ impl Bridge {
             matches: &self.matches,
             jobs: &mut self.jobs,
         };
-        let mut dynamic: BTreeMap<String, Vec<TransformStamped>> = BTreeMap::new();
+        let mut dynamic: Vec<Vec<TransformStamped>> = self.tf.iter().map(|_| Vec::new()).collect();
+        // transforms are gathered only for tf topics someone reads
+        let tf_wanted: Vec<bool> = self.tf.iter().map(|p| p.wanted(out.matches)).collect();
         for v in &mut self.vehicles {
             let Ok(state) = world.position_state(v.model) else {
                 continue;
             };
             let est = state.pose;
-            let odom = Odometry {
+            let want_tf = tf_wanted.get(v.tf_index).copied().unwrap_or(false);
+            let tf = &mut dynamic[v.tf_index];
+            if want_tf {
+                tf.push(TransformStamped {
+                    header: stamp(&v.names.frame_odom, now),
+                    child_frame_id: v.names.frame_base_link.clone(),
+                    transform: Transform {
+                        translation: Vector3 {
+                            x: est.x,
+                            y: est.y,
+                            z: 0.0,
+                        },
+                        rotation: Quaternion::from_yaw(est.a),
+                    },
+                });
+            }
+            v.odom.send(&mut out, || Odometry {
                 header: stamp(&v.names.frame_odom, now),
                 child_frame_id: v.names.frame_base_link.clone(),
                 pose: PoseWithCovariance {
@@ -745,18 +774,7 @@ impl Bridge {
                     },
                     covariance: Covariance::default(),
                 },
-            };
-            let odom_tf = TransformStamped {
-                header: odom.header.clone(),
-                child_frame_id: odom.child_frame_id.clone(),
-                transform: Transform {
-                    translation: odom.pose.pose.position,
-                    rotation: odom.pose.pose.orientation,
-                },
-            };
-            v.odom.send(&mut out, || odom);
-            let tf_key = &v.tf_key;
-            dynamic.entry(tf_key.clone()).or_default().push(odom_tf);
+            });
 
             let stalled = state.stall;
             if v.last_stalled != Some(stalled) {
@@ -813,26 +831,28 @@ impl Bridge {
             }
 
             for r in &mut v.rangers {
-                if !self.params.use_static_transformations {
+                if want_tf && !self.params.use_static_transformations {
                     for mut t in ranger_transforms(world, v.model, &v.names, r) {
                         t.header.stamp = Time::from_micros(now);
-                        dynamic.entry(tf_key.clone()).or_default().push(t);
+                        tf.push(t);
                     }
                 }
                 publish_scan(world, r, &mut out);
             }
             for c in &mut v.cameras {
-                if !self.params.use_static_transformations
+                if want_tf
+                    && !self.params.use_static_transformations
                     && let Some(mut t) = c.transform(world, v.model, &v.names)
                 {
                     t.header.stamp = Time::from_micros(now);
-                    dynamic.entry(tf_key.clone()).or_default().push(t);
+                    tf.push(t);
                 }
                 c.publish(world, &self.params, &mut out);
             }
         }
-        for (topic, transforms) in dynamic {
-            if let Some(p) = self.tf.get_mut(&topic) {
+        for ((p, transforms), wanted) in self.tf.iter_mut().zip(dynamic).zip(tf_wanted) {
+            // an unread topic is counted as skipped, as every other
+            if !transforms.is_empty() || !wanted {
                 p.send(&mut out, || TfMessage { transforms });
             }
         }
@@ -1057,6 +1077,61 @@ mod tests {
         assert!(clock.clock.sec > 0 || clock.clock.nanosec > 0);
         let (written_after, _) = bridge.counts();
         assert!(written_after > written, "/clock is written once read");
+    }
+
+    /// With `use_static_transformations:=false` the sensor frames go on tf at every step with
+    /// odom -> base_link, in one message per step; an unread tf topic gathers nothing and is
+    /// counted as skipped.
+    #[test]
+    fn dynamic_sensor_frames_reach_a_tf_reader() {
+        let domain = 200 + (std::process::id() + 13) % 30;
+        let ctx = context(domain);
+        let mut world = world();
+        let params = Params {
+            use_static_transformations: false,
+            ..Params::default()
+        };
+        let mut bridge = Bridge::new(&ctx, &mut world, params, &RosArgs::default()).unwrap();
+        step(&mut world, &mut bridge);
+        let skipped = bridge.tf[0].skipped;
+        step(&mut world, &mut bridge);
+        assert_eq!(bridge.tf[0].skipped, skipped + 1, "unread tf is skipped");
+
+        let reader_ctx = context(domain);
+        let mut node = reader_ctx
+            .new_node(
+                NodeName::new("/", "tf_reader").unwrap(),
+                NodeOptions::new().enable_rosout(false),
+            )
+            .unwrap();
+        let qos = tf_qos();
+        let topic = node
+            .create_topic(
+                &Name::parse("/tf").unwrap(),
+                MessageTypeName::new(TfMessage::PACKAGE, TfMessage::NAME),
+                &qos,
+            )
+            .unwrap();
+        let sub: Subscription<TfMessage> = node.create_subscription(&topic, Some(qos)).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let mut got = None;
+        while got.is_none() && Instant::now() < deadline {
+            step(&mut world, &mut bridge);
+            if let Ok(Some((m, _))) = sub.take() {
+                got = Some(m);
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let tf = got.expect("tf reaches a reader once it matches");
+        let frames: Vec<(&str, &str)> = tf
+            .transforms
+            .iter()
+            .map(|t| (t.header.frame_id.as_str(), t.child_frame_id.as_str()))
+            .collect();
+        assert_eq!(frames, [("odom", "base_link"), ("base_link", "laser")]);
+        let stamp = tf.transforms[0].header.stamp;
+        assert!(tf.transforms.iter().all(|t| t.header.stamp == stamp));
+        assert!(stamp.sec > 0 || stamp.nanosec > 0);
     }
 
     /// A command reaches the vehicle once a writer matches (its subscription is read only

@@ -39,6 +39,7 @@ use crate::player_iface::{
     self, PlayerInput, Session, Subscriptions, UnsubscribeError, release_held,
 };
 use crate::queue::{Outgoing, PushOutcome};
+use crate::worker::panic_text;
 
 /// How long the core may step back to back (as fast as possible) before letting other tasks
 /// on its worker run.
@@ -771,15 +772,6 @@ impl Bus {
     fn out_of_service(&self, d: DriverId) -> DriverError {
         DriverError::new(self.failure(d).unwrap_or("driver is out of service"))
     }
-}
-
-/// The message a panic was raised with (`panic!` with a literal or a format), for the log.
-fn panic_text(payload: &(dyn Any + Send)) -> &str {
-    payload
-        .downcast_ref::<&str>()
-        .copied()
-        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
-        .unwrap_or("(a panic without a message)")
 }
 
 /// `msg`, published by driver `driver`, encoded once for every client queue it goes to; an

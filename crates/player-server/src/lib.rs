@@ -39,6 +39,7 @@ pub mod remote_device;
 pub mod server;
 pub mod stage;
 pub mod test_driver;
+pub mod worker;
 
 pub use clock::{Pace, ServerClock};
 pub use connection::ConnectionLimits;
@@ -49,3 +50,4 @@ pub use driver::{
 };
 pub use error::ServerError;
 pub use server::{REMOTE_DRIVER_NAME, RemoteFactory, Server, ServerConfig, ServerHandle};
+pub use worker::WorkerThread;

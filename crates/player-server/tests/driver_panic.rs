@@ -261,3 +261,146 @@ fn a_panicking_driver_is_taken_out_of_service_and_the_server_carries_on() {
     drop((a, b, c));
     handle.shutdown();
 }
+
+/// The injected fault in a driver's own thread: the driver hands every command to its worker
+/// thread (as amcl, wavefront and readlog hand their work to theirs), which panics on it.
+struct Threaded {
+    addr: player_proto::DeviceAddr,
+    jobs: Option<std::sync::mpsc::Sender<()>>,
+    worker: Option<player_server::WorkerThread>,
+    steps: u64,
+}
+
+impl Driver for Threaded {
+    fn setup(&mut self, ctx: &mut Context<'_>) -> Result<(), player_server::DriverError> {
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
+        let worker =
+            player_server::WorkerThread::spawn("threaded-worker", ctx.waker(), move || {
+                if rx.recv().is_ok() {
+                    panic!("injected fault in a worker thread");
+                }
+            })
+            .map_err(|e| player_server::DriverError::new(e.to_string()))?;
+        self.jobs = Some(tx);
+        self.worker = Some(worker);
+        Ok(())
+    }
+
+    fn wake(&mut self, _ctx: &mut Context<'_>) {
+        if let Some(w) = &mut self.worker {
+            w.check();
+        }
+    }
+
+    fn update(&mut self, ctx: &mut Context<'_>) {
+        if let Some(w) = &mut self.worker {
+            w.check();
+        }
+        self.steps += 1;
+        let state = Position2dDataState {
+            pos: Pose2d {
+                px: self.steps as f64,
+                ..Pose2d::default()
+            },
+            ..Position2dDataState::default()
+        };
+        ctx.publish(self.addr, Position2dData::State(state));
+    }
+
+    fn handle_command(&mut self, _ctx: &mut Context<'_>, _command: &player_proto::Message) {
+        if let Some(jobs) = &self.jobs {
+            let _ = jobs.send(());
+        }
+    }
+
+    fn handle_request(&mut self, _ctx: &mut Context<'_>, request: &player_proto::Message) -> Reply {
+        match &request.body {
+            player_proto::Body::Position2d(player_proto::Position2dMsg::Req(
+                Position2dReq::GetGeom(_),
+            )) => Reply::ack(Position2dReq::GetGeom(Some(Position2dGeom::default()))),
+            _ => Reply::NotHandled,
+        }
+    }
+
+    fn step(&self) -> Option<Duration> {
+        // slow on purpose: the worker's end must be noticed through the waker, not an update
+        Some(Duration::from_secs(3600))
+    }
+}
+
+#[test]
+fn a_panic_in_a_drivers_own_thread_takes_it_out_of_service_and_the_server_carries_on() {
+    captured_log();
+    let (port, listener) = free_listener();
+    let mut registry = DriverRegistry::new();
+    TestDriver::register(&mut registry, "test");
+    registry.register("threaded", |b: &DriverBlock| {
+        let addr = b.provided(InterfaceCode::POSITION2D)?;
+        Ok(Box::new(Threaded {
+            addr,
+            jobs: None,
+            worker: None,
+            steps: 0,
+        }) as Box<dyn Driver>)
+    });
+    let healthy = block(
+        "test",
+        port,
+        &[(InterfaceCode::POSITION2D, 0)],
+        &[("step_ms", "20")],
+    );
+    let mut threaded = block("threaded", port, &[(InterfaceCode::POSITION2D, 1)], &[]);
+    threaded.provides[0].origin = "threaded.cfg:3".into();
+    let mut server = Server::new(ServerConfig {
+        pace: Pace::RealTime { speedup: 1.0 },
+        ..ServerConfig::default()
+    });
+    for b in [&healthy, &threaded] {
+        server
+            .add_block(b, &mut registry)
+            .unwrap_or_else(|e: player_server::ServerError| panic!("{e}"));
+    }
+    server.use_listener(port, listener);
+    let handle = server.start().unwrap();
+    let port = port as u16;
+
+    let a = PlayerClient::connect("localhost", port).unwrap();
+    a.set_request_timeout(ANSWER);
+    a.set_read_timeout(Some(ANSWER));
+    let a_base = Position2dProxy::new(&a, 0).unwrap();
+    let a_threaded = Position2dProxy::new(&a, 1).unwrap();
+    assert!(a_threaded.request_geom().is_ok());
+
+    // The fault: a command reaches the worker, which panics; the driver is woken and the
+    // panic raised in its `wake`, where the core catches it.
+    a_threaded.set_speed(0.1, 0.0, 0.0).unwrap();
+    let log = wait_for_log("panicked in wake");
+    assert!(
+        log.contains(
+            "driver \"threaded\" (threaded.cfg:3) panicked in wake: its worker thread \
+             \"threaded-worker\" panicked: injected fault in a worker thread"
+        ),
+        "{log}"
+    );
+    assert!(log.contains(&format!("{port}:position2d:1")), "{log}");
+
+    // Its client gets a NACK, a new subscription is refused; the healthy device serves on.
+    match a_threaded.request_geom() {
+        Err(ClientError::Nack { .. }) => {}
+        other => panic!("a request to the failed device: {other:?}"),
+    }
+    let steps = a.datatime();
+    read_until(&a, "the healthy device's data to go on", || {
+        a.datatime() > steps + 0.1
+    });
+    a_base.request_geom().unwrap();
+    let c = PlayerClient::connect("localhost", port).unwrap();
+    c.set_request_timeout(ANSWER);
+    match Position2dProxy::new(&c, 1) {
+        Err(ClientError::Subscribe { index: 1, .. }) => {}
+        other => panic!("subscribing to the failed device: {other:?}"),
+    }
+    drop((a_base, a_threaded));
+    drop((a, c));
+    handle.shutdown();
+}

@@ -29,14 +29,13 @@ use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use flate2::read::MultiGzDecoder;
 use player_proto::{
     Body, DeviceAddr, InterfaceCode, LogMsg, LogReq, Message, MsgType, PLAYER_LOG_TYPE_READ,
 };
-use player_server::{Context, Driver, DriverBlock, DriverError, DriverWaker, Reply};
+use player_server::{Context, Driver, DriverBlock, DriverError, DriverWaker, Reply, WorkerThread};
 
 use super::logformat::{self, Line, LineError};
 use super::writelog::is_gzip;
@@ -181,7 +180,8 @@ pub struct ReadLog {
     log_addr: Option<DeviceAddr>,
     provided: Vec<DeviceAddr>,
     shared: Arc<Shared>,
-    worker: Option<JoinHandle<()>>,
+    /// The replay thread: its panic is raised in `wake`/`update` (the core reports it).
+    worker: Option<WorkerThread>,
 }
 
 impl std::fmt::Debug for ReadLog {
@@ -242,7 +242,7 @@ impl ReadLog {
         self.shared.lock().stop = true;
         self.shared.changed.notify_all();
         if let Some(worker) = self.worker.take() {
-            let _ = worker.join();
+            worker.join();
         }
     }
 
@@ -428,9 +428,7 @@ impl Driver for ReadLog {
             shared: self.shared.clone(),
             waker: ctx.waker(),
         };
-        let worker = std::thread::Builder::new()
-            .name("readlog".into())
-            .spawn(move || replay.run(reader))
+        let worker = WorkerThread::spawn("readlog", ctx.waker(), move || replay.run(reader))
             .map_err(|e| DriverError::new(format!("cannot start the replay thread: {e}")))?;
         self.worker = Some(worker);
         Ok(())
@@ -445,10 +443,16 @@ impl Driver for ReadLog {
     }
 
     fn wake(&mut self, ctx: &mut Context<'_>) {
+        if let Some(w) = &mut self.worker {
+            w.check();
+        }
         self.publish_ready(ctx);
     }
 
     fn update(&mut self, ctx: &mut Context<'_>) {
+        if let Some(w) = &mut self.worker {
+            w.check();
+        }
         self.publish_ready(ctx);
     }
 

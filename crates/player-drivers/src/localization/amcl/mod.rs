@@ -49,6 +49,7 @@ use player_proto::{
 use player_server::map::OccupancyGrid;
 use player_server::{
     Context, Driver, DriverBlock, DriverError, DriverWaker, Reply, RequestError, RequestTicket,
+    WorkerThread,
 };
 
 use crate::forward::refuse_own_device;
@@ -101,6 +102,8 @@ struct MapLoad {
 struct Worker {
     tx: Sender<Input>,
     shared: Arc<Shared>,
+    /// The filter thread: its panic is raised in `wake`/`update` (the core reports it).
+    thread: WorkerThread,
 }
 
 /// What the driver and its filter thread share.
@@ -312,16 +315,18 @@ impl Amcl {
         }
         let thread_shared = shared.clone();
         let waker = ctx.waker();
-        let spawned = std::thread::Builder::new()
-            .name("amcl".into())
-            .spawn(move || filter_thread(engine, rx, thread_shared, waker));
-        if let Err(e) = spawned {
-            tracing::error!("amcl: cannot start the filter thread: {e}");
-            run.failed = true;
-            return;
-        }
+        let thread = match WorkerThread::spawn("amcl", waker.clone(), move || {
+            filter_thread(engine, rx, thread_shared, waker)
+        }) {
+            Ok(t) => t,
+            Err(e) => {
+                tracing::error!("amcl: cannot start the filter thread: {e}");
+                run.failed = true;
+                return;
+            }
+        };
         tracing::debug!("amcl: map and geometry loaded, filter running");
-        run.worker = Some(Worker { tx, shared });
+        run.worker = Some(Worker { tx, shared, thread });
     }
 
     /// Gives up on this run: logs why, and refuses the requests that were waiting.
@@ -509,6 +514,14 @@ impl Amcl {
                     run.sonar_poses = Some(Vec::new());
                 }
             },
+        }
+    }
+
+    /// Raises a panic of the filter thread here, in a driver callback, where the core
+    /// reports it and takes the driver out of service.
+    fn check_worker(&mut self) {
+        if let Some(w) = self.run.as_mut().and_then(|r| r.worker.as_mut()) {
+            w.thread.check();
         }
     }
 
@@ -739,10 +752,12 @@ impl Driver for Amcl {
     }
 
     fn wake(&mut self, ctx: &mut Context<'_>) {
+        self.check_worker();
         self.collect(ctx);
     }
 
     fn update(&mut self, ctx: &mut Context<'_>) {
+        self.check_worker();
         self.collect(ctx);
     }
 }

@@ -45,6 +45,7 @@ use player_proto::{
 use player_server::map::OccupancyGrid;
 use player_server::{
     Context, Driver, DriverBlock, DriverError, DriverWaker, Reply, RequestError, RequestTicket,
+    WorkerThread,
 };
 
 use crate::error::Error;
@@ -199,6 +200,9 @@ impl WavefrontOptions {
 enum Job {
     /// Build the c-space of this map.
     Map(OccupancyGrid, PlanParams),
+    /// A fault injected by the tests: the planning thread panics on it.
+    #[cfg(test)]
+    Fault,
     /// Plan between two map-frame points with the current c-space.
     Plan {
         start: (f64, f64),
@@ -238,103 +242,105 @@ enum Done {
 struct Worker {
     jobs: mpsc::Sender<Job>,
     done: mpsc::Receiver<Done>,
+    /// The planning thread: its panic is raised in `wake`/`update` (the core reports it).
+    thread: WorkerThread,
 }
 
 impl Worker {
     fn spawn(waker: Option<DriverWaker>) -> Result<Worker, DriverError> {
         let (jobs, job_rx) = mpsc::channel::<Job>();
         let (done_tx, done) = mpsc::channel();
-        std::thread::Builder::new()
-            .name("wavefront".into())
-            .spawn(move || {
-                let mut current: Option<Plan> = None;
-                for job in job_rx {
-                    let out = match job {
-                        Job::Map(grid, params) => {
-                            let o = grid.origin();
-                            current = Plan::new(
-                                grid.width() as usize,
-                                grid.height() as usize,
-                                f64::from(grid.scale()),
-                                (o.px, o.py),
-                                grid.cells(),
-                                params,
-                            );
-                            Done::Map(current.as_ref().map(|_| ()).ok_or_else(|| {
-                                format!(
-                                    "unusable map ({} x {} at {} m)",
-                                    grid.width(),
-                                    grid.height(),
-                                    grid.scale()
-                                )
-                            }))
-                        }
-                        Job::Plan {
-                            start,
-                            goal,
-                            started,
-                            seq,
-                            local,
-                            obstacles,
-                            carrot,
-                        } => match current.as_mut() {
-                            Some(plan) => {
-                                if let Some(points) = obstacles {
-                                    plan.set_obstacles(&points);
-                                }
-                                let local_plan = match local {
-                                    Some(half) if plan.has_global_path() => {
-                                        plan.plan_local(start, half)
-                                    }
-                                    _ => None,
-                                };
-                                let (waypoints, global_ok) = match local_plan {
-                                    Some(r) => (r.waypoints, false),
-                                    None => {
-                                        let r = plan.plan(start, goal);
-                                        let ok = !r.waypoints.is_empty();
-                                        (r.waypoints, ok)
-                                    }
-                                };
-                                Done::Plan {
-                                    start,
-                                    started,
-                                    seq,
-                                    waypoints,
-                                    global_ok,
-                                    has_path: plan.has_global_path(),
-                                    carrot: carrot
-                                        .then(|| {
-                                            plan.carrot(
-                                                start,
-                                                control::CARROT_MAX_DIST,
-                                                control::CARROT_DIST_WEIGHT,
-                                            )
-                                        })
-                                        .flatten(),
-                                }
+        let thread = WorkerThread::spawn("wavefront", waker.clone(), move || {
+            let mut current: Option<Plan> = None;
+            for job in job_rx {
+                let out = match job {
+                    #[cfg(test)]
+                    Job::Fault => panic!("injected fault in the planning thread"),
+                    Job::Map(grid, params) => {
+                        let o = grid.origin();
+                        current = Plan::new(
+                            grid.width() as usize,
+                            grid.height() as usize,
+                            f64::from(grid.scale()),
+                            (o.px, o.py),
+                            grid.cells(),
+                            params,
+                        );
+                        Done::Map(current.as_ref().map(|_| ()).ok_or_else(|| {
+                            format!(
+                                "unusable map ({} x {} at {} m)",
+                                grid.width(),
+                                grid.height(),
+                                grid.scale()
+                            )
+                        }))
+                    }
+                    Job::Plan {
+                        start,
+                        goal,
+                        started,
+                        seq,
+                        local,
+                        obstacles,
+                        carrot,
+                    } => match current.as_mut() {
+                        Some(plan) => {
+                            if let Some(points) = obstacles {
+                                plan.set_obstacles(&points);
                             }
-                            None => Done::Plan {
+                            let local_plan = match local {
+                                Some(half) if plan.has_global_path() => {
+                                    plan.plan_local(start, half)
+                                }
+                                _ => None,
+                            };
+                            let (waypoints, global_ok) = match local_plan {
+                                Some(r) => (r.waypoints, false),
+                                None => {
+                                    let r = plan.plan(start, goal);
+                                    let ok = !r.waypoints.is_empty();
+                                    (r.waypoints, ok)
+                                }
+                            };
+                            Done::Plan {
                                 start,
                                 started,
                                 seq,
-                                waypoints: Vec::new(),
-                                global_ok: false,
-                                has_path: false,
-                                carrot: None,
-                            },
+                                waypoints,
+                                global_ok,
+                                has_path: plan.has_global_path(),
+                                carrot: carrot
+                                    .then(|| {
+                                        plan.carrot(
+                                            start,
+                                            control::CARROT_MAX_DIST,
+                                            control::CARROT_DIST_WEIGHT,
+                                        )
+                                    })
+                                    .flatten(),
+                            }
+                        }
+                        None => Done::Plan {
+                            start,
+                            started,
+                            seq,
+                            waypoints: Vec::new(),
+                            global_ok: false,
+                            has_path: false,
+                            carrot: None,
                         },
-                    };
-                    if done_tx.send(out).is_err() {
-                        break;
-                    }
-                    if let Some(w) = &waker {
-                        w.wake();
-                    }
+                    },
+                };
+                if done_tx.send(out).is_err() {
+                    break;
                 }
-            })
-            .map_err(|e| DriverError::new(format!("cannot start the planning thread: {e}")))?;
-        Ok(Worker { jobs, done })
+                if let Some(w) = &waker {
+                    w.wake();
+                }
+            }
+        })
+        .map_err(|e| DriverError::new(format!("cannot start the planning thread: {e}")))?;
+        Ok(Worker { jobs, done, thread })
     }
 }
 
@@ -460,6 +466,14 @@ impl Wavefront {
         );
         if worker.jobs.send(Job::Map(grid, params)).is_ok() {
             self.busy = true;
+        }
+    }
+
+    /// Raises a panic of the planning thread here, in a driver callback, where the core
+    /// reports it and takes the driver out of service.
+    fn check_worker(&mut self) {
+        if let Some(w) = &mut self.worker {
+            w.thread.check();
         }
     }
 
@@ -759,10 +773,12 @@ impl Driver for Wavefront {
     }
 
     fn wake(&mut self, ctx: &mut Context<'_>) {
+        self.check_worker();
         self.collect(ctx);
     }
 
     fn update(&mut self, ctx: &mut Context<'_>) {
+        self.check_worker();
         self.collect(ctx);
         if !self.have_map {
             return;
@@ -1033,5 +1049,26 @@ mod tests {
             stop,
             Body::Position2d(Position2dMsg::Cmd(Position2dCmd::Vel(v))) if v.vel == Pose2d::default()
         ));
+    }
+
+    /// A panic in the planning thread is raised in the driver's next `update` (where the core
+    /// catches it and takes the driver out of service), naming the thread and its message.
+    #[test]
+    fn a_panic_in_the_planning_thread_is_raised_in_update() {
+        let mut h = Harness::new(Wavefront::from_block(&wavefront_block(&[])).unwrap());
+        h.setup();
+        let worker = h.driver.worker.as_ref().expect("the planning thread");
+        worker.jobs.send(Job::Fault).unwrap();
+        let start = std::time::Instant::now();
+        while !worker.thread.is_finished() {
+            assert!(start.elapsed() < std::time::Duration::from_secs(5));
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| h.update()))
+            .expect_err("update raises the thread's panic");
+        assert_eq!(
+            caught.downcast_ref::<String>().map(String::as_str),
+            Some("its worker thread \"wavefront\" panicked: injected fault in the planning thread")
+        );
     }
 }

@@ -13,6 +13,7 @@ use pyo3::prelude::*;
 pub mod client;
 pub mod convert;
 pub mod errors;
+pub mod explore;
 pub mod vector;
 pub mod world;
 

@@ -16,6 +16,7 @@ use pyo3::types::{PyByteArray, PyBytes};
 use rayon::prelude::*;
 use stage_sim::{ModelId, on_sim_threads};
 
+use crate::explore::ExploreMap;
 use crate::world::{World, observe_one, sim_err, step_n};
 
 /// The `"goal"` task's parameters (see `StageEnv`'s docstring for their meaning).
@@ -121,6 +122,8 @@ pub struct VectorCore {
     frame_skip: u64,
     max_steps: Option<u64>,
     goal: Option<GoalTask>,
+    /// The explore task's `(stall_penalty, terminate_on_stall)`.
+    explore: Option<(f64, bool)>,
     copies: Vec<Episode>,
     sections: Vec<Section>,
     size: usize,
@@ -200,6 +203,7 @@ fn row_slices<'b>(buf: &'b mut [u8], sections: &[Section], n: usize) -> Vec<Vec<
 struct Scoring<'a> {
     rangers: &'a [(String, usize, f64)],
     goal: Option<GoalTask>,
+    explore: Option<(f64, bool)>,
     max_steps: Option<u64>,
 }
 
@@ -211,6 +215,7 @@ impl Scoring<'_> {
     fn score(
         &self,
         world: &stage_sim::World,
+        map: &mut Option<ExploreMap>,
         copy: &mut Episode,
         running: bool,
         out: &mut [&mut [u8]],
@@ -238,8 +243,18 @@ impl Scoring<'_> {
         put(out[nr + 1], &[i64::from(stall)], i64::to_ne_bytes);
         *steps += 1;
         let truncated = !running || self.max_steps.is_some_and(|limit| *steps >= limit);
-        let (reward, terminated) = match &self.goal {
-            Some(task) => {
+        let (reward, terminated) = match (&self.goal, self.explore) {
+            (_, Some((stall_penalty, terminate_on_stall))) => {
+                // StageEnv's explore scoring: the new area, less the penalty on a stall
+                let map = map.as_mut().expect("checked by begin");
+                let cells = map.see(world)?;
+                let new = map.area(cells);
+                put(out[nr + 6], &[new], f64::to_ne_bytes);
+                put(out[nr + 7], &[map.explored()], f64::to_ne_bytes);
+                let reward = new - if stall { stall_penalty } else { 0.0 };
+                (reward, stall && terminate_on_stall)
+            }
+            (Some(task), None) => {
                 let distance = s[10];
                 let (reward, reached, terminated) = goal_outcome(task, *before, distance, stall);
                 *before = distance;
@@ -248,7 +263,7 @@ impl Scoring<'_> {
                 out[nr + 8][0] = u8::from(reached);
                 (reward, terminated)
             }
-            None => (0.0, false),
+            (None, None) => (0.0, false),
         };
         put(out[nr + 2], &[reward], f64::to_ne_bytes);
         out[nr + 3][0] = u8::from(terminated);
@@ -262,7 +277,7 @@ impl Scoring<'_> {
 #[pymethods]
 impl VectorCore {
     #[new]
-    #[pyo3(signature = (num_envs, robot, rangers, omni, low, high, frame_skip, max_episode_steps, goal=None))]
+    #[pyo3(signature = (num_envs, robot, rangers, omni, low, high, frame_skip, max_episode_steps, goal=None, explore=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         num_envs: usize,
@@ -274,7 +289,13 @@ impl VectorCore {
         frame_skip: u64,
         max_episode_steps: Option<u64>,
         goal: Option<(f64, f64, f64, bool)>,
+        explore: Option<(f64, bool)>,
     ) -> PyResult<Self> {
+        if goal.is_some() && explore.is_some() {
+            return Err(PyValueError::new_err(
+                "VectorCore: one task, goal or explore",
+            ));
+        }
         let dim = if omni { 3 } else { 2 };
         if num_envs == 0 || low.len() != dim || high.len() != dim {
             return Err(PyValueError::new_err(format!(
@@ -305,6 +326,10 @@ impl VectorCore {
             add("distance".into(), "float64", vec![n], 8);
             add("reached".into(), "bool", vec![n], 1);
         }
+        if explore.is_some() {
+            add("new_area".into(), "float64", vec![n], 8);
+            add("explored".into(), "float64", vec![n], 8);
+        }
         let goal = goal.map(
             |(tolerance, reward, stall_penalty, terminate_on_stall)| GoalTask {
                 tolerance,
@@ -331,6 +356,7 @@ impl VectorCore {
             frame_skip,
             max_steps: max_episode_steps,
             goal,
+            explore,
             copies,
             sections,
             size,
@@ -370,6 +396,11 @@ impl VectorCore {
         }
         let ids = {
             let w = world.borrow();
+            if self.explore.is_some() && w.explore.is_none() {
+                return Err(PyValueError::new_err(
+                    "VectorCore.begin: the explore task needs the world's map (explore_begin)",
+                ));
+            }
             let m = w.sensor(&self.robot, "position model", |sim, m| {
                 sim.position_state(m).map(|_| m)
             })?;
@@ -449,12 +480,13 @@ impl VectorCore {
             frame_skip,
             max_steps,
             goal,
+            explore,
             copies,
             sections,
             size,
             ..
         } = self;
-        let (frame_skip, max_steps, goal) = (*frame_skip, *max_steps, *goal);
+        let (frame_skip, max_steps, goal, explore) = (*frame_skip, *max_steps, *goal, *explore);
         let rangers = &*rangers;
         let block = PyByteArray::new_with(py, *size, |buf| {
             // each copy's rows of every section: disjoint slices, so each copy is scored and
@@ -470,20 +502,21 @@ impl VectorCore {
                 )
                 .map(|(w, (c, out))| {
                     let w = &mut **w;
-                    ((&mut w.world, &mut w.tracks), (c, out))
+                    ((&mut w.world, &mut w.tracks, &mut w.explore), (c, out))
                 })
                 .collect();
             let done: Vec<stage_sim::Result<()>> = py.allow_threads(|| {
                 on_sim_threads(|| {
                     jobs.into_par_iter()
-                        .map(|((world, tracks), (copy, out))| {
+                        .map(|((world, tracks, map), (copy, out))| {
                             let running = step_n(world, tracks, frame_skip);
                             let task = Scoring {
                                 rangers,
                                 goal,
+                                explore,
                                 max_steps,
                             };
-                            task.score(world, copy, running, out)
+                            task.score(world, map, copy, running, out)
                         })
                         .collect()
                 })

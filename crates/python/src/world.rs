@@ -19,6 +19,7 @@ use worldfile::models::Drive;
 
 use crate::convert;
 use crate::errors::WorldError;
+use crate::explore::ExploreMap;
 
 /// A loaded world: `World(path, seed=0)`.
 #[pyclass(module = "playerstage._native")]
@@ -33,6 +34,8 @@ pub struct World {
     scene: viewer::Scene,
     /// Position models whose travel, stalls and collisions every step accumulates (`track`).
     pub(crate) tracks: Vec<Track>,
+    /// The explore task's map of this episode (`explore_begin`), scored after every step.
+    pub(crate) explore: Option<ExploreMap>,
 }
 
 /// What `World.track` accumulates for one position model, step by step, in native code: a
@@ -133,6 +136,37 @@ pub(crate) fn step_n(world: &mut stage_sim::World, tracks: &mut [Track], n: u64)
         }
     }
     running
+}
+
+/// The rays of the ranger `m`'s readings as `World.ranger_rays` describes them: `[x, y,
+/// heading]` in the world frame, one per reading (the explore task's map casts along them).
+pub(crate) fn ranger_rays(
+    world: &stage_sim::World,
+    m: ModelId,
+) -> stage_sim::Result<Vec<[f64; 3]>> {
+    let r = world.ranger_scans(m)?;
+    let origin = world.node(m)?.origin;
+    let frame = world.global_pose(m)?.compose(&origin);
+    let one = r.scans().len() == 1;
+    let mut out = Vec::with_capacity(if one {
+        r.bearings().len()
+    } else {
+        r.sensors.len()
+    });
+    for (sensor, scan) in r.sensors.iter().zip(r.scans()) {
+        let at = frame.compose(&Pose {
+            z: 0.0,
+            ..sensor.pose
+        });
+        let bearings = if one {
+            scan.bearings
+        } else {
+            // Player's reading of a transducer in a ring: its first sample
+            &scan.bearings[..scan.bearings.len().min(1)]
+        };
+        out.extend(bearings.iter().map(|b| [at.x, at.y, at.a + b]));
+    }
+    Ok(out)
 }
 
 fn pose_list(p: &Pose) -> [f64; 3] {
@@ -246,6 +280,7 @@ impl World {
             gui: viewer::world_scene::WorldGui::from_spec(&spec),
             scene: viewer::Scene::default(),
             tracks: Vec::new(),
+            explore: None,
             world,
             path,
         })
@@ -634,29 +669,60 @@ impl World {
     /// ranger's first update (no readings yet). The explore task maps free space with it.
     fn ranger_rays(&self, name: &str) -> PyResult<Vec<[f64; 3]>> {
         let m = self.model(name)?;
-        let r = self.sensor(name, "ranger", |w, m| w.ranger_scans(m))?;
-        let origin = self.world.node(m).map_err(sim_err)?.origin;
-        let frame = self.world.global_pose(m).map_err(sim_err)?.compose(&origin);
-        let one = r.scans().len() == 1;
-        let mut out = Vec::with_capacity(if one {
-            r.bearings().len()
-        } else {
-            r.sensors.len()
-        });
-        for (sensor, scan) in r.sensors.iter().zip(r.scans()) {
-            let at = frame.compose(&Pose {
-                z: 0.0,
-                ..sensor.pose
-            });
-            let bearings = if one {
-                scan.bearings
-            } else {
-                // Player's reading of a transducer in a ring: its first sample
-                &scan.bearings[..scan.bearings.len().min(1)]
-            };
-            out.extend(bearings.iter().map(|b| [at.x, at.y, at.a + b]));
+        self.sensor(name, "ranger", |w, m| w.ranger_scans(m))?;
+        ranger_rays(&self.world, m).map_err(sim_err)
+    }
+
+    /// Starts the explore task's map (see `StageEnv`'s "explore" task) over `extent` (`[x0,
+    /// y0, x1, y1]`, the world's at the episode's start) of `cell`-metre cells, seen by the
+    /// rangers `rangers` (`[(name, range_max)]`), and marks what they show now (the start's
+    /// view, which earns no reward); returns the area seen (m^2). Replaces any map before.
+    fn explore_begin(
+        &mut self,
+        rangers: Vec<(String, f64)>,
+        extent: [f64; 4],
+        cell: f64,
+    ) -> PyResult<f64> {
+        let mut ids = Vec::with_capacity(rangers.len());
+        for (name, reach) in &rangers {
+            ids.push((
+                self.sensor(name, "ranger", |w, r| w.ranger_scans(r).map(|_| r))?,
+                *reach,
+            ));
         }
-        Ok(out)
+        if ids.is_empty() || !(cell > 0.0 && cell.is_finite()) {
+            return Err(WorldError::new_err(format!(
+                "explore_begin: {} rangers, cell {cell}: expected at least one ranger and a \
+                 positive cell",
+                ids.len()
+            )));
+        }
+        let mut map = ExploreMap::new(ids, extent, cell).ok_or_else(|| {
+            WorldError::new_err(format!(
+                "explore_begin: a grid of {cell} m cells over {extent:?} is too large"
+            ))
+        })?;
+        let cells = map.see(&self.world).map_err(sim_err)?;
+        let area = map.area(cells);
+        self.explore = Some(map);
+        Ok(area)
+    }
+
+    /// Marks on the explore map what the rangers show now; returns the area (m^2) seen for the
+    /// first time. Raises `WorldError` before `explore_begin`.
+    fn explore_see(&mut self) -> PyResult<f64> {
+        let map = self
+            .explore
+            .as_mut()
+            .ok_or_else(|| WorldError::new_err("explore_see: no explore map (explore_begin)"))?;
+        let cells = map.see(&self.world).map_err(sim_err)?;
+        Ok(map.area(cells))
+    }
+
+    /// The explore map's area seen so far (m^2), None without a map.
+    #[getter]
+    fn explored(&self) -> Option<f64> {
+        self.explore.as_ref().map(ExploreMap::explored)
     }
 
     /// A blobfinder's data: `{width, height, blobs: [{color, x, y, left, right, top, bottom,

@@ -199,3 +199,77 @@ def test_explore_casts_a_sonar_ring_from_each_transducer():
     # standing still shows nothing new
     _, reward, _, _, step_info = env.step(np.zeros(2))
     assert reward == 0.0 and step_info["explored"] == pytest.approx(8.0)
+
+
+def reference_new_cells(world, rangers, grid, seen):
+    """The explore map's documented rule in numpy, cell by cell: each reading's ray sampled
+    every half cell from its transducer (World.ranger_rays) while short of the reading
+    (clipped to [0, reach]); a sample's cell is floor((x - x0) / cell), floor((y - y0) /
+    cell) when inside the grid. Marks `seen` (a set) and returns how many cells are new."""
+    x0, y0, cell, nx, ny = grid
+    new = 0
+    for name, reach in rangers:
+        r = np.asarray(world.ranger(name).ranges, dtype=np.float64)
+        rays = np.asarray(world._w.ranger_rays(name), dtype=np.float64).reshape(-1, 3)
+        if r.size == 0 or rays.shape[0] != r.size:
+            continue
+        t = np.arange(0.0, reach, cell / 2)
+        for end, (x, y, a) in zip(np.clip(r, 0.0, reach), rays):
+            for d in t[t < end]:
+                fx = (x - x0) / cell + math.cos(a) * (d / cell)
+                fy = (y - y0) / cell + math.sin(a) * (d / cell)
+                if fx >= 0 and fy >= 0 and int(fx) < nx and int(fy) < ny:
+                    if (int(fx), int(fy)) not in seen:
+                        seen.add((int(fx), int(fy)))
+                        new += 1
+    return new
+
+
+@pytest.mark.parametrize("world, robot", [("room", "r0"), (BIGBOB, "bob1")])
+def test_native_explore_map_follows_the_documented_rule(tmp_path, world, robot):
+    """The map is native (a lone StageEnv and VectorStageEnv's copies score with it on the
+    simulator's threads): its counts, step by step, equal the rule computed here in Python
+    from the rangers' readings and rays, on a laser room and Bigbob's sonar ring and laser."""
+    if world == "room":
+        world = tmp_path / "room.world"
+        world.write_text(ROOM)
+    cell = 0.25
+    env = StageEnv(world, robot, task="explore", explore_cell=cell, random_start=True)
+    _, info = env.reset(seed=3)
+    agent = env._agent
+    rangers = agent._explore_rangers
+    x0, y0, x1, y1 = env.world.extent()
+    pad = max(r for _, r in rangers) + cell
+    grid = (
+        x0 - pad, y0 - pad, cell,
+        math.ceil((x1 - x0 + 2 * pad) / cell), math.ceil((y1 - y0 + 2 * pad) / cell),
+    )
+    seen = set()
+    start = reference_new_cells(env.world, rangers, grid, seen)
+    assert start > 0 and info["explored"] == start * cell * cell
+    rng = np.random.default_rng(4)
+    grew = 0
+    for _ in range(25):
+        _, reward, _, _, info = env.step(rng.uniform(env.action_space.low, env.action_space.high))
+        new = reference_new_cells(env.world, rangers, grid, seen)
+        assert info["new_area"] == new * cell * cell
+        assert info["explored"] == len(seen) * cell * cell
+        assert reward == new * cell * cell - (agent.stall_penalty if info["stall"] else 0.0)
+        grew += new > 0
+    assert grew >= 3, "the robot saw new ground on several steps"
+
+
+def test_explore_map_refuses_bad_input():
+    from playerstage import World, WorldError
+
+    w = World(BIGBOB)._w
+    with pytest.raises(WorldError, match="no explore map"):
+        w.explore_see()
+    assert w.explored is None
+    with pytest.raises(WorldError, match="not a ranger"):
+        w.explore_begin([("bob1", 2.0)], [-8, -8, 8, 8], 0.1)
+    with pytest.raises(WorldError, match="positive cell"):
+        w.explore_begin([(SONARS, 2.0)], [-8, -8, 8, 8], 0.0)
+    with pytest.raises(WorldError, match="too large"):
+        w.explore_begin([(SONARS, 2.0)], [-8, -8, 8, 8], 1e-6)
+    assert w.explore_begin([(SONARS, 2.0)], [-8, -8, 8, 8], 0.5) == w.explored

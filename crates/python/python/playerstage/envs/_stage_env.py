@@ -451,9 +451,10 @@ class _Robot:
             info.update(goal=self.goal, distance=self.distance)
         if self.task == "explore":
             assert self._extent is not None
-            reach = max(r for _, r in self._explore_rangers)
-            self.explored = _ExploreMap(self._extent, reach, self._explore_cell)
-            self.explored.see(native, self._explore_rangers)  # the start's view: no reward
+            # the map lives natively beside the world; it maps the start's view (no reward)
+            self.explored = _ExploreMap(
+                native, self._explore_rangers, self._extent, self._explore_cell
+            )
             info["explored"] = self.explored.area
         return info
 
@@ -478,7 +479,7 @@ class _Robot:
         stall = bool(reading.stall)
         if self.task == "explore":
             assert self.explored is not None
-            new = self.explored.see(native, self._explore_rangers)
+            new = self.explored.see()
             reward = new - (self.stall_penalty if stall else 0.0)
             terminated = stall and self.terminate_on_stall
             info = {"new_area": new, "explored": self.explored.area, "stall": stall}
@@ -589,59 +590,38 @@ def _readings(
 
 
 class _ExploreMap:
-    """The ``"explore"`` task's map: a world-frame grid of square cells, each seen free or not.
+    """The ``"explore"`` task's map: a world-frame grid of square cells, each seen free or not,
+    kept natively beside the episode's world (``World.explore_begin``), so that a lone
+    StageEnv and VectorStageEnv's copies (scored on the simulator's threads) compute it by
+    the same code.
 
     A ranger reading marks as seen the cells of the points sampled every half cell along its
     ray, from its transducer up to (not including) the range read, or up to the ranger's
     reach when it read nothing nearer. The ray leaves the transducer's own world position (its
     ``pose`` on the ranger: each sonar of a ring its own) at the transducer's heading plus the
     reading's bearing, as ``World.ranger_rays`` gives them. The grid covers the world's extent at
-    load plus the rangers' reach; what lies outside is not counted. Pure arithmetic on the
-    readings: as deterministic as the world.
+    load plus the rangers' reach and a cell; what lies outside is not counted. Pure arithmetic
+    on the readings: as deterministic as the world. Making the map marks the current view.
     """
 
-    def __init__(self, extent: Sequence[float], reach: float, cell: float) -> None:
-        x0, y0, x1, y1 = extent
-        pad = reach + cell
-        self.cell = cell
-        self.x0, self.y0 = x0 - pad, y0 - pad
-        self.nx = int(math.ceil((x1 - x0 + 2 * pad) / cell))
-        self.ny = int(math.ceil((y1 - y0 + 2 * pad) / cell))
-        self.seen = np.zeros(self.nx * self.ny, dtype=bool)
-        self.count = 0
+    def __init__(
+        self,
+        native: Any,
+        rangers: Sequence[Tuple[str, float]],
+        extent: Sequence[float],
+        cell: float,
+    ) -> None:
+        self._native = native
+        native.explore_begin(list(rangers), list(extent), cell)
 
     @property
     def area(self) -> float:
         """The area seen free so far (m^2)."""
-        return self.count * self.cell * self.cell
+        return self._native.explored
 
-    def see(self, native: Any, rangers: Sequence[Tuple[str, float]]) -> float:
+    def see(self) -> float:
         """Marks what the rangers' current readings show free; returns the new area (m^2)."""
-        new = 0
-        for name, rmax in rangers:
-            r = np.asarray(native.ranger(name)["ranges"], dtype=np.float64)
-            # each reading's ray: its transducer's world position and its heading
-            rays = np.asarray(native.ranger_rays(name), dtype=np.float64).reshape(-1, 3)
-            if r.size == 0 or rays.shape[0] != r.size:
-                continue  # no reading yet
-            t = np.arange(0.0, rmax, self.cell / 2)
-            ends = np.clip(r, 0.0, rmax)
-            ang = rays[:, 2]
-            # the samples short of each reading, in cell units from the grid's corner
-            rows, cols = np.nonzero(t[None, :] < ends[:, None])
-            steps = t[cols] / self.cell
-            fx = ((rays[:, 0] - self.x0) / self.cell)[rows] + np.cos(ang)[rows] * steps
-            fy = ((rays[:, 1] - self.y0) / self.cell)[rows] + np.sin(ang)[rows] * steps
-            ix, iy = fx.astype(np.int64), fy.astype(np.int64)  # floor where fx, fy >= 0
-            inside = (fx >= 0) & (ix < self.nx) & (fy >= 0) & (iy < self.ny)
-            cells = (ix * self.ny + iy)[inside]
-            cells = cells[~self.seen[cells]]  # most were seen before: sort only the rest
-            if cells.size:
-                fresh = np.unique(cells)
-                self.seen[fresh] = True
-                new += int(fresh.size)
-        self.count += new
-        return new * self.cell * self.cell
+        return self._native.explore_see()
 
 
 def _draw_pose(rng: np.random.Generator, extent: Optional[Sequence[float]], path: str):

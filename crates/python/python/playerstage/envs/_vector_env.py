@@ -21,18 +21,18 @@ class VectorStageEnv(VectorEnv):
     copy ``i`` gives exactly what a lone ``StageEnv`` fed the same actions and seeds gives, and
     exactly what :class:`gymnasium.vector.SyncVectorEnv` of those envs gives. What differs is
     the simulation: one call steps every copy's world ``frame_skip`` times on the simulator's
-    thread pool with the GIL released, so copies use all cores. For the built-in ``"goal"``
-    task (or ``task=None``) on ``Dict`` observations, the whole step is native
-    (:class:`playerstage._native.VectorCore`, which keeps every copy's world, goal, distance,
-    step count and autoreset flag): it takes the action batch as one float64 buffer, clips and
-    commands each copy's action, and on the pool steps, reads and scores each copy (the goal
-    task's reward by the native function a lone StageEnv uses) and writes its rows of one
-    block, of which the batched observation, rewards, flags and infos are numpy views (a
-    fresh block every step: arrays handed out are never overwritten). So the serial share of a
-    vector step, what Python and the argument handling cost, stays small next to the
-    simulation. Other tasks (``"explore"``, callables) and ``flatten=True`` run each copy's
-    own StageEnv code around :func:`playerstage._native.step_worlds`. Resets, explicit or
-    automatic, reload all the copies concerned side by side on the pool
+    thread pool with the GIL released, so copies use all cores. For the built-in tasks
+    (``"goal"``, ``"explore"``, or ``task=None``) on ``Dict`` observations, the whole step is
+    native (:class:`playerstage._native.VectorCore`, which keeps every copy's world, goal,
+    distance, step count and autoreset flag): it takes the action batch as one float64
+    buffer, clips and commands each copy's action, and on the pool steps, reads and scores
+    each copy (by the native code a lone StageEnv scores with: the goal reward, the explore
+    map) and writes its rows of one block, of which the batched observation, rewards, flags
+    and infos are numpy views (a fresh block every step: arrays handed out are never
+    overwritten). So the serial share of a vector step, what Python and the argument handling
+    cost, stays small next to the simulation. User tasks (callables) and ``flatten=True`` run
+    each copy's own StageEnv code around :func:`playerstage._native.step_worlds`. Resets,
+    explicit or automatic, reload all the copies concerned side by side on the pool
     (:func:`playerstage._native.load_worlds`) and take their first steps together; placing the
     robots and drawing goals stays in Python, once per episode.
     ``gymnasium.make_vec("playerstage/Stage-v0", num_envs=N, ...)`` makes one (the registered
@@ -82,10 +82,10 @@ class VectorStageEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._frame_skip = first._frame_skip
         agent = first._agent
-        # The built-in goal task (or none) on Dict observations runs on a native VectorCore:
-        # one call commands, steps, reads and scores every copy; other tasks and flat
-        # observations go through each copy's own StageEnv code after step_worlds.
-        self._bulk = (agent.task is None or agent.task == "goal") and not agent.flatten
+        # The built-in tasks (or none) on Dict observations run on a native VectorCore: one
+        # call commands, steps, reads and scores every copy; user tasks and flat observations
+        # go through each copy's own StageEnv code after step_worlds.
+        self._bulk = (agent.task is None or isinstance(agent.task, str)) and not agent.flatten
         if self._bulk:
             goal = agent.task == "goal"
             self._core = _native.VectorCore(
@@ -105,7 +105,23 @@ class VectorStageEnv(VectorEnv):
                 )
                 if goal
                 else None,
+                (agent.stall_penalty, agent.terminate_on_stall)
+                if agent.task == "explore"
+                else None,
             )
+            # each task's infos: (info key, block section, type)
+            self._info_keys = {
+                "goal": [
+                    ("distance", "distance", float),
+                    ("stall", "stall_flag", bool),
+                    ("reached", "reached", bool),
+                ],
+                "explore": [
+                    ("new_area", "new_area", float),
+                    ("explored", "explored", float),
+                    ("stall", "stall_flag", bool),
+                ],
+            }.get(agent.task, [])
             # numpy views over the block each step returns: (key, dtype, shape, offset)
             self._sections = [
                 (key, np.dtype(dtype), tuple(shape), offset)
@@ -195,7 +211,7 @@ class VectorStageEnv(VectorEnv):
     def _step_bulk(
         self, actions: Any
     ) -> Tuple[Any, np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
-        """`step` for the goal task (or none) on Dict observations: one native call
+        """`step` for the built-in tasks (or none) on Dict observations: one native call
         (``VectorCore.step``) clips and commands every copy's action, steps the worlds on the
         simulator's pool, reads them, computes rewards, terminations, truncations and infos
         and keeps the copies' episode state (goal, distance, steps, autoreset), all as a lone
@@ -216,19 +232,12 @@ class VectorStageEnv(VectorEnv):
             k: {r: v["rangers/" + r] for r in names} if names is not None else v[k]
             for k, names in self._obs_keys
         }
-        goal = "distance" in v
         infos: Dict[str, Any] = {}
         if not skipped:
-            if goal:
-                n = self.num_envs
-                infos = {
-                    "distance": v["distance"],
-                    "_distance": np.ones(n, dtype=np.bool_),
-                    "stall": v["stall_flag"],
-                    "_stall": np.ones(n, dtype=np.bool_),
-                    "reached": v["reached"],
-                    "_reached": np.ones(n, dtype=np.bool_),
-                }
+            n = self.num_envs
+            for key, section, _ in self._info_keys:
+                infos[key] = v[section]
+                infos["_" + key] = np.ones(n, dtype=np.bool_)
         else:
             # NEXT_STEP autoreset of the skipped copies: their first observations go into
             # their rows of the block (left zero, with reward 0 and no flags, natively)
@@ -237,13 +246,9 @@ class VectorStageEnv(VectorEnv):
             stepped[skipped] = False
             rows = np.flatnonzero(stepped)
             m = len(rows)
-            if goal and m:
-                # what _add_info makes of each stepped copy's {"distance", "stall", "reached"}
-                for key, section, dtype in (
-                    ("distance", "distance", float),
-                    ("stall", "stall_flag", bool),
-                    ("reached", "reached", bool),
-                ):
+            if m:
+                # what _add_info makes of each stepped copy's info
+                for key, section, dtype in self._info_keys:
                     _add_rows(infos, key, v[section][rows], rows, m, dtype, self.num_envs)
         self._last = out
         return out, v["reward"], v["terminated"], v["truncated"], infos

@@ -121,6 +121,18 @@ pub enum ErrorKind {
         /// The offending text.
         text: String,
     },
+    /// An integer beyond what 64 bits hold: Stage's `atoi` (glibc: `(int) strtol`) reads it
+    /// as -1 or 0, not as written, so no reading of it agrees with the file.
+    #[error(
+        "`{name}` value `{text}` does not fit in a 64-bit integer (Stage's atoi would read it as \
+         -1 or 0)"
+    )]
+    IntegerOverflow {
+        /// Property name.
+        name: String,
+        /// The offending text.
+        text: String,
+    },
     /// An integer that does not fit where it goes.
     #[error("`{name}` value `{text}` is out of range")]
     OutOfRange {

@@ -115,6 +115,38 @@ pub fn atoi(text: &str) -> Option<Prefix<i64>> {
     })
 }
 
+/// Whether the integer C's `atoi` reads from `text` is beyond what an `i64` holds (where
+/// [`atoi`] saturates; glibc's `atoi` is `(int) strtol`, which makes such a number -1 or 0).
+pub fn int_overflows(text: &str) -> bool {
+    let (negative, unsigned) = split_sign(skip_c_spaces(text));
+    let digits = unsigned.bytes().take_while(u8::is_ascii_digit);
+    let limit = if negative {
+        i64::MAX.unsigned_abs() + 1
+    } else {
+        i64::MAX.unsigned_abs()
+    };
+    let mut magnitude: u64 = 0;
+    for d in digits {
+        match magnitude
+            .checked_mul(10)
+            .and_then(|m| m.checked_add(u64::from(d - b'0')))
+        {
+            Some(m) if m <= limit => magnitude = m,
+            _ => return true,
+        }
+    }
+    false
+}
+
+/// Whether C's `atof` reads `text` as an infinity that is not written as one: a finite
+/// number beyond `f64::MAX` (`1e999`, a long hex run), which `strtod` turns into ±inf with
+/// ERANGE. `inf` and `infinity` written out are not overflows.
+pub fn float_overflows(text: &str) -> bool {
+    let (_, unsigned) = split_sign(skip_c_spaces(text));
+    atof(text).is_some_and(|n| n.value.is_infinite())
+        && !unsigned.starts_with(|c: char| c.eq_ignore_ascii_case(&'i'))
+}
+
 /// Whether `text` starts with a minus, and `text` without its sign (`+` or `-`), as C's
 /// number conversions read one.
 fn split_sign(text: &str) -> (bool, &str) {
@@ -235,5 +267,24 @@ mod tests {
         assert_eq!(i("abc"), None);
         assert_eq!(i("-"), None);
         assert_eq!(i("99999999999999999999999"), Some((i64::MAX, true)));
+    }
+
+    #[test]
+    fn overflows_are_told_apart_from_big_numbers() {
+        assert!(!int_overflows("9223372036854775807"));
+        assert!(int_overflows("9223372036854775808"));
+        assert!(!int_overflows("-9223372036854775808"));
+        assert!(int_overflows("-9223372036854775809"));
+        assert!(int_overflows(" +99999999999999999999999x"));
+        assert!(!int_overflows("000000000000000000000000042"));
+        assert!(!int_overflows("abc"));
+        assert!(float_overflows("1e309"));
+        assert!(float_overflows("-1e999"));
+        assert!(float_overflows(&format!("0x{}", "f".repeat(300))));
+        assert!(!float_overflows("1.7e308"));
+        assert!(!float_overflows("inf"));
+        assert!(!float_overflows("-Infinity"));
+        assert!(!float_overflows("1e-999"));
+        assert!(!float_overflows("nan"));
     }
 }

@@ -8,7 +8,7 @@
 use crate::color::{ColorSpec, Rgba};
 use crate::document::{Document, EntityId, Property, Value};
 use crate::error::{Error, ErrorKind, Warning};
-use crate::numeric::Prefix;
+use crate::numeric::{Prefix, float_overflows, int_overflows};
 
 /// A 2D-plus-height pose `[x y z a]` in metres and radians (heading normalised to [-π, π]).
 pub type Pose = [f64; 4];
@@ -99,8 +99,20 @@ impl<'d, 'w> Reader<'d, 'w> {
     fn number(&mut self, p: &Property, v: &Value) -> Result<f64, Error> {
         match v.float() {
             // the usual case, kept apart from the messages
-            Some(n) if n.complete => Ok(n.value),
-            parsed => self.prefix_value(p, v, parsed, false),
+            Some(n) if n.complete && n.value.is_finite() => Ok(n.value),
+            parsed => {
+                if float_overflows(&v.text) {
+                    let msg = format!(
+                        "`{}` value `{}` is beyond the largest double: read as {} (as Stage's \
+                         atof reads it), which no size, pose or rate can use",
+                        self.doc.name(p),
+                        v.text,
+                        parsed.map_or(f64::INFINITY, |n| n.value)
+                    );
+                    self.warn_at(p, msg);
+                }
+                self.prefix_value(p, v, parsed, false)
+            }
         }
     }
 
@@ -108,7 +120,16 @@ impl<'d, 'w> Reader<'d, 'w> {
     #[inline]
     fn integer(&mut self, p: &Property, v: &Value) -> Result<i64, Error> {
         match v.int() {
-            Some(n) if n.complete => Ok(n.value),
+            Some(n) if n.complete && n.value.unsigned_abs() < i64::MAX.unsigned_abs() => {
+                Ok(n.value)
+            }
+            _ if int_overflows(&v.text) => Err(self.error(
+                ErrorKind::IntegerOverflow {
+                    name: self.doc.name(p).to_string(),
+                    text: v.text.to_string(),
+                },
+                v,
+            )),
             parsed => {
                 let clean_float = v.float().is_some_and(|f| f.complete);
                 self.prefix_value(p, v, parsed, clean_float)

@@ -489,3 +489,47 @@ fn dump_is_json() {
     assert_eq!(json["models"][0]["color"], "Random");
     assert_eq!(json["models"][1]["location"], "t.world:1:36");
 }
+
+/// Numbers beyond what the reads hold (issue 41): an integer past 64 bits is an error naming
+/// its place (Stage's `atoi`, glibc's `(int) strtol`, reads it as -1 or 0, so no reading
+/// agrees with the file); a float past the largest double is read as infinity, as Stage's
+/// `atof` reads it, with a warning naming its place (stage-sim then refuses to build a model
+/// whose pose or size is not finite).
+#[test]
+fn numbers_beyond_their_type_are_named_at_their_place() {
+    let e =
+        world("interval_sim 100\nmodel ( block ( points 99999999999999999999 ) )\n").unwrap_err();
+    assert!(
+        matches!(&e.kind, ErrorKind::IntegerOverflow { name, text }
+            if name == "points" && text == "99999999999999999999"),
+        "{e}"
+    );
+    let text = e.to_string();
+    assert!(text.contains("t.world:2:24"), "{text}");
+    assert!(text.contains("does not fit in a 64-bit integer"), "{text}");
+    // the largest value reads as written (and is out of range there); one past the most
+    // negative is refused too
+    assert!(
+        world("model ( block ( points 9223372036854775807 ) )\n")
+            .is_err_and(|e| matches!(e.kind, ErrorKind::OutOfRange { .. }))
+    );
+    assert!(matches!(
+        world("model ( block ( points -9223372036854775809 ) )\n")
+            .unwrap_err()
+            .kind,
+        ErrorKind::IntegerOverflow { .. }
+    ));
+
+    let spec = ok("model ( name \"m\" pose [1e999 0 0 0] )\n");
+    let w = spec
+        .warnings
+        .iter()
+        .map(ToString::to_string)
+        .find(|w| w.contains("beyond the largest double"))
+        .expect("a warning for 1e999");
+    assert!(w.starts_with("t.world:1:"), "{w}");
+    assert!(
+        w.contains("`pose` value `1e999`") && w.contains("read as inf"),
+        "{w}"
+    );
+}

@@ -4,10 +4,12 @@ corpora in fuzz/corpus/ were grown from them and minimised with `cargo fuzz cmin
 
 Sources: the repository's worlds and bitmaps, Stage's own worlds, cfgs and bitmaps in
 ../shared/stage-worlds, the recorded sessions and XDR vectors in ../shared/conformance, and the
-log lines upstream's writelog wrote (from the log format's tests). Missing sources are skipped.
+log lines upstream's writelog wrote (from the log format's tests), and ROS 2 commands (cmd_vel,
+cmd_pose, reset_positions requests) as ROS 2 writers encode them. Missing sources are skipped.
 """
 
 import json
+import math
 import re
 import struct
 import sys
@@ -139,10 +141,62 @@ def bitmaps():
         "47494638396101000100800000000000ffffff21f90401000000002c00000000010001000002024401003b"))
 
 
+def cdr(fmt_le, *values, big=False):
+    """A ROS 2 sample: the encapsulation header (CDR_LE 00 01 or CDR_BE 00 00) and the body."""
+    fmt = (">" if big else "<") + fmt_le
+    return (b"\x00\x00" if big else b"\x00\x01") + b"\x00\x00" + struct.pack(fmt, *values)
+
+
+def stamped(sec, nsec, frame, twist, big=False):
+    """A TwistStamped: the header's stamp and frame (a CDR string with its NUL), padding to 8."""
+    o = ">" if big else "<"
+    body = struct.pack(o + "iiI", sec, nsec, len(frame) + 1) + frame + b"\x00"
+    body += b"\x00" * (-len(body) % 8) + struct.pack(o + "6d", *twist)
+    return (b"\x00\x00" if big else b"\x00\x01") + b"\x00\x00" + body
+
+
+def record(kind, vehicle, sample):
+    """One record of the ros2_inbound target: kind, vehicle, u16 LE length, the sample."""
+    return struct.pack("<BBH", kind, vehicle, len(sample)) + sample
+
+
+def ros2():
+    """cmd_vel (Twist 0, TwistStamped 1), cmd_pose (2), reset_positions (Cyclone 3, Fast DDS 4)."""
+    nan, inf = float("nan"), float("inf")
+
+    def pose(x, y, yaw):
+        return cdr("7d", x, y, 0.0, 0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+
+    def twist(vx, vy, va, big=False):
+        return cdr("6d", vx, vy, 0.0, 0.0, 0.0, va, big=big)
+
+    cyclone = cdr("8siIB", bytes(range(1, 9)), 0, 7, 0)
+    fast = cdr("B", 0)
+    seeds = {
+        "forward": [record(0, 0, twist(0.5, 0.0, 0.2))] * 3,
+        "forward-be": [record(0, 1, twist(0.5, 0.0, -0.2, big=True))] * 3,
+        "stamped": [record(1, 0, stamped(1, 500, b"r0/base_link", (0.3, 0.1, 0, 0, 0, 0.4)))],
+        "stamped-empty-frame": [record(1, 2, stamped(0, 0, b"", (0.3, 0, 0, 0, 0, 0)))],
+        "stamped-be": [record(1, 1, stamped(2, 0, b"odom", (1, 0, 0, 0, 0, 1), big=True))],
+        "nan": [record(0, 0, twist(nan, 0.0, 0.0)), record(0, 1, twist(0.0, inf, -inf))],
+        "huge": [record(0, 1, twist(1e300, -1e300, 1e300)), record(0, 0, twist(1.7e308, 0, 0))],
+        "teleport": [record(2, 0, pose(1.5, -1.0, 0.7)), record(2, 2, pose(-3.0, 2.0, -2.0))],
+        "teleport-far": [record(2, 1, pose(1e9, -1e9, 3.0)), record(0, 1, twist(1e30, 0, 0))],
+        "teleport-nan": [record(2, 0, pose(nan, 0, 0)), record(2, 2, pose(inf, -inf, 0))],
+        "reset-cyclone": [record(0, 0, twist(1, 0, 0)), record(3, 0, cyclone)],
+        "reset-fast-dds": [record(2, 1, pose(2, 2, 1)), record(4, 0, fast)],
+        "reset-crossed": [record(3, 0, fast), record(4, 0, cyclone)],
+        "short": [record(0, 0, b"\x00\x01"), record(2, 0, cdr("3d", 1, 2, 3))],
+    }
+    for name, records in seeds.items():
+        put("ros2_inbound", name, b"".join(records))
+
+
 if __name__ == "__main__":
     worlds()
     wire()
     logs()
     bitmaps()
+    ros2()
     for d in sorted(OUT.iterdir()):
         print(d.name, len(list(d.iterdir())), file=sys.stderr)

@@ -12,11 +12,13 @@ use ros2_client::dds::rustdds::no_key::DeserializerAdapter;
 use ros2_client::dds::rustdds::serialization::{
     deserialize_from_cdr_with_rep_id, to_writer_with_rep_id,
 };
-use ros2_client::dds::rustdds::{
-    CDRDeserializerAdapter, RepresentationIdentifier, SerializedPayload,
-};
+use ros2_client::dds::rustdds::{CDRDeserializerAdapter, SerializedPayload};
 use serde::{Deserialize, Serialize};
 use stage_sim::{ModelId, World};
+
+/// A sample's data representation (CDR little- or big-endian, ...): the first two bytes of a
+/// serialised sample.
+pub use ros2_client::dds::rustdds::RepresentationIdentifier;
 
 use crate::msgs::{EmptyMessage, PlainEmptyRequest, Pose, RosType, Twist};
 
@@ -55,23 +57,10 @@ fn body(
         .map_err(|_| DecodeError::Short(payload.len()))?;
     let rep = sample.representation_identifier;
     if !accepted.contains(&rep) {
-        let b = representation_bytes(rep);
+        let b = rep.to_bytes();
         return Err(DecodeError::Representation(b[0], b[1]));
     }
     Ok((rep, sample.value))
-}
-
-/// The two bytes of a representation identifier (RustDDS keeps them private; they are the
-/// first two bytes of the sample as written).
-fn representation_bytes(rep: RepresentationIdentifier) -> [u8; 2] {
-    let mut sample = Vec::new();
-    write_header(&mut sample, rep);
-    [sample[0], sample[1]]
-}
-
-fn write_header(out: &mut Vec<u8>, rep: RepresentationIdentifier) {
-    let sample: Bytes = SerializedPayload::new(rep, Vec::new()).into();
-    out.extend_from_slice(&sample);
 }
 
 /// Reads a topic sample (the 4-byte encapsulation header and the CDR body) as the node's
@@ -89,11 +78,16 @@ pub fn decode_message<T: RosType>(payload: &[u8]) -> Result<(T, usize), DecodeEr
     Ok((message, used))
 }
 
+/// The representation a sample names in its first two bytes (`None`: fewer than two).
+pub fn representation_of(sample: &[u8]) -> Option<RepresentationIdentifier> {
+    RepresentationIdentifier::from_bytes(sample.get(..2)?).ok()
+}
+
 /// Writes `message` as a sample in representation `rep` (its header and CDR body), as a
 /// publisher writing in that representation does; the inverse of [`decode_message`].
 pub fn encode_message<T: Serialize>(message: &T, rep: RepresentationIdentifier) -> Vec<u8> {
-    let mut out = Vec::new();
-    write_header(&mut out, rep);
+    let header: Bytes = SerializedPayload::new(rep, Vec::new()).into();
+    let mut out = header.to_vec();
     to_writer_with_rep_id(&mut out, message, rep).expect("CDR into memory does not fail");
     out
 }
@@ -341,6 +335,40 @@ mod tests {
             decode_message::<Twist>(&cut[..20]),
             Err(DecodeError::Cdr(_))
         ));
+    }
+
+    /// What the fuzz target's first runs met (its re-encoding check was too strict, the
+    /// reader is right): a writer may send a frame id as an empty string of length 0 (no
+    /// terminator; CDR writers put a NUL, RustDDS reads both), and a terminator that is not 0.
+    /// Both read; written again, the string is the canonical length 1 and NUL.
+    #[test]
+    fn lenient_strings_read_and_are_written_canonically() {
+        let mut body = vec![0, 1, 0, 0];
+        body.extend_from_slice(&[1, 0, 0, 0, 2, 0, 0, 0]); // stamp
+        body.extend_from_slice(&[0, 0, 0, 0]); // frame_id: length 0
+        body.extend(std::iter::repeat_n(0, 4)); // padding to 8
+        body.extend((0..6).flat_map(|k| f64::from(k).to_le_bytes()));
+        let (m, used) = decode_message::<TwistStamped>(&body).unwrap();
+        assert_eq!((m.header.frame_id.as_str(), m.twist.angular.z), ("", 5.0));
+        assert_eq!(used, body.len() - 4);
+        let canonical = encode_message(&m, RepresentationIdentifier::CDR_LE);
+        // after the header (4) and the stamp (8): length 1, then the NUL
+        assert_eq!(&canonical[12..17], &[1, 0, 0, 0, 0]);
+        assert_eq!(decode_message::<TwistStamped>(&canonical).unwrap().0, m);
+
+        let mut odd_end = encode_message(
+            &TwistStamped {
+                header: Header {
+                    stamp: Time::default(),
+                    frame_id: "ab".into(),
+                },
+                twist: twist(1.0, 0.0, 0.0),
+            },
+            RepresentationIdentifier::CDR_LE,
+        );
+        odd_end[4 + 8 + 4 + 2] = b'!'; // the terminator
+        let (m, _) = decode_message::<TwistStamped>(&odd_end).unwrap();
+        assert_eq!(m.header.frame_id, "ab");
     }
 
     /// Each server reads its own mapping's request and refuses the other's.

@@ -1,7 +1,8 @@
 //! A ROS 2 node on a `stage-sim` world, a drop-in for tuw-robotics/stage_ros2: its parameters
-//! ([`params`]), its topic, frame and service names ([`names`]), its messages ([`msgs`]) and what it does with those it receives ([`inbound`]), over
-//! ros2-client (ROS 2 on RustDDS, pure Rust) configured from ROS 2's environment
-//! ([`transport`]). [`Bridge`] is the node; [`run`] steps a world with it.
+//! ([`params`]), its topic, frame and service names ([`names`]), its messages ([`msgs`]) and
+//! what it does with those it receives ([`inbound`]), over ros2-client (ROS 2 on RustDDS, pure
+//! Rust) configured from ROS 2's environment ([`transport`]). [`Bridge`] is the node; [`run`]
+//! steps a world with it.
 //!
 //! It sits beside `player-server` on the world engine: the bridge reads and commands a
 //! `stage_sim::World` between steps, as the stage driver does for Player clients.

@@ -1,5 +1,5 @@
-//! `VectorCore`: the whole per-step work of `VectorStageEnv` for the built-in `"goal"` task (or
-//! none), in native code.
+//! `VectorCore`: the whole per-step work of `VectorStageEnv` for the built-in tasks (`"goal"`,
+//! `"explore"`, or none), in native code.
 //!
 //! A vector step used to be one native call for the simulation plus Python around it: the
 //! actions clipped and turned into lists, dozens of arguments converted, readings split,
@@ -106,11 +106,13 @@ type Ids = (ModelId, Vec<ModelId>);
 /// One section of the output block: `(key, dtype, shape, byte offset)`.
 type Section = (String, &'static str, Vec<usize>, usize);
 
-/// The native half of `VectorStageEnv` for the goal task or none on `Dict` observations:
-/// `VectorCore(num_envs, robot, rangers, omni, low, high, frame_skip, max_episode_steps,
-/// goal=None)`, `goal` being `(goal_tolerance, goal_reward, stall_penalty,
-/// terminate_on_stall)` for the goal task. It holds every copy's world and episode state;
-/// `begin` starts a copy's episode after the Python side reset it; `step` does the rest.
+/// The native half of `VectorStageEnv` for the built-in tasks (or none) on `Dict`
+/// observations: `VectorCore(num_envs, robot, rangers, omni, low, high, frame_skip,
+/// max_episode_steps, goal=None, explore=None)`, `goal` being `(goal_tolerance, goal_reward,
+/// stall_penalty, terminate_on_stall)` for the goal task, `explore` `(stall_penalty,
+/// terminate_on_stall)` for the explore task (whose map each world holds, from
+/// `World.explore_begin`). It holds every copy's world and episode state; `begin` starts a
+/// copy's episode after the Python side reset it; `step` does the rest.
 #[pyclass(module = "playerstage._native")]
 pub struct VectorCore {
     robot: String,
@@ -304,7 +306,8 @@ impl VectorCore {
             )));
         }
         let n = num_envs;
-        // every section 8-byte aligned, so each numpy view over the block is aligned
+        // every section 8-byte aligned, so each numpy view over the block is aligned; the
+        // order is the one `Scoring::score` writes a copy's rows in (by index)
         let mut sections: Vec<Section> = Vec::new();
         let mut size = 0;
         let mut add = |key: String, dtype: &'static str, shape: Vec<usize>, item: usize| {

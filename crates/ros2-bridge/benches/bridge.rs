@@ -13,6 +13,11 @@
 //! inside `publish`, from its thread CPU clock), the bridge's own work (`publish` on the
 //! stepping thread, the publisher thread, RustDDS's threads) and the reader process's.
 //!
+//! Each bridged run is preceded by a run of the world alone, so that its share is taken
+//! against the load of the same moment. A last run reads everything at a pace the machine
+//! keeps (`PACED_SPEEDUP` times real time), for the step-to-scan latency under that load
+//! without the backlog of a run flat out.
+//!
 //! `cargo bench -p ros2-bridge --bench bridge [-- STEPS]`
 
 use std::collections::HashMap;
@@ -25,10 +30,12 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use ros2_bridge::bridge::PUBLISHER_THREAD_NAME;
 use ros2_bridge::msgs::{Clock, LaserScan, Odometry, RosType, TfMessage};
 use ros2_bridge::{Bridge, Discovery, Params, RosArgs};
+use ros2_client::dds::rustdds::mio1;
 use ros2_client::{
     Context, MessageTypeName, Name, NodeName, NodeOptions, QosProfile, Subscription,
 };
 use stage_sim::World;
+use stage_sim::pacing::Pacer;
 use worldfile::{LoadOptions, WorldSpec};
 
 /// 100 robots on a 10 x 10 grid, 2 m apart, in a walled 24 m square.
@@ -99,9 +106,17 @@ fn load_subscribed() -> World {
 /// A subscription the reader drains, type-erased: the number of samples taken.
 trait Drain: Send {
     fn drain(&self) -> usize;
+    /// Registers it for readiness events (so only subscriptions with data are read, as a
+    /// ROS 2 executor's wait set does: a take costs RustDDS a system call).
+    fn register(&mut self, registry: &mio1::Registry, token: mio1::Token);
 }
 
 impl<T: RosType> Drain for Subscription<T> {
+    fn register(&mut self, registry: &mio1::Registry, token: mio1::Token) {
+        mio1::event::Source::register(self, registry, token, mio1::Interest::READABLE)
+            .expect("a subscription registers for events");
+    }
+
     fn drain(&self) -> usize {
         let mut n = 0;
         while let Ok(Some(_)) = self.take() {
@@ -167,7 +182,18 @@ fn reader_main(all: bool) {
     if all {
         subs.push(Box::new(subscribe::<Clock>(&mut node, "/clock")));
     }
-    let scan0 = subscribe::<LaserScan>(&mut node, "/r0/base_scan");
+    let mut scan0 = subscribe::<LaserScan>(&mut node, "/r0/base_scan");
+    let mut poll = mio1::Poll::new().expect("a poll");
+    for (k, sub) in subs.iter_mut().enumerate() {
+        sub.register(poll.registry(), mio1::Token(k + 1));
+    }
+    mio1::event::Source::register(
+        &mut scan0,
+        poll.registry(),
+        mio1::Token(0),
+        mio1::Interest::READABLE,
+    )
+    .expect("the scan subscription registers");
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
     std::thread::spawn(move || {
@@ -178,19 +204,32 @@ fn reader_main(all: bool) {
     let _ = std::io::stdout().flush();
     let mut samples = 0;
     let mut arrivals = Vec::new();
+    let mut events = mio1::Events::with_capacity(1024);
+    // every subscription is read once at the start, and then when it has data
+    let mut ready: Vec<usize> = (0..=subs.len()).collect();
     while !stop.load(Ordering::Relaxed) {
-        let mut n = 0;
-        while let Ok(Some((scan, _))) = scan0.take() {
-            let t = scan.header.stamp;
-            let us = t.sec as u64 * 1_000_000 + u64::from(t.nanosec) / 1000;
-            arrivals.push((us, wall_ns()));
-            n += 1;
+        for &k in &ready {
+            if k == 0 {
+                while let Ok(Some((scan, _))) = scan0.take() {
+                    let t = scan.header.stamp;
+                    let us = t.sec as u64 * 1_000_000 + u64::from(t.nanosec) / 1000;
+                    arrivals.push((us, wall_ns()));
+                    samples += 1;
+                }
+            } else if let Some(sub) = subs.get(k - 1) {
+                samples += sub.drain();
+            }
         }
-        n += subs.iter().map(|s| s.drain()).sum::<usize>();
-        samples += n;
-        if n == 0 {
-            std::thread::sleep(Duration::from_micros(200));
+        ready.clear();
+        if poll
+            .poll(&mut events, Some(Duration::from_millis(20)))
+            .is_err()
+        {
+            continue;
         }
+        ready.extend(events.iter().map(|e| e.token().0));
+        ready.sort_unstable();
+        ready.dedup();
     }
     let mut out = std::io::stdout().lock();
     let _ = writeln!(out, "samples {samples}");
@@ -270,10 +309,15 @@ struct Run {
     cpu: HashMap<&'static str, u64>,
 }
 
-/// Steps `world` with `bridge` `steps` times.
-fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64) -> Run {
+/// The pace of the paced run: 5 times real time, 50 steps/s on the bench world, which a
+/// 2-core machine sustains with a reader of everything (100 steps/s it does not, quite).
+const PACED_SPEEDUP: f64 = 5.0;
+
+/// Steps `world` with `bridge` `steps` times, flat out or paced at `speedup` times real time.
+fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64, speedup: Option<f64>) -> Run {
     let mut ended = HashMap::new();
     let mut publish_cpu = 0;
+    let mut pacer = speedup.map(|s| Pacer::new(world.config().interval_sim_us, s));
     let before = threads_cpu("self");
     let start = Instant::now();
     stage_sim::on_sim_threads(|| {
@@ -284,6 +328,9 @@ fn bridged(world: &mut World, bridge: &mut Bridge, steps: u64) -> Run {
             let t = thread_cpu_ns();
             bridge.publish(world);
             publish_cpu += thread_cpu_ns().saturating_sub(t);
+            if let Some(p) = &mut pacer {
+                p.wait();
+            }
         }
     });
     let wall = start.elapsed().as_secs_f64();
@@ -329,6 +376,39 @@ fn main() {
         .find_map(|a| a.parse().ok())
         .unwrap_or(600);
 
+    println!(
+        "100 robots x 181-ray lasers, {steps} steps ({:.0} s simulated); each bridged run after \
+         a run of the world alone",
+        steps as f64 * 0.1
+    );
+    let params = || Params {
+        world_file: "fleet.world".into(),
+        ..Params::default()
+    };
+
+    // no subscriber
+    let alone = world_alone(steps);
+    let ctx = context();
+    let mut world = load_subscribed();
+    let mut bridge =
+        Bridge::new(&ctx, &mut world, params(), &RosArgs::default()).expect("the bridge starts");
+    let run = bridged(&mut world, &mut bridge, steps, None);
+    let (written, skipped) = bridge.counts();
+    report("no subscriber", steps, alone, &run);
+    println!("    samples written {written}, skipped (no reader) {skipped}");
+    report_cpu(&run, steps, None);
+    drop(bridge);
+    drop(ctx);
+
+    // a reader of everything, then of r0's scan alone (the latency without the load), then of
+    // everything at a pace the machine keeps
+    with_reader(true, steps, None);
+    with_reader(false, steps, None);
+    with_reader(true, steps, Some(PACED_SPEEDUP));
+}
+
+/// The world alone, flat out: the wall time of `steps` steps.
+fn world_alone(steps: u64) -> f64 {
     let mut world = load_subscribed();
     let start = Instant::now();
     stage_sim::on_sim_threads(|| {
@@ -336,53 +416,32 @@ fn main() {
             world.step();
         }
     });
-    let alone = start.elapsed().as_secs_f64();
-    let sim = world.sim_time() as f64 * 1e-6;
-    println!("100 robots x 181-ray lasers, {steps} steps ({sim:.0} s simulated)");
-    println!(
-        "  world alone:              {:8.1} steps/s  real-time factor {:7.1}x",
-        steps as f64 / alone,
-        sim / alone
-    );
-    let report = |label: &str, t: f64| {
-        println!(
-            "  {label} {:8.1} steps/s  real-time factor {:7.1}x  bridge share {:3.0}% ({:.2} ms/step)",
-            steps as f64 / t,
-            sim / t,
-            100.0 * (t - alone).max(0.0) / t,
-            (t - alone) / steps as f64 * 1e3
-        );
-    };
-    let params = || Params {
-        world_file: "fleet.world".into(),
-        ..Params::default()
-    };
-
-    // no subscriber
-    let ctx = context();
-    let mut world = load_subscribed();
-    let mut bridge =
-        Bridge::new(&ctx, &mut world, params(), &RosArgs::default()).expect("the bridge starts");
-    let run = bridged(&mut world, &mut bridge, steps);
-    let (written, skipped) = bridge.counts();
-    report("bridge, no subscriber:   ", run.wall);
-    println!("    samples written {written}, skipped (no reader) {skipped}");
-    report_cpu(&run, steps, None);
-    drop(bridge);
-    drop(ctx);
-
-    // a reader of everything, then of r0's scan alone (the latency without the load)
-    with_reader(true, steps, &report);
-    with_reader(false, steps, &report);
+    start.elapsed().as_secs_f64()
 }
 
-/// Runs the bridge with a reader process (of everything, or of r0's scan alone) and prints
-/// the rate, the samples and the step-to-scan latency.
-fn with_reader(all: bool, steps: u64, report: &dyn Fn(&str, f64)) {
+/// Prints a bridged run's rate against the world alone's (`alone`, wall s) and the bridge's
+/// share of the run.
+fn report(label: &str, steps: u64, alone: f64, run: &Run) {
+    let t = run.wall;
+    println!(
+        "  {label}: alone {:7.1} steps/s, bridged {:7.1} steps/s (real-time factor {:6.1}x): \
+         bridge share {:3.0}% ({:.2} ms/step)",
+        steps as f64 / alone,
+        steps as f64 / t,
+        steps as f64 * 0.1 / t,
+        100.0 * (t - alone).max(0.0) / t,
+        (t - alone) / steps as f64 * 1e3
+    );
+}
+
+/// Runs the bridge with a reader process (of everything, or of r0's scan alone), flat out or
+/// paced, and prints the rate, the CPU time, the samples and the step-to-scan latency.
+fn with_reader(all: bool, steps: u64, speedup: Option<f64>) {
     let params = || Params {
         world_file: "fleet.world".into(),
         ..Params::default()
     };
+    let alone = world_alone(steps);
     let mut child = Command::new(std::env::current_exe().expect("this bench's path"))
         .arg(if all { "--reader" } else { "--reader-scan" })
         .stdin(Stdio::piped())
@@ -401,12 +460,12 @@ fn with_reader(all: bool, steps: u64, report: &dyn Fn(&str, f64)) {
         Bridge::new(&ctx, &mut world, params(), &RosArgs::default()).expect("the bridge starts");
     // discovery: step until every topic read is matched (all: nothing skipped in a step;
     // else r0's scan written), 30 s at most; the first step writes the latched topics
-    bridged(&mut world, &mut bridge, 1);
+    bridged(&mut world, &mut bridge, 1, None);
     let warm = Instant::now();
     let mut warm_steps = 1;
     loop {
         let (w, s) = bridge.counts();
-        bridged(&mut world, &mut bridge, 1);
+        bridged(&mut world, &mut bridge, 1, None);
         warm_steps += 1;
         let (w2, s2) = bridge.counts();
         let ready = if all { s2 == s } else { w2 > w };
@@ -418,7 +477,7 @@ fn with_reader(all: bool, steps: u64, report: &dyn Fn(&str, f64)) {
     let (before_w, before_s) = bridge.counts();
     let reader_pid = child.id().to_string();
     let reader_before = threads_cpu(&reader_pid);
-    let run = bridged(&mut world, &mut bridge, steps);
+    let run = bridged(&mut world, &mut bridge, steps, speedup);
     let reader_cpu: u64 = cpu_between(&reader_before, &threads_cpu(&reader_pid))
         .values()
         .sum();
@@ -441,14 +500,20 @@ fn with_reader(all: bool, steps: u64, report: &dyn Fn(&str, f64)) {
         }
     }
     let _ = child.wait();
-    report(
-        if all {
-            "bridge, a reader of all: "
-        } else {
-            "bridge, r0's scan read:  "
-        },
-        run.wall,
-    );
+    let label = match (all, speedup) {
+        (true, None) => "a reader of all".to_string(),
+        (false, _) => "r0's scan read".to_string(),
+        (true, Some(x)) => format!("a reader of all, paced at {x}x real time"),
+    };
+    if speedup.is_some() {
+        println!(
+            "  {label}: {:.1} steps/s (real-time factor {:.1}x)",
+            steps as f64 / run.wall,
+            steps as f64 * 0.1 / run.wall
+        );
+    } else {
+        report(&label, steps, alone, &run);
+    }
     report_cpu(&run, steps, Some(reader_cpu));
     println!(
         "    after {warm_steps} warm-up steps: samples written {}, skipped {}; the reader took {samples} in all",

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 use common::{PlayerProcess, player_command, read_until};
 
 use player_client::{ClientError, ClientProxy, PlayerClient, Position2dProxy, RangerProxy};
-use player_drivers::shell::readlog::LogReader;
+use player_drivers::shell::readlog::{LogReader, open_log};
 use player_proto::{Body, InterfaceCode, LogMsg, LogReq};
 
 /// The disk's size (tmpfs) or the file-size limit.
@@ -102,10 +102,22 @@ fn recording(log: &ClientProxy) -> bool {
 
 #[test]
 fn writelog_on_a_full_disk_stops_with_one_clear_error_and_a_readable_log() {
-    let dir = std::env::temp_dir().join(format!("cli-fulldisk-{}", std::process::id()));
+    full_disk("full.log");
+}
+
+/// The same for a gzip'd log (a name ending in `.gz`): the file holds whole gzip members of
+/// whole lines only, so `readlog` reads it to its last complete line, no stream cut short.
+#[test]
+fn gzip_writelog_on_a_full_disk_stops_with_one_clear_error_and_a_readable_log() {
+    full_disk("full.log.gz");
+}
+
+/// Records to `name` on a full disk and checks the guarantees above.
+fn full_disk(name: &str) {
+    let dir = std::env::temp_dir().join(format!("cli-fulldisk-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let disk = Disk::make(&dir);
-    let file = disk.path().join("full.log");
+    let file = disk.path().join(name);
     let cfg = dir.join("record.cfg");
     // Ranger lines of 256 samples are about 2 KiB: the disk fills within a second.
     std::fs::write(
@@ -113,7 +125,7 @@ fn writelog_on_a_full_disk_stops_with_one_clear_error_and_a_readable_log() {
         format!(
             "driver( name \"testdriver\" provides [\"position2d:0\" \"ranger:0\"] step_ms 10 samples 256 )\n\
              driver( name \"writelog\" requires [\"position2d:0\" \"ranger:0\"] provides [\"log:0\"] \
-             log_directory \"{}\" filename \"full.log\" alwayson 1 )\n",
+             log_directory \"{}\" filename \"{name}\" alwayson 1 )\n",
             disk.path().display()
         ),
     )
@@ -185,8 +197,12 @@ fn writelog_on_a_full_disk_stops_with_one_clear_error_and_a_readable_log() {
     drop(server);
 
     // The log: complete lines only, every one read back by readlog.
-    let bytes = std::fs::read(&file).unwrap();
-    assert!(bytes.len() as u64 <= DISK, "{} bytes", bytes.len());
+    let on_disk = std::fs::read(&file).unwrap();
+    assert!(on_disk.len() as u64 <= DISK, "{} bytes", on_disk.len());
+    // what readlog reads (gzip decoded); every member whole: a stream cut short is an error
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut open_log(&file).unwrap(), &mut bytes)
+        .unwrap_or_else(|e| panic!("{name} does not read to its end: {e}"));
     assert!(
         bytes.ends_with(b"\n"),
         "the log ends in a line cut short: {:?}",
@@ -204,8 +220,14 @@ fn writelog_on_a_full_disk_stops_with_one_clear_error_and_a_readable_log() {
     }
     assert!(bad.is_empty(), "readlog found bad lines: {bad:?}");
     assert!(messages > 10, "only {messages} messages in the log");
+    assert!(
+        errors[0].contains(&format!("recording stopped after {messages} message lines")),
+        "the error counts the lines the log kept ({messages}): {}",
+        errors[0]
+    );
     println!(
-        "full disk ({}): filled in {filled_in:?}, {} bytes and {messages} messages kept; error: {}",
+        "full disk ({}, {name}): filled in {filled_in:?}, {} bytes and {messages} messages \
+         kept; error: {}",
         match disk {
             Disk::Tmpfs(_) => "tmpfs",
             Disk::SizeLimit(_) => "file-size limit",

@@ -25,7 +25,7 @@
 
 use std::collections::{BTreeSet, HashMap};
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -45,63 +45,152 @@ use crate::options;
 /// The name cfg files use.
 pub const NAME: &str = "writelog";
 
+/// Uncompressed bytes of lines gathered into one gzip member before it is written: a gzip
+/// log is a series of whole members (a multi-member file, which gzip and `readlog` read as
+/// one), so a failed write cuts off a whole member and the file never ends in a stream cut
+/// short.
+const GZIP_MEMBER_BYTES: usize = 1 << 16;
+
 /// An open log: plain text (each line written to the file as it comes, as upstream flushes
-/// after every line) or gzip.
+/// after every line) or gzip (lines gathered into members of [`GZIP_MEMBER_BYTES`]).
 enum Sink {
-    /// `complete` is the length of the file up to the end of its last complete line.
+    /// `complete` is the length of the file up to the end of its last complete line; `kept`
+    /// the lines in it.
     Plain {
         file: File,
         complete: u64,
+        kept: u64,
     },
-    Gzip(GzEncoder<BufWriter<File>>),
+    /// `complete` is the length of the file up to the end of its last whole member, `kept`
+    /// the lines in it; `member` compresses the `member_lines` lines since, in memory.
+    Gzip {
+        file: File,
+        complete: u64,
+        kept: u64,
+        member: GzEncoder<Vec<u8>>,
+        member_bytes: usize,
+        member_lines: u64,
+    },
 }
 
 impl Sink {
     fn create(path: &Path) -> std::io::Result<Sink> {
         let file = File::create(path)?;
         Ok(if is_gzip(path) {
-            Sink::Gzip(GzEncoder::new(
-                BufWriter::with_capacity(1 << 16, file),
-                Compression::default(),
-            ))
+            Sink::Gzip {
+                file,
+                complete: 0,
+                kept: 0,
+                member: new_member(),
+                member_bytes: 0,
+                member_lines: 0,
+            }
         } else {
-            Sink::Plain { file, complete: 0 }
+            Sink::Plain {
+                file,
+                complete: 0,
+                kept: 0,
+            }
         })
+    }
+
+    /// Writes `bytes` at the end of `file`, whose first `complete` bytes are whole lines or
+    /// members; on failure cuts off the part written, so the file keeps ending there.
+    fn append(file: &mut File, complete: &mut u64, bytes: &[u8]) -> std::io::Result<()> {
+        match file.write_all(bytes) {
+            Ok(()) => {
+                *complete += bytes.len() as u64;
+                Ok(())
+            }
+            Err(e) => {
+                let cut = file.set_len(*complete);
+                Err(match cut {
+                    Ok(()) => e,
+                    Err(cut) => std::io::Error::new(
+                        e.kind(),
+                        format!("{e}, and cutting the part written failed too: {cut}"),
+                    ),
+                })
+            }
+        }
+    }
+
+    /// Writes the gzip member gathered so far (if it holds any line) and starts a new one.
+    fn write_member(&mut self) -> std::io::Result<()> {
+        let Sink::Gzip {
+            file,
+            complete,
+            kept,
+            member,
+            member_bytes,
+            member_lines,
+        } = self
+        else {
+            return Ok(());
+        };
+        if *member_lines == 0 {
+            return Ok(());
+        }
+        let done = std::mem::replace(member, new_member()).finish()?;
+        Sink::append(file, complete, &done)?;
+        *kept += *member_lines;
+        *member_lines = 0;
+        *member_bytes = 0;
+        Ok(())
+    }
+
+    /// The lines the file holds whole (a gzip log's lines still gathering in memory are not
+    /// counted).
+    fn kept(&self) -> u64 {
+        match self {
+            Sink::Plain { kept, .. } | Sink::Gzip { kept, .. } => *kept,
+        }
     }
 
     /// Writes one line (ending in a newline). When a plain log cannot take the whole line
     /// (a full disk, a file size limit), the part that was written is cut off again: a line
     /// cut short could still read as a message whose last number lost its last digits.
+    /// A gzip log gathers the line into its member and writes the member once it holds
+    /// [`GZIP_MEMBER_BYTES`]; a member that cannot be written whole is cut off the same way.
     fn write_line(&mut self, line: &str) -> std::io::Result<()> {
         match self {
-            Sink::Plain { file, complete } => match file.write_all(line.as_bytes()) {
-                Ok(()) => {
-                    *complete += line.len() as u64;
-                    Ok(())
+            Sink::Plain {
+                file,
+                complete,
+                kept,
+            } => {
+                Sink::append(file, complete, line.as_bytes())?;
+                *kept += 1;
+                Ok(())
+            }
+            Sink::Gzip {
+                member,
+                member_bytes,
+                member_lines,
+                ..
+            } => {
+                member.write_all(line.as_bytes())?;
+                *member_bytes += line.len();
+                *member_lines += 1;
+                if *member_bytes >= GZIP_MEMBER_BYTES {
+                    self.write_member()?;
                 }
-                Err(e) => {
-                    let cut = file.set_len(*complete);
-                    Err(match cut {
-                        Ok(()) => e,
-                        Err(cut) => std::io::Error::new(
-                            e.kind(),
-                            format!(
-                                "{e}, and cutting the part of the line written failed too: {cut}"
-                            ),
-                        ),
-                    })
-                }
-            },
-            Sink::Gzip(w) => w.write_all(line.as_bytes()),
+                Ok(())
+            }
         }
     }
 
-    fn close(self) -> std::io::Result<()> {
-        match self {
-            Sink::Plain { mut file, .. } => file.flush(),
-            Sink::Gzip(w) => w.finish()?.flush(),
+    fn close(mut self) -> std::io::Result<()> {
+        self.write_member()?;
+        match &mut self {
+            Sink::Plain { file, .. } | Sink::Gzip { file, .. } => file.flush(),
         }
     }
+}
+
+/// A gzip member in memory, at the default level.
+fn new_member() -> GzEncoder<Vec<u8>> {
+    GzEncoder::new(Vec::new(), Compression::default())
 }
 
 /// Whether `path` names a gzip file (ends in `.gz`, any case, as upstream's readlog tests).
@@ -347,6 +436,8 @@ impl WriteLog {
         match sink.write_line(line) {
             Ok(()) => self.lines_written += 1,
             Err(e) => {
+                // the header's line is not a message line
+                self.lines_written = sink.kept().saturating_sub(1);
                 tracing::error!(
                     "{NAME}: writing {} failed: {e}; recording stopped after {} message \
                      lines (the log ends with its last complete line); give the log device a \
@@ -354,7 +445,8 @@ impl WriteLog {
                     self.path.display(),
                     self.lines_written
                 );
-                // Dropping a gzip sink tries to finish its stream, quietly.
+                // (a gzip sink's lines not yet in a member written are dropped with it: the
+                // file ends with its last whole member)
                 self.sink = None;
                 self.enabled = false;
                 self.held.clear();

@@ -17,8 +17,8 @@
 //! is held back, not dropped). A message whose interface has no format is written as a bare
 //! header line, with a warning (once per kind), as upstream does.
 //!
-//! Differences from upstream: a name ending in `.gz` is written gzip-compressed (upstream
-//! writes plain text whatever the name); an absolute `filename` is used as is (upstream
+//! Differences from upstream: a name ending in `.gz` is written gzip-compressed, in whole
+//! gzip members of 64 KiB of lines (upstream writes plain text whatever the name); an absolute `filename` is used as is (upstream
 //! prefixes `log_directory/` even then); the timestamp of the default name is UTC (upstream:
 //! local time); a file that cannot be opened refuses the subscription with the reason
 //! (upstream's thread exits with an error message and the driver stays subscribed).

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use stage_sim::{ModelId, on_sim_threads};
 
 use crate::explore::ExploreMap;
-use crate::world::{World, observe_one, sim_err, step_n};
+use crate::world::{World, explore_map, observe_one, sim_err, step_n};
 
 /// The `"goal"` task's parameters (see `StageEnv`'s docstring for their meaning).
 #[derive(Clone, Copy, Debug)]
@@ -110,7 +110,7 @@ type Section = (String, &'static str, Vec<usize>, usize);
 /// observations: `VectorCore(num_envs, robot, rangers, omni, low, high, frame_skip,
 /// max_episode_steps, goal=None, explore=None)`, `goal` being `(goal_tolerance, goal_reward,
 /// stall_penalty, terminate_on_stall)` for the goal task, `explore` `(stall_penalty,
-/// terminate_on_stall)` for the explore task (whose map each world holds, from
+/// terminate_on_stall)` for the explore task (whose map of the robot each world holds, from
 /// `World.explore_begin`). It holds every copy's world and episode state; `begin` starts a
 /// copy's episode after the Python side reset it; `step` does the rest.
 #[pyclass(module = "playerstage._native")]
@@ -217,7 +217,7 @@ impl Scoring<'_> {
     fn score(
         &self,
         world: &stage_sim::World,
-        map: &mut Option<ExploreMap>,
+        map: Option<&mut ExploreMap>,
         copy: &mut Episode,
         running: bool,
         out: &mut [&mut [u8]],
@@ -248,7 +248,7 @@ impl Scoring<'_> {
         let (reward, terminated) = match (&self.goal, self.explore) {
             (_, Some((stall_penalty, terminate_on_stall))) => {
                 // StageEnv's explore scoring: the new area, less the penalty on a stall
-                let map = map.as_mut().expect("checked by begin");
+                let map = map.expect("checked by begin");
                 let cells = map.see(world)?;
                 let new = map.area(cells);
                 put(out[nr + 6], &[new], f64::to_ne_bytes);
@@ -398,8 +398,8 @@ impl VectorCore {
             ));
         }
         let ids = {
-            let w = world.borrow();
-            if self.explore.is_some() && w.explore.is_none() {
+            let mut w = world.borrow_mut();
+            if self.explore.is_some() && explore_map(&mut w.explore, &self.robot).is_none() {
                 return Err(PyValueError::new_err(
                     "VectorCore.begin: the explore task needs the world's map (explore_begin)",
                 ));
@@ -479,6 +479,7 @@ impl VectorCore {
         }
 
         let VectorCore {
+            robot,
             rangers,
             frame_skip,
             max_steps,
@@ -505,7 +506,8 @@ impl VectorCore {
                 )
                 .map(|(w, (c, out))| {
                     let w = &mut **w;
-                    ((&mut w.world, &mut w.tracks, &mut w.explore), (c, out))
+                    let map = explore_map(&mut w.explore, robot);
+                    ((&mut w.world, &mut w.tracks, map), (c, out))
                 })
                 .collect();
             let done: Vec<stage_sim::Result<()>> = py.allow_threads(|| {

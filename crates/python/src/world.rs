@@ -34,8 +34,9 @@ pub struct World {
     scene: viewer::Scene,
     /// Position models whose travel, stalls and collisions every step accumulates (`track`).
     pub(crate) tracks: Vec<Track>,
-    /// The explore task's map of this episode (`explore_begin`), scored after every step.
-    pub(crate) explore: Option<ExploreMap>,
+    /// The explore task's maps of this episode, one per robot (`explore_begin`; several
+    /// agents of a `parallel_env` share the world), scored after every step.
+    pub(crate) explore: Vec<(String, ExploreMap)>,
 }
 
 /// What `World.track` accumulates for one position model, step by step, in native code: a
@@ -169,6 +170,14 @@ pub(crate) fn ranger_rays(
     Ok(out)
 }
 
+/// `robot`'s explore map among `maps` (`World::explore`).
+pub(crate) fn explore_map<'m>(
+    maps: &'m mut [(String, ExploreMap)],
+    robot: &str,
+) -> Option<&'m mut ExploreMap> {
+    maps.iter_mut().find(|(r, _)| r == robot).map(|(_, m)| m)
+}
+
 fn pose_list(p: &Pose) -> [f64; 3] {
     [p.x, p.y, p.a]
 }
@@ -280,7 +289,7 @@ impl World {
             gui: viewer::world_scene::WorldGui::from_spec(&spec),
             scene: viewer::Scene::default(),
             tracks: Vec::new(),
-            explore: None,
+            explore: Vec::new(),
             world,
             path,
         })
@@ -673,12 +682,14 @@ impl World {
         ranger_rays(&self.world, m).map_err(sim_err)
     }
 
-    /// Starts the explore task's map (see `StageEnv`'s "explore" task) over `extent` (`[x0,
-    /// y0, x1, y1]`, the world's at the episode's start) of `cell`-metre cells, seen by the
-    /// rangers `rangers` (`[(name, range_max)]`), and marks what they show now (the start's
-    /// view, which earns no reward); returns the area seen (m^2). Replaces any map before.
+    /// Starts `robot`'s explore task map (see `StageEnv`'s "explore" task) over `extent`
+    /// (`[x0, y0, x1, y1]`, the world's at the episode's start) of `cell`-metre cells, seen by
+    /// the rangers `rangers` (`[(name, range_max)]`), and marks what they show now (the
+    /// start's view, which earns no reward); returns the area seen (m^2). Replaces the robot's
+    /// map before, if any; other robots' maps are their own.
     fn explore_begin(
         &mut self,
+        robot: String,
         rangers: Vec<(String, f64)>,
         extent: [f64; 4],
         cell: f64,
@@ -704,25 +715,27 @@ impl World {
         })?;
         let cells = map.see(&self.world).map_err(sim_err)?;
         let area = map.area(cells);
-        self.explore = Some(map);
+        self.explore.retain(|(r, _)| *r != robot);
+        self.explore.push((robot, map));
         Ok(area)
     }
 
-    /// Marks on the explore map what the rangers show now; returns the area (m^2) seen for the
-    /// first time. Raises `WorldError` before `explore_begin`.
-    fn explore_see(&mut self) -> PyResult<f64> {
-        let map = self
-            .explore
-            .as_mut()
-            .ok_or_else(|| WorldError::new_err("explore_see: no explore map (explore_begin)"))?;
-        let cells = map.see(&self.world).map_err(sim_err)?;
+    /// Marks on `robot`'s explore map what its rangers show now; returns the area (m^2) seen
+    /// for the first time. Raises `WorldError` when the robot has no map (`explore_begin`).
+    fn explore_see(&mut self, robot: &str) -> PyResult<f64> {
+        let world = &self.world;
+        let map = explore_map(&mut self.explore, robot).ok_or_else(|| {
+            WorldError::new_err(format!(
+                "explore_see: no explore map for `{robot}` (explore_begin)"
+            ))
+        })?;
+        let cells = map.see(world).map_err(sim_err)?;
         Ok(map.area(cells))
     }
 
-    /// The explore map's area seen so far (m^2), None without a map.
-    #[getter]
-    fn explored(&self) -> Option<f64> {
-        self.explore.as_ref().map(ExploreMap::explored)
+    /// The area (m^2) `robot`'s explore map has seen so far, None without a map.
+    fn explored(&mut self, robot: &str) -> Option<f64> {
+        explore_map(&mut self.explore, robot).map(|m| m.explored())
     }
 
     /// A blobfinder's data: `{width, height, blobs: [{color, x, y, left, right, top, bottom,

@@ -238,12 +238,7 @@ def test_native_explore_map_follows_the_documented_rule(tmp_path, world, robot):
     _, info = env.reset(seed=3)
     agent = env._agent
     rangers = agent._explore_rangers
-    x0, y0, x1, y1 = env.world.extent()
-    pad = max(r for _, r in rangers) + cell
-    grid = (
-        x0 - pad, y0 - pad, cell,
-        math.ceil((x1 - x0 + 2 * pad) / cell), math.ceil((y1 - y0 + 2 * pad) / cell),
-    )
+    grid = grid_of(env.world, rangers, cell)
     seen = set()
     start = reference_new_cells(env.world, rangers, grid, seen)
     assert start > 0 and info["explored"] == start * cell * cell
@@ -263,13 +258,53 @@ def test_explore_map_refuses_bad_input():
     from playerstage import World, WorldError
 
     w = World(BIGBOB)._w
-    with pytest.raises(WorldError, match="no explore map"):
-        w.explore_see()
-    assert w.explored is None
+    with pytest.raises(WorldError, match="no explore map for `bob1`"):
+        w.explore_see("bob1")
+    assert w.explored("bob1") is None
     with pytest.raises(WorldError, match="not a ranger"):
-        w.explore_begin([("bob1", 2.0)], [-8, -8, 8, 8], 0.1)
+        w.explore_begin("bob1", [("bob1", 2.0)], [-8, -8, 8, 8], 0.1)
     with pytest.raises(WorldError, match="positive cell"):
-        w.explore_begin([(SONARS, 2.0)], [-8, -8, 8, 8], 0.0)
+        w.explore_begin("bob1", [(SONARS, 2.0)], [-8, -8, 8, 8], 0.0)
     with pytest.raises(WorldError, match="too large"):
-        w.explore_begin([(SONARS, 2.0)], [-8, -8, 8, 8], 1e-6)
-    assert w.explore_begin([(SONARS, 2.0)], [-8, -8, 8, 8], 0.5) == w.explored
+        w.explore_begin("bob1", [(SONARS, 2.0)], [-8, -8, 8, 8], 1e-6)
+    assert w.explore_begin("bob1", [(SONARS, 2.0)], [-8, -8, 8, 8], 0.5) == w.explored("bob1")
+
+
+def grid_of(world, rangers, cell):
+    """The explore grid's (x0, y0, cell, nx, ny): the world's extent grown by the largest
+    reach plus a cell."""
+    x0, y0, x1, y1 = world.extent()
+    pad = max(r for _, r in rangers) + cell
+    return (
+        x0 - pad, y0 - pad, cell,
+        math.ceil((x1 - x0 + 2 * pad) / cell), math.ceil((y1 - y0 + 2 * pad) / cell),
+    )
+
+
+def test_parallel_env_agents_each_have_their_own_map():
+    """parallel_env's agents share one world, and each has its own explore map (the world
+    keeps one per robot): each agent's areas, at reset and step by step, are the documented
+    rule applied to its own rangers alone."""
+    from playerstage.envs import parallel_env
+
+    cell = 0.25
+    env = parallel_env(BIGBOB, task="explore", explore_cell=cell)
+    _, infos = env.reset(
+        options={"start": {"bob1": (-4.6, -3.9, 0.0), "bob2": (4.0, 4.0, math.pi)}}
+    )
+    assert sorted(env.agents) == ["bob1", "bob2"]
+    seen = {a: set() for a in env.agents}
+    rangers = {a: env._robots[a]._explore_rangers for a in env.agents}
+    grid = {a: grid_of(env.world, rangers[a], cell) for a in env.agents}
+    for a in env.agents:
+        start = reference_new_cells(env.world, rangers[a], grid[a], seen[a])
+        assert infos[a]["explored"] == start * cell * cell, a
+    assert infos["bob1"]["explored"] != infos["bob2"]["explored"], "different views"
+    rng = np.random.default_rng(2)
+    for _ in range(10):
+        actions = {a: rng.uniform(-0.5, 0.5, size=2) for a in env.agents}
+        _, _, _, _, infos = env.step(actions)
+        for a in infos:
+            new = reference_new_cells(env.world, rangers[a], grid[a], seen[a])
+            assert infos[a]["new_area"] == new * cell * cell, a
+            assert infos[a]["explored"] == len(seen[a]) * cell * cell, a

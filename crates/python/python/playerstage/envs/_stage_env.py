@@ -453,7 +453,7 @@ class _Robot:
             assert self._extent is not None
             # the map lives natively beside the world; it maps the start's view (no reward)
             self.explored = _ExploreMap(
-                native, self._explore_rangers, self._extent, self._explore_cell
+                native, self.robot, self._explore_rangers, self._extent, self._explore_cell
             )
             info["explored"] = self.explored.area
         return info
@@ -607,21 +607,23 @@ class _ExploreMap:
     def __init__(
         self,
         native: Any,
+        robot: str,
         rangers: Sequence[Tuple[str, float]],
         extent: Sequence[float],
         cell: float,
     ) -> None:
         self._native = native
-        native.explore_begin(list(rangers), list(extent), cell)
+        self._robot = robot  # the world keeps one map per robot (parallel_env's agents)
+        native.explore_begin(robot, list(rangers), list(extent), cell)
 
     @property
     def area(self) -> float:
         """The area seen free so far (m^2)."""
-        return self._native.explored
+        return self._native.explored(self._robot)
 
     def see(self) -> float:
         """Marks what the rangers' current readings show free; returns the new area (m^2)."""
-        return self._native.explore_see()
+        return self._native.explore_see(self._robot)
 
 
 def _draw_pose(rng: np.random.Generator, extent: Optional[Sequence[float]], path: str):

@@ -270,6 +270,13 @@ def main():
             f"  {what}: {one:,.0f} on 1 thread, {all_:,.0f} on {cores}: "
             f"{all_ / one:.2f}x ({100 * all_ / one / cores:.0f}% of linear)"
         )
+    # on a busy machine the bare simulation itself falls short of linear: how much of its
+    # speed-up the environment keeps tells the environment's share apart from the machine's
+    env_up, sim_up = (threads[cores][k] / threads[1][k] for k in (0, 1))
+    print(
+        f"  VectorStageEnv(64)'s speed-up is {100 * env_up / sim_up:.0f}% of the bare "
+        f"simulation's in the same runs"
+    )
     # Amdahl from CPU time on one thread. What ran on the calling thread is the serial part
     # (the pool's threads did the rest): it bounds the speed-up on `cores` cores. Counting all
     # of a vector step beyond the bare steps serial (the readings and scoring too, which run

@@ -449,11 +449,15 @@ fn with_reader(all: bool, steps: u64, speedup: Option<f64>) {
         .spawn()
         .expect("the reader process starts");
     let mut lines = std::io::BufReader::new(child.stdout.take().expect("its stdout")).lines();
-    assert_eq!(
-        lines.next().and_then(Result::ok).as_deref(),
-        Some("ready"),
-        "the reader process starts"
-    );
+    let first = lines.next().and_then(Result::ok);
+    if first.as_deref() != Some("ready") {
+        drop(child.stdin.take());
+        let status = child.wait();
+        panic!(
+            "the reader process did not start: it said {first:?} and ended with {status:?} \
+             (its own message, if any, is above)"
+        );
+    }
     let ctx = context();
     let mut world = load_subscribed();
     let mut bridge =

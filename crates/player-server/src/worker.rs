@@ -7,6 +7,8 @@
 
 use std::any::Any;
 use std::panic::resume_unwind;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 
 use crate::driver::DriverWaker;
@@ -16,15 +18,24 @@ use crate::driver::DriverWaker;
 pub struct WorkerThread {
     name: String,
     handle: Option<JoinHandle<()>>,
+    /// Set by the thread as it ends, before it wakes the driver: the wake can reach `check`
+    /// while the thread is still unwinding (not yet `is_finished`), and `check` must then
+    /// wait the moment it takes rather than miss the end, which no later wake would report.
+    ending: Arc<AtomicBool>,
 }
 
-/// Wakes the driver when dropped: at the thread's end, also when it unwinds from a panic, so
-/// the core calls the driver's `wake` (and with it [`WorkerThread::check`]) at once.
-struct WakeOnExit(Option<DriverWaker>);
+/// Marks the thread as ending and wakes the driver when dropped: at the thread's end, also
+/// when it unwinds from a panic, so the core calls the driver's `wake` (and with it
+/// [`WorkerThread::check`]) at once.
+struct WakeOnExit {
+    waker: Option<DriverWaker>,
+    ending: Arc<AtomicBool>,
+}
 
 impl Drop for WakeOnExit {
     fn drop(&mut self) {
-        if let Some(w) = &self.0 {
+        self.ending.store(true, Ordering::Release);
+        if let Some(w) = &self.waker {
             w.wake();
         }
     }
@@ -39,15 +50,21 @@ impl WorkerThread {
         waker: Option<DriverWaker>,
         body: impl FnOnce() + Send + 'static,
     ) -> std::io::Result<WorkerThread> {
+        let ending = Arc::new(AtomicBool::new(false));
+        let on_exit = WakeOnExit {
+            waker,
+            ending: Arc::clone(&ending),
+        };
         let handle = std::thread::Builder::new()
             .name(name.to_string())
             .spawn(move || {
-                let _wake = WakeOnExit(waker);
+                let _wake = on_exit;
                 body();
             })?;
         Ok(WorkerThread {
             name: name.to_string(),
             handle: Some(handle),
+            ending,
         })
     }
 
@@ -56,9 +73,12 @@ impl WorkerThread {
     /// own, with the message `its worker thread "NAME" panicked: MSG`. A thread still running,
     /// or one that returned, is not an error.
     pub fn check(&mut self) {
-        if !self.handle.as_ref().is_some_and(JoinHandle::is_finished) {
+        let ended = self.ending.load(Ordering::Acquire)
+            || self.handle.as_ref().is_some_and(JoinHandle::is_finished);
+        if !ended {
             return;
         }
+        // Joining a thread that has marked its end waits only for its last unwinding steps.
         if let Some(Err(payload)) = self.handle.take().map(JoinHandle::join) {
             resume_unwind(Box::new(format!(
                 "its worker thread \"{}\" panicked: {}",
@@ -123,6 +143,24 @@ mod tests {
         );
         // raised once; the thread is gone after
         w.check();
+    }
+
+    #[test]
+    fn a_check_after_the_end_is_marked_waits_for_the_unwinding_thread() {
+        // The waker's moment: the thread has marked its end (as `WakeOnExit` does) but is still
+        // unwinding, so `is_finished` is false; here the unwinding is stretched to 200 ms.
+        let mut w = WorkerThread::spawn("replay", None, || {
+            std::thread::sleep(Duration::from_millis(200));
+            panic!("bad line 3")
+        })
+        .unwrap();
+        w.ending.store(true, Ordering::Release);
+        assert!(!w.is_finished());
+        let caught = catch_unwind(AssertUnwindSafe(|| w.check())).unwrap_err();
+        assert_eq!(
+            panic_text(caught.as_ref()),
+            "its worker thread \"replay\" panicked: bad line 3"
+        );
     }
 
     #[test]

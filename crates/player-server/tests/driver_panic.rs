@@ -19,7 +19,7 @@ use player_proto::{
 };
 use player_server::test_driver::TestDriver;
 use player_server::{
-    Context, Driver, DriverBlock, DriverRegistry, Pace, Reply, Server, ServerConfig,
+    Context, Driver, DriverBlock, DriverRegistry, Pace, Reply, Server, ServerConfig, ServerHandle,
 };
 
 /// Longest the server may take to answer anything (libplayerc's request timeout).
@@ -104,6 +104,34 @@ fn log_text() -> String {
     String::from_utf8_lossy(&captured_log().lock().unwrap()).into_owned()
 }
 
+/// Starts a real-time server on `listener` with `blocks`, failing the test on a refused block.
+fn serve(
+    registry: &mut DriverRegistry,
+    port: u32,
+    listener: std::net::TcpListener,
+    blocks: &[&DriverBlock],
+) -> ServerHandle {
+    let mut server = Server::new(ServerConfig {
+        pace: Pace::RealTime { speedup: 1.0 },
+        ..ServerConfig::default()
+    });
+    for b in blocks {
+        server
+            .add_block(b, registry)
+            .unwrap_or_else(|e: player_server::ServerError| panic!("{e}"));
+    }
+    server.use_listener(port, listener);
+    server.start().unwrap()
+}
+
+/// A client with libplayerc's timeouts ([`ANSWER`]) for requests and reads.
+fn connect(port: u16) -> PlayerClient {
+    let client = PlayerClient::connect("localhost", port).unwrap();
+    client.set_request_timeout(ANSWER);
+    client.set_read_timeout(Some(ANSWER));
+    client
+}
+
 /// Reads until `done` holds, failing after [`ANSWER`].
 fn read_until(client: &PlayerClient, what: &str, mut done: impl FnMut() -> bool) {
     let start = Instant::now();
@@ -152,29 +180,20 @@ fn a_panicking_driver_is_taken_out_of_service_and_the_server_carries_on() {
     let mut in_update = block("faulty", port, &[(InterfaceCode::POSITION2D, 1)], &[]);
     in_update.provides[0].origin = "faulty.cfg:7".into();
     let in_request = block("faulty", port, &[(InterfaceCode::POSITION2D, 2)], &[]);
-    let mut server = Server::new(ServerConfig {
-        pace: Pace::RealTime { speedup: 1.0 },
-        ..ServerConfig::default()
-    });
-    for b in [&healthy, &in_update, &in_request] {
-        server
-            .add_block(b, &mut registry)
-            .unwrap_or_else(|e: player_server::ServerError| panic!("{e}"));
-    }
-    server.use_listener(port, listener);
-    let handle = server.start().unwrap();
+    let handle = serve(
+        &mut registry,
+        port,
+        listener,
+        &[&healthy, &in_update, &in_request],
+    );
     let port = port as u16;
 
     // Client A uses a healthy device and both faulty ones; client B only the healthy one.
-    let a = PlayerClient::connect("localhost", port).unwrap();
-    a.set_request_timeout(ANSWER);
-    a.set_read_timeout(Some(ANSWER));
+    let a = connect(port);
     let a_base = Position2dProxy::new(&a, 0).unwrap();
     let a_faulty = Position2dProxy::new(&a, 1).unwrap();
     let a_other = Position2dProxy::new(&a, 2).unwrap();
-    let b = PlayerClient::connect("localhost", port).unwrap();
-    b.set_request_timeout(ANSWER);
-    b.set_read_timeout(Some(ANSWER));
+    let b = connect(port);
     let b_base = Position2dProxy::new(&b, 0).unwrap();
     let b_ranger = RangerProxy::new(&b, 0).unwrap();
     read_until(&a, "data from the device that will fail", || {
@@ -244,9 +263,7 @@ fn a_panicking_driver_is_taken_out_of_service_and_the_server_carries_on() {
     a_base.request_geom().unwrap();
 
     // A new client: the failed devices refuse it, the healthy ones serve it.
-    let c = PlayerClient::connect("localhost", port).unwrap();
-    c.set_request_timeout(ANSWER);
-    c.set_read_timeout(Some(ANSWER));
+    let c = connect(port);
     match Position2dProxy::new(&c, 1) {
         Err(ClientError::Subscribe { index: 1, .. }) => {}
         other => panic!("subscribing to the failed device: {other:?}"),
@@ -351,22 +368,10 @@ fn a_panic_in_a_drivers_own_thread_takes_it_out_of_service_and_the_server_carrie
     );
     let mut threaded = block("threaded", port, &[(InterfaceCode::POSITION2D, 1)], &[]);
     threaded.provides[0].origin = "threaded.cfg:3".into();
-    let mut server = Server::new(ServerConfig {
-        pace: Pace::RealTime { speedup: 1.0 },
-        ..ServerConfig::default()
-    });
-    for b in [&healthy, &threaded] {
-        server
-            .add_block(b, &mut registry)
-            .unwrap_or_else(|e: player_server::ServerError| panic!("{e}"));
-    }
-    server.use_listener(port, listener);
-    let handle = server.start().unwrap();
+    let handle = serve(&mut registry, port, listener, &[&healthy, &threaded]);
     let port = port as u16;
 
-    let a = PlayerClient::connect("localhost", port).unwrap();
-    a.set_request_timeout(ANSWER);
-    a.set_read_timeout(Some(ANSWER));
+    let a = connect(port);
     let a_base = Position2dProxy::new(&a, 0).unwrap();
     let a_threaded = Position2dProxy::new(&a, 1).unwrap();
     assert!(a_threaded.request_geom().is_ok());

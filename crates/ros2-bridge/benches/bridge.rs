@@ -2,11 +2,16 @@
 //! headless as fast as possible, without the bridge and with it (every vehicle's odom,
 //! ground truth, scan and transform, and /clock, published after every step). The DDS
 //! participant is loopback only (`ROS_LOCALHOST_ONLY=1` semantics) in `ROS_DOMAIN_ID` or 231.
-//! Twice: with no subscriber (the bridge writes only what someone reads, so this is its floor)
-//! and with a reader subscribed to everything (this bench run again as a child process,
-//! `--reader`, taking every odom, ground_truth, base_scan, tf and /clock sample); the latter
-//! also gives the latency from the end of a step to its scan (r0's) reaching the reader (wall
-//! clock, both processes on this machine). On a 2-core machine the reader's own work competes
+//! With no subscriber (the bridge writes only what someone reads, so this is its floor); with
+//! no subscriber but every topic written anyway, as stage_ros2 does
+//! ([`Bridge::publish_unmatched`]: every message built, serialised and handed to RustDDS at
+//! every step); with a reader subscribed to everything (this bench run again as a child
+//! process, `--reader`, taking every odom, ground_truth, base_scan, tf and /clock sample, all
+//! reliable); and with a reader of everything as nav2 and rviz subscribe (`--reader-nav`:
+//! scans best effort, keep last 5, as nav2's costmap and slam_toolbox take LaserScan with
+//! `SensorDataQoS`; odom, ground_truth, tf and /clock reliable). The readers' runs also give
+//! the latency from the end of a step to its scan (r0's) reaching the reader (wall clock, both
+//! processes on this machine). On a 2-core machine the reader's own work competes
 //! with the simulation, as a ROS 2 node on the same machine would; so each bridged run also
 //! reports CPU time per step from the kernel's per-thread accounting (`/proc/PID/task/*/
 //! schedstat`): the world's step (the `stage-sim` threads, less the stepping thread's time
@@ -31,6 +36,7 @@ use ros2_bridge::bridge::PUBLISHER_THREAD_NAME;
 use ros2_bridge::msgs::{Clock, LaserScan, Odometry, RosType, TfMessage};
 use ros2_bridge::{Bridge, Discovery, Params, RosArgs};
 use ros2_client::dds::rustdds::mio1;
+use ros2_client::qos::{History, Reliability};
 use ros2_client::{
     Context, MessageTypeName, Name, NodeName, NodeOptions, QosProfile, Subscription,
 };
@@ -126,16 +132,87 @@ impl<T: RosType> Drain for Subscription<T> {
     }
 }
 
+/// What a reader process subscribes to, and with which QoS.
+#[derive(Clone, Copy, PartialEq)]
+enum ReaderKind {
+    /// Every topic, reliable (`--reader`).
+    All,
+    /// Every topic as nav2 and rviz take them: scans best effort, the rest reliable
+    /// (`--reader-nav`).
+    Nav,
+    /// r0's scan alone, reliable (`--reader-scan`).
+    Scan0,
+}
+
+impl ReaderKind {
+    fn arg(self) -> &'static str {
+        match self {
+            ReaderKind::All => "--reader",
+            ReaderKind::Nav => "--reader-nav",
+            ReaderKind::Scan0 => "--reader-scan",
+        }
+    }
+
+    fn from_arg(arg: &str) -> Option<ReaderKind> {
+        [ReaderKind::All, ReaderKind::Nav, ReaderKind::Scan0]
+            .into_iter()
+            .find(|k| k.arg() == arg)
+    }
+
+    /// Whether it reads every topic (else r0's scan alone).
+    fn all(self) -> bool {
+        self != ReaderKind::Scan0
+    }
+}
+
+/// A reliable subscription (keep last 10; 100 for tf, as tf2's listener).
 fn subscribe<T: RosType>(node: &mut ros2_client::Node, name: &str) -> Subscription<T> {
-    let qos = QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast {
+    let qos = QosProfile::publisher_default().history(History::KeepLast {
         depth: if name.ends_with("tf") { 100 } else { 10 },
     });
+    subscribe_with(node, name, qos)
+}
+
+/// A scan subscription with `ReaderKind`'s QoS: for `Nav`, rclcpp's `SensorDataQoS` (best
+/// effort, volatile, keep last 5), as nav2's costmap layers and slam_toolbox subscribe.
+fn subscribe_scan(
+    node: &mut ros2_client::Node,
+    name: &str,
+    kind: ReaderKind,
+) -> Subscription<LaserScan> {
+    if kind == ReaderKind::Nav {
+        let qos = QosProfile::publisher_default()
+            .reliability(Reliability::BestEffort)
+            .history(History::KeepLast { depth: 5 });
+        subscribe_with(node, name, qos)
+    } else {
+        subscribe(node, name)
+    }
+}
+
+/// A subscription with `qos`. RustDDS hands a new reader to its event loop through a bounded
+/// channel and fails the creation when that is full (400 readers made in a row on a busy
+/// machine fill it): the creation is then retried while the loop catches up, 10 s at most.
+fn subscribe_with<T: RosType>(
+    node: &mut ros2_client::Node,
+    name: &str,
+    qos: QosProfile,
+) -> Subscription<T> {
     let n = Name::parse(name).expect("a topic name");
     let topic = node
         .create_topic(&n, MessageTypeName::new(T::PACKAGE, T::NAME), &qos)
         .expect("a topic");
-    node.create_subscription(&topic, Some(qos))
-        .expect("a subscription")
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        match node.create_subscription(&topic, Some(qos.clone())) {
+            Ok(sub) => return sub,
+            Err(e) if Instant::now() < deadline => {
+                eprintln!("reader: {name}: {e:?}; retrying");
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            Err(e) => panic!("a subscription to {name}: {e:?}"),
+        }
+    }
 }
 
 /// Wall-clock time in ns (comparable between the two processes).
@@ -146,11 +223,11 @@ fn wall_ns() -> u128 {
         .unwrap_or(0)
 }
 
-/// The child: subscribes to every topic the bridge publishes for the fleet (`all`, else to
-/// r0's scan alone), says `ready`,
-/// drains them until its stdin closes, then prints `samples N` and `scan STAMP_US WALL_NS`
-/// per scan of r0.
-fn reader_main(all: bool) {
+/// The child: subscribes to every topic the bridge publishes for the fleet (or to r0's scan
+/// alone), with `kind`'s QoS, says `ready`, drains them until its stdin closes, then prints
+/// `samples N` and `scan STAMP_US WALL_NS` per scan of r0.
+fn reader_main(kind: ReaderKind) {
+    let all = kind.all();
     let ctx = context();
     let mut node = ctx
         .new_node(
@@ -169,9 +246,10 @@ fn reader_main(all: bool) {
             &format!("/r{i}/ground_truth"),
         )));
         if i > 0 {
-            subs.push(Box::new(subscribe::<LaserScan>(
+            subs.push(Box::new(subscribe_scan(
                 &mut node,
                 &format!("/r{i}/base_scan"),
+                kind,
             )));
         }
         subs.push(Box::new(subscribe::<TfMessage>(
@@ -182,7 +260,7 @@ fn reader_main(all: bool) {
     if all {
         subs.push(Box::new(subscribe::<Clock>(&mut node, "/clock")));
     }
-    let mut scan0 = subscribe::<LaserScan>(&mut node, "/r0/base_scan");
+    let mut scan0 = subscribe_scan(&mut node, "/r0/base_scan", kind);
     let mut poll = mio1::Poll::new().expect("a poll");
     for (k, sub) in subs.iter_mut().enumerate() {
         sub.register(poll.registry(), mio1::Token(k + 1));
@@ -367,8 +445,8 @@ fn report_cpu(run: &Run, steps: u64, reader_ns: Option<u64>) {
 }
 
 fn main() {
-    if let Some(a) = std::env::args().find(|a| a.starts_with("--reader")) {
-        reader_main(a == "--reader");
+    if let Some(kind) = std::env::args().find_map(|a| ReaderKind::from_arg(&a)) {
+        reader_main(kind);
         return;
     }
     let steps: u64 = std::env::args()
@@ -400,11 +478,33 @@ fn main() {
     drop(bridge);
     drop(ctx);
 
-    // a reader of everything, then of r0's scan alone (the latency without the load), then of
-    // everything at a pace the machine keeps
-    with_reader(true, steps, None);
-    with_reader(false, steps, None);
-    with_reader(true, steps, Some(PACED_SPEEDUP));
+    // no subscriber, every topic written anyway, as stage_ros2 publishes
+    let alone = world_alone(steps);
+    let ctx = context();
+    let mut world = load_subscribed();
+    let mut bridge =
+        Bridge::new(&ctx, &mut world, params(), &RosArgs::default()).expect("the bridge starts");
+    bridge.publish_unmatched(true);
+    let run = bridged(&mut world, &mut bridge, steps, None);
+    let (written, skipped) = bridge.counts();
+    report(
+        "everything published, as stage_ros2 does (no reader)",
+        steps,
+        alone,
+        &run,
+    );
+    println!("    samples written {written}, skipped {skipped}");
+    report_cpu(&run, steps, None);
+    drop(bridge);
+    drop(ctx);
+
+    // a reader of everything (reliable), one as nav2/rviz subscribe (scans best effort), then
+    // of r0's scan alone (the latency without the load), then of everything at a pace the
+    // machine keeps
+    with_reader(ReaderKind::All, steps, None);
+    with_reader(ReaderKind::Nav, steps, None);
+    with_reader(ReaderKind::Scan0, steps, None);
+    with_reader(ReaderKind::All, steps, Some(PACED_SPEEDUP));
 }
 
 /// The world alone, flat out: the wall time of `steps` steps.
@@ -434,16 +534,17 @@ fn report(label: &str, steps: u64, alone: f64, run: &Run) {
     );
 }
 
-/// Runs the bridge with a reader process (of everything, or of r0's scan alone), flat out or
-/// paced, and prints the rate, the CPU time, the samples and the step-to-scan latency.
-fn with_reader(all: bool, steps: u64, speedup: Option<f64>) {
+/// Runs the bridge with a reader process (`kind`), flat out or paced, and prints the rate,
+/// the CPU time, the samples and the step-to-scan latency.
+fn with_reader(kind: ReaderKind, steps: u64, speedup: Option<f64>) {
+    let all = kind.all();
     let params = || Params {
         world_file: "fleet.world".into(),
         ..Params::default()
     };
     let alone = world_alone(steps);
     let mut child = Command::new(std::env::current_exe().expect("this bench's path"))
-        .arg(if all { "--reader" } else { "--reader-scan" })
+        .arg(kind.arg())
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .spawn()
@@ -504,10 +605,14 @@ fn with_reader(all: bool, steps: u64, speedup: Option<f64>) {
         }
     }
     let _ = child.wait();
-    let label = match (all, speedup) {
-        (true, None) => "a reader of all".to_string(),
-        (false, _) => "r0's scan read".to_string(),
-        (true, Some(x)) => format!("a reader of all, paced at {x}x real time"),
+    let label = match (kind, speedup) {
+        (ReaderKind::All, None) => "a reader of all (reliable)".to_string(),
+        (ReaderKind::Nav, None) => "a reader of all as nav2/rviz (scans best effort)".to_string(),
+        (ReaderKind::Scan0, _) => "r0's scan read".to_string(),
+        (ReaderKind::All, Some(x)) => format!("a reader of all, paced at {x}x real time"),
+        (ReaderKind::Nav, Some(x)) => {
+            format!("a reader of all as nav2/rviz, paced at {x}x real time")
+        }
     };
     if speedup.is_some() {
         println!(

@@ -190,6 +190,9 @@ struct Matches {
     /// Set once events may have been lost (the channel was full): every writer is treated as
     /// matched from then on, as before this filter existed.
     all: bool,
+    /// Every writer treated as matched, by [`Bridge::publish_unmatched`] (measurement only);
+    /// unlike `all`, subscriptions are still read only once a writer matches them.
+    unmatched: bool,
 }
 
 impl Matches {
@@ -199,6 +202,7 @@ impl Matches {
             readers: BTreeMap::new(),
             writers: BTreeMap::new(),
             all: false,
+            unmatched: false,
         }
     }
 
@@ -247,9 +251,9 @@ impl Matches {
         }
     }
 
-    /// Whether `writer` has a reader (or matches are unknown).
+    /// Whether `writer` has a reader (or matches are unknown, or every writer is written).
     fn matched(&self, writer: GUID) -> bool {
-        self.all || self.readers.get(&writer).is_some_and(|r| !r.is_empty())
+        self.all || self.unmatched || self.readers.get(&writer).is_some_and(|r| !r.is_empty())
     }
 
     /// Whether `reader` may hold samples: a writer was matched with it and it has not been
@@ -656,6 +660,14 @@ impl Bridge {
         }
         add(self.clock.written, self.clock.skipped);
         c
+    }
+
+    /// For measurement only (the bridge bench's "publishing everything" case): with `true`,
+    /// every topic is built, serialised and written at every step whether or not a reader is
+    /// matched, as stage_ros2 (rclcpp) does, so that the cost the matched-reader filter saves
+    /// can be measured. Off by default; nothing else should turn it on.
+    pub fn publish_unmatched(&mut self, on: bool) {
+        self.matches.unmatched = on;
     }
 
     /// Applies what arrived since the last call, before the world's next step: velocity
@@ -1077,6 +1089,30 @@ mod tests {
         assert!(clock.clock.sec > 0 || clock.clock.nanosec > 0);
         let (written_after, _) = bridge.counts();
         assert!(written_after > written, "/clock is written once read");
+    }
+
+    /// The measurement switch: with it, topics nobody reads are written anyway (nothing
+    /// skipped), as stage_ros2 does; turned off again, they are skipped as before.
+    #[test]
+    fn publish_unmatched_writes_unread_topics() {
+        let domain = 200 + (std::process::id() + 23) % 30;
+        let ctx = context(domain);
+        let mut world = world();
+        let mut bridge =
+            Bridge::new(&ctx, &mut world, Params::default(), &RosArgs::default()).unwrap();
+        bridge.publish_unmatched(true);
+        for _ in 0..5 {
+            step(&mut world, &mut bridge);
+        }
+        let (written, skipped) = bridge.counts();
+        assert_eq!(skipped, 0, "nothing is skipped");
+        // the latched topics once, odom, ground_truth, tf and /clock at every step, and scans
+        assert!(written >= 2 + 5 * 4, "{written} samples written");
+        bridge.publish_unmatched(false);
+        step(&mut world, &mut bridge);
+        let (written_after, skipped_after) = bridge.counts();
+        assert_eq!(written_after, written, "unread topics are skipped again");
+        assert!(skipped_after >= 4, "{skipped_after} samples skipped");
     }
 
     /// With `use_static_transformations:=false` the sensor frames go on tf at every step with

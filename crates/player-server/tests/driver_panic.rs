@@ -39,14 +39,7 @@ impl Driver for Faulty {
             panic!("injected fault in update after {} steps", self.steps);
         }
         self.steps += 1;
-        let state = Position2dDataState {
-            pos: Pose2d {
-                px: self.steps as f64,
-                ..Pose2d::default()
-            },
-            ..Position2dDataState::default()
-        };
-        ctx.publish(self.addr, Position2dData::State(state));
+        publish_steps(ctx, self.addr, self.steps);
     }
 
     fn handle_command(&mut self, _ctx: &mut Context<'_>, _command: &player_proto::Message) {
@@ -102,6 +95,18 @@ impl Write for LogWriter {
 
 fn log_text() -> String {
     String::from_utf8_lossy(&captured_log().lock().unwrap()).into_owned()
+}
+
+/// Publishes a pose whose x counts the driver's steps (so a client sees data still coming).
+fn publish_steps(ctx: &mut Context<'_>, addr: player_proto::DeviceAddr, steps: u64) {
+    let state = Position2dDataState {
+        pos: Pose2d {
+            px: steps as f64,
+            ..Pose2d::default()
+        },
+        ..Position2dDataState::default()
+    };
+    ctx.publish(addr, Position2dData::State(state));
 }
 
 /// Starts a real-time server on `listener` with `blocks`, failing the test on a refused block.
@@ -314,14 +319,7 @@ impl Driver for Threaded {
             w.check();
         }
         self.steps += 1;
-        let state = Position2dDataState {
-            pos: Pose2d {
-                px: self.steps as f64,
-                ..Pose2d::default()
-            },
-            ..Position2dDataState::default()
-        };
-        ctx.publish(self.addr, Position2dData::State(state));
+        publish_steps(ctx, self.addr, self.steps);
     }
 
     fn handle_command(&mut self, _ctx: &mut Context<'_>, _command: &player_proto::Message) {

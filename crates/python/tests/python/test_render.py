@@ -153,21 +153,7 @@ def test_human_mode_shows_the_world_in_a_window(world, xvfb):
     )
     assert env.unwrapped.metadata["render_fps"] == pytest.approx(10.0)  # interval_sim 100 ms
     assert _native.window_state()[0] is False
-    env.reset(seed=0)
-    opened, painted = _native.window_state()
-    assert opened, "reset opened the window"
-    t0 = time.monotonic()
-    for _ in range(6):
-        env.step(np.array([0.5, 0.0]))
-    elapsed = time.monotonic() - t0
-    assert elapsed >= 0.5, f"6 frames at 10 fps took {elapsed:.2f} s"
-    assert env.render() is None, "human mode returns nothing"
-    deadline = time.monotonic() + 10
-    while _native.window_state()[1] < painted + 3 and time.monotonic() < deadline:
-        time.sleep(0.05)
-    assert _native.window_state()[1] >= painted + 3, "the window painted the frames"
-    env.close()
-    assert _native.window_state()[0] is False, "close() closed the window"
+    _shows_paced_frames_then_closes(env, np.array([0.5, 0.0]))
 
     again = StageEnv(world, "r0", render_mode="human", task=None)
     again.reset()
@@ -247,12 +233,18 @@ def test_parallel_env_human_mode_shows_the_world(world, xvfb):
     render_fps (10 a second here), render() returns None, close() closes it."""
     env = parallel_env(world, task=None, render_mode="human")
     assert _native.window_state()[0] is False
+    _shows_paced_frames_then_closes(env, {"r0": np.array([0.5, 0.0])})
+
+
+def _shows_paced_frames_then_closes(env, action) -> None:
+    """A human-mode env (StageEnv or parallel_env, 10 fps): reset opens the window, six steps
+    take at least 0.5 s and are painted, render() returns nothing, close() closes it."""
     env.reset(seed=0)
     opened, painted = _native.window_state()
     assert opened, "reset opened the window"
     t0 = time.monotonic()
     for _ in range(6):
-        env.step({"r0": np.array([0.5, 0.0])})
+        env.step(action)
     elapsed = time.monotonic() - t0
     assert elapsed >= 0.5, f"6 frames at 10 fps took {elapsed:.2f} s"
     assert env.render() is None, "human mode returns nothing"

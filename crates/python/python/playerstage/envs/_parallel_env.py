@@ -23,7 +23,7 @@ from ._stage_env import (
     _place_free,
     _pose2,
     _pose3,
-    _rgb_frame,
+    _render,
     _Robot,
     _show_frame,
 )
@@ -305,12 +305,7 @@ class StageParallelEnv(ParallelEnv):
         :meth:`StageEnv.render`; raises ``RuntimeError`` "no graphics adapter ..." when wgpu
         finds none). ``"human"``: a frame in the world window (paced to ``render_fps``), None.
         None without a ``render_mode``."""
-        if self.render_mode is None:
-            return None
-        if self.render_mode == "human":
-            self._show()
-            return None
-        return _rgb_frame(self._native)
+        return _render(self.render_mode, self._native, self._show)
 
     def close(self) -> None:
         """Closes the world window in ``"human"`` mode (nothing else holds resources)."""

@@ -269,12 +269,7 @@ class StageEnv(gymnasium.Env):
         simulated time; :meth:`close` closes it. One window per process: envs in human mode
         share it. Without a display the constructor raises ``RuntimeError``; a window that
         cannot open raises ``RuntimeError`` naming the cause."""
-        if self.render_mode is None:
-            return None
-        if self.render_mode == "human":
-            self._show()
-            return None
-        return _rgb_frame(self._native)
+        return _render(self.render_mode, self._native, self._show)
 
     def close(self) -> None:
         """Closes the world window in ``"human"`` mode (nothing else holds resources)."""
@@ -530,6 +525,19 @@ def _rgb_frame(native: Any) -> np.ndarray:
     caller owns."""
     width, height, rgb = native.render()
     return np.frombuffer(rgb, dtype=np.uint8).reshape(height, width, 3).copy()
+
+
+def _render(
+    render_mode: Optional[str], native: Any, show: Callable[[], None]
+) -> Optional[np.ndarray]:
+    """``render()`` of StageEnv and parallel_env: nothing without a mode, a window frame by
+    `show` in ``"human"`` mode, the world drawn offscreen in ``"rgb_array"``."""
+    if render_mode is None:
+        return None
+    if render_mode == "human":
+        show()
+        return None
+    return _rgb_frame(native)
 
 
 def _show_frame(native: Any, title: str, fps: float, last: float) -> float:

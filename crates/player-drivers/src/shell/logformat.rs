@@ -199,7 +199,8 @@ pub fn encode_payload(
             laser_scan(out, &s.scan, Some(&s.pose))
         }
         Body::Laser(LaserMsg::Data(LaserData::ScanAngle(s))) => {
-            let _ = write!(out, "{:04} ", s.id);
+            // `%04d` of the uint32 id upstream, as for the other scans: read back as an int
+            let _ = write!(out, "{:04} ", s.id as i32);
             cf(out, f64::from(s.max_range), true, true, 7, 4);
             let _ = write!(out, " {:04} ", s.ranges.len());
             for (i, r) in s.ranges.iter().enumerate() {
@@ -1167,6 +1168,16 @@ mod tests {
             let err = result.err().unwrap_or_else(|| panic!("accepted {line:?}"));
             assert!(!err.to_string().is_empty(), "{line:?}");
         }
+    }
+
+    /// Found by the readlog fuzz target: a scanangle id of -1 was read (as Player's `atoi`
+    /// does) into the uint32 id and written back as 4294967295, which the reader refused; it
+    /// is written as upstream's `%04d` prints it, as the other laser scans' ids are.
+    #[test]
+    fn a_negative_scanangle_id_writes_back_as_it_was_read() {
+        let line = "0000000002.000 167 7001 laser 00 001 003 -001 +8.0000 0001 1.000 2.000  0 ";
+        assert_eq!(round_trip(line), line);
+        assert_eq!(round_trip(&round_trip(line)), line);
     }
 
     #[test]

@@ -1042,6 +1042,41 @@ mod tests {
         bridge.publish(world);
     }
 
+    /// The first sample a reader of `topic` (a participant of its own in `domain`) takes while
+    /// the world is stepped and published; fails after 30 s (matching takes its time).
+    fn first_sample<M: RosType>(
+        domain: u32,
+        topic: &str,
+        qos: QosProfile,
+        world: &mut World,
+        bridge: &mut Bridge,
+    ) -> M {
+        let reader_ctx = context(domain);
+        let mut node = reader_ctx
+            .new_node(
+                NodeName::new("/", "reader").unwrap(),
+                NodeOptions::new().enable_rosout(false),
+            )
+            .unwrap();
+        let ros_topic = node
+            .create_topic(
+                &Name::parse(topic).unwrap(),
+                MessageTypeName::new(M::PACKAGE, M::NAME),
+                &qos,
+            )
+            .unwrap();
+        let sub: Subscription<M> = node.create_subscription(&ros_topic, Some(qos)).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while Instant::now() < deadline {
+            step(world, bridge);
+            if let Ok(Some((m, _))) = sub.take() {
+                return m;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        panic!("nothing on {topic} within 30 s of a reader matching")
+    }
+
     /// Volatile topics nobody reads are not written (only the latched tf_static and stalled
     /// are); once a reader of /clock matches, /clock is written and its samples arrive.
     #[test]
@@ -1060,32 +1095,7 @@ mod tests {
         assert_eq!(written, 2, "only the latched topics are written");
         assert!(skipped >= 5 * 4, "{skipped} samples skipped");
 
-        let reader_ctx = context(domain);
-        let mut node = reader_ctx
-            .new_node(
-                NodeName::new("/", "reader").unwrap(),
-                NodeOptions::new().enable_rosout(false),
-            )
-            .unwrap();
-        let qos = default_qos();
-        let topic = node
-            .create_topic(
-                &Name::parse("/clock").unwrap(),
-                MessageTypeName::new(Clock::PACKAGE, Clock::NAME),
-                &qos,
-            )
-            .unwrap();
-        let sub: Subscription<Clock> = node.create_subscription(&topic, Some(qos)).unwrap();
-        let deadline = Instant::now() + Duration::from_secs(30);
-        let mut got = None;
-        while got.is_none() && Instant::now() < deadline {
-            step(&mut world, &mut bridge);
-            if let Ok(Some((c, _))) = sub.take() {
-                got = Some(c);
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        let clock = got.expect("/clock reaches a reader once it matches");
+        let clock: Clock = first_sample(domain, "/clock", default_qos(), &mut world, &mut bridge);
         assert!(clock.clock.sec > 0 || clock.clock.nanosec > 0);
         let (written_after, _) = bridge.counts();
         assert!(written_after > written, "/clock is written once read");
@@ -1133,32 +1143,7 @@ mod tests {
         step(&mut world, &mut bridge);
         assert_eq!(bridge.tf[0].skipped, skipped + 1, "unread tf is skipped");
 
-        let reader_ctx = context(domain);
-        let mut node = reader_ctx
-            .new_node(
-                NodeName::new("/", "tf_reader").unwrap(),
-                NodeOptions::new().enable_rosout(false),
-            )
-            .unwrap();
-        let qos = tf_qos();
-        let topic = node
-            .create_topic(
-                &Name::parse("/tf").unwrap(),
-                MessageTypeName::new(TfMessage::PACKAGE, TfMessage::NAME),
-                &qos,
-            )
-            .unwrap();
-        let sub: Subscription<TfMessage> = node.create_subscription(&topic, Some(qos)).unwrap();
-        let deadline = Instant::now() + Duration::from_secs(30);
-        let mut got = None;
-        while got.is_none() && Instant::now() < deadline {
-            step(&mut world, &mut bridge);
-            if let Ok(Some((m, _))) = sub.take() {
-                got = Some(m);
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        let tf = got.expect("tf reaches a reader once it matches");
+        let tf: TfMessage = first_sample(domain, "/tf", tf_qos(), &mut world, &mut bridge);
         let frames: Vec<(&str, &str)> = tf
             .transforms
             .iter()

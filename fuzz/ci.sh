@@ -26,10 +26,11 @@ echo "fuzz targets built in $((SECONDS - start)) s"
 
 # Offline where the system permits a network namespace (`unshare -n`, as root): the cfg target's
 # host names are looked up as Player does, which would send made-up names to the machine's DNS
-# and wait ~30 ms on each; offline the lookup fails at once and the traffic stays here.
+# and wait ~30 ms on each; offline the lookup fails at once and the traffic stays here. The
+# namespace's loopback is brought up: wire_client talks to its server over a local socket.
 offline=()
-if unshare -n true 2>/dev/null; then
-    offline=(unshare -n)
+if unshare -n sh -c 'ip link set lo up' 2>/dev/null; then
+    offline=(unshare -n sh -c 'ip link set lo up && exec "$@"' sh)
 fi
 
 scratch="$(mktemp -d)"

@@ -694,6 +694,22 @@ impl<'a> Fields<'a> {
         self.parse("integer")
     }
 
+    /// A uint32 field upstream writes with `%d` and reads with `atoi`: signed text stands for
+    /// the same 32 bits (`-1277517296` is 3017450000), and unsigned text is read as it is.
+    fn c_u32(&mut self) -> Result<u32, LineError> {
+        let index = self.at;
+        let text = self.next_text()?;
+        match text.parse::<i64>() {
+            Ok(n) if (i64::from(i32::MIN)..=i64::from(u32::MAX)).contains(&n) => Ok(n as u32),
+            _ => Err(LineError::BadField {
+                what: self.what.clone(),
+                index,
+                text: text.to_string(),
+                kind: "32-bit integer",
+            }),
+        }
+    }
+
     fn u8(&mut self) -> Result<u8, LineError> {
         self.parse("small integer (0-255)")
     }
@@ -1043,11 +1059,12 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             })))
         }
         (InterfaceCode::CAMERA, true, _, 1) => {
-            let width = f.u32()?;
-            let height = f.u32()?;
-            let bpp = f.u32()?;
-            let format = f.u32()?;
-            let compression = f.u32()?;
+            // written with upstream's %d, so a value beyond i32::MAX comes back negative
+            let width = f.c_u32()?;
+            let height = f.c_u32()?;
+            let bpp = f.c_u32()?;
+            let format = f.c_u32()?;
+            let compression = f.c_u32()?;
             let count: usize = f.parse("count")?;
             let index = f.at;
             let hex = f.next_text()?;
@@ -1178,6 +1195,20 @@ mod tests {
         let line = "0000000002.000 167 7001 laser 00 001 003 -001 +8.0000 0001 1.000 2.000  0 ";
         assert_eq!(round_trip(line), line);
         assert_eq!(round_trip(&round_trip(line)), line);
+    }
+
+    /// Found by the readlog fuzz target: a camera width of 3017450000 was read (a uint32, as
+    /// upstream's `atoi` reads it) and written with upstream's `%d` as -1277517296, which the
+    /// reader refused as a negative unsigned field: the five uint32 fields now read both forms.
+    #[test]
+    fn a_camera_field_beyond_i32_writes_back_signed_and_reads_again() {
+        let line = "0000000001.000 7343 7001 camera 00 001 001 3017450000 1 0 0 2 1 00";
+        let written = round_trip(line);
+        assert_eq!(
+            written,
+            "0000000001.000 7343 7001 camera 00 001 001 -1277517296 1 0 0 2 1 00"
+        );
+        assert_eq!(round_trip(&written), written);
     }
 
     #[test]

@@ -22,15 +22,8 @@ if [ -z "${TMPDIR:-}" ] && [ -w /dev/shm ]; then
     export TMPDIR=/dev/shm
 fi
 cargo fuzz build --sanitizer none
-# Each target runs in a network namespace of its own where the system permits one (`unshare -n`,
-# as root): a cfg names hosts, and CfgFile::load looks them up as Player does. On this machine's
-# DNS each made-up name cost ~30 ms of waiting (the cfg target ran 1,170 inputs/s on a core that
-# sat idle); offline, the lookup fails at once, and fuzzed names never leave the machine. The
-# namespace's own loopback is brought up: wire_client talks to its server over a local socket.
-offline=()
-if unshare -n sh -c 'ip link set lo up' 2>/dev/null; then
-    offline=(unshare -n sh -c 'ip link set lo up && exec "$@"' sh)
-fi
+# the targets run offline where permitted (see offline.sh)
+source ./offline.sh
 # where cargo put the binaries (CARGO_TARGET_DIR honoured)
 bin="$(cargo metadata --format-version 1 --no-deps |
     python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')"

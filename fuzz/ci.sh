@@ -24,14 +24,8 @@ start=$SECONDS
 cargo fuzz build --sanitizer none
 echo "fuzz targets built in $((SECONDS - start)) s"
 
-# Offline where the system permits a network namespace (`unshare -n`, as root): the cfg target's
-# host names are looked up as Player does, which would send made-up names to the machine's DNS
-# and wait ~30 ms on each; offline the lookup fails at once and the traffic stays here. The
-# namespace's loopback is brought up: wire_client talks to its server over a local socket.
-offline=()
-if unshare -n sh -c 'ip link set lo up' 2>/dev/null; then
-    offline=(unshare -n sh -c 'ip link set lo up && exec "$@"' sh)
-fi
+# the targets run offline where permitted (see offline.sh)
+source ./offline.sh
 
 scratch="$(mktemp -d)"
 trap 'rm -rf "$scratch"' EXIT

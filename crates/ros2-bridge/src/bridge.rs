@@ -1042,6 +1042,30 @@ mod tests {
         bridge.publish(world);
     }
 
+    /// A node `node_name` in a participant of its own in `domain` (as another ROS 2 process
+    /// would be) and `topic`, of `M`'s type, on it; the node keeps its context alive.
+    fn peer_topic<M: RosType>(
+        domain: u32,
+        node_name: &str,
+        topic: &str,
+        qos: &QosProfile,
+    ) -> (Node, ros2_client::dds::rustdds::Topic) {
+        let node = context(domain)
+            .new_node(
+                NodeName::new("/", node_name).unwrap(),
+                NodeOptions::new().enable_rosout(false),
+            )
+            .unwrap();
+        let topic = node
+            .create_topic(
+                &Name::parse(topic).unwrap(),
+                MessageTypeName::new(M::PACKAGE, M::NAME),
+                qos,
+            )
+            .unwrap();
+        (node, topic)
+    }
+
     /// The first sample a reader of `topic` (a participant of its own in `domain`) takes while
     /// the world is stepped and published; fails after 30 s (matching takes its time).
     fn first_sample<M: RosType>(
@@ -1051,20 +1075,7 @@ mod tests {
         world: &mut World,
         bridge: &mut Bridge,
     ) -> M {
-        let reader_ctx = context(domain);
-        let mut node = reader_ctx
-            .new_node(
-                NodeName::new("/", "reader").unwrap(),
-                NodeOptions::new().enable_rosout(false),
-            )
-            .unwrap();
-        let ros_topic = node
-            .create_topic(
-                &Name::parse(topic).unwrap(),
-                MessageTypeName::new(M::PACKAGE, M::NAME),
-                &qos,
-            )
-            .unwrap();
+        let (mut node, ros_topic) = peer_topic::<M>(domain, "reader", topic, &qos);
         let sub: Subscription<M> = node.create_subscription(&ros_topic, Some(qos)).unwrap();
         let deadline = Instant::now() + Duration::from_secs(30);
         while Instant::now() < deadline {
@@ -1172,21 +1183,8 @@ mod tests {
         step(&mut world, &mut bridge);
         assert!(!bridge.matches.may_hold_data(sub), "no writer yet");
 
-        let writer_ctx = context(domain);
-        let mut node = writer_ctx
-            .new_node(
-                NodeName::new("/", "writer").unwrap(),
-                NodeOptions::new().enable_rosout(false),
-            )
-            .unwrap();
         let qos = default_qos();
-        let topic = node
-            .create_topic(
-                &Name::parse("/cmd_vel").unwrap(),
-                MessageTypeName::new(Twist::PACKAGE, Twist::NAME),
-                &qos,
-            )
-            .unwrap();
+        let (mut node, topic) = peer_topic::<Twist>(domain, "writer", "/cmd_vel", &qos);
         let publisher: Publisher<Twist> = node.create_publisher(&topic, Some(qos)).unwrap();
         let deadline = Instant::now() + Duration::from_secs(30);
         let mut goal = 0.0;

@@ -293,7 +293,7 @@ pub fn encode_payload(
             cf(out, g.size.sw, true, true, 7, 3);
         }
         Body::Localize(LocalizeMsg::Data(LocalizeData::Hypoths(h))) => {
-            let _ = write!(out, "{:10} ", h.pending_count);
+            let _ = write!(out, "{:10} ", h.pending_count as i32);
             p7_3(out, h.pending_time);
             let _ = write!(out, "{:2} ", h.hypoths.len());
             for hyp in &h.hypoths {
@@ -332,7 +332,13 @@ pub fn encode_payload(
         }
         // Upstream logs every blobfinder DATA message this way, whatever its subtype.
         Body::Blobfinder(BlobfinderMsg::Data(BlobfinderData::Blobs(b))) => {
-            let _ = write!(out, "{} {} {}", b.width, b.height, b.blobs.len());
+            let _ = write!(
+                out,
+                "{} {} {}",
+                b.width as i32,
+                b.height as i32,
+                b.blobs.len()
+            );
             for blob in &b.blobs {
                 let _ = write!(
                     out,
@@ -686,16 +692,13 @@ impl<'a> Fields<'a> {
         self.parse("number")
     }
 
-    fn u32(&mut self) -> Result<u32, LineError> {
-        self.parse("unsigned integer")
-    }
-
     fn i32(&mut self) -> Result<i32, LineError> {
         self.parse("integer")
     }
 
-    /// A uint32 field upstream writes with `%d` and reads with `atoi`: signed text stands for
-    /// the same 32 bits (`-1277517296` is 3017450000), and unsigned text is read as it is.
+    /// A uint32 field upstream writes with `%d` and reads with `atoi` (every uint32 its log
+    /// format has: ids, widths, counts): signed text stands for the same 32 bits (`-1277517296`
+    /// is 3017450000), and unsigned text is read as it is.
     fn c_u32(&mut self) -> Result<u32, LineError> {
         let index = self.at;
         let text = self.next_text()?;
@@ -821,7 +824,7 @@ fn laser_scan_fields(
     f: &mut Fields<'_>,
     with_pose: bool,
 ) -> Result<(LaserDataScan, Pose2d), LineError> {
-    let id = f.i32()? as u32;
+    let id = f.c_u32()?;
     let pose = if with_pose {
         pose2d(f)?
     } else {
@@ -890,7 +893,7 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             LaserData::ScanPose(LaserDataScanpose { scan, pose }).into()
         }
         (InterfaceCode::LASER, true, _, 3) => {
-            let id = f.i32()? as u32;
+            let id = f.c_u32()?;
             let max_range = f.f32()?;
             let n = f.count(3)?;
             let mut d = LaserDataScanangle {
@@ -976,7 +979,7 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             ack_body(Position2dReq::GetGeom(Some(g)))
         }
         (InterfaceCode::LOCALIZE, true, _, 1) => {
-            let pending_count = f.u32()?;
+            let pending_count = f.c_u32()?;
             let pending_time = f.f64()?;
             let hypoths = f.list(7, |f| {
                 Ok(LocalizeHypoth {
@@ -1008,19 +1011,19 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             })))
         }
         (InterfaceCode::BLOBFINDER, true, _, 1) => {
-            let width = f.u32()?;
-            let height = f.u32()?;
+            let width = f.c_u32()?;
+            let height = f.c_u32()?;
             let blobs = f.list(10, |f| {
                 Ok(BlobfinderBlob {
-                    id: f.i32()? as u32,
-                    color: f.i32()? as u32,
-                    area: f.i32()? as u32,
-                    x: f.i32()? as u32,
-                    y: f.i32()? as u32,
-                    left: f.i32()? as u32,
-                    right: f.i32()? as u32,
-                    top: f.i32()? as u32,
-                    bottom: f.i32()? as u32,
+                    id: f.c_u32()?,
+                    color: f.c_u32()?,
+                    area: f.c_u32()?,
+                    x: f.c_u32()?,
+                    y: f.c_u32()?,
+                    left: f.c_u32()?,
+                    right: f.c_u32()?,
+                    top: f.c_u32()?,
+                    bottom: f.c_u32()?,
                     range: f.f32()?,
                 })
             })?;
@@ -1208,6 +1211,31 @@ mod tests {
             written,
             "0000000001.000 7343 7001 camera 00 001 001 -1277517296 1 0 0 2 1 00"
         );
+        assert_eq!(round_trip(&written), written);
+    }
+
+    /// The camera's fix, for the other uint32 fields upstream prints with `%d` (laser ids,
+    /// blobfinder width, height and blob fields, localize pending count): unsigned text beyond
+    /// i32 is read, written back signed as upstream writes it, and that reads again.
+    #[test]
+    fn uint32_fields_beyond_i32_write_back_signed_and_read_again() {
+        let cases = [
+            (
+                "0000000002.000 167 7001 laser 00 001 003 3017450000 +8.0000 0001 1.000 2.000  0 ",
+                "0000000002.000 167 7001 laser 00 001 003 -1277517296 +8.0000 0001 1.000 2.000  0 ",
+            ),
+            (
+                "0000000002.000 167 7001 blobfinder 00 001 001 3017450000 4294967295 1 3017450000 2 3 4 5 6 7 8 4294967294 1.500000",
+                "0000000002.000 167 7001 blobfinder 00 001 001 -1277517296 -1 1 -1277517296 2 3 4 5 6 7 8 -2 1.500000",
+            ),
+        ];
+        for (read, written) in cases {
+            assert_eq!(round_trip(read), written);
+            assert_eq!(round_trip(written), written);
+        }
+        let localize = "0000000002.000 167 7001 localize 00 001 001 3017450000 +01.000  0 ";
+        let written = round_trip(localize);
+        assert!(written.contains(" -1277517296 "), "{written}");
         assert_eq!(round_trip(&written), written);
     }
 

@@ -1062,7 +1062,6 @@ pub fn parse_payload(header: &LineHeader, tokens: &[&str]) -> Result<Body, LineE
             })))
         }
         (InterfaceCode::CAMERA, true, _, 1) => {
-            // written with upstream's %d, so a value beyond i32::MAX comes back negative
             let width = f.c_u32()?;
             let height = f.c_u32()?;
             let bpp = f.c_u32()?;
